@@ -1,0 +1,88 @@
+"""ROS interface definitions, generated message classes and the CDR codec.
+
+>>> from zros import cdr
+>>> Twist = cdr.get_type('geometry_msgs/msg/Twist')
+>>> data = cdr.encode(Twist(linear={'x': 1.0}))
+>>> cdr.decode('geometry_msgs/msg/Twist', data).linear.x
+1.0
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from zros.cdr.errors import CdrError, InterfaceSyntaxError, TypeNameError, UnknownTypeError
+from zros.cdr.interfaces import ActionType, ServiceType
+from zros.cdr.message import Message, StructSeq, encode
+from zros.cdr.message import decode as _decode
+from zros.cdr.model import ActionDef, Definition, MessageDef, ServiceDef
+from zros.cdr.registry import TypeRegistry, default_registry, set_default_registry
+
+TypeLike = str | type[Message]
+
+_classes: dict[str, type[Message]] = {}
+
+
+def get_class(type_name: TypeLike) -> type[Message]:
+    """The message class of a type name (``pkg/msg/Name``, ``pkg/Name``...) or class."""
+    if isinstance(type_name, type):
+        return type_name
+    cls = _classes.get(type_name)
+    if cls is None or cls._registry is not default_registry():
+        cls = default_registry().get_class(type_name)
+        _classes[type_name] = cls
+    return cls
+
+
+def get_type(type_name: TypeLike) -> type[Message] | ServiceType | ActionType:
+    """A message class, or a service or action type, from any accepted spelling of its name."""
+    return default_registry().get_type(type_name)
+
+
+def new_message(type_name: TypeLike, **fields: Any) -> Message:
+    """A message of the given type with ROS default values, updated with ``fields``."""
+    return get_class(type_name)(**fields)
+
+
+def decode(type_name: TypeLike, buf: bytes | bytearray | memoryview) -> Message:
+    """Decode CDR bytes (4-byte header included) into a message of the given type."""
+    return _decode(get_class(type_name), buf)
+
+
+def register_type(type_name: str, text: str) -> Definition:
+    """Register .msg, .srv or .action text for a type name in the default registry."""
+    return default_registry().register_text(type_name, text)
+
+
+def type_hash(type_name: TypeLike) -> str:
+    """The RIHS01 type hash of a message, service or action type."""
+    from zros.cdr.hashing import type_hash as compute
+
+    name = type_name.__msgtype__ if isinstance(type_name, type) else type_name
+    return compute(default_registry(), name)
+
+
+__all__ = [
+    'ActionDef',
+    'ActionType',
+    'CdrError',
+    'Definition',
+    'InterfaceSyntaxError',
+    'Message',
+    'MessageDef',
+    'ServiceDef',
+    'ServiceType',
+    'StructSeq',
+    'TypeNameError',
+    'TypeRegistry',
+    'UnknownTypeError',
+    'decode',
+    'default_registry',
+    'encode',
+    'get_class',
+    'get_type',
+    'new_message',
+    'register_type',
+    'set_default_registry',
+    'type_hash',
+]

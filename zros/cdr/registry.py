@@ -1,0 +1,426 @@
+"""Resolve ROS type names to definitions and generated classes.
+
+Sources, first match wins: definitions registered at run time, folders on ``ZROS_INTERFACE_PATH``,
+``share/<pkg>`` folders under ``AMENT_PREFIX_PATH``, the few services and actions zros defines,
+and the rosbags typestore of the selected ROS distro.
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+import threading
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from zros.cdr.builtin import builtin_definition, builtin_names
+from zros.cdr.errors import UnknownTypeError
+from zros.cdr.model import (
+    ActionDef,
+    Constant,
+    Definition,
+    Field,
+    FieldType,
+    Kind,
+    MessageDef,
+    ServiceDef,
+    action_parts,
+    service_messages,
+    split_type_name,
+    type_name_candidates,
+)
+from zros.cdr.parser import parse_definition, parse_message_bundle
+
+if TYPE_CHECKING:
+    from zros.cdr.interfaces import ActionType, ServiceType
+    from zros.cdr.message import Message
+
+#: Distros zros knows, and whether their services define an ``_Event`` message.
+DISTROS: dict[str, bool] = {'humble': False, 'iron': True, 'jazzy': True, 'kilted': True}
+DEFAULT_DISTRO = 'jazzy'
+
+#: rosbags and rclpy keep this dummy member in empty messages; zros hides it (the byte is still
+#: on the wire).
+PLACEHOLDER_FIELD = 'structure_needs_at_least_one_member'
+
+_EXTENSIONS = {'msg': '.msg', 'srv': '.srv', 'action': '.action'}
+_ACTION_SUFFIXES = (
+    '_SendGoal_Request',
+    '_SendGoal_Response',
+    '_SendGoal_Event',
+    '_GetResult_Request',
+    '_GetResult_Response',
+    '_GetResult_Event',
+    '_FeedbackMessage',
+    '_SendGoal',
+    '_GetResult',
+    '_Goal',
+    '_Result',
+    '_Feedback',
+)
+_SERVICE_SUFFIXES = ('_Request', '_Response', '_Event')
+
+
+#: Default values the rosbags typestores drop: (type, field) -> (value, constant that must exist).
+#: Only defaults that differ from zero matter; the rest equal the implicit default.
+_TYPESTORE_DEFAULTS: dict[tuple[str, str], tuple[float | int, str | None]] = {
+    ('geometry_msgs/msg/Quaternion', 'w'): (1.0, None),
+    ('sensor_msgs/msg/NavSatStatus', 'status'): (-2, 'STATUS_UNKNOWN'),  # Jazzy and later
+}
+
+
+def _env_paths(variable: str) -> list[Path]:
+    return [Path(p) for p in os.environ.get(variable, '').split(os.pathsep) if p]
+
+
+def _from_rosbags(name: str, fielddefs: Any) -> MessageDef:
+    """Convert one rosbags typestore entry to a MessageDef."""
+    from rosbags.interfaces import Nodetype
+
+    def base_of(desc: Any) -> tuple[str, int]:
+        if desc[0] == Nodetype.NAME:
+            return desc[1], 0
+        return desc[1][0], desc[1][1]
+
+    constants = tuple(
+        Constant(cname, FieldType(ctype), value) for cname, ctype, value in fielddefs[0]
+    )
+    fields = []
+    for fname, desc in fielddefs[1]:
+        if desc[0] in (Nodetype.BASE, Nodetype.NAME):
+            base, bound = base_of(desc)
+            ftype = FieldType(base, Kind.SCALAR, 0, bound)
+        else:
+            sub, length = desc[1]
+            base, bound = base_of(sub)
+            if desc[0] == Nodetype.ARRAY:
+                kind = Kind.ARRAY
+            else:
+                kind = Kind.BOUNDED if length else Kind.SEQUENCE
+            ftype = FieldType(base, kind, length, bound)
+        default = None
+        patch = _TYPESTORE_DEFAULTS.get((name, fname))
+        if patch is not None and (patch[1] is None or any(c.name == patch[1] for c in constants)):
+            default = patch[0]
+        fields.append(Field(fname, ftype, default))
+    if len(fields) == 1 and fields[0].name == PLACEHOLDER_FIELD:
+        fields = []
+    return MessageDef(name, tuple(fields), constants, 'rosbags typestore')
+
+
+class TypeRegistry:
+    """Definitions and generated classes for one ROS distro.
+
+    ``paths`` replaces ``ZROS_INTERFACE_PATH``; ``ament=False`` ignores ``AMENT_PREFIX_PATH``.
+    Each entry of either may be a folder of packages (``<dir>/<pkg>/msg/X.msg``), a package
+    folder (``<dir>/msg/X.msg``) or an install prefix (``<dir>/share/<pkg>/msg/X.msg``).
+    """
+
+    def __init__(
+        self,
+        distro: str | None = None,
+        paths: Sequence[str | os.PathLike[str]] | None = None,
+        ament: bool = True,
+    ) -> None:
+        chosen = (distro or os.environ.get('ZROS_DISTRO') or DEFAULT_DISTRO).lower()
+        if chosen not in DISTROS:
+            raise ValueError(
+                f'unknown ROS distro {chosen!r}; zros knows {", ".join(sorted(DISTROS))}'
+            )
+        self.distro = chosen
+        self.has_service_events = DISTROS[chosen]
+        self._paths = (
+            [Path(p) for p in paths] if paths is not None else _env_paths('ZROS_INTERFACE_PATH')
+        )
+        self._ament = _env_paths('AMENT_PREFIX_PATH') if ament else []
+        self._registered: dict[str, Definition] = {}
+        self._definitions: dict[str, Definition] = {}
+        self._messages: dict[str, MessageDef] = {}
+        self._classes: dict[str, type[Message]] = {}
+        self._types: dict[str, ServiceType | ActionType] = {}
+        self._store: Any = None
+        self._lock = threading.RLock()
+
+    # --- sources ---------------------------------------------------------------------------
+
+    @property
+    def typestore(self) -> Any:
+        """The rosbags typestore of this distro (loaded on first use)."""
+        if self._store is None:
+            from rosbags.typesys import Stores, get_typestore
+
+            self._store = get_typestore(Stores[f'ROS2_{self.distro.upper()}'])
+        return self._store
+
+    def _candidate_files(self, name: str) -> list[Path]:
+        package, kind, short = split_type_name(name)
+        filename = short + _EXTENSIONS[kind]
+        files = []
+        for entry in self._paths:
+            files.append(entry / package / kind / filename)
+            files.append(entry / 'share' / package / kind / filename)
+            if entry.name == package:
+                files.append(entry / kind / filename)
+        files += [prefix / 'share' / package / kind / filename for prefix in self._ament]
+        return files
+
+    def _load(self, name: str) -> Definition | None:
+        if name in self._registered:
+            return self._registered[name]
+        for path in self._candidate_files(name):
+            if path.is_file():
+                return parse_definition(name, path.read_text(encoding='utf-8'), str(path))
+        found = builtin_definition(name)
+        if found is not None:
+            return found
+        if split_type_name(name)[1] == 'msg':
+            fielddefs = self.typestore.fielddefs.get(name)
+            if fielddefs is not None:
+                return _from_rosbags(name, fielddefs)
+        return None
+
+    def _searched(self, name: str) -> list[str]:
+        places = [f'definitions registered at run time ({len(self._registered)})']
+        if self._paths:
+            places += [f'ZROS_INTERFACE_PATH entry {p}' for p in self._paths]
+        else:
+            places.append('ZROS_INTERFACE_PATH (not set)')
+        if self._ament:
+            places += [f'AMENT_PREFIX_PATH entry {p}/share' for p in self._ament]
+        else:
+            places.append('AMENT_PREFIX_PATH (not set or ignored)')
+        places.append('zros built-in services and actions')
+        places.append(
+            f'rosbags typestore ros2_{self.distro} ({len(self.typestore.fielddefs)} messages)'
+        )
+        return places
+
+    def _unknown(self, name: str) -> UnknownTypeError:
+        package, kind, short = split_type_name(name)
+        close = difflib.get_close_matches(name, self.names(), n=3)
+        hint = f'Add {package}/{kind}/{short}{_EXTENSIONS[kind]} to a folder on ZROS_INTERFACE_PATH'
+        hint += ' or register its text with zros.cdr.register_type().'
+        if close:
+            hint = f'Did you mean {" or ".join(close)}? ' + hint
+        return UnknownTypeError(name, self._searched(name), hint)
+
+    # --- definitions -----------------------------------------------------------------------
+
+    def register(self, definition: Definition, replace: bool = False) -> None:
+        """Make a definition known under its name (it takes precedence over every other source).
+
+        A definition that differs from one registered before, or from one a class was already
+        generated from, raises ValueError unless ``replace`` is true (the old classes are then
+        dropped). A definition merely loaded from a file or the typestore is replaced silently.
+        """
+        with self._lock:
+            name = definition.name
+            split_type_name(name)
+            known = self._registered.get(name) or self._definitions.get(name)
+            if known is not None and known != definition:
+                if self._in_use(name) and not replace:
+                    raise ValueError(
+                        f'{name} is already defined differently (from '
+                        f'{known.origin or "unknown"}); pass replace=True to override it'
+                    )
+                self._forget(name)
+            self._registered[name] = definition
+
+    def _in_use(self, name: str) -> bool:
+        return name in self._registered or any(
+            key == name or key.startswith(name + '_') for key in self._classes
+        )
+
+    def register_text(self, name: str, text: str, origin: str = '<registered text>') -> Definition:
+        """Parse and register .msg, .srv or .action text (the kind comes from ``name``)."""
+        definition = parse_definition(name, text, origin)
+        self.register(definition)
+        return definition
+
+    def register_bundle(
+        self,
+        name: str,
+        text: str,
+        origin: str = '<registered bundle>',
+        override_dependencies: bool = False,
+    ) -> None:
+        """Register a message with its dependencies in the concatenated bag format.
+
+        Dependencies already known are left alone unless ``override_dependencies`` is true (a
+        bag's own definitions describe its data); the main message is always registered.
+        """
+        for index, message in enumerate(parse_message_bundle(name, text, origin)):
+            if index == 0 or override_dependencies or self.find(message.name) is None:
+                self.register(message)
+
+    def _forget(self, name: str) -> None:
+        self._definitions.pop(name, None)
+        for cache in (self._messages, self._classes, self._types):
+            for key in [k for k in cache if k == name or k.startswith(name + '_')]:
+                del cache[key]
+
+    def find(self, name: str) -> Definition | None:
+        """The definition of a full type name (also an action's SendGoal/GetResult), or None."""
+        with self._lock:
+            if name in self._definitions:
+                return self._definitions[name]
+            found = self._load(name)
+            if found is None:
+                parent = self._parent_of(name)
+                if parent is not None and self.find(parent) is not None:
+                    return self._definitions.get(name)
+                return None
+            self._definitions[name] = found
+            self._add_derived(found)
+            return found
+
+    def definition(self, name: str) -> Definition:
+        """The definition of a type; accepts every spelling of ``type_name_candidates``."""
+        for candidate in type_name_candidates(name):
+            found = self.find(candidate)
+            if found is not None:
+                return found
+        raise self._unknown(type_name_candidates(name)[0])
+
+    def _add_derived(self, definition: Definition) -> None:
+        if isinstance(definition, MessageDef):
+            self._messages[definition.name] = definition
+        elif isinstance(definition, ServiceDef):
+            for message in service_messages(definition, self.has_service_events):
+                self._messages[message.name] = message
+        else:
+            messages, services = action_parts(definition)
+            for message in messages:
+                self._messages[message.name] = message
+            for service in services:
+                self._definitions[service.name] = service
+                self._add_derived(service)
+
+    def _parent_of(self, name: str) -> str | None:
+        package, kind, short = split_type_name(name)
+        suffixes = _ACTION_SUFFIXES if kind == 'action' else _SERVICE_SUFFIXES
+        for suffix in suffixes:
+            if short.endswith(suffix) and len(short) > len(suffix):
+                return f'{package}/{kind}/{short[: -len(suffix)]}'
+        return None
+
+    def message_definition(self, name: str) -> MessageDef:
+        """The definition of a message type, including the messages of services and actions."""
+        with self._lock:
+            candidates = type_name_candidates(name)
+            for candidate in candidates:
+                if candidate in self._messages:
+                    return self._messages[candidate]
+                found = self.find(candidate)
+                if isinstance(found, MessageDef):
+                    return found
+                parent = self._parent_of(candidate)
+                found_parent = parent is not None and self.find(parent) is not None
+                if found_parent and candidate in self._messages:
+                    return self._messages[candidate]
+            raise self._unknown(candidates[0])
+
+    def names(self) -> list[str]:
+        """Every full type name this registry can resolve without further files, sorted."""
+        names = set(self.typestore.fielddefs) | set(builtin_names()) | set(self._registered)
+        roots = [*self._paths, *(entry / 'share' for entry in [*self._paths, *self._ament])]
+        for root in roots:
+            names.update(_scan(root))
+        return sorted(names)
+
+    # --- classes ---------------------------------------------------------------------------
+
+    def get_class(self, name: str) -> type[Message]:
+        """The generated class of a message type."""
+        with self._lock:
+            cls = self._classes.get(name)
+            if cls is not None:
+                return cls
+            definition = self.message_definition(name)
+            cls = self._classes.get(definition.name)
+            if cls is None:
+                from zros.cdr.message import build_message_class
+
+                cls = build_message_class(self, definition)
+                self._classes[definition.name] = cls
+            self._classes[name] = cls
+            return cls
+
+    def get_service(self, name: str) -> ServiceType:
+        """The service type (``.Request``, ``.Response``, ``.Event``) of a service name."""
+        from zros.cdr.interfaces import ServiceType
+
+        found = self.definition(name)
+        if not isinstance(found, ServiceDef):
+            raise TypeError(f'{found.name} is not a service type')
+        with self._lock:
+            known = self._types.get(found.name)
+            if not isinstance(known, ServiceType):
+                known = ServiceType(self, found)
+                self._types[found.name] = known
+            return known
+
+    def get_action(self, name: str) -> ActionType:
+        """The action type (``.Goal``, ``.Result``, ``.Feedback``...) of an action name."""
+        from zros.cdr.interfaces import ActionType
+
+        found = self.definition(name)
+        if not isinstance(found, ActionDef):
+            raise TypeError(f'{found.name} is not an action type')
+        with self._lock:
+            known = self._types.get(found.name)
+            if not isinstance(known, ActionType):
+                known = ActionType(self, found)
+                self._types[found.name] = known
+            return known
+
+    def get_type(self, name: str | type[Message]) -> type[Message] | ServiceType | ActionType:
+        """A message class, service type or action type, by any accepted spelling of its name."""
+        if isinstance(name, type):
+            return name
+        candidates = type_name_candidates(name)
+        for candidate in candidates:
+            found = self.find(candidate)
+            if isinstance(found, ServiceDef):
+                return self.get_service(candidate)
+            if isinstance(found, ActionDef):
+                return self.get_action(candidate)
+            if isinstance(found, MessageDef) or self._parent_of(candidate) is not None:
+                try:
+                    return self.get_class(candidate)
+                except UnknownTypeError:
+                    continue
+        raise self._unknown(candidates[0])
+
+
+def _scan(root: Path) -> Iterable[str]:
+    if not root.is_dir():
+        return
+    packages = [root] if any((root / kind).is_dir() for kind in _EXTENSIONS) else root.iterdir()
+    for package in packages:
+        for kind, extension in _EXTENSIONS.items():
+            folder = package / kind
+            if folder.is_dir():
+                for file in folder.glob('*' + extension):
+                    yield f'{package.name}/{kind}/{file.stem}'
+
+
+_default: TypeRegistry | None = None
+_default_lock = threading.Lock()
+
+
+def default_registry() -> TypeRegistry:
+    """The process-wide registry (distro from ``ZROS_DISTRO``, default Jazzy)."""
+    global _default  # noqa: PLW0603
+    with _default_lock:
+        if _default is None:
+            _default = TypeRegistry()
+        return _default
+
+
+def set_default_registry(registry: TypeRegistry) -> None:
+    """Replace the process-wide registry, e.g. to select another distro."""
+    global _default  # noqa: PLW0603
+    with _default_lock:
+        _default = registry
