@@ -1,0 +1,162 @@
+"""Value conversions used by generated message classes and codecs."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+
+class Bad(Exception):
+    """Internal signal of malformed input; the traced codec turns it into a CdrError."""
+
+
+def _kind_name(kind: str) -> str:
+    return {'f': 'floats', 'i': 'integers', 'u': 'integers', 'b': 'bools'}.get(kind, 'values')
+
+
+def to_array(value: Any, dtype: np.dtype) -> np.ndarray:
+    """A contiguous 1-D array of ``dtype`` from any sequence, refusing lossy conversions."""
+    if type(value) is np.ndarray and value.dtype == dtype and value.ndim == 1:
+        return value if value.flags.c_contiguous else np.ascontiguousarray(value)
+    if (
+        dtype.itemsize == 1
+        and dtype.kind == 'u'
+        and isinstance(value, (bytes, bytearray, memoryview))
+    ):
+        return np.frombuffer(value, np.uint8)
+    if isinstance(value, (str, bytes)):
+        raise TypeError(
+            f'expected a sequence of {_kind_name(dtype.kind)}, got {type(value).__name__}'
+        )
+    array = np.asarray(value)
+    if array.ndim != 1:
+        if array.ndim == 0:
+            raise TypeError(
+                f'expected a sequence of {_kind_name(dtype.kind)}, got {type(value).__name__}'
+            )
+        raise ValueError(f'expected a 1-D sequence, got an array of shape {array.shape}')
+    if array.dtype == dtype:
+        return np.ascontiguousarray(array)
+    if array.size == 0:
+        return np.zeros(0, dtype)
+    source = array.dtype.kind
+    target = dtype.kind
+    if target == 'f':
+        if source not in 'fiub':
+            raise TypeError(f'expected numbers, got {array.dtype} values')
+    elif target in 'iu':
+        if source not in 'iub':
+            raise TypeError(f'expected integers, got {array.dtype} values')
+        info = np.iinfo(dtype)
+        low, high = array.min(), array.max()
+        if low < info.min or high > info.max:
+            bad = low if low < info.min else high
+            raise ValueError(
+                f'value {bad} is out of the range of {dtype.name} [{info.min}, {info.max}]'
+            )
+    elif target == 'b':
+        if source == 'b' or (source in 'iu' and ((array == 0) | (array == 1)).all()):
+            pass
+        else:
+            raise TypeError(f'expected bools, got {array.dtype} values')
+    return np.ascontiguousarray(array.astype(dtype))
+
+
+def prim_array(value: Any, dtype: np.dtype, bound: int) -> np.ndarray:
+    """An array for a sequence field, checked against its bound (-1: unbounded)."""
+    if (
+        type(value) is np.ndarray
+        and value.dtype == dtype
+        and value.ndim == 1
+        and value.flags.c_contiguous
+    ):
+        array = value
+    else:
+        array = to_array(value, dtype)
+    if bound >= 0 and len(array) > bound:
+        raise Bad(f'{len(array)} elements exceed the bound of {bound}')
+    return array
+
+
+def fixed_array(value: Any, dtype: np.dtype, count: int) -> np.ndarray:
+    """An array for a fixed-size array field; its length must be exactly ``count``."""
+    if (
+        type(value) is np.ndarray
+        and value.dtype == dtype
+        and value.ndim == 1
+        and value.flags.c_contiguous
+    ):
+        array = value
+    else:
+        array = to_array(value, dtype)
+    if len(array) != count:
+        raise Bad(f'expected exactly {count} elements, got {len(array)}')
+    return array
+
+
+def init_array(value: Any, dtype: np.dtype, count: int, bound: int, name: str) -> np.ndarray:
+    """Convert a constructor argument for an array field, with the field name in errors."""
+    try:
+        array = to_array(value, dtype)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise type(exc)(f'field {name!r}: {exc}') from None
+    if count >= 0 and len(array) != count:
+        raise ValueError(f'field {name!r}: expected exactly {count} elements, got {len(array)}')
+    if bound >= 0 and len(array) > bound:
+        raise ValueError(f'field {name!r}: {len(array)} elements exceed the bound of {bound}')
+    return array
+
+
+def empty_array(dtype: np.dtype) -> np.ndarray:
+    """A shared, read-only empty array (decoded empty sequences all use it)."""
+    array = np.zeros(0, dtype)
+    array.flags.writeable = False
+    return array
+
+
+# --- wstring: a u32 count of UTF-16 code units, each written as a 4-byte wchar_t --------------
+
+
+def wstring_encode(value: str) -> tuple[bytes, int]:
+    """The wire bytes (without the count) of a wstring, and its count of code units."""
+    if type(value) is not str:
+        raise TypeError(f'expected str, got {type(value).__name__}')
+    units = np.frombuffer(value.encode('utf-16-le'), '<u2')
+    return units.astype('<u4').tobytes(), len(units)
+
+
+def wstring_decode(buf: Any, pos: int, count: int, end: int, endian: str) -> tuple[str, int]:
+    """Decode ``count`` 4-byte code units at ``pos``; returns the text and the next offset."""
+    stop = pos + 4 * count
+    if stop > end:
+        raise Bad(f'wstring of {count} characters runs past the end of the buffer ({end} bytes)')
+    units = np.frombuffer(buf, endian + 'u4', count, pos)
+    if count and units.max() > 0xFFFF:
+        raise Bad('wstring holds a code unit above 0xFFFF')
+    try:
+        text = units.astype('<u2').tobytes().decode('utf-16-le')
+    except UnicodeDecodeError as exc:
+        raise Bad(f'wstring is not valid UTF-16: {exc.reason}') from None
+    return text, stop
+
+
+def check_scalar(primitive: str, value: Any, low: int | None, high: int | None) -> None:
+    """Explain why a scalar value cannot be encoded (used by the traced encoder only)."""
+    if primitive in ('float32', 'float64'):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+            raise Bad(f'expected a float for {primitive}, got {type(value).__name__} {value!r}')
+        if (
+            primitive == 'float32'
+            and abs(float(value)) > 3.4028234663852886e38
+            and np.isfinite(value)
+        ):
+            raise Bad(f'{value!r} is too large for float32')
+        return
+    if primitive == 'bool':
+        return
+    if isinstance(value, (float, np.floating)) or not hasattr(value, '__index__'):
+        raise Bad(f'expected an int for {primitive}, got {type(value).__name__} {value!r}')
+    number = int(value)
+    if low is not None and high is not None and not low <= number <= high:
+        raise Bad(f'{number} is out of the range of {primitive} [{low}, {high}]')
