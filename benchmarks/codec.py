@@ -1,0 +1,359 @@
+"""CDR codec speed: zros against rosbags, pycdr2 and rclpy, in one process, same content.
+
+Prints microseconds per message (the best of several runs, as the machine is noisy), a memcpy
+column (copying the encoded bytes once) and the issue's goals as ratios to rosbags.
+
+    python benchmarks/codec.py            # all messages
+    python benchmarks/codec.py --quick    # fewer repeats
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+from collections.abc import Callable
+from importlib import metadata
+from typing import Any
+
+import numpy as np
+
+from zros import cdr
+from zros.cdr.registry import TypeRegistry
+
+REGISTRY = TypeRegistry('jazzy', paths=[], ament=False)
+
+
+def C(name: str) -> Any:  # noqa: N802
+    return REGISTRY.get_class(name)
+
+
+# --- the messages ------------------------------------------------------------------------
+
+
+def _header(frame: str) -> Any:
+    return C('std_msgs/msg/Header')(stamp={'sec': 1740933158, 'nanosec': 226629828}, frame_id=frame)
+
+
+def build_messages() -> dict[str, Any]:
+    """The benchmark messages in zros form; the other libraries get the same content."""
+    rng = np.random.default_rng(7)
+    Pose = C('geometry_msgs/msg/Pose')
+    Point = C('geometry_msgs/msg/Point')
+    messages: dict[str, Any] = {}
+    messages['String'] = C('std_msgs/msg/String')(data='hello world, this is zros')
+    messages['Twist'] = C('geometry_msgs/msg/Twist')(
+        linear={'x': 0.5, 'y': 0.1}, angular={'z': 0.3}
+    )
+    messages['Imu'] = C('sensor_msgs/msg/Imu')(
+        header=_header('imu_link'),
+        orientation={'x': 0.1, 'y': 0.2, 'z': 0.3, 'w': 0.9},
+        orientation_covariance=rng.random(9),
+        angular_velocity={'x': 0.01, 'y': 0.02, 'z': 0.03},
+        angular_velocity_covariance=rng.random(9),
+        linear_acceleration={'x': 0.1, 'y': 0.2, 'z': 9.81},
+        linear_acceleration_covariance=rng.random(9),
+    )
+    odom = C('nav_msgs/msg/Odometry')(header=_header('odom'), child_frame_id='base_link')
+    odom.pose.pose.position.x = 1.0
+    odom.pose.covariance = rng.random(36)
+    odom.twist.twist.linear.x = 0.5
+    odom.twist.covariance = rng.random(36)
+    messages['Odometry'] = odom
+    TransformStamped = C('geometry_msgs/msg/TransformStamped')
+    messages['TFMessage(10)'] = C('tf2_msgs/msg/TFMessage')(
+        transforms=[
+            TransformStamped(
+                header=_header('map'),
+                child_frame_id=f'link_{i}',
+                transform={'translation': {'x': float(i)}, 'rotation': {'w': 1.0}},
+            )
+            for i in range(10)
+        ]
+    )
+    messages['LaserScan(720)'] = C('sensor_msgs/msg/LaserScan')(
+        header=_header('laser'),
+        angle_min=-3.14,
+        angle_max=3.14,
+        angle_increment=0.00873,
+        range_max=30.0,
+        ranges=rng.random(720).astype(np.float32) * 30,
+        intensities=rng.random(720).astype(np.float32),
+    )
+    Image = C('sensor_msgs/msg/Image')
+    for label, (width, height) in (
+        ('Image 640x480', (640, 480)),
+        ('Image 1920x1080', (1920, 1080)),
+    ):
+        messages[label] = Image(
+            header=_header('camera'),
+            height=height,
+            width=width,
+            encoding='rgb8',
+            step=3 * width,
+            data=rng.integers(0, 256, 3 * width * height, dtype=np.uint8),
+        )
+    PointField = C('sensor_msgs/msg/PointField')
+    points = 100_000
+    messages['PointCloud2(100k)'] = C('sensor_msgs/msg/PointCloud2')(
+        header=_header('lidar'),
+        height=1,
+        width=points,
+        fields=[PointField(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate('xyz')]
+        + [PointField(name='intensity', offset=12, datatype=7, count=1)],
+        point_step=16,
+        row_step=16 * points,
+        data=rng.integers(0, 256, 16 * points, dtype=np.uint8),
+        is_dense=True,
+    )
+    table = np.zeros(1000, dtype=Pose._dtype)
+    table['position']['x'] = np.arange(1000)
+    table['orientation']['w'] = 1.0
+    poses = C('geometry_msgs/msg/PoseArray')(header=_header('map'))
+    poses.poses.array = table
+    messages['PoseArray(1000)'] = poses
+    messages['PoseArray(1000) objects'] = C('geometry_msgs/msg/PoseArray')(
+        header=_header('map'),
+        poses=[
+            Pose(position=Point(float(i), 0.0, 0.0), orientation={'w': 1.0}) for i in range(1000)
+        ],
+    )
+    Marker = C('visualization_msgs/msg/Marker')
+    ColorRGBA = C('std_msgs/msg/ColorRGBA')
+    messages['MarkerArray(100)'] = C('visualization_msgs/msg/MarkerArray')(
+        markers=[
+            Marker(
+                header=_header('map'),
+                ns='path',
+                id=i,
+                type=4,
+                pose={'position': {'x': float(i)}, 'orientation': {'w': 1.0}},
+                scale={'x': 0.05},
+                color={'r': 1.0, 'a': 1.0},
+                points=[Point(float(k), 0.0, 0.0) for k in range(4)],
+                colors=[ColorRGBA(r=1.0, a=1.0) for _ in range(4)],
+                text=f'marker {i}',
+            )
+            for i in range(100)
+        ]
+    )
+    return messages
+
+
+# --- the other libraries ---------------------------------------------------------------
+
+
+def rosbags_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[[], Any]] | None:
+    from zros.cdr.layout import VALUE_CODES
+    from zros.cdr.model import Kind
+    from zros.cdr.naming import attribute_name
+    from zros.cdr.registry import PLACEHOLDER_FIELD
+
+    store = REGISTRY.typestore
+
+    def convert(value: Any) -> Any:
+        definition = REGISTRY.message_definition(value.__msgtype__)
+        cls = store.types[value.__msgtype__]
+        if not definition.fields:
+            return cls(**{PLACEHOLDER_FIELD: 0})
+        kwargs = {}
+        for f in definition.fields:
+            item = getattr(value, attribute_name(f.name))
+            if f.type.is_nested:
+                item = convert(item) if f.type.kind is Kind.SCALAR else [convert(x) for x in item]
+            elif f.type.is_primitive and f.type.kind is not Kind.SCALAR:
+                item = np.asarray(item, dtype=VALUE_CODES[f.type.base])
+            kwargs[attribute_name(f.name)] = item
+        return cls(**kwargs)
+
+    converted = convert(message)
+    data = bytes(store.serialize_cdr(converted, message.__msgtype__))
+    type_name = message.__msgtype__
+    return (
+        lambda: store.serialize_cdr(converted, type_name),
+        lambda: store.deserialize_cdr(data, type_name),
+    )
+
+
+def pycdr2_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[[], Any]] | None:
+    try:
+        from zros.cdr.pycdr2 import pycdr2_class, to_pycdr2
+    except ImportError:
+        return None
+    if 'Image 1920' in name or 'PointCloud2' in name:
+        return None  # minutes per message: pycdr2 handles byte sequences element by element
+    cls = pycdr2_class(type(message))
+    obj = to_pycdr2(message)
+    data = obj.serialize()
+    return (obj.serialize, lambda: cls.deserialize(data))
+
+
+def rclpy_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[[], Any]] | None:
+    try:
+        import importlib
+
+        from rclpy.serialization import deserialize_message, serialize_message
+    except ImportError:
+        return None
+    from zros.cdr.model import Kind
+    from zros.cdr.naming import attribute_name
+
+    def rclpy_class(type_name: str) -> Any:
+        package, kind, short = type_name.split('/')
+        return getattr(importlib.import_module(f'{package}.{kind}'), short)
+
+    def convert(value: Any) -> Any:
+        out = rclpy_class(value.__msgtype__)()
+        for f in REGISTRY.message_definition(value.__msgtype__).fields:
+            item = getattr(value, attribute_name(f.name))
+            if f.type.is_nested:
+                item = convert(item) if f.type.kind is Kind.SCALAR else [convert(x) for x in item]
+            elif f.type.base == 'byte' and f.type.kind is Kind.SCALAR:
+                item = bytes([item])
+            setattr(out, f.name, item)
+        return out
+
+    try:
+        converted = convert(message)
+        cls = type(converted)
+    except (ImportError, AttributeError):
+        return None  # a message package not on PyPI (tf2_msgs)
+    data = serialize_message(converted)
+    return (lambda: serialize_message(converted), lambda: deserialize_message(data, cls))
+
+
+# --- timing ------------------------------------------------------------------------------
+
+
+def best_time(function: Callable[[], Any], repeats: int, budget: float) -> float:
+    """Seconds per call: the best of ``repeats`` runs, each sized to take about ``budget``."""
+    start = time.perf_counter()
+    function()
+    once = max(time.perf_counter() - start, 1e-7)
+    number = max(1, min(100_000, int(budget / once)))
+    best = float('inf')
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(number):
+            function()
+        best = min(best, (time.perf_counter() - start) / number)
+    return best
+
+
+def _fmt(seconds: float | None) -> str:
+    if seconds is None:
+        return '-'
+    micro = seconds * 1e6
+    return f'{micro:.2f}' if micro < 100 else f'{micro:.0f}'
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--quick', action='store_true', help='fewer, shorter runs')
+    parser.add_argument('--only', help='only messages whose name contains this text')
+    args = parser.parse_args()
+    repeats, budget = (3, 0.02) if args.quick else (7, 0.05)
+
+    versions = []
+    for package in ('eclipse-zenoh', 'numpy', 'rosbags', 'pycdr2', 'ros-jazzy-rclpy'):
+        try:
+            versions.append(f'{package} {metadata.version(package)}')
+        except metadata.PackageNotFoundError:
+            versions.append(f'{package} (not installed)')
+    print(f'zros CDR codec benchmark: microseconds per message, best of {repeats} runs')
+    print(f'Python {platform.python_version()} on {platform.machine()}; ' + ', '.join(versions))
+    print()
+    libraries = {'rosbags': rosbags_codec, 'pycdr2': pycdr2_codec, 'rclpy': rclpy_codec}
+    header = (
+        f'{"message":24} {"bytes":>8} | {"zros":>8} {"rosbags":>8} {"pycdr2":>8} {"rclpy":>8} | '
+        f'{"zros":>8} {"rosbags":>8} {"pycdr2":>8} {"rclpy":>8} | {"memcpy":>7} | {"enc/rb":>6} {"dec/rb":>6}'
+    )
+    print(f'{"":33} | {"encode":^35} | {"decode":^35} |')
+    print(header)
+    print('-' * len(header))
+    results: dict[str, dict[str, float | None]] = {}
+    for name, message in build_messages().items():
+        if args.only and args.only not in name:
+            continue
+        data = cdr.encode(message)
+        cls = type(message)
+        row: dict[str, float | None] = {
+            'zros_enc': best_time(lambda m=message: cdr.encode(m), repeats, budget),
+            'zros_dec': best_time(lambda c=cls, d=data: cdr.decode(c, d), repeats, budget),
+        }
+        target = memoryview(
+            bytearray(len(data))
+        )  # bytearray slice assignment is slower than memcpy
+
+        def copy_once(target: memoryview = target, data: bytes = data) -> None:
+            target[:] = data
+
+        row['memcpy'] = best_time(copy_once, repeats, budget)
+        for label, make in libraries.items():
+            codec = make(name, message)
+            if codec is None:
+                row[f'{label}_enc'] = row[f'{label}_dec'] = None
+                continue
+            encode, decode = codec
+            row[f'{label}_enc'] = best_time(encode, repeats, budget)
+            row[f'{label}_dec'] = best_time(decode, repeats, budget)
+        results[name] = row
+        ratio_enc = row['zros_enc'] / row['rosbags_enc'] if row['rosbags_enc'] else None
+        ratio_dec = row['zros_dec'] / row['rosbags_dec'] if row['rosbags_dec'] else None
+        print(
+            f'{name:24} {len(data):>8} | '
+            + ' '.join(
+                f'{_fmt(row[f"{lib}_enc"]):>8}' for lib in ('zros', 'rosbags', 'pycdr2', 'rclpy')
+            )
+            + ' | '
+            + ' '.join(
+                f'{_fmt(row[f"{lib}_dec"]):>8}' for lib in ('zros', 'rosbags', 'pycdr2', 'rclpy')
+            )
+            + f' | {_fmt(row["memcpy"]):>7} | '
+            + f'{ratio_enc:>6.2f} {ratio_dec:>6.2f}'
+        )
+    print_goals(results)
+
+
+def print_goals(results: dict[str, dict[str, float | None]]) -> None:
+    """Check the issue's goals against this run."""
+    goals: list[tuple[str, bool]] = []
+
+    def ratio(name: str, kind: str) -> float:
+        row = results[name]
+        return float(row[f'zros_{kind}']) / float(row[f'rosbags_{kind}'])  # type: ignore[arg-type]
+
+    for name in ('String', 'Twist', 'Imu', 'Odometry', 'TFMessage(10)'):
+        if name in results:
+            for kind in ('enc', 'dec'):
+                value = ratio(name, kind)
+                goals.append(
+                    (f'{name} {kind}ode {value:.2f}x rosbags (goal <= 0.6x)', value <= 0.6)
+                )
+    for name in ('LaserScan(720)', 'Image 640x480', 'Image 1920x1080', 'PointCloud2(100k)'):
+        if name in results:
+            micro = float(results[name]['zros_dec']) * 1e6  # type: ignore[arg-type]
+            goals.append((f'{name} decode {micro:.2f} us, zero-copy (goal <= 10 us)', micro <= 10))
+    if 'Image 1920x1080' in results:
+        row = results['Image 1920x1080']
+        value = float(row['zros_enc']) / float(row['memcpy'])  # type: ignore[arg-type]
+        goals.append((f'Image 1920x1080 encode {value:.2f}x memcpy (goal <= 1.5x)', value <= 1.5))
+    for name, limit in (('PoseArray(1000)', 0.2), ('MarkerArray(100)', 0.6)):
+        if name in results:
+            for kind in ('enc', 'dec'):
+                value = ratio(name, kind)
+                goals.append(
+                    (f'{name} {kind}ode {value:.3f}x rosbags (goal <= {limit}x)', value <= limit)
+                )
+    print('\ngoals')
+    for text, met in goals:
+        print(f'  {"met   " if met else "MISSED"}  {text}')
+    if 'PoseArray(1000) objects' in results:
+        print(
+            f'  (info)  PoseArray(1000) built from 1000 Pose objects: encode '
+            f'{ratio("PoseArray(1000) objects", "enc"):.2f}x rosbags'
+        )
+
+
+if __name__ == '__main__':
+    main()
