@@ -203,7 +203,7 @@ HEADER = b'\x00\x01\x00\x00'
             HEADER + _u32(6) + b'abcde\x00',
             'name',
             4,
-            'string of 5 bytes exceeds its bound 3',
+            'string of 5 characters exceeds its bound 3',
         ),
         (
             'err_msgs/msg/Bounded',
@@ -273,11 +273,38 @@ HEADER = b'\x00\x01\x00\x00'
 def test_decode_errors(name: str, data: bytes, field: str, offset: int, reason: str) -> None:
     for buffer in (data, bytearray(data), memoryview(data)):
         with pytest.raises(CdrError) as info:
-            cdr.decode(cls(name), buffer)
+            cdr.decode(cls(name), buffer, strict=True)
         assert reason in str(info.value)
         assert info.value.field == field
         assert info.value.offset == offset
         assert info.value.type_name == name
+
+
+def test_trailing_bytes_are_ignored_unless_strict() -> None:
+    # rclpy's serializer leaves stray bytes after some messages; DDS readers ignore them
+    String = cls('std_msgs/msg/String')
+    data = HEADER + _u32(2) + b'a\x00' + b'astrtps_'
+    for buffer in (data, bytearray(data), memoryview(data)):
+        assert cdr.decode(String, buffer).data == 'a'
+        with pytest.raises(CdrError, match='8 bytes left after the end of the message'):
+            cdr.decode(String, buffer, strict=True)
+    assert String.deserialize(data).data == 'a'
+    # wstring types accept stray bytes even when strict (Fast DDS adds 4 per wstring)
+    assert (
+        cdr.decode(cls('err_msgs/msg/Wide'), HEADER + bytes(8) + b'junkjunk', strict=True).text
+        == ''
+    )
+
+
+def test_bounded_strings_count_characters_when_decoding() -> None:
+    # rclpy checks bounds in characters and writes 'é' * 3 (6 bytes) into a string<=3
+    Bounded = cls('err_msgs/msg/Bounded')
+    text = '\u00e9' * 3
+    data = HEADER + _u32(7) + text.encode() + b'\x00' + bytes(1) + _u32(0) + b'\x00'
+    decoded = cdr.decode(Bounded, data, strict=True)
+    assert decoded.name == text
+    with pytest.raises(CdrError, match='string of 6 bytes exceeds its bound 3'):
+        cdr.encode(decoded)  # C++ readers check bytes: zros never sends it
 
 
 def test_decoding_something_that_is_not_a_buffer() -> None:

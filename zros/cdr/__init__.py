@@ -44,9 +44,14 @@ def new_message(type_name: TypeLike, **fields: Any) -> Message:
     return get_class(type_name)(**fields)
 
 
-def decode(type_name: TypeLike, buf: bytes | bytearray | memoryview) -> Message:
-    """Decode CDR bytes (4-byte header included) into a message of the given type."""
-    return _decode(get_class(type_name), buf)
+def decode(
+    type_name: TypeLike, buf: bytes | bytearray | memoryview, strict: bool = False
+) -> Message:
+    """Decode CDR bytes (4-byte header included) into a message of the given type.
+
+    Trailing bytes are ignored unless ``strict``, which allows at most 3 (alignment padding).
+    """
+    return _decode(get_class(type_name), buf, strict)
 
 
 def register_type(type_name: str, text: str) -> Definition:

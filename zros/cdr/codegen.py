@@ -410,15 +410,17 @@ class _DecoderBuilder:
                     '({end} bytes)',
                 )
                 self.fail('buf[e - 1]', 'string does not end with a NUL byte')
-                if op.bound:
-                    self.fail(
-                        f'{op.count} > {op.bound + 1}',
-                        f'string of {{{op.count} - 1}} bytes exceeds its bound {op.bound}',
-                    )
                 if self.mv or self.trace:
                     src.add(f"{op.ref} = str(buf[pos:e - 1], 'utf-8')")
                 else:
                     src.add(f'{op.ref} = buf[pos:e - 1].decode()')
+                if op.bound:
+                    # the bound counts bytes (C++ readers check that), but rclpy checks characters
+                    # and writes longer strings: accept them when the characters fit
+                    self.fail(
+                        f'{op.count} > {op.bound + 1} and len({op.ref}) > {op.bound}',
+                        f'string of {{len({op.ref})}} characters exceeds its bound {op.bound}',
+                    )
                 src.add('pos = e')
             with src.block('else:'):
                 src.add(f"{op.ref} = ''")
@@ -492,10 +494,12 @@ def _struct_seq_factory() -> Callable[[type, np.ndarray], Any]:
 def generate_decoder(
     ctx: Context, msg: MessageDef, endian: str, text_from_memoryview: bool, trace: bool
 ) -> Callable[[Any], Any]:
-    """The function ``decode(buf) -> message`` for the body after a valid header.
+    """The function ``decode(buf, strict) -> message`` for the body after a valid header.
 
-    It reads from offset 4 to the end of ``buf`` and checks that at most 3 bytes (any number for
-    types with a wstring) are left over.
+    It reads from offset 4 and ignores bytes left at the end, as DDS readers do (rclpy's
+    serializer leaves up to 4 stray bytes per empty 8-byte sequence and per wstring). With
+    ``strict`` at most 3 may be left (any number for types with a wstring): bag readers use that
+    to tell whether an embedded definition matches its data.
     """
     builder = _DecoderBuilder(ctx, endian, text_from_memoryview, trace)
     src = builder.src
@@ -514,7 +518,7 @@ def generate_decoder(
         if trace:
             src.add("_f = ''; _p = pos")
         builder.fail(
-            'end - pos > 3',
+            'strict and end - pos > 3',
             '{end - pos} bytes left after the end of the message (at most 3 padding bytes are '
             'allowed); the data may be of another type or version',
         )
@@ -528,7 +532,7 @@ def generate_decoder(
         src.add('except Exception as exc:')
         explain = src.ref(_decode_error, 'err')
         src.add(f'    raise {explain}({msg.name!r}, _f, _p, exc, end) from None')
-    return src.compile('buf', 'decode')
+    return src.compile('buf, strict=False', 'decode')
 
 
 def _decode_error(type_name: str, path: str, offset: int, exc: Exception, size: int) -> Exception:

@@ -60,7 +60,7 @@ class Message:
         raise NotImplementedError
 
     @staticmethod
-    def _cdr_decode(buf: Any) -> Any:
+    def _cdr_decode(buf: Any, strict: bool = False) -> Any:
         raise NotImplementedError
 
     # common API
@@ -90,9 +90,9 @@ class Message:
         return encode(self)
 
     @classmethod
-    def deserialize(cls, buf: bytes | bytearray | memoryview) -> Self:
+    def deserialize(cls, buf: bytes | bytearray | memoryview, strict: bool = False) -> Self:
         """Decode CDR bytes (header included) into a message of this type."""
-        return decode(cls, buf)
+        return decode(cls, buf, strict)
 
     @classmethod
     def get_fields_and_field_types(cls) -> dict[str, str]:
@@ -130,17 +130,19 @@ def encode(message: Message) -> bytes:
         raise _explain_encode(type(message), message) from None
 
 
-def decode(cls: type[M], buf: bytes | bytearray | memoryview) -> M:
+def decode(cls: type[M], buf: bytes | bytearray | memoryview, strict: bool = False) -> M:
     """Decode CDR bytes (header included) into a message of class ``cls``.
 
-    Arrays of the result are views into ``buf`` (read-only when ``buf`` is ``bytes``).
+    Arrays of the result are views into ``buf`` (read-only when ``buf`` is ``bytes``). Bytes
+    after the message are ignored, as DDS readers ignore them; ``strict=True`` allows at most 3
+    (alignment padding), which tells whether the data really is of this type.
     """
     try:
-        return cls._cdr_decode(buf)  # type: ignore[no-any-return]
+        return cls._cdr_decode(buf, strict)  # type: ignore[no-any-return]
     except CdrError:
         raise
     except Exception:
-        raise _explain_decode(cls, buf) from None
+        raise _explain_decode(cls, buf, strict) from None
 
 
 def _explain_encode(cls: type[Message], message: Message) -> CdrError:
@@ -152,7 +154,7 @@ def _explain_encode(cls: type[Message], message: Message) -> CdrError:
     return CdrError(f'cannot encode {cls.__msgtype__}', type_name=cls.__msgtype__)
 
 
-def _explain_decode(cls: type[Message], buf: Any) -> CdrError:
+def _explain_decode(cls: type[Message], buf: Any, strict: bool) -> CdrError:
     name = getattr(cls, '__msgtype__', '?')
     try:
         view = memoryview(buf)
@@ -180,7 +182,7 @@ def _explain_decode(cls: type[Message], buf: Any) -> CdrError:
         )
     traced = _codecs(cls).traced_decoder('<' if view[1] else '>')
     try:
-        traced(view)
+        traced(view, strict)
     except CdrError as exc:
         return exc
     return CdrError(f'cannot decode {name}', type_name=name)
@@ -256,13 +258,13 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
     """Give ``cls`` codec stubs that compile the real functions on their first call."""
     lock = codecs.registry._lock
 
-    def decode_first(buf: Any) -> Any:
+    def decode_first(buf: Any, strict: bool = False) -> Any:
         with lock:
             if cls.__dict__['_cdr_decode'] is lazy_decode:
                 little = codecs.decoder('<', False)
                 variants: dict[str, Any] = {}
 
-                def other(view: Any) -> Any:
+                def other(view: Any, strict: bool) -> Any:
                     # big-endian data, or text read from a memoryview: compile on demand
                     if type(view) is memoryview and (view.ndim != 1 or view.itemsize != 1):
                         view = view.cast('B')
@@ -271,15 +273,15 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
                     key = ('m' if type(view) is memoryview else 'b') + ('<' if view[1] else '>')
                     if key not in variants:
                         variants[key] = codecs.decoder(key[1], key[0] == 'm')
-                    return variants[key](view)
+                    return variants[key](view, strict)
 
-                def fast(buf: Any) -> Any:
+                def fast(buf: Any, strict: bool = False) -> Any:
                     if type(buf) is memoryview or len(buf) < 4 or buf[0] or buf[1] != 1:
-                        return other(buf)
-                    return little(buf)
+                        return other(buf, strict)
+                    return little(buf, strict)
 
                 cls._cdr_decode = staticmethod(fast)  # type: ignore[method-assign]
-        return cls._cdr_decode(buf)
+        return cls._cdr_decode(buf, strict)
 
     def encode_first(message: Any) -> bytes:
         with lock:
