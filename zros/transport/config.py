@@ -1,0 +1,141 @@
+"""How a zros process reaches the Zenoh network: settings from arguments, environment and files.
+
+Precedence, highest first: arguments, environment (``ZROS_CONNECT``, ``ZROS_LISTEN``,
+``ZROS_MODE``), the json5 file named by ``config`` or ``ZENOH_CONFIG``, then zros's defaults:
+client mode connecting to the local bridge at ``tcp/127.0.0.1:7447``, multicast scouting off,
+timestamping on (transient-local publishers need it).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+#: zenoh-bridge-ros2dds and zenohd listen here by default
+DEFAULT_ENDPOINT = 'tcp/127.0.0.1:7447'
+MODES = ('client', 'peer')
+
+
+def _endpoints(value: str | Sequence[str] | None) -> tuple[str, ...] | None:
+    if value is None:
+        return None
+    items = value.split(',') if isinstance(value, str) else list(value)
+    return tuple(item.strip() for item in items if item.strip())
+
+
+@dataclass(frozen=True)
+class Tls:
+    """TLS files: the CA that signed the router's certificate, and for mutual TLS our own pair."""
+
+    root_ca_certificate: str
+    certificate: str | None = None  #: our certificate, for mutual TLS
+    private_key: str | None = None  #: its private key
+    verify_name: bool = True  #: check that the router's certificate names the host we dial
+
+    def __post_init__(self) -> None:
+        if (self.certificate is None) != (self.private_key is None):
+            raise ValueError('mutual TLS needs both a certificate and a private key')
+        for path in (self.root_ca_certificate, self.certificate, self.private_key):
+            if path is not None and not Path(path).is_file():
+                raise FileNotFoundError(f'TLS file {path} does not exist')
+
+
+@dataclass(frozen=True)
+class TransportConfig:
+    """The Zenoh session settings of a zros process (see the module docstring for defaults).
+
+    ``zenoh`` holds raw Zenoh settings as ``{"path/of/key": value}``, applied last.
+    """
+
+    connect: tuple[str, ...] | None = None
+    listen: tuple[str, ...] | None = None
+    mode: str | None = None
+    config_file: str | None = None
+    multicast_scouting: bool = False
+    shared_memory: bool | None = None  #: None: Zenoh's default (on)
+    tls: Tls | None = None
+    user: str | None = None
+    password: str | None = None
+    zenoh: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def create(
+        cls,
+        connect: str | Sequence[str] | None = None,
+        listen: str | Sequence[str] | None = None,
+        mode: str | None = None,
+        config_file: str | os.PathLike[str] | None = None,
+        **options: Any,
+    ) -> TransportConfig:
+        """Settings from arguments, falling back on the environment for what is not given."""
+        env = os.environ
+        config = cls(
+            connect=_endpoints(connect if connect is not None else env.get('ZROS_CONNECT')),
+            listen=_endpoints(listen if listen is not None else env.get('ZROS_LISTEN')),
+            mode=mode or env.get('ZROS_MODE'),
+            config_file=str(config_file) if config_file else env.get('ZENOH_CONFIG'),
+            **options,
+        )
+        if config.mode is not None and config.mode not in MODES:
+            raise ValueError(f'mode must be "client" or "peer", got {config.mode!r}')
+        if config.user is not None and config.password is None:
+            raise ValueError('a user needs a password')
+        return config
+
+    def to_zenoh(self) -> Any:
+        """The ``zenoh.Config`` these settings describe."""
+        import zenoh
+
+        if self.config_file:
+            path = Path(self.config_file)
+            if not path.is_file():
+                raise FileNotFoundError(f'Zenoh configuration file {path} does not exist')
+            config = zenoh.Config.from_file(str(path))
+        else:
+            config = zenoh.Config()
+
+        def unset(key: str) -> bool:
+            return json.loads(config.get_json(key)) in (None, [], '')
+
+        def put(key: str, value: Any) -> None:
+            config.insert_json5(key, json.dumps(value))
+
+        if self.mode is not None or unset('mode'):
+            put('mode', self.mode or 'client')
+        mode = json.loads(config.get_json('mode'))
+        if self.connect is not None:
+            put('connect/endpoints', list(self.connect))
+        elif unset('connect/endpoints') and mode == 'client':
+            put('connect/endpoints', [DEFAULT_ENDPOINT])
+        if self.listen is not None:
+            put('listen/endpoints', list(self.listen))
+        if not self.config_file or self.multicast_scouting:
+            put('scouting/multicast/enabled', self.multicast_scouting)
+        if self.shared_memory is not None:
+            put('transport/shared_memory/enabled', self.shared_memory)
+        put('timestamping/enabled', True)
+        if self.tls is not None:
+            put('transport/link/tls/root_ca_certificate', self.tls.root_ca_certificate)
+            put('transport/link/tls/verify_name_on_connect', self.tls.verify_name)
+            if self.tls.certificate is not None:
+                put('transport/link/tls/enable_mtls', True)
+                put('transport/link/tls/connect_certificate', self.tls.certificate)
+                put('transport/link/tls/connect_private_key', self.tls.private_key)
+        if self.user is not None:
+            put('transport/auth/usrpwd/user', self.user)
+            put('transport/auth/usrpwd/password', self.password)
+        for key, value in self.zenoh.items():
+            put(key, value)
+        return config
+
+    def describe(self) -> str:
+        """Where this configuration connects, for messages."""
+        if self.connect:
+            return ', '.join(self.connect)
+        if self.config_file:
+            return f'the endpoints of {self.config_file}'
+        return DEFAULT_ENDPOINT

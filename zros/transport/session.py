@@ -1,0 +1,163 @@
+"""Zenoh sessions of the process: opened on demand, shared by nodes, always closed at exit.
+
+Zenoh runs each callback subscriber on its own non-daemon thread, which Python joins at exit
+before ``atexit`` handlers run: a script that forgets ``shutdown()`` would hang. Sessions are
+therefore closed from a ``threading`` exit hook, which runs before those joins.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import weakref
+from typing import Any
+
+from zros.errors import ZrosError
+from zros.transport.config import TransportConfig
+
+_log = logging.getLogger('zros.transport')
+
+
+class TransportError(ZrosError, ConnectionError):
+    """The Zenoh network could not be reached or the session failed."""
+
+
+_open: weakref.WeakSet[Transport] = weakref.WeakSet()
+_lock = threading.Lock()
+_hook_installed = False
+
+
+def _close_all() -> None:
+    for transport in list(_open):
+        transport.close()
+
+
+def _install_exit_hook() -> None:
+    global _hook_installed  # noqa: PLW0603
+    with _lock:
+        if not _hook_installed:
+            register = getattr(threading, '_register_atexit', None)
+            if register is not None:
+                register(_close_all)
+            else:  # pragma: no cover - CPython has it since 3.9
+                import atexit
+
+                atexit.register(_close_all)
+            _hook_installed = True
+
+
+def _explain(error: Exception, config: TransportConfig) -> TransportError:
+    text = str(error).split('  at ')[0].strip()
+    if 'Unable to connect' in text or 'connect' in text.lower():
+        return TransportError(
+            f'cannot reach a Zenoh router or bridge at {config.describe()} ({text}). '
+            'Start zenoh-bridge-ros2dds (or zenohd) there, or point zros elsewhere with '
+            'ZROS_CONNECT=tcp/<host>:7447 or connect=...; zros.transport.start_router() runs '
+            'one inside this process.'
+        )
+    return TransportError(f'cannot open a Zenoh session to {config.describe()}: {text}')
+
+
+class Transport:
+    """One open Zenoh session and what zros keeps per session (liveliness tokens)."""
+
+    def __init__(self, config: TransportConfig | None = None) -> None:
+        import zenoh
+
+        self.config = config or TransportConfig.create()
+        zenoh_config = self.config.to_zenoh()
+        try:
+            self.session: Any = zenoh.open(zenoh_config)
+        except zenoh.ZError as exc:
+            raise _explain(exc, self.config) from None
+        self.zid = str(self.session.zid())
+        self._tokens: dict[str, tuple[Any, int]] = {}
+        self._token_lock = threading.Lock()
+        self._closed = False
+        self._close_callbacks: list[Any] = []
+        _install_exit_hook()
+        _open.add(self)
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def declare_token(self, key: str) -> None:
+        """Declare a liveliness token, or count one more user of a token already declared.
+
+        A bridge keys its routes by (session, key): two tokens for the same key from one
+        session would collapse into one route, and retiring either would retire it.
+        """
+        with self._token_lock:
+            token, users = self._tokens.get(key, (None, 0))
+            if token is None:
+                token = self.session.liveliness().declare_token(key)
+            self._tokens[key] = (token, users + 1)
+
+    def release_token(self, key: str) -> None:
+        """Drop one user of a token; the token is undeclared with its last user."""
+        with self._token_lock:
+            token, users = self._tokens.get(key, (None, 0))
+            if token is None:
+                return
+            if users > 1:
+                self._tokens[key] = (token, users - 1)
+                return
+            del self._tokens[key]
+        if not self._closed:
+            token.undeclare()
+
+    def on_close(self, callback: Any) -> None:
+        """Call ``callback()`` before the session closes (entities undeclare themselves)."""
+        self._close_callbacks.append(callback)
+
+    def close(self) -> None:
+        """Undeclare everything and close the session; safe to call twice."""
+        if self._closed:
+            return
+        for callback in reversed(self._close_callbacks):
+            try:
+                callback()
+            except Exception:  # closing must go on whatever one entity does
+                _log.exception('error while closing an entity of session %s', self.zid)
+        self._closed = True
+        _open.discard(self)
+        self._tokens.clear()
+        self.session.close()
+
+    def __enter__(self) -> Transport:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = 'closed' if self._closed else self.config.describe()
+        return f'<zros Transport {self.zid} ({state})>'
+
+
+_default: Transport | None = None
+_default_lock = threading.Lock()
+
+
+def default_transport(config: TransportConfig | None = None) -> Transport:
+    """The process-wide session, opened on first use (with ``config`` if given then)."""
+    global _default  # noqa: PLW0603
+    with _default_lock:
+        if _default is None or _default.closed:
+            _default = Transport(config)
+        elif config is not None and config != _default.config:
+            raise TransportError(
+                'the process already has a Zenoh session with other settings; close it first '
+                '(zros.shutdown()) or pass transport= to use a second one'
+            )
+        return _default
+
+
+def close_default_transport() -> None:
+    """Close the process-wide session, if open."""
+    global _default  # noqa: PLW0603
+    with _default_lock:
+        if _default is not None:
+            _default.close()
+            _default = None
