@@ -19,9 +19,30 @@ _LAZY = {
     'get_type': ('zros.cdr', 'get_type'),
     'register_type': ('zros.cdr', 'register_type'),
     'type_hash': ('zros.cdr', 'type_hash'),
+    'init': ('zros.api', 'init'),
+    'ok': ('zros.api', 'ok'),
+    'spin_once': ('zros.api', 'spin_once'),
+    'spin': ('zros.api', 'spin'),
+    'shutdown': ('zros.api', 'shutdown'),
+    'default_node': ('zros.api', 'default_node'),
+    'NotInitializedError': ('zros.api', 'NotInitializedError'),
+    'Node': ('zros.node', 'Node'),
+    'Publisher': ('zros.pubsub', 'Publisher'),
+    'Subscriber': ('zros.pubsub', 'Subscriber'),
+    'Timer': ('zros.timers', 'Timer'),
+    'Rate': ('zros.timers', 'Rate'),
+    'QoS': ('zros.qos', 'QoS'),
+    'Reliability': ('zros.qos', 'Reliability'),
+    'Durability': ('zros.qos', 'Durability'),
+    'History': ('zros.qos', 'History'),
+    'InvalidNameError': ('zros.keyexpr.names', 'InvalidNameError'),
+    'TransportError': ('zros.transport', 'TransportError'),
+    'TransportConfig': ('zros.transport', 'TransportConfig'),
+    'start_router': ('zros.transport', 'start_router'),
 }
 
 if TYPE_CHECKING:
+    from zros.api import NotInitializedError, default_node, init, ok, shutdown, spin, spin_once
     from zros.cdr import (
         CdrError,
         InterfaceSyntaxError,
@@ -32,6 +53,12 @@ if TYPE_CHECKING:
     )
     from zros.cdr.message import Message as _MessageBase
     from zros.errors import ZrosError
+    from zros.keyexpr.names import InvalidNameError
+    from zros.node import Node
+    from zros.pubsub import Publisher, Subscriber
+    from zros.qos import Durability, History, QoS, Reliability
+    from zros.timers import Rate, Timer
+    from zros.transport import TransportConfig, TransportError, start_router
 
 
 def Message(type_name: str | type[_MessageBase], **fields: Any) -> _MessageBase:  # noqa: N802
@@ -61,11 +88,31 @@ def __dir__() -> list[str]:
 
 __all__ = [
     'CdrError',
+    'Durability',
+    'History',
     'InterfaceSyntaxError',
+    'InvalidNameError',
     'Message',
+    'Node',
+    'NotInitializedError',
+    'Publisher',
+    'QoS',
+    'Rate',
+    'Reliability',
+    'Subscriber',
+    'Timer',
+    'TransportConfig',
+    'TransportError',
     'UnknownTypeError',
     'ZrosError',
+    'default_node',
     'get_type',
+    'init',
+    'ok',
     'register_type',
+    'shutdown',
+    'spin',
+    'spin_once',
+    'start_router',
     'type_hash',
 ]

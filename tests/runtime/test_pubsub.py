@@ -1,0 +1,273 @@
+"""Publishers, subscribers, callbacks, polling, asyncio and transient local, in one process."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from collections.abc import Callable
+
+import pytest
+
+import zros
+from zros.node import Node
+from zros.qos import LATCHED, QoS
+from zros.testing import wait_for
+from zros.transport import Transport
+
+String = 'std_msgs/msg/String'
+
+
+def text(value: str) -> zros.cdr.Message:
+    return zros.Message(String, data=value)
+
+
+def connected(make: Callable[..., Node]) -> tuple[Node, Node]:
+    return make('talker'), make('listener')
+
+
+def test_callbacks_run_in_spin_once_in_order(zros_node: Callable[..., Node]) -> None:
+    talker, listener = connected(zros_node)
+    got: list[str] = []
+    listener.create_subscription(String, 'chatter', lambda m: got.append(m.data), qos=100)
+    pub = talker.create_publisher(String, '/chatter')
+    assert pub.wait_for_subscribers()
+    for i in range(20):
+        pub.write(text(f'hello {i}'))
+    assert got == []  # nothing runs on Zenoh's threads
+    assert wait_for(lambda: listener.spin_once(0.05) >= 0 and len(got) == 20)
+    assert got == [f'hello {i}' for i in range(20)]
+
+
+def test_polling_read_and_take(zros_node: Callable[..., Node]) -> None:
+    talker, listener = connected(zros_node)
+    sub = zros.Subscriber('chatter', String, node=listener, qos=10)
+    pub = zros.Publisher('chatter', String, node=talker)
+    assert sub.read_message() is None and not sub.has_new_message()
+    assert pub.wait_for_subscribers()
+    for i in range(25):
+        pub.write(text(str(i)))
+    assert wait_for(lambda: sub.received == 25)
+    assert sub.has_new_message()
+    assert sub.read_message().data == '24'  # rosR semantics: the newest
+    assert not sub.has_new_message()
+    assert sub.read_message().data == '24'  # still the last one read
+    for i in range(25, 30):
+        pub.write(text(str(i)))
+    assert wait_for(lambda: sub.received == 30)
+    assert [m.data for m in sub.take()] == ['25', '26', '27', '28', '29']
+    assert sub.take() == []
+
+
+def test_keep_last_keeps_the_newest(zros_node: Callable[..., Node]) -> None:
+    talker, listener = connected(zros_node)
+    sub = listener.create_subscription(String, 'chatter', qos=QoS(10))
+    pub = talker.create_publisher(String, 'chatter')
+    assert pub.wait_for_subscribers()
+    for i in range(500):
+        pub.write(text(str(i)))
+        if i % 50 == 49:
+            assert wait_for(lambda i=i: sub.received == i + 1)
+            assert sub.read_message().data == str(i)
+    assert wait_for(lambda: sub.received == 500)
+    for i in range(100):
+        pub.write(text(f'x{i}'))
+    assert wait_for(lambda: sub.received == 600)
+    assert [m.data for m in sub.take()] == [f'x{i}' for i in range(90, 100)]
+
+
+def test_first_message_after_matching_arrives_quickly(zros_node: Callable[..., Node]) -> None:
+    talker, listener = connected(zros_node)
+    sub = listener.create_subscription(String, 'first')
+    pub = talker.create_publisher(String, 'first')
+    assert pub.wait_for_subscribers()
+    start = time.perf_counter()
+    pub.write(text('first'))
+    message = sub.wait_for_message(timeout=1.0)
+    elapsed = time.perf_counter() - start
+    assert message is not None and message.data == 'first'
+    assert elapsed < 0.05, f'{elapsed * 1e3:.1f} ms'
+
+
+def test_a_raising_callback_is_logged_and_the_node_goes_on(
+    zros_node: Callable[..., Node], caplog: pytest.LogCaptureFixture
+) -> None:
+    talker, listener = connected(zros_node)
+    got: list[str] = []
+
+    def fragile(message: zros.cdr.Message) -> None:
+        if message.data == 'boom':
+            raise RuntimeError('callback failure')
+        got.append(message.data)
+
+    listener.create_subscription(String, 'chatter', fragile)
+    pub = talker.create_publisher(String, 'chatter')
+    assert pub.wait_for_subscribers()
+    for data in ('a', 'boom', 'b'):
+        pub.write(text(data))
+    with caplog.at_level(logging.ERROR, logger='zros'):
+        assert wait_for(lambda: listener.spin_once(0.05) >= 0 and len(got) == 2)
+    assert got == ['a', 'b']
+    assert 'callback failure' in caplog.text and 'Traceback' in caplog.text
+    assert listener.ok()
+
+
+def test_malformed_payloads_are_logged_once_per_publisher_and_dropped(
+    zros_node: Callable[..., Node],
+    zros_transport: Callable[..., Transport],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    _, listener = connected(zros_node)
+    sub = listener.create_subscription('geometry_msgs/msg/Twist', 'cmd_vel')
+    rogue = zros_transport()
+    publisher = rogue.session.declare_publisher('cmd_vel')
+    assert wait_for(lambda: publisher.matching_status.matching)
+    good = zros.cdr.encode(zros.Message('geometry_msgs/msg/Twist', linear={'x': 1.0}))
+    with caplog.at_level(logging.WARNING, logger='zros'):
+        for payload in (b'garbage', good, b'\x00\x01\x00\x00\x01', good[:20], good):
+            publisher.put(payload)
+        assert wait_for(lambda: sub.received == 5)
+        messages = sub.take()
+    assert [m.linear.x for m in messages] == [1.0, 1.0]
+    assert sub.dropped == 3
+    warnings = [r for r in caplog.records if 'dropped a message on /cmd_vel' in r.getMessage()]
+    assert len(warnings) == 1
+    assert rogue.zid in warnings[0].getMessage()
+
+
+def test_write_checks_the_type(zros_node: Callable[..., Node]) -> None:
+    talker = zros_node('talker')
+    pub = talker.create_publisher(String, 'chatter')
+    with pytest.raises(TypeError, match='sends std_msgs/msg/String, not std_msgs/msg/Bool'):
+        pub.write(zros.Message('std_msgs/msg/Bool'))
+    broken = text('x')
+    broken.data = 5  # type: ignore[attr-defined]
+    with pytest.raises(zros.CdrError, match="field 'data'"):
+        pub.write(broken)
+
+
+def test_tokens_live_exactly_as_long_as_their_entities(
+    zros_node: Callable[..., Node], zros_transport: Callable[..., Transport]
+) -> None:
+    node = zros_node('talker', '/robot')
+    observer = zros_transport()
+
+    def tokens() -> list[str]:
+        return sorted(
+            str(r.ok.key_expr) for r in observer.session.liveliness().get('@/*/@ros2_lv/**') if r.ok
+        )
+
+    zid = node.transport.zid
+    pub = node.create_publisher(String, 'chatter', qos='sensor_data')
+    second = node.create_publisher(String, 'chatter', qos='sensor_data')
+    sub = node.create_subscription('geometry_msgs/msg/Twist', '~/cmd', qos=LATCHED)
+    expected = [
+        f'@/{zid}/@ros2_lv/MP/robot\u00a7chatter/std_msgs\u00a7msg\u00a7String/:0:0:0,5',
+        f'@/{zid}/@ros2_lv/MS/robot\u00a7talker\u00a7cmd/geometry_msgs\u00a7msg\u00a7Twist/:1:1:0,1',
+    ]
+    assert wait_for(lambda: tokens() == expected)
+    second.close()  # one token per (kind, key) and session: it stays while pub lives
+    pub.write(text('still announced'))
+    assert tokens() == expected
+    pub.close()
+    sub.close()
+    assert wait_for(lambda: tokens() == [])
+
+
+def test_names_namespaces_remapping_and_bridge_namespace(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('cam', '/robot', remap=['raw:=/camera/raw'], bridge_namespace='/bot1')
+    assert node.fully_qualified_name == '/robot/cam'
+    assert node.create_publisher('sensor_msgs/msg/Image', 'raw').key == 'bot1/camera/raw'
+    assert node.create_publisher(String, 'status').key == 'bot1/robot/status'
+    assert node.create_publisher(String, '~/log').topic == '/robot/cam/log'
+    from_args = zros_node(
+        'x', args=['prog', '--ros-args', '-r', '__node:=renamed', '-r', '__ns:=/ns']
+    )
+    assert from_args.fully_qualified_name == '/ns/renamed'
+    with pytest.raises(zros.InvalidNameError, match='must not end with "/"'):
+        node.create_publisher(String, 'bad/')
+
+
+def test_transient_local_history_reaches_late_subscribers_once(
+    zros_node: Callable[..., Node],
+) -> None:
+    talker, listener = connected(zros_node)
+    latched = QoS(3, durability=zros.Durability.TRANSIENT_LOCAL)
+    witness = zros_node('witness').create_subscription(String, 'latched', qos=100)
+    pub = talker.create_publisher(String, 'latched', qos=latched)
+    for i in range(5):
+        pub.write(text(str(i)))
+    # once the witness has them, nothing is in flight: a late subscriber gets only history
+    assert wait_for(lambda: witness.received == 5)
+    sub = listener.create_subscription(String, 'latched', qos=latched)
+    assert wait_for(lambda: sub.received >= 3)
+    assert [m.data for m in sub.take()] == ['2', '3', '4']
+    pub.write(text('live'))
+    assert wait_for(lambda: sub.received >= 4)
+    # nothing more comes: each history message exactly once, then the live one
+    assert not wait_for(lambda: sub.received > 4, timeout=0.3)
+    assert [m.data for m in sub.take()] == ['live']
+
+
+def test_timers_and_rates(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('clock')
+    ticks: list[float] = []
+    timer = node.create_timer(0.02, lambda: ticks.append(time.monotonic()))
+    node.spin(timeout=0.25)
+    assert 8 <= len(ticks) <= 14
+    timer.cancel()
+    count = len(ticks)
+    node.spin(timeout=0.1)
+    assert len(ticks) == count
+    rate = node.create_rate(50)
+    start = time.monotonic()
+    for _ in range(10):
+        rate.sleep()
+    assert 0.15 <= time.monotonic() - start < 0.5
+    with pytest.raises(ValueError, match='period must be positive'):
+        node.create_timer(0, lambda: None)
+
+
+def test_asyncio_iteration_and_spin(zros_node: Callable[..., Node]) -> None:
+    talker, listener = connected(zros_node)
+    sub = listener.create_subscription(String, 'chatter')
+    got: list[str] = []
+    listener.create_subscription(String, 'chatter', lambda m: got.append(m.data))
+    pub = talker.create_publisher(String, 'chatter')
+
+    async def main() -> list[str]:
+        spinner = asyncio.ensure_future(listener.spin_async())
+        received: list[str] = []
+        assert await asyncio.to_thread(pub.wait_for_subscribers)
+
+        async def produce() -> None:
+            for i in range(5):
+                pub.write(text(str(i)))
+                await asyncio.sleep(0.01)
+
+        producer = asyncio.ensure_future(produce())
+        async for message in sub:
+            received.append(message.data)
+            if len(received) == 5:
+                break
+        await producer
+        for _ in range(200):
+            if len(got) == 5:
+                break
+            await asyncio.sleep(0.01)
+        listener.destroy()
+        await asyncio.wait_for(spinner, 1.0)
+        return received
+
+    assert asyncio.run(main()) == ['0', '1', '2', '3', '4']
+    assert got == ['0', '1', '2', '3', '4']
+
+
+def test_destroyed_nodes_refuse_new_entities(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('gone')
+    sub = node.create_subscription(String, 'x')
+    node.destroy()
+    assert sub.closed and not node.ok()
+    with pytest.raises(RuntimeError, match='was destroyed'):
+        node.create_publisher(String, 'x')
+    node.destroy()  # twice is fine

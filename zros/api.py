@@ -1,0 +1,115 @@
+"""The rosR-shaped module API: one default node per process.
+
+zros.init('R_demo')            # ros.Init
+while zros.ok():               # ros.OK (Ctrl-C makes it false)
+    zros.spin_once(0.1)        # ros.SpinOnce
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Sequence
+from typing import Any
+
+from zros.errors import ZrosError
+from zros.node import Node, _interrupted, wake_all_nodes
+from zros.transport import TransportConfig, close_default_transport
+
+
+class NotInitializedError(ZrosError, RuntimeError):
+    """A module-level call needs ``zros.init(name)`` first."""
+
+
+_default: Node | None = None
+_previous_handler: Any = None
+_lock = threading.Lock()
+
+
+def _on_sigint(signum: int, frame: Any) -> None:
+    if _interrupted.is_set():  # a second Ctrl-C stops the program the usual way
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        raise KeyboardInterrupt
+    _interrupted.set()
+    wake_all_nodes()
+
+
+def init(
+    name: str = 'zros',
+    namespace: str = '/',
+    *,
+    connect: str | Sequence[str] | None = None,
+    config: TransportConfig | None = None,
+    args: Sequence[str] | None = None,
+    bridge_namespace: str = '/',
+    handle_sigint: bool = True,
+    **options: Any,
+) -> Node:
+    """Create the default node (rosR: ``ros.Init``) and return it.
+
+    With ``handle_sigint`` (the default, main thread only) the first Ctrl-C makes ``ok()``
+    false so a ``while zros.ok()`` loop ends cleanly; a second one raises KeyboardInterrupt.
+    """
+    global _default, _previous_handler  # noqa: PLW0603
+    with _lock:
+        if _default is not None and _default.ok():
+            raise ZrosError(
+                f'zros.init was already called (node {_default.fully_qualified_name}); '
+                'call zros.shutdown() first, or create more nodes with zros.Node(...)'
+            )
+        _interrupted.clear()
+        _default = Node(
+            name,
+            namespace,
+            connect=connect,
+            config=config,
+            args=args,
+            bridge_namespace=bridge_namespace,
+            **options,
+        )
+        if handle_sigint and threading.current_thread() is threading.main_thread():
+            previous = signal.signal(signal.SIGINT, _on_sigint)
+            if previous is not _on_sigint:
+                _previous_handler = previous
+        return _default
+
+
+def default_node() -> Node:
+    """The node ``zros.init`` created."""
+    if _default is None:
+        raise NotInitializedError(
+            'no default node: call zros.init("my_node") first, or pass node= explicitly'
+        )
+    return _default
+
+
+def ok() -> bool:
+    """False after ``shutdown()``, after Ctrl-C, or before ``init`` (rosR: ``ros.OK``)."""
+    return _default is not None and _default.ok()
+
+
+def spin_once(timeout: float | None = 0.0) -> int:
+    """Run the default node's due callbacks and timers (rosR: ``ros.SpinOnce``).
+
+    Waits up to ``timeout`` seconds for something to run; returns how many ran.
+    """
+    return default_node().spin_once(timeout)
+
+
+def spin(timeout: float | None = None) -> None:
+    """Run the default node's callbacks until ``ok()`` turns false (or ``timeout`` seconds)."""
+    default_node().spin(timeout)
+
+
+def shutdown() -> None:
+    """Destroy the default node, close the process's Zenoh session, restore Ctrl-C."""
+    global _default, _previous_handler  # noqa: PLW0603
+    with _lock:
+        if _default is not None:
+            _default.destroy()
+            _default = None
+        close_default_transport()
+        if _previous_handler is not None and threading.current_thread() is threading.main_thread():
+            if signal.getsignal(signal.SIGINT) is _on_sigint:
+                signal.signal(signal.SIGINT, _previous_handler)
+            _previous_handler = None

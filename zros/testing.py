@@ -1,0 +1,89 @@
+"""pytest fixtures for testing code that uses zros, installed as a pytest plugin.
+
+* ``zros_router``: a Zenoh router inside the test process on ``tcp/127.0.0.1:<free port>``,
+  multicast scouting and shared memory off.
+* ``zros_transport``: a factory of sessions connected to that router (each like a process of
+  its own).
+* ``zros_node``: a factory of nodes, each on a session of its own unless ``transport=`` is given.
+
+Everything is closed at teardown. Wait for conditions with :func:`wait_for`, never with sleeps::
+
+    def test_chatter(zros_node):
+        talker, listener = zros_node('talker'), zros_node('listener')
+        sub = listener.create_subscription('std_msgs/msg/String', 'chatter')
+        pub = talker.create_publisher('std_msgs/msg/String', 'chatter')
+        assert pub.wait_for_subscribers()
+        pub.write(zros.Message('std_msgs/msg/String', data='hi'))
+        assert wait_for(sub.has_new_message)
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import pytest
+
+from zros.node import Node
+from zros.transport import Router, Transport, TransportConfig, start_router
+
+
+def wait_for(condition: Callable[[], object], timeout: float = 5.0) -> bool:
+    """Poll ``condition()`` until it is true or ``timeout`` seconds pass; returns the outcome."""
+    deadline = time.monotonic() + timeout
+    delay = 0.0002
+    while True:
+        if condition():
+            return True
+        if time.monotonic() >= deadline:
+            return bool(condition())
+        time.sleep(delay)
+        delay = min(delay * 2, 0.01)
+
+
+@pytest.fixture
+def zros_router() -> Iterator[Router]:
+    """A router inside the test process (``zros_router.endpoint`` is where to connect)."""
+    router = start_router(shared_memory=False)
+    try:
+        yield router
+    finally:
+        router.close()
+
+
+@pytest.fixture
+def zros_transport(zros_router: Router) -> Iterator[Callable[..., Transport]]:
+    """``make(**settings)`` opens a client session to ``zros_router``."""
+    opened: list[Transport] = []
+
+    def make(**settings: Any) -> Transport:
+        settings.setdefault('shared_memory', False)
+        transport = Transport(TransportConfig.create(connect=zros_router.endpoint, **settings))
+        opened.append(transport)
+        return transport
+
+    try:
+        yield make
+    finally:
+        for transport in reversed(opened):
+            transport.close()
+
+
+@pytest.fixture
+def zros_node(zros_transport: Callable[..., Transport]) -> Iterator[Callable[..., Node]]:
+    """``make(name, namespace='/', **options)``: a node on a session of its own."""
+    made: list[Node] = []
+
+    def make(name: str = 'test_node', namespace: str = '/', **options: Any) -> Node:
+        if 'transport' not in options:
+            options['transport'] = zros_transport()
+        node = Node(name, namespace, **options)
+        made.append(node)
+        return node
+
+    try:
+        yield make
+    finally:
+        for node in reversed(made):
+            node.destroy()
