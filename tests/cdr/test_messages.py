@@ -208,3 +208,22 @@ def test_encoding_does_not_detach_element_objects(registry: TypeRegistry) -> Non
     cdr.encode(message)
     pose.position.x = 5.0  # the user keeps editing the object they put in
     assert cdr.decode(PoseArray, cdr.encode(message)).poses[0].position.x == 5.0
+
+
+def test_encode_buffer_is_reused_and_byte_identical(registry: TypeRegistry) -> None:
+    from zros.cdr.message import EncodeBuffer
+
+    Image = registry.get_class('sensor_msgs/msg/Image')
+    Imu = registry.get_class('sensor_msgs/msg/Imu')
+    buffer = EncodeBuffer(threshold=1000)
+    small = Imu(header={'frame_id': 'imu'})
+    assert type(small._cdr_encode(small, buffer.join)) is bytes  # under the threshold
+    outputs = []
+    for size in (5000, 3000, 8000, 8000):
+        image = Image(width=size, data=np.arange(size, dtype=np.int64).astype(np.uint8))
+        data = image._cdr_encode(image, buffer.join)
+        assert bytes(data) == cdr.encode(image)
+        outputs.append(data)
+    assert outputs[2] is outputs[3]  # the same memory, reused
+    floats = registry.get_class('std_msgs/msg/Float64MultiArray')(data=np.linspace(0, 1, 500))
+    assert bytes(floats._cdr_encode(floats, buffer.join)) == cdr.encode(floats)

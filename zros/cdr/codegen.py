@@ -908,8 +908,9 @@ def _struct_array_factory() -> Callable[[Any, type, int], np.ndarray]:
     return struct_array
 
 
-def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[[Any], bytes]:
-    """The function ``encode(message) -> bytes`` (little-endian, header included, no padding)."""
+def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[..., bytes]:
+    """The function ``encode(message, join=b''.join) -> bytes`` (little-endian, header included,
+    no padding). ``join`` assembles the parts; publishers pass one that reuses a buffer."""
     builder = _EncoderBuilder(ctx, trace)
     src = builder.src
     ops: list[_Op] = []
@@ -921,7 +922,7 @@ def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[[An
         start = len(src.lines)
     builder.emit(ops, _START)
     builder.ensure_header()
-    src.add(f'return {src.ref(b"".join, "join")}(parts)')
+    src.add('return join(parts)')
     if trace:
         body = src.lines[start:]
         del src.lines[start:]
@@ -936,7 +937,8 @@ def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[[An
         lines = src.lines[: builder.last_append]
         del lines[0]
         src.lines = [*lines, f'    return {builder.single_pack}']
-    return src.compile('o', 'encode')
+    join_default = src.ref(b''.join, 'join')
+    return src.compile(f'o, join={join_default}', 'encode')
 
 
 def _encode_error(type_name: str, path: str, exc: Exception) -> Exception:
