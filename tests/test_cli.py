@@ -18,12 +18,12 @@ def run(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([ZROS, *args], capture_output=True, text=True, timeout=120, check=False)
 
 
-def test_demo_runs_and_prints_the_tutorial_messages() -> None:
+def test_demo_runs_the_tutorial_on_an_embedded_router() -> None:
     result = run('demo')
     assert result.returncode == 0, result.stderr
-    assert '/sharpGP2D120/Voltage  [std_msgs/msg/Float32]' in result.stdout
-    assert '8 bytes of CDR: 00 01 00 00 cd cc 4c 3f' in result.stdout
-    assert 'RIHS01_' in result.stdout
+    assert 'router inside this process: tcp/127.0.0.1:' in result.stdout
+    assert '200 voltages published, 200 converted, 200 distances received' in result.stdout
+    assert '0.8 V -> 0.164 m, 2.0 V -> 0.061 m' in result.stdout
 
 
 def test_interface_show_with_dependencies_and_hash() -> None:
