@@ -43,6 +43,12 @@ class Message:
     #: numpy dtype of one element when a sequence of this type is a structured array, else None
     _dtype: ClassVar[np.dtype | None] = None
 
+    if TYPE_CHECKING:
+        # fields are generated at run time: to type checkers every field is Any
+        def __getattr__(self, name: str) -> Any: ...
+
+        def __setattr__(self, name: str, value: Any) -> None: ...
+
     # generated per class
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         raise TypeError('Message is abstract; use zros.Message(type) or a generated class')

@@ -14,6 +14,7 @@ import math
 import random
 import time
 from collections import deque
+from typing import Any
 
 import zros
 from zros.transport import Transport, TransportConfig, start_router
@@ -40,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     print('zros demo: the rosR sensor tutorial (stage 2: live topics on an embedded router)')
     with start_router() as router:
         print(f'  router inside this process: {router.endpoint}')
-        settings = {'connect': router.endpoint, 'shared_memory': False}
+        settings: dict[str, Any] = {'connect': router.endpoint, 'shared_memory': False}
         sensor_session = Transport(TransportConfig.create(**settings))  # a process of its own
         sensor = zros.Node('sharpGP2D120', transport=sensor_session)
         voltage_pub = sensor.create_publisher('std_msgs/msg/Float32', '/sharpGP2D120/Voltage')
@@ -84,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
                         if handled % 40 == 0:
                             print(f'  [R_demo] {smoothed:.3f} V (filtered) -> {rng.range:.3f} m')
             deadline = time.monotonic() + 2
-            received = []
+            received: list[zros.cdr.Message] = []
             while len(received) < handled and time.monotonic() < deadline:
                 message = ranges.wait_for_message(0.1)
                 if message is not None:
