@@ -111,21 +111,20 @@ def test_remapping_rules() -> None:
 
 
 def test_ros_args_are_split_from_the_command_line() -> None:
-    rules, rest = parse_ros_args(
-        [
-            'prog',
-            '--verbose',
-            '--ros-args',
-            '-r',
-            'a:=b',
-            '--remap=c:=d',
-            '-p',
-            'x:=1',
-            '--',
-            'tail',
-        ]
-    )
-    assert rest == ['prog', '--verbose', '-p', 'x:=1', 'tail']
+    parsed = parse_ros_args(
+        ['prog', '--verbose', '--ros-args', '-r', 'a:=b', '--remap=c:=d', '-p', 'x:=1',
+         '--param', 'use_sim_time:=true', '--params-file', 'p.yaml', '--log-level', 'debug',
+         '--', 'tail', '-p']
+    )  # fmt: skip
+    assert parsed.rest == ('prog', '--verbose', 'tail', '-p')
+    rules = parsed.remapping
     assert rules.apply('/a', 'n', '/') == '/b' and rules.apply('/c', 'n', '/') == '/d'
+    assert parsed.parameters == {'x': '1', 'use_sim_time': 'true'}
+    assert parsed.params_files == ('p.yaml',)
+    assert parsed.log_level == 'debug'
     with pytest.raises(ValueError, match='needs a "from:=to"'):
         parse_ros_args(['--ros-args', '-r'])
+    with pytest.raises(ValueError, match='written "name:=value"'):
+        parse_ros_args(['--ros-args', '-p', 'oops'])
+    with pytest.raises(ValueError, match='--log-level needs a value'):
+        parse_ros_args(['--ros-args', '--log-level'])

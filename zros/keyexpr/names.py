@@ -178,17 +178,37 @@ class Remapping:
         return full_name
 
 
-def parse_ros_args(argv: Iterable[str]) -> tuple[Remapping, list[str]]:
-    """Split ``--ros-args ... [--]`` out of a command line.
+@dataclass(frozen=True)
+class RosArgs:
+    """What a ``--ros-args ... [--]`` section of a command line holds."""
 
-    Returns the remapping rules found (``-r``/``--remap``) and the remaining arguments.
-    Parameters (``-p``, ``--params-file``) are kept for the parameters module.
+    remapping: Remapping = field(default_factory=Remapping)
+    parameters: dict[str, str] = field(default_factory=dict)  #: ``-p name:=value`` (text)
+    params_files: tuple[str, ...] = ()  #: ``--params-file FILE``
+    log_level: str | None = None  #: ``--log-level LEVEL``
+    rest: tuple[str, ...] = ()  #: the arguments outside ``--ros-args``
+
+
+def parse_ros_args(argv: Iterable[str]) -> RosArgs:
+    """Split ``--ros-args ... [--]`` out of a command line, as rcl reads it.
+
+    Understands ``-r``/``--remap from:=to``, ``-p``/``--param name:=value``,
+    ``--params-file FILE`` and ``--log-level LEVEL``; other arguments are kept in ``rest``.
     """
     remaps: list[str] = []
+    parameters: dict[str, str] = {}
+    files: list[str] = []
+    log_level = None
     rest: list[str] = []
     args = list(argv)
     index = 0
     in_ros_args = False
+
+    def value_of(flag: str) -> str:
+        if index + 1 >= len(args):
+            raise ValueError(f'{flag} needs a value')
+        return args[index + 1]
+
     while index < len(args):
         arg = args[index]
         if arg == '--ros-args':
@@ -202,7 +222,19 @@ def parse_ros_args(argv: Iterable[str]) -> tuple[Remapping, list[str]]:
             index += 1
         elif in_ros_args and arg.startswith('--remap='):
             remaps.append(arg.split('=', 1)[1])
+        elif in_ros_args and arg in ('-p', '--param'):
+            name, separator, value = value_of(arg).partition(':=')
+            if not separator or not name:
+                raise ValueError(f'a parameter is written "name:=value", got {args[index + 1]!r}')
+            parameters[name] = value
+            index += 1
+        elif in_ros_args and arg == '--params-file':
+            files.append(value_of(arg))
+            index += 1
+        elif in_ros_args and arg == '--log-level':
+            log_level = value_of(arg)
+            index += 1
         else:
             rest.append(arg)
         index += 1
-    return Remapping.parse(remaps), rest
+    return RosArgs(Remapping.parse(remaps), parameters, tuple(files), log_level, tuple(rest))
