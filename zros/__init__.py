@@ -26,6 +26,18 @@ _LAZY = {
     'shutdown': ('zros.api', 'shutdown'),
     'default_node': ('zros.api', 'default_node'),
     'NotInitializedError': ('zros.api', 'NotInitializedError'),
+    'get_logger': ('zros.api', 'get_logger'),
+    'log': ('zros.api', 'log'),
+    'debug': ('zros.api', 'debug'),
+    'info': ('zros.api', 'info'),
+    'warn': ('zros.api', 'warn'),
+    'error': ('zros.api', 'error'),
+    'fatal': ('zros.api', 'fatal'),
+    'time_now': ('zros.api', 'time_now'),
+    'Time': ('zros.clock', 'Time'),
+    'Duration': ('zros.clock', 'Duration'),
+    'Logger': ('zros.logger', 'Logger'),
+    'RosoutHandler': ('zros.logger', 'RosoutHandler'),
     'Node': ('zros.node', 'Node'),
     'Publisher': ('zros.pubsub', 'Publisher'),
     'Subscriber': ('zros.pubsub', 'Subscriber'),
@@ -42,7 +54,23 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:
-    from zros.api import NotInitializedError, default_node, init, ok, shutdown, spin, spin_once
+    from zros.api import (
+        NotInitializedError,
+        debug,
+        default_node,
+        error,
+        fatal,
+        get_logger,
+        info,
+        init,
+        log,
+        ok,
+        shutdown,
+        spin,
+        spin_once,
+        time_now,
+        warn,
+    )
     from zros.cdr import (
         CdrError,
         InterfaceSyntaxError,
@@ -52,8 +80,10 @@ if TYPE_CHECKING:
         type_hash,
     )
     from zros.cdr.message import Message as _MessageBase
+    from zros.clock import Duration, Time
     from zros.errors import ZrosError
     from zros.keyexpr.names import InvalidNameError
+    from zros.logger import Logger, RosoutHandler
     from zros.node import Node
     from zros.pubsub import Publisher, Subscriber
     from zros.qos import Durability, History, QoS, Reliability
@@ -89,9 +119,11 @@ def __dir__() -> list[str]:
 __all__ = [
     'CdrError',
     'Durability',
+    'Duration',
     'History',
     'InterfaceSyntaxError',
     'InvalidNameError',
+    'Logger',
     'Message',
     'Node',
     'NotInitializedError',
@@ -99,20 +131,30 @@ __all__ = [
     'QoS',
     'Rate',
     'Reliability',
+    'RosoutHandler',
     'Subscriber',
+    'Time',
     'Timer',
     'TransportConfig',
     'TransportError',
     'UnknownTypeError',
     'ZrosError',
+    'debug',
     'default_node',
+    'error',
+    'fatal',
+    'get_logger',
     'get_type',
+    'info',
     'init',
+    'log',
     'ok',
     'register_type',
     'shutdown',
     'spin',
     'spin_once',
     'start_router',
+    'time_now',
     'type_hash',
+    'warn',
 ]

@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import signal
 import threading
+import time
 from collections.abc import Sequence
 from typing import Any
 
+from zros.clock import Time
 from zros.errors import ZrosError
+from zros.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger
 from zros.node import Node, _interrupted, wake_all_nodes
 from zros.transport import TransportConfig, close_default_transport
 
@@ -41,7 +44,7 @@ def init(
     connect: str | Sequence[str] | None = None,
     config: TransportConfig | None = None,
     args: Sequence[str] | None = None,
-    bridge_namespace: str = '/',
+    bridge_namespace: str | None = None,
     handle_sigint: bool = True,
     **options: Any,
 ) -> Node:
@@ -113,3 +116,56 @@ def shutdown() -> None:
             if signal.getsignal(signal.SIGINT) is _on_sigint:
                 signal.signal(signal.SIGINT, _previous_handler)
             _previous_handler = None
+
+
+# --- logging and time on the default node (rosR: ros.Info, ros.Logging, ros.TimeNow) ----------
+
+
+def get_logger() -> Logger:
+    """The default node's logger; before ``zros.init`` a console-only logger named ``zros``."""
+    global _console_logger  # noqa: PLW0603
+    if _default is not None:
+        return _default.get_logger()
+    if _console_logger is None:
+        _console_logger = Logger('zros')
+    return _console_logger
+
+
+_console_logger: Logger | None = None
+
+
+def log(message: object, level: str | int = 'info', **options: Any) -> bool:
+    """Log ``message`` at ``level`` (``'debug'``...``'fatal'``) on the default node."""
+    return get_logger().log(message, level, stacklevel=2, **options)
+
+
+def debug(message: object, **options: Any) -> bool:
+    """Log at DEBUG (rosR: ``ros.Debug``); ``once=True``, ``throttle=seconds`` limit repeats."""
+    return get_logger().log(message, DEBUG, stacklevel=2, **options)
+
+
+def info(message: object, **options: Any) -> bool:
+    """Log at INFO (rosR: ``ros.Info``): console, ``/rosout`` and Python logging."""
+    return get_logger().log(message, INFO, stacklevel=2, **options)
+
+
+def warn(message: object, **options: Any) -> bool:
+    """Log at WARN (rosR: ``ros.Warn``)."""
+    return get_logger().log(message, WARN, stacklevel=2, **options)
+
+
+def error(message: object, **options: Any) -> bool:
+    """Log at ERROR (rosR: ``ros.Error``)."""
+    return get_logger().log(message, ERROR, stacklevel=2, **options)
+
+
+def fatal(message: object, **options: Any) -> bool:
+    """Log at FATAL (rosR: ``ros.Fatal``)."""
+    return get_logger().log(message, FATAL, stacklevel=2, **options)
+
+
+def time_now() -> Time:
+    """The default node's ROS time (sim time with ``use_sim_time``); wall time before init."""
+    if _default is not None:
+        return _default.now()
+    return Time(time.time_ns())

@@ -10,12 +10,15 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
+import logging
 import threading
 import time
 import weakref
 from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
+from zros.clock import Clock, ClockSubscription, SimClock, Time, use_sim_time_from_environment
+from zros.graph import Graph, node_token
 from zros.keyexpr.bridge import BridgeScheme
 from zros.keyexpr.names import (
     Remapping,
@@ -23,6 +26,14 @@ from zros.keyexpr.names import (
     parse_ros_args,
     validate_namespace,
     validate_node_name,
+)
+from zros.logger import (
+    INFO,
+    Logger,
+    RosoutRecord,
+    level_from_environment,
+    logger_name,
+    parse_level,
 )
 from zros.qos import QoSLike
 from zros.signal import Signal
@@ -52,6 +63,7 @@ class Executor:
         self._signal = Signal()
         self._timers: list[Timer] = []
         self._async_wakers: list[Callable[[], None]] = []
+        self._woken = False  #: wake() was called: a waiting run_once returns even with no work
         self.stopped = False
 
     # called on Zenoh threads: keep it cheap
@@ -68,7 +80,8 @@ class Executor:
             waker()
 
     def wake(self) -> None:
-        """Make a waiting ``run_once`` return (shutdown, Ctrl-C)."""
+        """Make a waiting ``run_once`` return (shutdown, Ctrl-C, the sim clock moved)."""
+        self._woken = True
         self._signal.notify()
         for waker in self._async_wakers:
             waker()
@@ -82,7 +95,7 @@ class Executor:
             self._timers.remove(timer)
 
     def _has_work(self) -> bool:
-        return bool(self._ready) or self.stopped or _interrupted.is_set()
+        return bool(self._ready) or self._woken or self.stopped or _interrupted.is_set()
 
     def _run_ready(self) -> int:
         done = 0
@@ -94,16 +107,16 @@ class Executor:
 
     def _run_timers(self) -> int:
         done = 0
-        now = time.monotonic()
         for timer in list(self._timers):
-            if timer.time_until_due(now) <= 0 and not timer.cancelled:
-                timer._fire(now)
+            wait = timer.seconds_until_due()
+            if wait is not None and wait <= 0 and not timer.cancelled:
+                timer._fire()
                 done += 1
         return done
 
     def _next_timer(self) -> float | None:
-        now = time.monotonic()
-        return min((t.time_until_due(now) for t in self._timers), default=None)
+        waits = [w for w in (t.seconds_until_due() for t in self._timers) if w is not None]
+        return min(waits, default=None)
 
     def run_once(self, timeout: float | None) -> int:
         """Run what is due; wait up to ``timeout`` seconds (None: forever) for something to do."""
@@ -119,7 +132,8 @@ class Executor:
             if wait is None or wait > 0:
                 self._signal.wait(self._has_work, wait)
             done = self._run_ready() + self._run_timers()
-            if done or (deadline is not None and time.monotonic() >= deadline):
+            woken, self._woken = self._woken, False
+            if done or woken or (deadline is not None and time.monotonic() >= deadline):
                 return done
         return 0
 
@@ -129,9 +143,16 @@ class Node:
 
     ``namespace`` is the node's own namespace (relative topic names resolve into it);
     ``bridge_namespace`` is the ``namespace`` setting of the zenoh-bridge-ros2dds to reach, which
-    prefixes every Zenoh key. ``args`` takes a command line with ``--ros-args -r from:=to``
-    remappings (``__node``, ``__ns`` too). Without ``transport``, the node uses the process's
-    session, opened from ``connect``/``config`` or the environment (see ``zros.transport``).
+    prefixes every Zenoh key; by default the namespace the bridges present report (``/`` when
+    none answers at creation). ``args`` takes a command line with ``--ros-args`` (remappings
+    ``-r from:=to``, ``__node``, ``__ns``, ``-p use_sim_time:=true``, ``--log-level``). Without
+    ``transport``, the node uses the process's session, opened from ``connect``/``config``, the
+    other settings of ``TransportConfig.create`` (``mode``, ``tls``, ``user``, ``password``, ...)
+    or the environment (see ``zros.transport``).
+
+    ``use_sim_time`` (also ``ZROS_USE_SIM_TIME=1``) makes the node's clock, timers and rates
+    follow ``/clock``. ``log_level`` (also ``ZROS_LOG_LEVEL``) is the threshold of its logger;
+    ``enable_rosout`` publishes its log records on ``/rosout``.
     """
 
     def __init__(
@@ -143,39 +164,163 @@ class Node:
         connect: str | Sequence[str] | None = None,
         config: TransportConfig | None = None,
         registry: TypeRegistry | None = None,
-        bridge_namespace: str = '/',
+        bridge_namespace: str | None = None,
         remap: Iterable[str] | dict[str, str] | None = None,
         args: Sequence[str] | None = None,
+        use_sim_time: bool | None = None,
+        log_level: str | int | None = None,
+        enable_rosout: bool = True,
+        **settings: Any,
     ) -> None:
         remapping = Remapping.parse(remap or ())
-        if args is not None:
-            from_args, _ = parse_ros_args(args)
-            remapping = Remapping(
-                remapping.rules + from_args.rules,
-                from_args.node_name or remapping.node_name,
-                from_args.namespace or remapping.namespace,
-            )
+        ros_args = parse_ros_args(args or ())
+        remapping = Remapping(
+            remapping.rules + ros_args.remapping.rules,
+            ros_args.remapping.node_name or remapping.node_name,
+            ros_args.remapping.namespace or remapping.namespace,
+        )
+        if use_sim_time is None:
+            from_args = ros_args.parameters.get('use_sim_time')
+            if from_args is not None:
+                use_sim_time = from_args.strip().lower() in ('true', '1', 'yes', 'on')
+            else:
+                use_sim_time = use_sim_time_from_environment()
         self.name = remapping.node_name or name
         self.namespace = remapping.namespace or namespace
         validate_node_name(self.name)
         validate_namespace(self.namespace)
         self.remapping = remapping
         if transport is None:
-            if config is None and connect is not None:
-                config = TransportConfig.create(connect=connect)
+            if config is None and (connect is not None or settings):
+                config = TransportConfig.create(connect=connect, **settings)
+            elif settings:
+                raise TypeError(f'give settings {sorted(settings)} in config=, not beside it')
             transport = default_transport(config)
+        elif settings or connect is not None or config is not None:
+            raise TypeError('a node given a transport= takes no connection settings')
         self.transport = transport
         if registry is None:
             from zros.cdr import default_registry
 
             registry = default_registry()
         self.registry = registry
-        self.scheme = BridgeScheme(bridge_namespace)
+        self.scheme = self._bridge_scheme(transport, bridge_namespace)
         self._executor = Executor()
         self._entities: list[Any] = []
         self._closed = False
+        self._log_level = parse_level(
+            log_level
+            if log_level is not None
+            else (ros_args.log_level or level_from_environment() or INFO)
+        )
+        self._enable_rosout = enable_rosout
+        self._rosout: Publisher | None = None
+        self._rosout_lock = threading.Lock()
+        self._logger = Logger(logger_name(self.name, self.namespace), self)
+        self._clock_subscription: ClockSubscription | None = None
+        if use_sim_time:
+            sim = SimClock()
+            self.clock: Clock = sim
+            self._clock_subscription = ClockSubscription(self, sim)
+            sim.add_listener(self._executor.wake)
+        else:
+            self.clock = Clock()
+        self._node_token = node_token(transport.zid, self.fully_qualified_name)
+        transport.declare_token(self._node_token)
         transport.on_close(self.destroy)
         _nodes.add(self)
+
+    @staticmethod
+    def _bridge_scheme(transport: Transport, namespace: str | None) -> BridgeScheme:
+        """Keys for the bridges present: their namespace, and the type hash if they take it."""
+        bridges = transport.bridges_at_start()
+        versions = [bridge.version_tuple for bridge in bridges.values()]
+        send_type_hash = bool(versions) and all(v is not None and v >= (1, 0, 4) for v in versions)
+        if namespace is None:
+            found = {bridge.namespace for bridge in bridges.values() if bridge.namespace}
+            namespace = found.pop() if len(found) == 1 else '/'
+            if found:
+                logging.getLogger('zros').warning(
+                    'bridges with different namespaces answered; using "/": pass '
+                    'bridge_namespace= to choose'
+                )
+        return BridgeScheme(namespace, send_type_hash)
+
+    # --- time and logging ----------------------------------------------------------------
+
+    @property
+    def use_sim_time(self) -> bool:
+        """Whether the node's clock follows ``/clock``."""
+        return self.clock.sim
+
+    def get_clock(self) -> Clock:
+        return self.clock
+
+    def now(self) -> Time:
+        """The node's current ROS time."""
+        return self.clock.now()
+
+    def get_logger(self) -> Logger:
+        """The node's logger (console, ``/rosout`` and Python's ``ros.<name>`` logger)."""
+        return self._logger
+
+    def _publish_rosout(self, entry: RosoutRecord) -> None:
+        if not self._enable_rosout or self._closed:
+            return
+        try:
+            with self._rosout_lock:
+                if self._rosout is None:
+                    from zros.pubsub import Publisher
+                    from zros.qos import ROSOUT
+
+                    self._rosout = Publisher('/rosout', 'rcl_interfaces/msg/Log', ROSOUT, node=self)
+                    self._rosout_class = self._rosout.msg_type
+            record = self._rosout_class(
+                level=entry.level,
+                name=entry.name,
+                msg=entry.msg,
+                file=entry.file,
+                function=entry.function,
+                line=entry.line,
+            )
+            record.stamp.sec, record.stamp.nanosec = divmod(entry.stamp, 1_000_000_000)
+            self._rosout.write(record)
+        except Exception:  # logging must never break the program that logs
+            logging.getLogger('zros').debug('cannot publish on /rosout', exc_info=True)
+
+    # --- the graph -------------------------------------------------------------------------
+
+    @property
+    def graph(self) -> Graph:
+        """The live view of the ROS graph (shared by the nodes of a session)."""
+        graph: Graph = self.transport.graph
+        return graph
+
+    def get_topic_names_and_types(self) -> list[tuple[str, list[str]]]:
+        """Every topic on the network with its types, as rclpy lists them."""
+        return list(self.graph.topics(self.scheme.namespace).items())
+
+    def get_node_names(self) -> list[str]:
+        """zros nodes by name, and each bridge's node (ROS nodes hide behind it)."""
+        return self.graph.nodes()
+
+    def count_publishers(self, topic: str) -> int:
+        """How many publishers are announced on ``topic``."""
+        return len(self.graph.publishers(self.scheme.key(self.resolve_name(topic))))
+
+    def count_subscribers(self, topic: str) -> int:
+        """How many subscribers are announced on ``topic``."""
+        return len(self.graph.subscribers(self.scheme.key(self.resolve_name(topic))))
+
+    def wait_for_publisher(self, topic: str, timeout: float | None = 5.0) -> bool:
+        """Wait until a publisher on ``topic`` is announced (by a bridge or another node)."""
+        key = self.scheme.key(self.resolve_name(topic))
+        return self.graph.wait_until(lambda: self.graph.publishers(key), timeout)
+
+    def wait_for_subscriber(self, topic: str, timeout: float | None = 5.0) -> bool:
+        """Wait until a subscriber on ``topic`` is announced (by a bridge or another node)."""
+        key = self.scheme.key(self.resolve_name(topic))
+        return self.graph.wait_until(lambda: self.graph.subscribers(key), timeout)
 
     # --- names ---------------------------------------------------------------------------
 
@@ -252,6 +397,14 @@ class Node:
                 return
             self._executor.run_once(remaining)
 
+    def spin_until_clock(self, deadline: int) -> None:
+        """Run callbacks and timers until the node clock's timer base reaches ``deadline``."""
+        while self.ok():
+            remaining = self.clock.seconds_until(deadline)
+            if remaining is not None and remaining <= 0:
+                return
+            self._executor.run_once(remaining)
+
     def spin_until(self, deadline: float) -> None:
         """Run callbacks and timers until ``time.monotonic()`` reaches ``deadline``."""
         while self.ok():
@@ -294,6 +447,10 @@ class Node:
         self._entities.clear()
         for timer in list(self._executor._timers):
             timer.cancel()
+        if self._clock_subscription is not None:
+            self.clock.remove_listener(self._executor.wake)
+            self._clock_subscription.close()
+        self.transport.release_token(self._node_token)
         self._executor.wake()
 
     close = destroy

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from zros.cdr import CdrError, encode
 from zros.cdr.message import EncodeBuffer, Message, decode
 from zros.cdr.model import Kind
+from zros.graph import entity_token
 from zros.keyexpr.bridge import EntityKind
 from zros.qos import QoS, QoSLike, as_qos
 from zros.signal import Signal
@@ -71,7 +72,18 @@ class _Entity:
             qos=self.qos,
             type_hash=self._type_hash(),
         )
+        self._owner_token = entity_token(
+            node.transport.zid, node.fully_qualified_name, self.kind, self.key, self.type_name
+        )
         self._closed = False
+
+    def _announce(self) -> None:
+        self.node.transport.declare_token(self._owner_token)
+        self.node.transport.declare_token(self._token)
+
+    def _withdraw(self) -> None:
+        self.node.transport.release_token(self._token)
+        self.node.transport.release_token(self._owner_token)
 
     def _type_hash(self) -> str | None:
         if not self.node.scheme.send_type_hash:
@@ -139,7 +151,7 @@ class Publisher(_Entity):
             f.type.is_nested for f in definition.fields
         ):
             self._buffer = EncodeBuffer()
-        owner.transport.declare_token(self._token)
+        self._announce()
         owner._add(self)
 
     def write(self, message: Message) -> None:
@@ -198,7 +210,7 @@ class Publisher(_Entity):
         if self._closed:
             return
         self._closed = True
-        self.node.transport.release_token(self._token)
+        self._withdraw()
         if not self.node.transport.closed:
             self._publisher.undeclare()
         self.node._remove(self)
@@ -256,7 +268,7 @@ class Subscriber(_Entity):
             )
         else:
             self._subscriber = session.declare_subscriber(self.key, self._on_sample)
-        owner.transport.declare_token(self._token)
+        self._announce()
         owner._add(self)
 
     # --- on Zenoh's thread -------------------------------------------------------------------
@@ -414,7 +426,7 @@ class Subscriber(_Entity):
         if self._closed:
             return
         self._closed = True
-        self.node.transport.release_token(self._token)
+        self._withdraw()
         if not self.node.transport.closed:
             self._subscriber.undeclare()
         self.node._remove(self)

@@ -1,35 +1,43 @@
-"""Timers and rates, driven by a node's executor (so their callbacks run where the user spins)."""
+"""Timers and rates, driven by a node's executor (so their callbacks run where the user spins).
+
+They follow the node's clock: the monotonic clock normally, ``/clock`` with ``use_sim_time``
+(then they stop while sim time pauses and restart when it jumps back).
+"""
 
 from __future__ import annotations
 
 import logging
-import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from zros.clock import Clock
     from zros.node import Node
 
 _log = logging.getLogger('zros')
+_NS = 1_000_000_000
 
 
-def _seconds(period: float) -> float:
+def _nanoseconds(period: float) -> int:
     if not period > 0:
         raise ValueError(f'a period must be positive, got {period!r}')
-    return float(period)
+    return max(1, round(period * _NS))
 
 
 class Timer:
-    """Calls ``callback()`` every ``period`` seconds from ``spin_once``/``spin`` of its node.
+    """Calls ``callback()`` every ``period`` seconds (of the node's clock) while the node spins.
 
     A timer that falls behind skips the periods it missed instead of firing in a burst.
     """
 
     def __init__(self, node: Node, period: float, callback: Callable[[], object]) -> None:
         self.node = node
-        self.period = _seconds(period)
+        self.clock: Clock = node.clock
+        self.period = period
+        self._period = _nanoseconds(period)
         self.callback = callback
-        self._next = time.monotonic() + self.period
+        self._last = self.clock.timer_now()
+        self._next = self._last + self._period
         self._cancelled = False
         node._executor.add_timer(self)
 
@@ -37,12 +45,20 @@ class Timer:
     def cancelled(self) -> bool:
         return self._cancelled
 
-    def time_until_due(self, now: float) -> float:
-        return self._next - now
+    def seconds_until_due(self) -> float | None:
+        """Wall seconds until due (<= 0: due now; None: when the sim clock moves)."""
+        now = self.clock.timer_now()
+        if now < self._last or self._last == 0 < now:
+            # sim time jumped back (a bag looping) or /clock just started: count from now
+            self._last = now
+            self._next = now + self._period
+        return self.clock.seconds_until(self._next)
 
-    def _fire(self, now: float) -> None:
-        missed = int((now - self._next) // self.period)
-        self._next += self.period * (missed + 1)
+    def _fire(self) -> None:
+        now = self.clock.timer_now()
+        missed = (now - self._next) // self._period
+        self._next += self._period * (missed + 1)
+        self._last = now
         try:
             self.callback()
         except Exception:
@@ -50,7 +66,8 @@ class Timer:
 
     def reset(self) -> None:
         """Start counting the period from now."""
-        self._next = time.monotonic() + self.period
+        self._last = self.clock.timer_now()
+        self._next = self._last + self._period
 
     def cancel(self) -> None:
         """Stop the timer for good."""
@@ -60,23 +77,36 @@ class Timer:
 
 
 class Rate:
-    """Keeps a loop at ``hz`` iterations per second; ``sleep()`` runs callbacks while it waits."""
+    """Keeps a loop at ``hz`` iterations per second; ``sleep()`` runs callbacks while it waits.
+
+    Without a node it sleeps on the monotonic clock.
+    """
 
     def __init__(self, hz: float, node: Node | None = None) -> None:
-        self.period = 1.0 / _seconds(hz)
+        if not hz > 0:
+            raise ValueError(f'a rate must be positive, got {hz!r}')
+        self._period = _nanoseconds(1.0 / hz)
         self.node = node
-        self._next = time.monotonic() + self.period
+        if node is None:
+            from zros.clock import Clock
+
+            self.clock: Clock = Clock()
+        else:
+            self.clock = node.clock
+        self._next = self.clock.timer_now() + self._period
 
     def sleep(self) -> None:
         """Wait until the next period starts (at once if the loop is late)."""
-        now = time.monotonic()
-        if now >= self._next + self.period:  # more than a period late: start afresh
-            self._next = now
+        now = self.clock.timer_now()
+        if now >= self._next + self._period or now < self._next - 2 * self._period:
+            self._next = now  # more than a period late, or time jumped back: start afresh
         deadline = self._next
-        self._next += self.period
+        self._next += self._period
         if self.node is not None:
-            self.node.spin_until(deadline)
-        else:
-            remaining = deadline - time.monotonic()
-            if remaining > 0:
-                time.sleep(remaining)
+            self.node.spin_until_clock(deadline)
+            return
+        import time
+
+        remaining = self.clock.seconds_until(deadline)
+        if remaining is not None and remaining > 0:
+            time.sleep(remaining)

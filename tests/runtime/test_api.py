@@ -9,7 +9,7 @@ import pytest
 import zros
 from zros.node import Node
 from zros.testing import wait_for
-from zros.transport import Router
+from zros.transport import Router, Transport
 
 
 @pytest.fixture
@@ -60,3 +60,24 @@ def test_module_calls_need_init() -> None:
         zros.spin_once()
     with pytest.raises(zros.NotInitializedError):
         zros.Subscriber('chatter', 'std_msgs/msg/String')
+
+
+def test_init_passes_connection_settings_on(zros_router: Router) -> None:
+    node = zros.init(
+        'laptop', connect=zros_router.endpoint, shared_memory=False, handle_sigint=False
+    )
+    try:
+        assert node.transport.config.shared_memory is False
+        assert node.transport.config.connect == (zros_router.endpoint,)
+    finally:
+        zros.shutdown()
+
+
+def test_connection_settings_in_one_place_only(zros_transport: Callable[..., Transport]) -> None:
+    config = zros.transport.TransportConfig.create(connect='tcp/127.0.0.1:1')
+    with pytest.raises(TypeError, match='in config=, not beside it'):
+        zros.Node('confused', config=config, shared_memory=False)
+    with pytest.raises(TypeError, match='takes no connection settings'):
+        zros.Node('confused', transport=zros_transport(), connect='tcp/127.0.0.1:1')
+    with pytest.raises(TypeError, match='unexpected keyword'):
+        zros.Node('confused', conect='tcp/127.0.0.1:7447')

@@ -47,10 +47,13 @@ def _install_exit_hook() -> None:
 
 
 def _explain(error: Exception, config: TransportConfig) -> TransportError:
+    from zros.transport.diagnose import explain_unreachable
+
     text = str(error).split('  at ')[0].strip()
     if 'Unable to connect' in text or 'connect' in text.lower():
+        cause = explain_unreachable(config) or text
         return TransportError(
-            f'cannot reach a Zenoh router or bridge at {config.describe()} ({text}). '
+            f'cannot reach a Zenoh router or bridge at {config.describe()}: {cause}. '
             'Start zenoh-bridge-ros2dds (or zenohd) there, or point zros elsewhere with '
             'ZROS_CONNECT=tcp/<host>:7447 or connect=...; zros.transport.start_router() runs '
             'one inside this process.'
@@ -75,12 +78,63 @@ class Transport:
         self._token_lock = threading.Lock()
         self._closed = False
         self._close_callbacks: list[Any] = []
+        self._graph: Any = None
+        self._bridges: dict[str, Any] | None = None
+        self.links_lost = 0  #: how often a link to a router or peer went down
+        self._links: set[str] = {str(z) for z in self.session.info.routers_zid()}
+        self._link_listener = self.session.info.declare_transport_events_listener(
+            self._on_transport_event, history=False
+        )
         _install_exit_hook()
         _open.add(self)
 
     @property
     def closed(self) -> bool:
         return self._closed
+
+    @property
+    def connected(self) -> bool:
+        """Whether the session has a link to a router or peer right now."""
+        return bool(self._links)
+
+    def _on_transport_event(self, event: Any) -> None:
+        import zenoh
+
+        zid = str(event.transport.zid)
+        role = str(event.transport.whatami).split('.')[-1].lower()
+        if event.kind == zenoh.SampleKind.DELETE:
+            self._links.discard(zid)
+            if not self._closed:
+                self.links_lost += 1
+                _log.warning(
+                    'lost the link to %s %s; Zenoh reconnects by itself, entities stay declared',
+                    role,
+                    zid,
+                )
+        else:
+            restored = self.links_lost > 0 and zid not in self._links
+            self._links.add(zid)
+            if restored:
+                _log.warning('link to %s %s is up again', role, zid)
+
+    def bridges_at_start(self) -> dict[str, Any]:
+        """The bridges that answered the first time a node asked (version and namespace)."""
+        with self._token_lock:
+            if self._bridges is None:
+                from zros.graph import query_bridges
+
+                self._bridges = query_bridges(self.session, timeout=1.0)
+            return dict(self._bridges)
+
+    @property
+    def graph(self) -> Any:
+        """The live view of the ROS graph seen from this session (created on first use)."""
+        with self._token_lock:
+            if self._graph is None:
+                from zros.graph import Graph
+
+                self._graph = Graph(self)
+            return self._graph
 
     def declare_token(self, key: str) -> None:
         """Declare a liveliness token, or count one more user of a token already declared.
@@ -123,6 +177,8 @@ class Transport:
         self._closed = True
         _open.discard(self)
         self._tokens.clear()
+        if self._graph is not None:
+            self._graph.close()
         self.session.close()
 
     def __enter__(self) -> Transport:

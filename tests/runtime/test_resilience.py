@@ -1,0 +1,120 @@
+"""Nodes survive their router restarting: a warning, no exception, traffic resumes."""
+
+from __future__ import annotations
+
+import logging
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+
+import pytest
+
+import zros
+from zros.testing import wait_for
+from zros.transport import Transport, TransportConfig
+
+ROUTER = """
+import sys, threading
+from zros.transport import start_router
+router = start_router(sys.argv[1])
+print(router.endpoint, flush=True)
+threading.Event().wait()
+"""
+
+
+def free_endpoint() -> str:
+    with socket.socket() as probe:
+        probe.bind(('127.0.0.1', 0))
+        return f'tcp/127.0.0.1:{probe.getsockname()[1]}'
+
+
+class RouterProcess:
+    def __init__(self, endpoint: str) -> None:
+        self.endpoint = endpoint
+        self.process: subprocess.Popen[str] | None = None
+
+    def start(self) -> None:
+        self.process = subprocess.Popen(
+            [sys.executable, '-c', ROUTER, self.endpoint], stdout=subprocess.PIPE, text=True
+        )
+        assert self.process.stdout is not None
+        assert self.process.stdout.readline().strip() == self.endpoint
+
+    def kill(self) -> None:
+        if self.process is not None and self.process.poll() is None:
+            self.process.kill()
+            self.process.wait(10)
+
+
+@pytest.fixture
+def router_process() -> Iterator[RouterProcess]:
+    router = RouterProcess(free_endpoint())
+    router.start()
+    try:
+        yield router
+    finally:
+        router.kill()
+
+
+def test_traffic_resumes_after_the_router_restarts(
+    router_process: RouterProcess, caplog: pytest.LogCaptureFixture
+) -> None:
+    transports = [
+        Transport(TransportConfig.create(connect=router_process.endpoint, shared_memory=False))
+        for _ in range(2)
+    ]
+    try:
+        talker = zros.Node('talker', transport=transports[0])
+        listener = zros.Node('listener', transport=transports[1])
+        sub = listener.create_subscription('std_msgs/msg/UInt64', 'count', qos=1000)
+        pub = talker.create_publisher('std_msgs/msg/UInt64', 'count')
+        assert pub.wait_for_subscribers()
+        arrivals: list[tuple[float, int]] = []
+        message = zros.Message('std_msgs/msg/UInt64')
+        rate = zros.Rate(100)
+        with caplog.at_level(logging.WARNING, logger='zros.transport'):
+            started = time.monotonic()
+            killed = restarted = None
+            while time.monotonic() - started < 8:
+                message.data += 1
+                pub.write(message)  # raises nothing while the router is gone
+                now = time.monotonic()
+                arrivals += [(now, m.data) for m in sub.take()]
+                if killed is None and now - started > 1.5:
+                    router_process.kill()
+                    killed = now
+                if killed is not None and restarted is None and now - killed > 0.5:
+                    router_process.start()
+                    restarted = now
+                rate.sleep()
+        assert killed is not None and restarted is not None
+        before = [t for t, _ in arrivals if t <= killed]
+        after = [t for t, _ in arrivals if t > restarted]
+        assert before and after, 'no traffic on one side of the restart'
+        gap = after[0] - before[-1]
+        assert gap < 3.0, f'{gap:.2f} s without messages'
+        assert talker.ok() and listener.ok()
+        assert transports[0].links_lost >= 1 and transports[0].connected
+        assert 'lost the link to router' in caplog.text
+        assert 'is up again' in caplog.text
+        # tokens were declared again: a session that joins now sees the publisher
+        with Transport(TransportConfig.create(connect=router_process.endpoint)) as late:
+            assert late.graph.wait_until(lambda: late.graph.publishers('count'), timeout=5)
+    finally:
+        for transport in transports:
+            transport.close()
+
+
+def test_a_publisher_without_router_does_not_block_forever(router_process: RouterProcess) -> None:
+    with Transport(TransportConfig.create(connect=router_process.endpoint)) as transport:
+        node = zros.Node('lonely', transport=transport)
+        pub = node.create_publisher('std_msgs/msg/String', 'void')
+        router_process.kill()
+        assert wait_for(lambda: not transport.connected, timeout=5)
+        started = time.monotonic()
+        for _ in range(100):
+            pub.write(zros.Message('std_msgs/msg/String', data='into the void'))
+        assert time.monotonic() - started < 2
+        assert node.ok()

@@ -1,0 +1,143 @@
+"""ROS time, durations, and nodes that follow /clock."""
+
+from __future__ import annotations
+
+import datetime
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+import pytest
+
+import zros
+from zros.clock import Duration, Time
+from zros.node import Node
+from zros.testing import wait_for
+
+
+def test_time_and_duration_arithmetic() -> None:
+    stamp = Time(1740933158_226629828)  # floats cannot hold nanoseconds of 2025
+    assert (stamp.sec, stamp.nanosec) == (1740933158, 226629828)
+    assert str(stamp) == '1740933158.226629828'
+    assert Time.from_msg(stamp.to_msg()) == stamp
+    later = stamp + Duration.from_seconds(1.5)
+    assert later - stamp == Duration(1_500_000_000)
+    assert later - Duration.from_seconds(1.5) == stamp
+    assert float(later - stamp) == 1.5
+    assert (Duration.from_seconds(2) * 1.5).seconds == 3.0
+    assert (Duration.from_seconds(3) / 2).seconds == 1.5
+    assert -Duration(5) == Duration(-5) and Duration(5) > Duration(-5)
+    assert Duration.from_msg(Duration.from_seconds(2.25).to_msg()).seconds == 2.25
+    assert stamp.to_datetime() == datetime.datetime(
+        2025, 3, 2, 16, 32, 38, 226629, tzinfo=datetime.timezone.utc
+    )
+    assert stamp < later and sorted([later, stamp]) == [stamp, later]
+    with pytest.raises(TypeError):
+        stamp + stamp  # type: ignore[operator]
+
+
+def test_time_now_follows_the_wall_clock(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('clockwork')
+    assert not node.use_sim_time
+    assert abs(node.now().seconds - time.time()) < 1
+    assert abs(zros.time_now().seconds - time.time()) < 1  # before zros.init too
+
+
+@contextmanager
+def clock_publisher(node: Node, speed: float) -> Iterator[dict[str, object]]:
+    """Publish /clock every 5 ms of wall time, advancing ``speed`` x 5 ms; pausable."""
+    pub = node.create_publisher('rosgraph_msgs/msg/Clock', '/clock')
+    state: dict[str, object] = {'sim': 1000.0, 'paused': False, 'stop': False, 'jump': None}
+    rate = zros.Rate(200)
+
+    def run() -> None:
+        message = zros.Message('rosgraph_msgs/msg/Clock')
+        while not state['stop']:
+            if state['jump'] is not None:
+                state['sim'], state['jump'] = state['jump'], None
+            if not state['paused']:
+                state['sim'] = float(state['sim']) + 0.005 * speed  # type: ignore[arg-type]
+                message.clock = Time.from_seconds(float(state['sim'])).to_msg()  # type: ignore[arg-type]
+                pub.write(message)
+            rate.sleep()
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    try:
+        yield state
+    finally:
+        state['stop'] = True
+        thread.join(5)
+
+
+def test_a_sim_time_timer_follows_clock_speed_and_pauses(zros_node: Callable[..., Node]) -> None:
+    sim_node = zros_node('sim', use_sim_time=True)
+    assert sim_node.use_sim_time and sim_node.now() == Time(0)
+    ticks: list[float] = []
+    sim_node.create_timer(0.1, lambda: ticks.append(time.monotonic()))
+    with clock_publisher(zros_node('player'), speed=2.0) as state:
+        assert wait_for(lambda: sim_node.now().seconds > 1000)
+        sim_node.spin(timeout=0.2)  # settle
+        ticks.clear()
+        started = time.monotonic()
+        sim_node.spin(timeout=1.5)
+        rate = len(ticks) / (time.monotonic() - started)
+        assert 16 <= rate <= 24, f'{rate:.1f} Hz'  # 10 Hz of sim time at 2x = 20 Hz of wall time
+        state['paused'] = True
+        sim_node.spin(timeout=0.1)  # the last /clock messages in flight
+        count = len(ticks)
+        paused_at = sim_node.now()
+        sim_node.spin(timeout=0.5)
+        assert len(ticks) == count and sim_node.now() == paused_at
+        state['jump'] = 500.0  # a bag player looping back
+        state['paused'] = False
+        assert wait_for(lambda: sim_node.now().seconds < 600)
+        sim_node.spin(timeout=0.5)
+        assert 6 <= len(ticks) - count <= 14  # restarted at the same pace, no burst
+
+
+def test_use_sim_time_from_arguments_and_environment(
+    zros_node: Callable[..., Node], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert zros_node('a', args=['--ros-args', '-p', 'use_sim_time:=true']).use_sim_time
+    assert not zros_node('b', args=['--ros-args', '-p', 'use_sim_time:=false']).use_sim_time
+    monkeypatch.setenv('ZROS_USE_SIM_TIME', '1')
+    assert zros_node('c').use_sim_time
+    assert not zros_node('d', use_sim_time=False).use_sim_time
+
+
+def test_a_sim_time_rate_waits_for_the_clock(zros_node: Callable[..., Node]) -> None:
+    sim_node = zros_node('looper', use_sim_time=True)
+    with clock_publisher(zros_node('player'), speed=4.0):
+        assert wait_for(lambda: sim_node.now().seconds > 1000)
+        rate = sim_node.create_rate(10)  # 10 Hz of sim time: 40 Hz of wall time here
+        start_sim, start_wall = sim_node.now(), time.monotonic()
+        for _ in range(8):
+            rate.sleep()
+        sim_elapsed = (sim_node.now() - start_sim).seconds
+        wall_elapsed = time.monotonic() - start_wall
+        assert 0.7 <= sim_elapsed <= 1.0
+        assert wall_elapsed < sim_elapsed  # sim time runs faster than the wall
+
+
+def test_a_timer_made_before_the_clock_starts_counts_from_its_first_message(
+    zros_node: Callable[..., Node],
+) -> None:
+    sim_node = zros_node('viewer', use_sim_time=True)
+    ticks: list[Time] = []
+    sim_node.create_timer(1.0, lambda: ticks.append(sim_node.now()))
+    clock = zros_node('player').create_publisher('rosgraph_msgs/msg/Clock', '/clock')
+    assert clock.wait_for_subscribers()
+
+    def move_to(seconds: float) -> None:
+        stamp = Time.from_seconds(seconds)
+        clock.write(zros.Message('rosgraph_msgs/msg/Clock', clock=stamp.to_msg()))
+        assert wait_for(lambda: sim_node.now() == stamp)
+        sim_node.spin_once(timeout=0)
+
+    move_to(1000.0)  # sim time starts: no burst for the 1000 s the timer "missed"
+    move_to(1000.5)
+    assert ticks == []
+    move_to(1001.0)
+    assert ticks == [Time.from_seconds(1001.0)]

@@ -1,0 +1,260 @@
+"""ROS time: ``Time``, ``Duration`` and the clocks nodes run on (system time or ``/clock``).
+
+With ``use_sim_time`` a node's clock follows ``rosgraph_msgs/msg/Clock`` messages on ``/clock``
+(as published by a bag player or a simulator): it stands still until the first one, pauses when
+they stop and jumps when they jump. Timers and rates of the node follow that clock.
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from zros.signal import Signal
+
+if TYPE_CHECKING:
+    from zros.node import Node
+
+_NS = 1_000_000_000
+
+
+def _nanoseconds(seconds: float) -> int:
+    return round(seconds * _NS)
+
+
+@dataclass(frozen=True, order=True)
+class Duration:
+    """A span of ROS time, in integer nanoseconds (negative spans are allowed)."""
+
+    nanoseconds: int = 0
+
+    @classmethod
+    def from_seconds(cls, seconds: float) -> Duration:
+        return cls(_nanoseconds(seconds))
+
+    @classmethod
+    def from_msg(cls, message: Any) -> Duration:
+        """From a ``builtin_interfaces/msg/Duration``."""
+        return cls(message.sec * _NS + message.nanosec)
+
+    def to_msg(self) -> Any:
+        """A ``builtin_interfaces/msg/Duration``."""
+        from zros.cdr import new_message
+
+        sec, nanosec = divmod(self.nanoseconds, _NS)
+        return new_message('builtin_interfaces/msg/Duration', sec=sec, nanosec=nanosec)
+
+    def __float__(self) -> float:
+        return self.nanoseconds / _NS
+
+    @property
+    def seconds(self) -> float:
+        return self.nanoseconds / _NS
+
+    def __add__(self, other: Duration) -> Duration:
+        if not isinstance(other, Duration):
+            return NotImplemented
+        return Duration(self.nanoseconds + other.nanoseconds)
+
+    def __sub__(self, other: Duration) -> Duration:
+        if not isinstance(other, Duration):
+            return NotImplemented
+        return Duration(self.nanoseconds - other.nanoseconds)
+
+    def __mul__(self, factor: float) -> Duration:
+        return Duration(round(self.nanoseconds * factor))
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, divisor: float) -> Duration:
+        return Duration(round(self.nanoseconds / divisor))
+
+    def __neg__(self) -> Duration:
+        return Duration(-self.nanoseconds)
+
+    def __repr__(self) -> str:
+        return f'Duration({self.seconds:.9f} s)'
+
+
+@dataclass(frozen=True, order=True)
+class Time:
+    """A ROS time stamp, in integer nanoseconds since the epoch (or since sim time 0)."""
+
+    nanoseconds: int = 0
+
+    @classmethod
+    def from_seconds(cls, seconds: float) -> Time:
+        return cls(_nanoseconds(seconds))
+
+    @classmethod
+    def from_msg(cls, message: Any) -> Time:
+        """From a ``builtin_interfaces/msg/Time`` (e.g. ``msg.header.stamp``)."""
+        return cls(message.sec * _NS + message.nanosec)
+
+    def to_msg(self) -> Any:
+        """A ``builtin_interfaces/msg/Time``, ready for ``msg.header.stamp``."""
+        from zros.cdr import new_message
+
+        sec, nanosec = divmod(self.nanoseconds, _NS)
+        return new_message('builtin_interfaces/msg/Time', sec=sec, nanosec=nanosec)
+
+    @property
+    def sec(self) -> int:
+        return self.nanoseconds // _NS
+
+    @property
+    def nanosec(self) -> int:
+        return self.nanoseconds % _NS
+
+    def __float__(self) -> float:
+        return self.nanoseconds / _NS
+
+    @property
+    def seconds(self) -> float:
+        return self.nanoseconds / _NS
+
+    def to_datetime(self) -> datetime.datetime:
+        """The time as an aware UTC datetime (microsecond precision)."""
+        epoch = datetime.datetime(1970, 1, 1, tzinfo=datetime.timezone.utc)
+        return epoch + datetime.timedelta(microseconds=self.nanoseconds // 1000)
+
+    def __add__(self, other: Duration) -> Time:
+        if not isinstance(other, Duration):
+            return NotImplemented
+        return Time(self.nanoseconds + other.nanoseconds)
+
+    __radd__ = __add__
+
+    def __sub__(self, other: Time | Duration) -> Any:
+        if isinstance(other, Time):
+            return Duration(self.nanoseconds - other.nanoseconds)
+        if isinstance(other, Duration):
+            return Time(self.nanoseconds - other.nanoseconds)
+        return NotImplemented
+
+    def __str__(self) -> str:
+        return f'{self.sec}.{self.nanosec:09d}'
+
+    def __repr__(self) -> str:
+        return f'Time({self})'
+
+
+class Clock:
+    """The system clock: ``now()`` is wall time; timers count on the monotonic clock."""
+
+    sim = False
+
+    def now(self) -> Time:
+        return Time(time.time_ns())
+
+    def timer_now(self) -> int:
+        """Nanoseconds on the time base of this clock's timers (never jumps for system time)."""
+        return time.monotonic_ns()
+
+    def seconds_until(self, due: int) -> float | None:
+        """Wall seconds to wait until ``timer_now()`` reaches ``due``; None: until woken."""
+        return (due - time.monotonic_ns()) / _NS
+
+    def add_listener(self, wake: Callable[[], None]) -> None:
+        """Sim clocks wake listeners on every update; the system clock never needs to."""
+
+    def remove_listener(self, wake: Callable[[], None]) -> None:
+        pass
+
+
+class SimClock(Clock):
+    """Time read from ``/clock``; zero until the first message arrives."""
+
+    sim = True
+
+    def __init__(self) -> None:
+        self._now = 0
+        self._listeners: list[Callable[[], None]] = []
+        self._updated = Signal()
+        self._lock = threading.Lock()
+        self.received = 0
+
+    def now(self) -> Time:
+        return Time(self._now)
+
+    def set(self, stamp: Time) -> None:
+        """Move the clock (called for every ``/clock`` message)."""
+        self._now = stamp.nanoseconds
+        self.received += 1
+        for wake in tuple(self._listeners):
+            wake()
+        if self._updated:
+            self._updated.notify()
+
+    def timer_now(self) -> int:
+        return self._now
+
+    def seconds_until(self, due: int) -> float | None:
+        # sim time moves only when /clock says so: wait for the next update
+        return None if due > self._now else 0.0
+
+    def add_listener(self, wake: Callable[[], None]) -> None:
+        with self._lock:
+            self._listeners.append(wake)
+
+    def remove_listener(self, wake: Callable[[], None]) -> None:
+        with self._lock:
+            if wake in self._listeners:
+                self._listeners.remove(wake)
+
+    def sleep_until(self, due: Time, timeout: float | None = None) -> bool:
+        """Block until the clock reaches ``due`` (False when ``timeout`` wall seconds pass)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self._now < due.nanoseconds:
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if remaining is not None and remaining <= 0:
+                return False
+            self._updated.wait(lambda: self._now >= due.nanoseconds, remaining)
+        return True
+
+
+def use_sim_time_from_environment() -> bool:
+    """``ZROS_USE_SIM_TIME=1`` (or true/yes/on) asks every node for sim time."""
+    return os.environ.get('ZROS_USE_SIM_TIME', '').strip().lower() in ('1', 'true', 'yes', 'on')
+
+
+class ClockSubscription:
+    """Feeds a SimClock from ``/clock``, decoding on Zenoh's thread so time moves without spin."""
+
+    def __init__(self, node: Node, clock: SimClock) -> None:
+        from zros.cdr import decode
+        from zros.keyexpr.bridge import EntityKind
+        from zros.qos import QoS, Reliability
+
+        self.clock = clock
+        self._cls = node.registry.get_class('rosgraph_msgs/msg/Clock')
+        self._decode = decode
+        topic = '/clock'
+        self.key = node.scheme.key(topic)
+        qos = QoS(1, Reliability.BEST_EFFORT)
+        self._token = node.scheme.token(
+            EntityKind.SUBSCRIBER, node.transport.zid, topic, self._cls.__msgtype__, qos=qos
+        )
+        self._transport = node.transport
+        self._subscriber = node.transport.session.declare_subscriber(self.key, self._on_sample)
+        node.transport.declare_token(self._token)
+        self._closed = False
+
+    def _on_sample(self, sample: Any) -> None:
+        try:
+            message = self._decode(self._cls, sample.payload.to_bytes())
+        except Exception:  # a malformed /clock message leaves the clock where it is
+            return
+        self.clock.set(Time.from_msg(message.clock))
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self._transport.release_token(self._token)
+            if not self._transport.closed:
+                self._subscriber.undeclare()

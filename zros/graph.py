@@ -1,0 +1,324 @@
+"""A live view of the ROS graph, built from the liveliness tokens on the Zenoh network.
+
+Bridges announce every ROS entity they route as ``@/<zid>/@ros2_lv/<kind>/...`` tokens, and
+themselves as ``@/<zid>/@ros2_lv``; zros entities announce themselves the same way. zros nodes
+also announce who they are in a key space of their own, ``@/<zid>/@zros_lv/...`` (bridges never
+parse it: they abort on unknown forms under ``@ros2_lv``):
+
+* ``@/<zid>/@zros_lv/NN/<node fqn, / as §>`` per node;
+* ``@/<zid>/@zros_lv/EN/<node fqn>/<kind>/<key>/<type>`` per entity, to tell which node owns it.
+
+The view follows tokens as they come and go (a closed session's tokens go within milliseconds, a
+vanished one's within the Zenoh lease). A bridge's version and namespace come from its admin
+space (``@/<zid>/ros2/version`` and ``/config``).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from zros.keyexpr.bridge import (
+    BRIDGE_TOKENS,
+    ENTITY_TOKENS,
+    EntityKind,
+    EntityToken,
+    TokenError,
+    admin_key,
+    bridge_zid,
+    escape,
+    ros_name,
+    unescape,
+)
+from zros.qos import QoS
+from zros.signal import Signal
+
+if TYPE_CHECKING:
+    from zros.transport import Transport
+
+_log = logging.getLogger('zros.graph')
+
+ZROS_PREFIX = '@zros_lv'
+ZROS_TOKENS = f'@/*/{ZROS_PREFIX}/**'
+
+
+def node_token(zid: str, node_fqn: str) -> str:
+    """The liveliness key announcing a zros node."""
+    return f'@/{zid}/{ZROS_PREFIX}/NN/{escape(node_fqn)}'
+
+
+def entity_token(zid: str, node_fqn: str, kind: EntityKind, key: str, type_name: str) -> str:
+    """The liveliness key telling which zros node owns an entity."""
+    return (
+        f'@/{zid}/{ZROS_PREFIX}/EN/{escape(node_fqn)}/{kind.value}/'
+        f'{escape(key)}/{escape(type_name)}'
+    )
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """One publisher, subscriber, service or action endpoint on the network."""
+
+    kind: EntityKind
+    zid: str  #: the Zenoh session announcing it (a bridge's, or a zros process's)
+    key: str  #: its Zenoh key
+    type_name: str
+    qos: QoS | None  #: publishers and subscribers
+    node: str | None  #: the zros node owning it, when a zros node announced it
+
+    @property
+    def is_bridged(self) -> bool:
+        """Whether a bridge announces it (a ROS entity behind that bridge)."""
+        return self.node is None
+
+
+@dataclass(frozen=True)
+class BridgeInfo:
+    """A zenoh-bridge-ros2dds on the network."""
+
+    zid: str
+    version: str | None = None  #: e.g. ``1.10.0`` (None until its admin space answered)
+    namespace: str | None = None
+    nodename: str | None = None
+
+    @property
+    def version_tuple(self) -> tuple[int, ...] | None:
+        if not self.version:
+            return None
+        digits = self.version.lstrip('v').split('-')[0].split('.')
+        try:
+            return tuple(int(part) for part in digits)
+        except ValueError:
+            return None
+
+    @property
+    def node_name(self) -> str:
+        """The one ROS node the bridge shows: ``<namespace>/<nodename>``."""
+        namespace = self.namespace or '/'
+        return namespace.rstrip('/') + '/' + (self.nodename or 'zenoh_bridge_ros2dds')
+
+
+def query_bridges(session: Any, timeout: float = 1.0) -> dict[str, BridgeInfo]:
+    """Ask every reachable bridge for its version and configuration (ends at once without any)."""
+    found: dict[str, dict[str, Any]] = {}
+    for selector in ('@/*/ros2/version', '@/*/ros2/config'):
+        for reply in session.get(selector, timeout=timeout):
+            if reply.ok is None:
+                continue
+            parts = str(reply.ok.key_expr).split('/')
+            if len(parts) < 4:
+                continue
+            try:
+                value = json.loads(reply.ok.payload.to_string())
+            except ValueError:
+                continue
+            found.setdefault(parts[1], {})[parts[3]] = value
+    bridges = {}
+    for zid, answers in found.items():
+        config = answers.get('config') if isinstance(answers.get('config'), dict) else {}
+        version = answers.get('version')
+        bridges[zid] = BridgeInfo(
+            zid,
+            str(version).lstrip('v') if version is not None else None,
+            config.get('namespace') if config else None,
+            config.get('nodename') if config else None,
+        )
+    return bridges
+
+
+class Graph:
+    """What one session sees of the ROS graph; updated by Zenoh as tokens come and go."""
+
+    def __init__(self, transport: Transport) -> None:
+        self._transport = transport
+        session = transport.session
+        self._lock = threading.Lock()
+        self._entities: dict[str, EntityToken] = {}  # token key -> token
+        self._owners: dict[tuple[str, EntityKind, str, str], str] = {}  # -> zros node
+        self._owner_tokens: dict[str, tuple[str, EntityKind, str, str, str]] = {}
+        self._nodes: dict[str, tuple[str, str]] = {}  # token key -> (zid, node fqn)
+        self._bridges: dict[str, BridgeInfo] = {}
+        self._changed = Signal()
+        self.version = 0  #: bumped on every change
+        self._closed = False
+        liveliness = session.liveliness()
+        self._subscribers = [
+            liveliness.declare_subscriber(ENTITY_TOKENS, self._on_entity, history=True),
+            liveliness.declare_subscriber(BRIDGE_TOKENS, self._on_entity, history=True),
+            liveliness.declare_subscriber(ZROS_TOKENS, self._on_zros, history=True),
+        ]
+
+    # --- token handling, on Zenoh's threads -----------------------------------------------------
+
+    def _bump(self) -> None:
+        self.version += 1
+        if self._changed:
+            self._changed.notify()
+
+    def _on_entity(self, sample: Any) -> None:
+        import zenoh
+
+        key = str(sample.key_expr)
+        alive = sample.kind == zenoh.SampleKind.PUT
+        zid = bridge_zid(key)
+        if zid is not None:
+            with self._lock:
+                if alive:
+                    self._bridges.setdefault(zid, BridgeInfo(zid))
+                else:
+                    self._bridges.pop(zid, None)
+            if alive:
+                threading.Thread(target=self._ask_bridge, args=(zid,), daemon=True).start()
+            self._bump()
+            return
+        try:
+            token = EntityToken.parse(key)
+        except TokenError as exc:
+            _log.debug('ignoring a malformed token %s: %s', key, exc)
+            return
+        if token is None:
+            return
+        with self._lock:
+            if alive:
+                self._entities[key] = token
+            else:
+                self._entities.pop(key, None)
+        self._bump()
+
+    def _on_zros(self, sample: Any) -> None:
+        import zenoh
+
+        key = str(sample.key_expr)
+        alive = sample.kind == zenoh.SampleKind.PUT
+        parts = key.split('/')
+        with self._lock:
+            if len(parts) == 5 and parts[3] == 'NN':
+                if alive:
+                    self._nodes[key] = (parts[1], unescape(parts[4]))
+                else:
+                    self._nodes.pop(key, None)
+            elif len(parts) == 8 and parts[3] == 'EN':
+                try:
+                    kind = EntityKind(parts[5])
+                except ValueError:
+                    return
+                owner = (parts[1], kind, unescape(parts[6]), unescape(parts[7]))
+                if alive:
+                    self._owners[owner] = unescape(parts[4])
+                    self._owner_tokens[key] = (*owner, unescape(parts[4]))
+                else:
+                    self._owners.pop(owner, None)
+                    self._owner_tokens.pop(key, None)
+            else:
+                return
+        self._bump()
+
+    def _ask_bridge(self, zid: str) -> None:
+        session = self._transport.session
+        info: dict[str, Any] = {}
+        try:
+            for item in ('version', 'config'):
+                for reply in session.get(admin_key(zid, item), timeout=2.0):
+                    if reply.ok is not None:
+                        info[item] = json.loads(reply.ok.payload.to_string())
+        except Exception as exc:  # a bridge that does not answer keeps its token entry
+            _log.debug('bridge %s admin space: %s', zid, exc)
+        config = info.get('config') if isinstance(info.get('config'), dict) else {}
+        version = info.get('version')
+        with self._lock:
+            if zid not in self._bridges or self._closed:
+                return
+            self._bridges[zid] = BridgeInfo(
+                zid,
+                str(version).lstrip('v') if version is not None else None,
+                config.get('namespace') if config else None,
+                config.get('nodename') if config else None,
+            )
+        self._bump()
+
+    # --- queries ------------------------------------------------------------------------------
+
+    def endpoints(self, kinds: tuple[EntityKind, ...] | None = None) -> list[Endpoint]:
+        """Every endpoint known, optionally of some kinds only."""
+        with self._lock:
+            tokens = list(self._entities.values())
+            owners = dict(self._owners)
+        result = []
+        for token in tokens:
+            if kinds is not None and token.kind not in kinds:
+                continue
+            owner = owners.get((token.zid, token.kind, token.key, token.type_name))
+            qos = token.qos.to_qos(token.kind is EntityKind.PUBLISHER) if token.qos else None
+            result.append(Endpoint(token.kind, token.zid, token.key, token.type_name, qos, owner))
+        return sorted(result, key=lambda e: (e.key, e.kind.value, e.zid))
+
+    def _names(self, kinds: tuple[EntityKind, ...], namespace: str) -> dict[str, list[str]]:
+        names: dict[str, set[str]] = {}
+        for endpoint in self.endpoints(kinds):
+            names.setdefault(ros_name(endpoint.key, namespace), set()).add(endpoint.type_name)
+        return {name: sorted(types) for name, types in sorted(names.items())}
+
+    def topics(self, namespace: str = '/') -> dict[str, list[str]]:
+        """Topic names (as seen through a bridge with ``namespace``) and their types."""
+        return self._names((EntityKind.PUBLISHER, EntityKind.SUBSCRIBER), namespace)
+
+    def services(self, namespace: str = '/') -> dict[str, list[str]]:
+        """Service names and types (servers or clients announced)."""
+        return self._names((EntityKind.SERVICE_SERVER, EntityKind.SERVICE_CLIENT), namespace)
+
+    def actions(self, namespace: str = '/') -> dict[str, list[str]]:
+        """Action names and types (servers or clients announced)."""
+        return self._names((EntityKind.ACTION_SERVER, EntityKind.ACTION_CLIENT), namespace)
+
+    def publishers(self, key: str) -> list[Endpoint]:
+        """The publishers announced on a Zenoh key."""
+        return [e for e in self.endpoints((EntityKind.PUBLISHER,)) if e.key == key]
+
+    def subscribers(self, key: str) -> list[Endpoint]:
+        """The subscribers announced on a Zenoh key."""
+        return [e for e in self.endpoints((EntityKind.SUBSCRIBER,)) if e.key == key]
+
+    def bridges(self) -> list[BridgeInfo]:
+        """The bridges present, with their version and namespace once they answered."""
+        with self._lock:
+            return sorted(self._bridges.values(), key=lambda b: b.zid)
+
+    def nodes(self) -> list[str]:
+        """Fully qualified names of the zros nodes and of the bridges' ROS nodes."""
+        with self._lock:
+            names = {fqn for _, fqn in self._nodes.values()}
+            names |= {bridge.node_name for bridge in self._bridges.values()}
+        return sorted(names)
+
+    def node_endpoints(self, node_fqn: str) -> list[Endpoint]:
+        """What a zros node announced (its publishers, subscribers, services...)."""
+        return [e for e in self.endpoints() if e.node == node_fqn]
+
+    def wait_until(self, predicate: Callable[[], object], timeout: float | None = None) -> bool:
+        """Wait until ``predicate()`` is true, re-checking at every change of the graph."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not predicate():
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if (remaining is not None and remaining <= 0) or self._closed:
+                return bool(predicate())
+            self._changed.wait(self._changed_since(self.version), remaining)
+        return True
+
+    def _changed_since(self, version: int) -> Callable[[], bool]:
+        return lambda: self.version != version or self._closed
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        for subscriber in self._subscribers:
+            try:
+                subscriber.undeclare()
+            except Exception:  # the session may be closing already
+                _log.debug('undeclaring a graph subscriber failed', exc_info=True)
+        self._changed.notify()

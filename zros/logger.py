@@ -1,0 +1,252 @@
+"""ROS logging: console lines in ROS 2's format, ``/rosout`` records, Python ``logging`` both ways.
+
+Every node has a logger named after it (``node.get_logger()``, ``zros.info(...)`` for the
+default node). A record below the level threshold is dropped; otherwise it is
+
+* published as ``rcl_interfaces/msg/Log`` on ``/rosout`` (reliable, transient local, depth 1000),
+  with the caller's file, function and line, as rclpy does;
+* handed to the Python logger ``ros.<logger name>``, whose default handler prints
+  ``[INFO] [1740933158.226629828] [talker]: text`` to stderr. Attach handlers to ``ros`` to route
+  records elsewhere; :class:`RosoutHandler` routes records of other Python loggers to ``/rosout``.
+
+The threshold comes from ``level=``, ``--ros-args --log-level LEVEL``, or ``ZROS_LOG_LEVEL``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import threading
+import time
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+if TYPE_CHECKING:
+    from zros.node import Node
+    from zros.pubsub import Publisher
+
+DEBUG, INFO, WARN, ERROR, FATAL = 10, 20, 30, 40, 50
+LEVELS = {'debug': DEBUG, 'info': INFO, 'warn': WARN, 'warning': WARN, 'error': ERROR,
+          'fatal': FATAL, 'critical': FATAL}  # fmt: skip
+_NAMES = {DEBUG: 'DEBUG', INFO: 'INFO', WARN: 'WARN', ERROR: 'ERROR', FATAL: 'FATAL'}
+
+#: the Python logger every ROS record goes through
+PY_LOGGER = 'ros'
+
+
+class RosoutRecord(NamedTuple):
+    """The fields of one ``rcl_interfaces/msg/Log`` record."""
+
+    stamp: int  #: nanoseconds of the node's clock
+    level: int
+    name: str
+    msg: str
+    file: str
+    function: str
+    line: int
+
+
+def parse_level(level: str | int | None) -> int:
+    """A ROS severity from a name (``'debug'``, ``'WARN'``...) or a number."""
+    if level is None:
+        return INFO
+    if isinstance(level, int):
+        return level
+    try:
+        return LEVELS[level.strip().lower()]
+    except KeyError:
+        raise ValueError(
+            f'unknown log level {level!r}; levels are debug, info, warn, error, fatal'
+        ) from None
+
+
+def level_from_environment() -> int | None:
+    value = os.environ.get('ZROS_LOG_LEVEL')
+    return parse_level(value) if value else None
+
+
+def level_from_args(argv: list[str] | tuple[str, ...] | None) -> int | None:
+    """The ``--log-level LEVEL`` of a ``--ros-args`` section (``name:=LEVEL`` forms ignored)."""
+    if not argv or '--ros-args' not in argv:
+        return None
+    args = list(argv)
+    for index, arg in enumerate(args):
+        if arg == '--log-level' and index + 1 < len(args) and ':=' not in args[index + 1]:
+            return parse_level(args[index + 1])
+        if arg.startswith('--log-level=') and ':=' not in arg:
+            return parse_level(arg.split('=', 1)[1])
+    return None
+
+
+class RosFormatter(logging.Formatter):
+    """``[SEVERITY] [seconds.nanoseconds] [logger]: message``, as ROS 2 prints by default."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        stamp = getattr(record, 'ros_stamp', None)
+        if stamp is None:
+            stamp = int(record.created * 1e9)
+        severity = _NAMES.get(record.levelno, logging.getLevelName(record.levelno))
+        name = getattr(record, 'ros_name', record.name)
+        text = f'[{severity}] [{stamp // 1_000_000_000}.{stamp % 1_000_000_000:09d}] [{name}]: '
+        text += record.getMessage()
+        if record.exc_info:
+            text += '\n' + self.formatException(record.exc_info)
+        return text
+
+
+_console_lock = threading.Lock()
+_console_handler: logging.Handler | None = None
+
+
+def _console() -> logging.Logger:
+    """The ``ros`` Python logger, with the ROS console handler installed once."""
+    global _console_handler  # noqa: PLW0603
+    logger = logging.getLogger(PY_LOGGER)
+    with _console_lock:
+        if _console_handler is None:
+            use_stdout = os.environ.get('RCUTILS_LOGGING_USE_STDOUT', '') == '1'
+            handler = logging.StreamHandler(sys.stdout if use_stdout else sys.stderr)
+            handler.setFormatter(RosFormatter())
+            logger.addHandler(handler)
+            logger.propagate = False
+            logger.setLevel(logging.DEBUG)  # each zros Logger applies its own threshold
+            _console_handler = handler
+    return logger
+
+
+def logger_name(node_name: str, namespace: str) -> str:
+    """The logger name ROS 2 gives a node: its namespace and name joined by dots."""
+    parts = [part for part in namespace.split('/') if part] + [node_name]
+    return '.'.join(parts)
+
+
+class Logger:
+    """A named ROS logger; with a node, its records also go to ``/rosout``."""
+
+    def __init__(self, name: str, node: Node | None = None, level: int | None = None) -> None:
+        self.name = name
+        self.node = node
+        self._level = level
+        self._py = _console().getChild(name)
+        self._seen: dict[tuple[str, int], float] = {}
+        self._counts: dict[tuple[str, int], int] = {}
+        self._rosout: Publisher | None = None
+
+    @property
+    def level(self) -> int:
+        """The threshold: records below it are dropped."""
+        if self._level is not None:
+            return self._level
+        if self.node is not None:
+            return self.node._log_level
+        return level_from_environment() or INFO
+
+    def set_level(self, level: str | int) -> None:
+        self._level = parse_level(level)
+
+    def get_child(self, suffix: str) -> Logger:
+        """A logger named ``<name>.<suffix>`` with the same node and threshold."""
+        return Logger(f'{self.name}.{suffix}', self.node, self._level)
+
+    def is_enabled_for(self, level: int) -> bool:
+        return level >= self.level
+
+    def log(
+        self,
+        message: object,
+        level: str | int = INFO,
+        *,
+        once: bool = False,
+        throttle: float | None = None,
+        skip_first: bool = False,
+        stacklevel: int = 1,
+    ) -> bool:
+        """Log ``message`` at ``level``; returns whether it was emitted.
+
+        ``once``: only the first time at this line. ``throttle``: at most once per that many
+        seconds at this line. ``skip_first``: not the first time at this line.
+        """
+        severity = parse_level(level)
+        if severity < self.level:
+            return False
+        frame = sys._getframe(stacklevel)
+        site = (frame.f_code.co_filename, frame.f_lineno)
+        if once or throttle is not None or skip_first:
+            now = time.monotonic()
+            count = self._counts.get(site, 0)
+            self._counts[site] = count + 1
+            if once and count > 0:
+                return False
+            if skip_first and count == 0:
+                return False
+            if throttle is not None:
+                last = self._seen.get(site)
+                if last is not None and now - last < throttle:
+                    return False
+                self._seen[site] = now
+        self._emit(severity, str(message), frame.f_code.co_filename, frame.f_code.co_name,
+                   frame.f_lineno)  # fmt: skip
+        return True
+
+    def _emit(self, severity: int, text: str, file: str, function: str, line: int) -> None:
+        node = self.node
+        stamp = node.clock.now().nanoseconds if node is not None else time.time_ns()
+        if node is not None:
+            node._publish_rosout(
+                RosoutRecord(stamp, severity, self.name, text, file, function, line)
+            )
+        record = logging.LogRecord(self._py.name, severity, file, line, text, None, None, function)
+        record.ros_stamp = stamp
+        record.ros_name = self.name
+        record.ros_published = node is not None
+        self._py.handle(record)
+
+    def debug(self, message: object, **options: Any) -> bool:
+        return self.log(message, DEBUG, stacklevel=2, **options)
+
+    def info(self, message: object, **options: Any) -> bool:
+        return self.log(message, INFO, stacklevel=2, **options)
+
+    def warn(self, message: object, **options: Any) -> bool:
+        return self.log(message, WARN, stacklevel=2, **options)
+
+    warning = warn
+
+    def error(self, message: object, **options: Any) -> bool:
+        return self.log(message, ERROR, stacklevel=2, **options)
+
+    def fatal(self, message: object, **options: Any) -> bool:
+        return self.log(message, FATAL, stacklevel=2, **options)
+
+    def __repr__(self) -> str:
+        return f'<zros Logger {self.name} ({_NAMES.get(self.level, self.level)})>'
+
+
+class RosoutHandler(logging.Handler):
+    """A ``logging`` handler that publishes records of Python loggers on a node's ``/rosout``.
+
+    ``logging.getLogger().addHandler(RosoutHandler(node))`` sends a library's logs where ROS
+    tools (rqt_console, Foxglove) show them. Records zros published already are skipped.
+    """
+
+    def __init__(self, node: Node, level: int = logging.NOTSET) -> None:
+        super().__init__(level)
+        self.node = node
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if getattr(record, 'ros_published', False):
+            return
+        try:
+            self.node._publish_rosout(
+                RosoutRecord(
+                    int(record.created * 1e9),
+                    min(max(record.levelno, DEBUG), FATAL),
+                    record.name,
+                    record.getMessage(),
+                    record.pathname,
+                    record.funcName,
+                    record.lineno,
+                )
+            )
+        except Exception:
+            self.handleError(record)
