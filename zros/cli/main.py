@@ -30,6 +30,10 @@ def _parser() -> argparse.ArgumentParser:
     listing = verbs.add_parser('list', help='list the types zros can resolve')
     listing.add_argument('pattern', nargs='?', default='', help='only names containing this text')
     listing.set_defaults(run='zros.cli.interface:list_types')
+
+    from zros.cli.tls import add_parser as add_tls
+
+    add_tls(commands)
     return parser
 
 

@@ -1,9 +1,10 @@
 """How a zros process reaches the Zenoh network: settings from arguments, environment and files.
 
 Precedence, highest first: arguments, environment (``ZROS_CONNECT``, ``ZROS_LISTEN``,
-``ZROS_MODE``), the json5 file named by ``config`` or ``ZENOH_CONFIG``, then zros's defaults:
-client mode connecting to the local bridge at ``tcp/127.0.0.1:7447``, multicast scouting off,
-timestamping on (transient-local publishers need it).
+``ZROS_MODE``, ``ZROS_TLS_CA``/``_CERTIFICATE``/``_KEY``, ``ZROS_USER``/``ZROS_PASSWORD``), the
+json5 file named by ``config`` or ``ZENOH_CONFIG``, then zros's defaults: client mode connecting
+to the local bridge at ``tcp/127.0.0.1:7447``, multicast scouting off, timestamping on
+(transient-local publishers need it).
 """
 
 from __future__ import annotations
@@ -73,6 +74,13 @@ class TransportConfig:
     ) -> TransportConfig:
         """Settings from arguments, falling back on the environment for what is not given."""
         env = os.environ
+        if 'tls' not in options and env.get('ZROS_TLS_CA'):
+            options['tls'] = Tls(
+                env['ZROS_TLS_CA'], env.get('ZROS_TLS_CERTIFICATE'), env.get('ZROS_TLS_KEY')
+            )
+        if 'user' not in options and env.get('ZROS_USER'):
+            options['user'] = env['ZROS_USER']
+            options.setdefault('password', env.get('ZROS_PASSWORD'))
         config = cls(
             connect=_endpoints(connect if connect is not None else env.get('ZROS_CONNECT')),
             listen=_endpoints(listen if listen is not None else env.get('ZROS_LISTEN')),
@@ -118,6 +126,11 @@ class TransportConfig:
         if self.shared_memory is not None:
             put('transport/shared_memory/enabled', self.shared_memory)
         put('timestamping/enabled', True)
+        if unset('connect/retry'):
+            # reconnect within a fraction of a second once a restarted router is back (Zenoh's
+            # default backoff waits 1 to 4 s)
+            put('connect/retry', {'period_init_ms': 100, 'period_max_ms': 1000,
+                                  'period_increase_factor': 2})  # fmt: skip
         if self.tls is not None:
             put('transport/link/tls/root_ca_certificate', self.tls.root_ca_certificate)
             put('transport/link/tls/verify_name_on_connect', self.tls.verify_name)
