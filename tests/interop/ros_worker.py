@@ -1,0 +1,317 @@
+"""A generic rclpy worker driven by JSON lines: the real ROS 2 side of the interop tests.
+
+Run as a script (it imports neither zros nor the tests package, so it also runs with the
+system Python of the official ``ros:jazzy`` image)::
+
+    python tests/interop/ros_worker.py                 # commands on stdin, replies on stdout
+    python tests/interop/ros_worker.py --serve tcp:0.0.0.0:7501
+                                                       # one worker per connection (docker)
+    python tests/interop/ros_worker.py --serve unix:/tmp/worker.sock
+
+Each command is one JSON object per line; each reply is one JSON line, ``{"ok": true, ...}`` or
+``{"ok": false, "error": "..."}``. Serialized messages travel as hex strings (CDR header
+included, exactly what rclpy publishes and receives with ``raw=True``).
+
+=====================  ============================================================================
+``publisher``          ``name, topic, type, qos`` -> create a publisher
+``publish``            ``name, data: [hex...], interval`` -> publish the serialized messages
+``wait_subscribers``   ``name, count, timeout`` -> ``count`` (matched DDS readers of the publisher)
+``subscription``       ``name, topic, type, qos`` -> create a raw subscription that records
+``wait_messages``      ``name, count, timeout`` -> ``messages: [hex...]`` (all received so far)
+``topics``             -> ``topics: [[name, [types...]], ...]`` (rclpy ``get_topic_names_and_types``)
+``wait_topic``         ``topic, type, present, timeout`` -> ``topics`` once the topic is (not) there
+``service``            ``name, service, type`` -> a server answering each request with a response
+                       whose fields are copied from the request's fields of the same name
+``call``               ``service, type, data: hex, timeout`` -> ``response: hex`` (a fresh client)
+``action_server``      ``name, action`` -> a ``test_msgs/action/Fibonacci`` server (feedback per step)
+``action_call``        ``action, order, timeout`` -> ``status, sequence, feedback`` (a Fibonacci
+                       goal sent by a fresh ``ActionClient``)
+``destroy``            ``name`` -> destroy that publisher, subscription, service or action server
+``exit``               -> stop
+=====================  ============================================================================
+
+``qos`` is ``{"reliability": "reliable"|"best_effort", "durability": "volatile"|
+"transient_local", "history": "keep_last"|"keep_all", "depth": n}`` (all optional).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from typing import Any, TextIO
+
+#: seconds the Fibonacci action server takes per step (so that feedback can be watched)
+STEP = 0.05
+
+
+def _message_class(type_name: str) -> Any:
+    package, kind, short = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), short)
+
+
+def _profile(spec: dict[str, Any] | None) -> Any:
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    spec = spec or {}
+    history = HistoryPolicy.KEEP_ALL if spec.get('history') == 'keep_all' else None
+    return QoSProfile(
+        history=history or HistoryPolicy.KEEP_LAST,
+        depth=int(spec.get('depth', 10)),
+        reliability=ReliabilityPolicy.BEST_EFFORT
+        if spec.get('reliability') == 'best_effort'
+        else ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL
+        if spec.get('durability') == 'transient_local'
+        else DurabilityPolicy.VOLATILE,
+    )
+
+
+class Worker:
+    """One rclpy node executing commands."""
+
+    def __init__(self) -> None:
+        import rclpy
+        from rclpy.executors import MultiThreadedExecutor
+        from rclpy.node import Node
+
+        rclpy.init(args=[])
+        self.rclpy = rclpy
+        self.node = Node(f'zros_interop_worker_{os.getpid()}')
+        # the node spins all the time (servers must answer between commands)
+        self.executor = MultiThreadedExecutor(num_threads=4)
+        self.executor.add_node(self.node)
+        self.spinner = threading.Thread(target=self.executor.spin, daemon=True)
+        self.spinner.start()
+        self.publishers: dict[str, Any] = {}
+        self.subscriptions: dict[str, Any] = {}
+        self.received: dict[str, list[bytes]] = {}
+        self.others: dict[str, Any] = {}
+
+    def spin_until(self, condition: Any, timeout: float) -> bool:
+        """Wait (the node spins meanwhile) until ``condition()`` or ``timeout`` seconds pass."""
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() >= deadline:
+                return bool(condition())
+            time.sleep(0.005)
+        return True
+
+    def handle(self, command: dict[str, Any]) -> dict[str, Any]:
+        op = command['cmd']
+        name = command.get('name', '')
+        if op == 'publisher':
+            self.publishers[name] = self.node.create_publisher(
+                _message_class(command['type']), command['topic'], _profile(command.get('qos'))
+            )
+            return {}
+        if op == 'publish':
+            publisher = self.publishers[name]
+            interval = float(command.get('interval', 0.0))
+            for item in command['data']:
+                publisher.publish(bytes.fromhex(item))
+                if interval:
+                    self.spin_until(lambda: False, interval)
+            return {}
+        if op == 'wait_subscribers':
+            publisher = self.publishers[name]
+            count = int(command.get('count', 1))
+            self.spin_until(
+                lambda: publisher.get_subscription_count() >= count,
+                float(command.get('timeout', 10)),
+            )
+            return {'count': publisher.get_subscription_count()}
+        if op == 'subscription':
+            store: list[bytes] = []
+            self.received[name] = store
+            self.subscriptions[name] = self.node.create_subscription(
+                _message_class(command['type']),
+                command['topic'],
+                lambda data: store.append(data),
+                _profile(command.get('qos')),
+                raw=True,
+            )
+            return {}
+        if op == 'wait_messages':
+            store = self.received[name]
+            count = int(command.get('count', 1))
+            self.spin_until(lambda: len(store) >= count, float(command.get('timeout', 10)))
+            return {'messages': [data.hex() for data in store]}
+        if op == 'topics':
+            return {'topics': self.node.get_topic_names_and_types()}
+        if op == 'wait_topic':
+            wanted = (command['topic'], command['type'])
+            present = bool(command.get('present', True))
+
+            def seen() -> bool:
+                found = any(
+                    topic == wanted[0] and wanted[1] in types
+                    for topic, types in self.node.get_topic_names_and_types()
+                )
+                return found == present
+
+            self.spin_until(seen, float(command.get('timeout', 10)))
+            return {'topics': self.node.get_topic_names_and_types()}
+        if op == 'service':
+            srv_class = _message_class(command['type'])
+
+            def echo(request: Any, response: Any) -> Any:
+                for field in response.get_fields_and_field_types():
+                    if hasattr(request, field):
+                        setattr(response, field, getattr(request, field))
+                return response
+
+            self.others[name] = self.node.create_service(srv_class, command['service'], echo)
+            return {}
+        if op == 'call':
+            return self.call(command)
+        if op == 'action_server':
+            return self.action_server(name, command['action'])
+        if op == 'action_call':
+            return self.action_call(command)
+        if op == 'destroy':
+            if name in self.others:
+                self.others.pop(name).destroy()
+            if name in self.publishers:
+                self.node.destroy_publisher(self.publishers.pop(name))
+            if name in self.subscriptions:
+                self.node.destroy_subscription(self.subscriptions.pop(name))
+                self.received.pop(name, None)
+            return {}
+        raise ValueError(f'unknown command {op!r}')
+
+    def call(self, command: dict[str, Any]) -> dict[str, Any]:
+        from rclpy.serialization import deserialize_message, serialize_message
+
+        srv_class = _message_class(command['type'])
+        timeout = float(command.get('timeout', 10))
+        client = self.node.create_client(srv_class, command['service'])
+        try:
+            if not client.wait_for_service(timeout_sec=timeout):
+                raise TimeoutError(f'no server for {command["service"]}')
+            request = deserialize_message(bytes.fromhex(command['data']), srv_class.Request)
+            future = client.call_async(request)
+            if not self.spin_until(future.done, timeout):
+                raise TimeoutError(f'no response from {command["service"]}')
+            return {'response': bytes(serialize_message(future.result())).hex()}
+        finally:
+            self.node.destroy_client(client)
+
+    def action_server(self, name: str, action: str) -> dict[str, Any]:
+        from rclpy.action import ActionServer
+        from test_msgs.action import Fibonacci
+
+        def execute(goal_handle: Any) -> Any:
+            sequence = [0, 1]
+            for _ in range(1, goal_handle.request.order):
+                sequence.append(sequence[-1] + sequence[-2])
+                goal_handle.publish_feedback(Fibonacci.Feedback(sequence=sequence))
+                time.sleep(STEP)
+            goal_handle.succeed()
+            return Fibonacci.Result(sequence=sequence)
+
+        self.others[name] = ActionServer(self.node, Fibonacci, action, execute)
+        return {}
+
+    def action_call(self, command: dict[str, Any]) -> dict[str, Any]:
+        from rclpy.action import ActionClient
+        from test_msgs.action import Fibonacci
+
+        timeout = float(command.get('timeout', 10))
+        client = ActionClient(self.node, Fibonacci, command['action'])
+        feedback: list[list[int]] = []
+        try:
+            if not client.wait_for_server(timeout_sec=timeout):
+                raise TimeoutError(f'no action server for {command["action"]}')
+            goal = Fibonacci.Goal(order=int(command['order']))
+            sent = client.send_goal_async(
+                goal, feedback_callback=lambda f: feedback.append(list(f.feedback.sequence))
+            )
+            if not self.spin_until(sent.done, timeout):
+                raise TimeoutError('send_goal got no response')
+            handle = sent.result()
+            if not handle.accepted:
+                return {'accepted': False}
+            result = handle.get_result_async()
+            if not self.spin_until(result.done, timeout):
+                raise TimeoutError('get_result got no response')
+            wrapped = result.result()
+            return {
+                'accepted': True,
+                'status': wrapped.status,
+                'sequence': list(wrapped.result.sequence),
+                'feedback': feedback,
+            }
+        finally:
+            client.destroy()
+
+    def serve(self, reader: TextIO, writer: TextIO) -> None:
+        writer.write(json.dumps({'ok': True, 'ready': self.node.get_name()}) + '\n')
+        writer.flush()
+        for line in reader:
+            if not line.strip():
+                continue
+            command = json.loads(line)
+            if command.get('cmd') == 'exit':
+                break
+            try:
+                reply = {'ok': True, **self.handle(command)}
+            except Exception as exc:
+                reply = {'ok': False, 'error': f'{type(exc).__name__}: {exc}'}
+            writer.write(json.dumps(reply) + '\n')
+            writer.flush()
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.spinner.join(5)
+        self.node.destroy_node()
+        self.rclpy.shutdown()
+
+
+def serve(address: str) -> None:
+    """Accept connections forever on ``tcp:HOST:PORT`` or ``unix:PATH``; each connection gets a
+    worker subprocess whose stdin and stdout are the socket."""
+    scheme, _, where = address.partition(':')
+    if scheme == 'unix':
+        if os.path.exists(where):
+            os.unlink(where)
+        server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        server.bind(where)
+        server.listen()
+    elif scheme == 'tcp':
+        host, _, port = where.rpartition(':')
+        server = socket.create_server((host or '0.0.0.0', int(port)), reuse_port=True)
+    else:
+        raise SystemExit(f'--serve takes tcp:HOST:PORT or unix:PATH, not {address!r}')
+    print(f'ros_worker serving on {address}', flush=True)
+    children: list[subprocess.Popen[bytes]] = []
+    while True:
+        connection, _ = server.accept()
+        child = subprocess.Popen(
+            [sys.executable, os.path.abspath(__file__)],
+            stdin=connection.fileno(),
+            stdout=connection.fileno(),
+        )
+        connection.close()
+        children.append(child)
+        children = [c for c in children if c.poll() is None]
+
+
+def main() -> None:
+    if len(sys.argv) == 3 and sys.argv[1] == '--serve':
+        serve(sys.argv[2])
+        return
+    worker = Worker()
+    try:
+        worker.serve(sys.stdin, sys.stdout)
+    finally:
+        worker.close()
+
+
+if __name__ == '__main__':
+    main()
