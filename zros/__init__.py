@@ -41,6 +41,19 @@ _LAZY = {
     'Node': ('zros.node', 'Node'),
     'Publisher': ('zros.pubsub', 'Publisher'),
     'Subscriber': ('zros.pubsub', 'Subscriber'),
+    'ActionServer': ('zros.actions', 'ActionServer'),
+    'ActionClient': ('zros.actions', 'ActionClient'),
+    'GoalStatus': ('zros.actions', 'GoalStatus'),
+    'GoalResponse': ('zros.actions', 'GoalResponse'),
+    'CancelResponse': ('zros.actions', 'CancelResponse'),
+    'ActionError': ('zros.actions', 'ActionError'),
+    'GoalRejectedError': ('zros.actions', 'GoalRejectedError'),
+    'Service': ('zros.services', 'Service'),
+    'Client': ('zros.services', 'Client'),
+    'ServiceError': ('zros.services', 'ServiceError'),
+    'ServiceUnavailableError': ('zros.services', 'ServiceUnavailableError'),
+    'ServiceTimeoutError': ('zros.services', 'ServiceTimeoutError'),
+    'ServiceCallError': ('zros.services', 'ServiceCallError'),
     'Timer': ('zros.timers', 'Timer'),
     'Rate': ('zros.timers', 'Rate'),
     'QoS': ('zros.qos', 'QoS'),
@@ -54,6 +67,15 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:
+    from zros.actions import (
+        ActionClient,
+        ActionError,
+        ActionServer,
+        CancelResponse,
+        GoalRejectedError,
+        GoalResponse,
+        GoalStatus,
+    )
     from zros.api import (
         NotInitializedError,
         debug,
@@ -87,6 +109,14 @@ if TYPE_CHECKING:
     from zros.node import Node
     from zros.pubsub import Publisher, Subscriber
     from zros.qos import Durability, History, QoS, Reliability
+    from zros.services import (
+        Client,
+        Service,
+        ServiceCallError,
+        ServiceError,
+        ServiceTimeoutError,
+        ServiceUnavailableError,
+    )
     from zros.timers import Rate, Timer
     from zros.transport import TransportConfig, TransportError, start_router
 
@@ -117,9 +147,17 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    'ActionClient',
+    'ActionError',
+    'ActionServer',
+    'CancelResponse',
     'CdrError',
+    'Client',
     'Durability',
     'Duration',
+    'GoalRejectedError',
+    'GoalResponse',
+    'GoalStatus',
     'History',
     'InterfaceSyntaxError',
     'InvalidNameError',
@@ -132,6 +170,11 @@ __all__ = [
     'Rate',
     'Reliability',
     'RosoutHandler',
+    'Service',
+    'ServiceCallError',
+    'ServiceError',
+    'ServiceTimeoutError',
+    'ServiceUnavailableError',
     'Subscriber',
     'Time',
     'Timer',

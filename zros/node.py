@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import concurrent.futures
 import contextlib
 import logging
 import threading
 import time
 import weakref
-from collections.abc import Callable, Iterable, Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Coroutine, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from zros.clock import Clock, ClockSubscription, SimClock, Time, use_sim_time_from_environment
 from zros.graph import Graph, node_token
@@ -41,11 +42,15 @@ from zros.timers import Rate, Timer
 from zros.transport import Transport, TransportConfig, default_transport
 
 if TYPE_CHECKING:
+    from zros.actions import ActionClient, ActionServer, ServerGoalHandle
     from zros.cdr import Message, TypeRegistry
+    from zros.cdr.interfaces import ActionType, ServiceType
     from zros.pubsub import Publisher, Subscriber
+    from zros.services import Client, Service
 
 #: set by zros.init's SIGINT handler: every node's ok() turns false
 _interrupted = threading.Event()
+T = TypeVar('T')
 _nodes: weakref.WeakSet[Node] = weakref.WeakSet()
 
 
@@ -55,11 +60,29 @@ def wake_all_nodes() -> None:
         node._executor.wake()
 
 
+class _Call:
+    """A function queued to run once on the spinning thread."""
+
+    __slots__ = ('_scheduled', 'function')
+
+    def __init__(self, function: Callable[[], object]) -> None:
+        self.function = function
+        self._scheduled = True
+
+    def _dispatch(self) -> int:
+        try:
+            self.function()
+        except Exception:
+            logging.getLogger('zros').exception('callback %r raised', self.function)
+        return 1
+
+
 class Executor:
-    """The callback queue of one node: subscribers with unread messages, and timers."""
+    """The callback queue of one node: entities with work to do (unread messages, requests,
+    queued calls), and timers."""
 
     def __init__(self) -> None:
-        self._ready: collections.deque[Subscriber] = collections.deque()
+        self._ready: collections.deque[Any] = collections.deque()
         self._signal = Signal()
         self._timers: list[Timer] = []
         self._async_wakers: list[Callable[[], None]] = []
@@ -67,11 +90,17 @@ class Executor:
         self.stopped = False
 
     # called on Zenoh threads: keep it cheap
-    def schedule(self, subscriber: Subscriber) -> None:
-        if not subscriber._scheduled:
-            subscriber._scheduled = True
-            self._ready.append(subscriber)
+    def schedule(self, entity: Any) -> None:
+        """Queue ``entity._dispatch()`` (a subscriber, a service...) unless already queued."""
+        if not entity._scheduled:
+            entity._scheduled = True
+            self._ready.append(entity)
             self._wake()
+
+    def call_soon(self, function: Callable[[], object]) -> None:
+        """Run ``function()`` on the spinning thread (thread-safe)."""
+        self._ready.append(_Call(function))
+        self._wake()
 
     def _wake(self) -> None:
         if self._signal:
@@ -100,9 +129,9 @@ class Executor:
     def _run_ready(self) -> int:
         done = 0
         while self._ready:
-            subscriber = self._ready.popleft()
-            subscriber._scheduled = False
-            done += subscriber._dispatch()
+            entity = self._ready.popleft()
+            entity._scheduled = False
+            done += entity._dispatch()
         return done
 
     def _run_timers(self) -> int:
@@ -206,6 +235,9 @@ class Node:
         self.registry = registry
         self.scheme = self._bridge_scheme(transport, bridge_namespace)
         self._executor = Executor()
+        self._spin_loop: asyncio.AbstractEventLoop | None = None  #: the loop of spin_async
+        self._own_loop: asyncio.AbstractEventLoop | None = None  #: async callbacks otherwise
+        self._loop_lock = threading.Lock()
         self._entities: list[Any] = []
         self._closed = False
         self._log_level = parse_level(
@@ -356,6 +388,54 @@ class Node:
 
         return Subscriber(topic, msg_type, callback, qos, node=self)
 
+    def create_service(
+        self,
+        srv_type: str | ServiceType,
+        name: str,
+        handler: Callable[..., Any] | None = None,
+    ) -> Service:
+        """A service server; ``handler(request)`` returns the response (see ``zros.Service``)."""
+        from zros.services import Service
+
+        return Service(name, srv_type, handler, node=self)
+
+    def create_client(
+        self, srv_type: str | ServiceType, name: str, timeout: float = 10.0
+    ) -> Client:
+        """A service client; ``client.call(request)`` returns the response."""
+        from zros.services import Client
+
+        return Client(name, srv_type, node=self, timeout=timeout)
+
+    def create_action_server(
+        self,
+        action_type: str | ActionType,
+        name: str,
+        execute_callback: Callable[[ServerGoalHandle], Any],
+        *,
+        goal_callback: Callable[[Any], object] | None = None,
+        cancel_callback: Callable[[ServerGoalHandle], object] | None = None,
+        result_timeout: float = 900.0,
+    ) -> ActionServer:
+        """An action server; ``execute_callback(goal_handle)`` returns the result."""
+        from zros.actions import ActionServer
+
+        return ActionServer(
+            name,
+            action_type,
+            execute_callback,
+            goal_callback=goal_callback,
+            cancel_callback=cancel_callback,
+            node=self,
+            result_timeout=result_timeout,
+        )
+
+    def create_action_client(self, action_type: str | ActionType, name: str) -> ActionClient:
+        """An action client; ``client.send_goal(goal)`` returns a goal handle."""
+        from zros.actions import ActionClient
+
+        return ActionClient(name, action_type, node=self)
+
     def create_timer(self, period: float, callback: Callable[[], object]) -> Timer:
         """A timer calling ``callback()`` every ``period`` seconds while the node spins."""
         self._check_open()
@@ -422,6 +502,7 @@ class Node:
             loop.call_soon_threadsafe(event.set)
 
         self._executor._async_wakers.append(waker)
+        self._spin_loop = loop
         try:
             while self.ok():
                 event.clear()
@@ -432,7 +513,39 @@ class Node:
                 with contextlib.suppress(asyncio.TimeoutError):
                     await asyncio.wait_for(event.wait(), next_timer)
         finally:
+            self._spin_loop = None
             self._executor._async_wakers.remove(waker)
+
+    def run_coroutine(self, coroutine: Coroutine[Any, Any, T]) -> concurrent.futures.Future[T]:
+        """Run an async callback: on the loop of :meth:`spin_async` while one spins the node,
+        else on an event loop thread of the node's own (started on first use)."""
+        loop = self._spin_loop
+        if loop is None or not loop.is_running():
+            with self._loop_lock:
+                loop = self._own_loop
+                if loop is None:
+                    self._check_open()
+                    loop = self._own_loop = asyncio.new_event_loop()
+                    threading.Thread(
+                        target=loop.run_forever,
+                        name=f'zros async {self.fully_qualified_name}',
+                        daemon=True,
+                    ).start()
+        return asyncio.run_coroutine_threadsafe(coroutine, loop)
+
+    def _stop_own_loop(self) -> None:
+        with self._loop_lock:
+            loop, self._own_loop = self._own_loop, None
+        if loop is None:
+            return
+
+        def stop() -> None:
+            for task in asyncio.all_tasks(loop):
+                task.cancel()
+            loop.call_soon(loop.stop)
+
+        with contextlib.suppress(RuntimeError):  # already closed
+            loop.call_soon_threadsafe(stop)
 
     # --- lifetime --------------------------------------------------------------------------
 
@@ -447,6 +560,7 @@ class Node:
         self._entities.clear()
         for timer in list(self._executor._timers):
             timer.cancel()
+        self._stop_own_loop()
         if self._clock_subscription is not None:
             self.clock.remove_listener(self._executor.wake)
             self._clock_subscription.close()

@@ -6,7 +6,8 @@
   its own).
 * ``zros_node``: a factory of nodes, each on a session of its own unless ``transport=`` is given.
 
-Everything is closed at teardown. Wait for conditions with :func:`wait_for`, never with sleeps::
+Everything is closed at teardown. ``with spinning(node):`` spins a node (say, a service server)
+on a background thread. Wait for conditions with :func:`wait_for`, never with sleeps::
 
     def test_chatter(zros_node):
         talker, listener = zros_node('talker'), zros_node('listener')
@@ -19,6 +20,8 @@ Everything is closed at teardown. Wait for conditions with :func:`wait_for`, nev
 
 from __future__ import annotations
 
+import contextlib
+import threading
 import time
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -40,6 +43,31 @@ def wait_for(condition: Callable[[], object], timeout: float = 5.0) -> bool:
             return bool(condition())
         time.sleep(delay)
         delay = min(delay * 2, 0.01)
+
+
+@contextlib.contextmanager
+def spinning(*nodes: Node) -> Iterator[None]:
+    """Spin ``nodes`` on background threads inside the ``with`` block (servers in tests)."""
+    stop = threading.Event()
+
+    def run(node: Node) -> None:
+        while not stop.is_set() and node.ok():
+            node.spin_once(timeout=0.05)
+
+    threads = [
+        threading.Thread(target=run, args=(node,), name=f'spin {node.name}', daemon=True)
+        for node in nodes
+    ]
+    for thread in threads:
+        thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        for node in nodes:
+            node._executor.wake()
+        for thread in threads:
+            thread.join(5)
 
 
 @pytest.fixture
