@@ -56,7 +56,12 @@ class _Entity:
     kind: EntityKind
 
     def __init__(
-        self, node: Node, topic: str, msg_type: str | type[Message], qos: QoSLike | None
+        self,
+        node: Node,
+        topic: str,
+        msg_type: str | type[Message],
+        qos: QoSLike | None,
+        announce: bool = True,
     ) -> None:
         self.node = node
         self.msg_type = _message_class(node, msg_type)
@@ -64,26 +69,28 @@ class _Entity:
         self.topic = node.resolve_name(topic)
         self.qos: QoS = as_qos(qos)
         self.key = node.scheme.key(self.topic)
-        self._token = node.scheme.token(
-            self.kind,
-            node.transport.zid,
-            self.topic,
-            self.type_name,
-            qos=self.qos,
-            type_hash=self._type_hash(),
-        )
-        self._owner_token = entity_token(
-            node.transport.zid, node.fully_qualified_name, self.kind, self.key, self.type_name
-        )
+        #: the liveliness tokens announcing it: its owner first, then the bridge's
+        self._tokens: tuple[str, ...] = ()
+        if announce:
+            self._tokens = (
+                entity_token(
+                    node.transport.zid, node.fully_qualified_name, self.kind, self.key,
+                    self.type_name,
+                ),
+                node.scheme.token(
+                    self.kind, node.transport.zid, self.topic, self.type_name, qos=self.qos,
+                    type_hash=self._type_hash(),
+                ),
+            )  # fmt: skip
         self._closed = False
 
     def _announce(self) -> None:
-        self.node.transport.declare_token(self._owner_token)
-        self.node.transport.declare_token(self._token)
+        for token in self._tokens:
+            self.node.transport.declare_token(token)
 
     def _withdraw(self) -> None:
-        self.node.transport.release_token(self._token)
-        self.node.transport.release_token(self._owner_token)
+        for token in reversed(self._tokens):
+            self.node.transport.release_token(token)
 
     def _type_hash(self) -> str | None:
         if not self.node.scheme.send_type_hash:
@@ -113,12 +120,13 @@ class Publisher(_Entity):
         qos: QoSLike | None = None,
         *,
         node: Node | None = None,
+        announce: bool = True,
     ) -> None:
         import zenoh
 
         owner = _node(node)
         owner._check_open()
-        super().__init__(owner, topic, msg_type, qos)
+        super().__init__(owner, topic, msg_type, qos, announce)
         session = owner.transport.session
         congestion = (
             zenoh.CongestionControl.BLOCK if self.qos.reliable else zenoh.CongestionControl.DROP
@@ -240,10 +248,11 @@ class Subscriber(_Entity):
         node: Node | None = None,
         raw: bool = False,
         max_queue: int = KEEP_ALL_LIMIT,
+        announce: bool = True,
     ) -> None:
         owner = _node(node)
         owner._check_open()
-        super().__init__(owner, topic, msg_type, qos)
+        super().__init__(owner, topic, msg_type, qos, announce)
         self._callback = callback
         self.raw = raw
         self._limit = max_queue if self.qos.keep_all else None

@@ -139,7 +139,7 @@ def test_bridges_their_version_namespace_and_node(
         assert '/bot1/bridge_one' in node.get_node_names()
         pub = node.create_publisher('std_msgs/msg/String', 'chatter')
         assert pub.key == 'bot1/chatter'
-        assert 'typehash=RIHS01_df668c74' in pub._token
+        assert 'typehash=RIHS01_df668c74' in pub._tokens[-1]
         explicit = zros_node('explicit', bridge_namespace='/')
         assert explicit.scheme.namespace == '/'
         bridge.stdin.write('bye\n')
@@ -161,7 +161,7 @@ def test_old_bridges_get_no_type_hash(zros_router: Router, zros_node: Callable[.
         bridge.stdout.readline()
         node = zros_node('careful')
         assert not node.scheme.send_type_hash
-        assert node.create_publisher('std_msgs/msg/String', 'x')._token.endswith(':1:0:0,10')
+        assert node.create_publisher('std_msgs/msg/String', 'x')._tokens[-1].endswith(':1:0:0,10')
     finally:
         bridge.kill()
         bridge.communicate()

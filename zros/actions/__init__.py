@@ -1,0 +1,25 @@
+"""ROS 2 actions through zenoh-bridge-ros2dds: servers and clients."""
+
+from zros.actions.client import ActionClient, ClientGoalHandle
+from zros.actions.common import (
+    ActionError,
+    CancelResponse,
+    CancelReturn,
+    GoalRejectedError,
+    GoalResponse,
+    GoalStatus,
+)
+from zros.actions.server import ActionServer, ServerGoalHandle
+
+__all__ = [
+    'ActionClient',
+    'ActionError',
+    'ActionServer',
+    'CancelResponse',
+    'CancelReturn',
+    'ClientGoalHandle',
+    'GoalRejectedError',
+    'GoalResponse',
+    'GoalStatus',
+    'ServerGoalHandle',
+]

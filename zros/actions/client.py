@@ -1,0 +1,380 @@
+"""Action clients: send goals, follow their feedback and status, get their results, cancel them.
+
+Feedback and status are decoded on Zenoh's threads and kept on the goal handle, so polling
+(``handle.status``, ``handle.feedback``, ``handle.result(timeout)``) works without spinning;
+a ``feedback_callback`` runs on the thread that spins the node.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import logging
+import threading
+import time
+import uuid
+import weakref
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from zros.actions.common import (
+    ActionError,
+    CancelReturn,
+    GoalRejectedError,
+    GoalStatus,
+    action_type,
+    goal_id_of,
+    new_goal_id,
+)
+from zros.cdr import CdrError
+from zros.cdr.interfaces import ActionType
+from zros.cdr.message import Message, decode
+from zros.clock import Time
+from zros.graph import entity_token
+from zros.keyexpr.bridge import EntityKind
+from zros.services import Client, ServiceError, ServiceFuture
+from zros.signal import Signal
+
+if TYPE_CHECKING:
+    from zros.node import Node
+
+_log = logging.getLogger('zros')
+
+#: how long a client waits for a result by default: goals may run for hours
+RESULT_TIMEOUT = 30 * 24 * 3600.0
+
+
+class ClientGoalHandle:
+    """A goal sent by an :class:`ActionClient`: its state, latest feedback and result."""
+
+    def __init__(
+        self,
+        client: ActionClient,
+        goal_id: bytes,
+        goal: Message,
+        feedback_callback: Callable[[Any], object] | None,
+    ) -> None:
+        self.client = client
+        self.goal_id = goal_id
+        self.goal = goal
+        self.accepted = False
+        self.stamp: Time | None = None  #: when the server accepted it
+        self._status = GoalStatus.UNKNOWN
+        self.feedback: Any = None  #: the latest Feedback message
+        self.feedback_count = 0
+        self._feedback_callback = feedback_callback
+        self._result: ServiceFuture = ServiceFuture()
+        self._result.set_running_or_notify_cancel()
+        self._changed = Signal()
+        self._lock = threading.Lock()
+
+    @property
+    def goal_uuid(self) -> uuid.UUID:
+        return uuid.UUID(bytes=self.goal_id)
+
+    @property
+    def status(self) -> GoalStatus:
+        """The goal's state, from the server's status messages and finally its result."""
+        return self._status
+
+    @property
+    def done(self) -> bool:
+        """Whether the result (or the reason there is none) is known."""
+        return self._result.done()
+
+    def _set_status(self, status: GoalStatus) -> None:
+        # a goal's states only move forward (ACCEPTED < EXECUTING < CANCELING < the ends); an
+        # older status array (a transient-local history reply) must not take it back
+        with self._lock:
+            if self._result.done() or self._status.terminal or status <= self._status:
+                return
+            self._status = status
+        self._changed.notify()
+
+    def result(self, timeout: float | None = None) -> Any:
+        """Wait for the goal to end and return its Result message (``status`` says how it
+        ended); raises TimeoutError, or ActionError when the goal was rejected or lost."""
+        try:
+            return self._result.result(timeout)
+        except concurrent.futures.TimeoutError:
+            raise TimeoutError(
+                f'goal {self.goal_uuid} of {self.client.name} did not end within {timeout:g} s'
+            ) from None
+
+    def result_async(self) -> ServiceFuture:
+        """A future of the Result message, to ``await`` or ``.result()``."""
+        return self._result
+
+    def wait_for_status(
+        self, predicate: Callable[[GoalStatus], bool], timeout: float | None = None
+    ) -> bool:
+        """Wait until ``predicate(status)`` holds; returns whether it did in time."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not predicate(self._status):
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if remaining is not None and remaining <= 0:
+                return False
+            self._changed.wait(lambda: predicate(self._status), remaining)
+        return True
+
+    def cancel(self, timeout: float | None = None) -> bool:
+        """Ask the server to cancel the goal; returns whether it agreed (the goal then ends
+        with status CANCELED once its execute callback gives up)."""
+        response = self.client._cancel_goal(self.goal_id, timeout)
+        return response.return_code == CancelReturn.NONE and any(
+            goal_id_of(info.goal_id) == self.goal_id for info in response.goals_canceling
+        )
+
+    def __repr__(self) -> str:
+        return f'<zros goal {self.goal_uuid} of {self.client.name}: {self._status.name}>'
+
+
+class ActionClient:
+    """An action client (rclpy: ``ActionClient``).
+
+    ``send_goal(goal)`` (or ``send_goal(order=10)``) returns a :class:`ClientGoalHandle` once the
+    server accepted or rejected the goal; ``handle.result(timeout)`` waits for the result.
+    ``feedback_callback(feedback)`` gets each Feedback message while the node spins.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        action: str | ActionType,
+        *,
+        node: Node | None = None,
+        announce: bool = True,
+    ) -> None:
+        from zros.pubsub import _node
+
+        owner = _node(node)
+        owner._check_open()
+        self.node = owner
+        self.action_type = action_type(owner, action)
+        self.type_name = self.action_type.__actiontype__
+        self.name = owner.resolve_name(name, 'action name')
+        self.key = owner.scheme.key(self.name)
+        registry = owner.registry
+        self.Goal = self.action_type.Goal
+        self.Result = self.action_type.Result
+        self.Feedback = self.action_type.Feedback
+        self._StatusArray = registry.get_class('action_msgs/msg/GoalStatusArray')
+        self._FeedbackMessage = self.action_type.FeedbackMessage
+        self._handles: weakref.WeakValueDictionary[bytes, ClientGoalHandle] = (
+            weakref.WeakValueDictionary()
+        )
+        self._lock = threading.Lock()
+        part = f'{self.name}/_action/'
+        self._send_goal = Client(part + 'send_goal', self.action_type.SendGoal, node=owner,
+                                 announce=False)  # fmt: skip
+        self._get_result = Client(part + 'get_result', self.action_type.GetResult, node=owner,
+                                  announce=False)  # fmt: skip
+        self._cancel = Client(part + 'cancel_goal', 'action_msgs/srv/CancelGoal', node=owner,
+                              announce=False)  # fmt: skip
+        self._services = (self._send_goal, self._get_result, self._cancel)
+        session = owner.transport.session
+        self._feedback_subscriber = session.declare_subscriber(
+            f'{self.key}/_action/feedback', self._on_feedback
+        )
+        from zenoh import ext
+
+        self._status_subscriber: Any = ext.declare_advanced_subscriber(
+            session,
+            f'{self.key}/_action/status',
+            self._on_status,
+            history=ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
+        )
+        zid = owner.transport.zid
+        self._tokens: list[str] = []
+        if announce:
+            kind = EntityKind.ACTION_CLIENT
+            self._tokens = [
+                entity_token(zid, owner.fully_qualified_name, kind, self.key, self.type_name),
+                owner.scheme.token(kind, zid, self.name, self.type_name),
+            ]
+        for token in self._tokens:
+            owner.transport.declare_token(token)
+        self._closed = False
+        owner._add(self)
+
+    # --- the server ----------------------------------------------------------------------------
+
+    def server_is_ready(self) -> bool:
+        """Whether the goal, result and cancel services of a server are all reachable."""
+        return all(service.service_is_ready() for service in self._services)
+
+    def wait_for_server(self, timeout: float | None = 5.0) -> bool:
+        """Wait until ``server_is_ready()``; returns whether it became so in time."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        for service in self._services:
+            remaining = None if deadline is None else max(0.0, deadline - time.monotonic())
+            if not service.wait_for_service(remaining):
+                return False
+        return True
+
+    # --- on Zenoh's threads --------------------------------------------------------------------
+
+    def _on_feedback(self, sample: Any) -> None:
+        try:
+            message = decode(self._FeedbackMessage, sample.payload.to_bytes())
+        except CdrError as exc:
+            _log.debug('dropped feedback of %s that does not decode: %s', self.name, exc)
+            return
+        handle = self._handles.get(goal_id_of(message.goal_id))
+        if handle is None:
+            return
+        handle.feedback = message.feedback
+        handle.feedback_count += 1
+        callback = handle._feedback_callback
+        if callback is not None:
+            feedback = message.feedback
+            self.node._executor.call_soon(lambda: callback(feedback))
+
+    def _on_status(self, sample: Any) -> None:
+        try:
+            message = decode(self._StatusArray, sample.payload.to_bytes())
+        except CdrError as exc:
+            _log.debug('dropped a status of %s that does not decode: %s', self.name, exc)
+            return
+        for entry in message.status_list:
+            handle = self._handles.get(goal_id_of(entry.goal_info.goal_id))
+            if handle is not None:
+                try:
+                    status = GoalStatus(entry.status)
+                except ValueError:
+                    continue
+                handle._set_status(status)
+
+    # --- goals ---------------------------------------------------------------------------------
+
+    def _goal(self, goal: Message | None, fields: dict[str, Any]) -> Message:
+        goal_class = self.action_type.Goal
+        if goal is None:
+            return goal_class(**fields)
+        if fields:
+            raise TypeError('give a goal or its fields, not both')
+        if type(goal) is not goal_class:
+            got = getattr(goal, '__msgtype__', type(goal).__name__)
+            raise TypeError(f'{self.name} takes {goal_class.__msgtype__} goals, not {got}')
+        return goal
+
+    def send_goal_async(
+        self,
+        goal: Message | None = None,
+        feedback_callback: Callable[[Any], object] | None = None,
+        timeout: float | None = None,
+        **fields: Any,
+    ) -> ServiceFuture:
+        """Send a goal; a future of its :class:`ClientGoalHandle` once the server answered."""
+        if self._closed:
+            raise ActionError(f'the action client of {self.name} was closed')
+        goal_message = self._goal(goal, fields)
+        handle = ClientGoalHandle(self, new_goal_id(), goal_message, feedback_callback)
+        with self._lock:
+            self._handles[handle.goal_id] = handle
+        request = self._send_goal.Request(goal=goal_message)
+        request.goal_id.uuid = handle.goal_id
+        answered = ServiceFuture()
+        answered.set_running_or_notify_cancel()
+
+        def on_answer(future: concurrent.futures.Future[Any]) -> None:
+            try:
+                response = future.result()
+            except ServiceError as exc:
+                handle._result.set_exception(
+                    ActionError(f'the goal of {self.name} was not delivered: {exc}')
+                )
+                answered.set_exception(exc)
+                return
+            handle.stamp = Time.from_msg(response.stamp)
+            if not response.accepted:
+                handle._result.set_exception(
+                    GoalRejectedError(f'the server of {self.name} rejected goal {handle.goal_uuid}')
+                )
+                answered.set_result(handle)
+                return
+            handle.accepted = True
+            handle._set_status(GoalStatus.ACCEPTED)
+            self._request_result(handle)
+            answered.set_result(handle)
+
+        self._send_goal.call_async(request, timeout).add_done_callback(on_answer)
+        return answered
+
+    def send_goal(
+        self,
+        goal: Message | None = None,
+        feedback_callback: Callable[[Any], object] | None = None,
+        timeout: float | None = None,
+        **fields: Any,
+    ) -> ClientGoalHandle:
+        """Send a goal and return its handle once the server accepted or rejected it (check
+        ``handle.accepted``); raises ServiceError subclasses when no server answers."""
+        future = self.send_goal_async(goal, feedback_callback, timeout, **fields)
+        wait = self._send_goal.timeout if timeout is None else timeout
+        handle: ClientGoalHandle = future.result(wait + 5.0)
+        return handle
+
+    def _request_result(self, handle: ClientGoalHandle) -> None:
+        request = self._get_result.Request()
+        request.goal_id.uuid = handle.goal_id
+
+        def on_result(future: concurrent.futures.Future[Any]) -> None:
+            try:
+                response = future.result()
+            except ServiceError as exc:
+                handle._result.set_exception(
+                    ActionError(f'no result for goal {handle.goal_uuid} of {self.name}: {exc}')
+                )
+                handle._changed.notify()
+                return
+            try:
+                status = GoalStatus(response.status)
+            except ValueError:
+                status = GoalStatus.UNKNOWN
+            if status is GoalStatus.UNKNOWN or not status.terminal:
+                handle._result.set_exception(
+                    ActionError(
+                        f'the server of {self.name} does not know goal {handle.goal_uuid} '
+                        f'(result status {response.status})'
+                    )
+                )
+            else:
+                with handle._lock:
+                    handle._status = status
+                    handle._result.set_result(response.result)
+            handle._changed.notify()
+
+        self._get_result.call_async(request, RESULT_TIMEOUT).add_done_callback(on_result)
+
+    def _cancel_goal(self, goal_id: bytes, timeout: float | None) -> Any:
+        request = self._cancel.Request()
+        request.goal_info.goal_id.uuid = goal_id
+        return self._cancel.call(request, timeout)
+
+    def cancel_all_goals(self, timeout: float | None = None) -> list[bytes]:
+        """Ask the server to cancel every goal; returns the ids of those being canceled."""
+        response = self._cancel.call(self._cancel.Request(), timeout)
+        return [goal_id_of(info.goal_id) for info in response.goals_canceling]
+
+    # --- lifetime ------------------------------------------------------------------------------
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        """Withdraw the client; goals already sent keep running on the server."""
+        if self._closed:
+            return
+        self._closed = True
+        for token in reversed(self._tokens):
+            self.node.transport.release_token(token)
+        if not self.node.transport.closed:
+            self._feedback_subscriber.undeclare()
+            self._status_subscriber.undeclare()
+        for service in self._services:
+            service.close()
+        self.node._remove(self)
+
+    def __repr__(self) -> str:
+        return f'<zros ActionClient {self.name} [{self.type_name}]>'

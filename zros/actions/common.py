@@ -1,0 +1,101 @@
+"""What action servers and clients share: goal states, cancel codes, ids and types.
+
+Through the bridge an action ``/fibonacci`` is three services and two topics under
+``fibonacci/_action/``: ``send_goal``, ``cancel_goal``, ``get_result``, ``feedback`` and
+``status`` (transient local), announced by one AS or AC token for the action itself.
+"""
+
+from __future__ import annotations
+
+import enum
+import os
+import uuid
+from typing import TYPE_CHECKING, Any
+
+from zros.cdr.interfaces import ActionType
+from zros.errors import ZrosError
+
+if TYPE_CHECKING:
+    from zros.node import Node
+
+PARTS = ('send_goal', 'cancel_goal', 'get_result', 'feedback', 'status')
+
+
+class GoalStatus(enum.IntEnum):
+    """The states of a goal (``action_msgs/msg/GoalStatus``)."""
+
+    UNKNOWN = 0
+    ACCEPTED = 1
+    EXECUTING = 2
+    CANCELING = 3
+    SUCCEEDED = 4
+    CANCELED = 5
+    ABORTED = 6
+
+    @property
+    def terminal(self) -> bool:
+        return self in (GoalStatus.SUCCEEDED, GoalStatus.CANCELED, GoalStatus.ABORTED)
+
+    @property
+    def active(self) -> bool:
+        return self in (GoalStatus.ACCEPTED, GoalStatus.EXECUTING, GoalStatus.CANCELING)
+
+
+class CancelReturn(enum.IntEnum):
+    """The return codes of ``action_msgs/srv/CancelGoal``."""
+
+    NONE = 0
+    REJECTED = 1
+    UNKNOWN_GOAL_ID = 2
+    GOAL_TERMINATED = 3
+
+
+class GoalResponse(enum.Enum):
+    """What a ``goal_callback`` returns (``True``/``False`` work too)."""
+
+    REJECT = 0
+    ACCEPT = 1
+
+
+class CancelResponse(enum.Enum):
+    """What a ``cancel_callback`` returns (``True``/``False`` work too)."""
+
+    REJECT = 0
+    ACCEPT = 1
+
+
+class ActionError(ZrosError):
+    """An action goal could not be sent, was rejected, or ended without a result."""
+
+
+class GoalRejectedError(ActionError):
+    """The server rejected the goal."""
+
+
+def action_type(node: Node, name: str | ActionType) -> ActionType:
+    """The action type of a name (``pkg/action/Name`` or ``pkg/Name``) or an ActionType."""
+    if isinstance(name, ActionType):
+        return name
+    found = node.registry.get_type(name)
+    if not isinstance(found, ActionType):
+        raise TypeError(f'{name} is not an action type')
+    return found
+
+
+def new_goal_id() -> bytes:
+    """A random 16-byte goal id (a version 4 UUID, as rclpy makes them)."""
+    return uuid.UUID(bytes=os.urandom(16), version=4).bytes
+
+
+def goal_id_of(uuid_message: Any) -> bytes:
+    """The 16 bytes of a ``unique_identifier_msgs/msg/UUID``."""
+    return bytes(uuid_message.uuid)
+
+
+def accepted(answer: object) -> bool:
+    """Whether a goal or cancel callback's answer means yes."""
+    if isinstance(answer, (GoalResponse, CancelResponse)):
+        return answer in (GoalResponse.ACCEPT, CancelResponse.ACCEPT)
+    if isinstance(answer, bool):
+        return answer
+    raise TypeError(f'expected GoalResponse/CancelResponse or a bool, got {answer!r}')

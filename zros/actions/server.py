@@ -1,0 +1,521 @@
+"""Action servers: goals accepted over ``send_goal``, run by an execute callback, their results
+held for ``get_result``, their states published on ``status``.
+
+Queries are handled on Zenoh's threads where no user code is involved (``get_result``, and
+``send_goal``/``cancel_goal`` without a goal or cancel callback), so a server works whether or not
+its node spins. Goal and cancel callbacks run on the spinning thread. Each goal's execute
+callback runs on a thread of its own (async ones on the node's event loop), so goals run
+concurrently and a long goal never blocks the node.
+"""
+
+from __future__ import annotations
+
+import collections
+import concurrent.futures
+import inspect
+import logging
+import threading
+import time
+import uuid
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from zros.actions.common import (
+    ActionError,
+    CancelReturn,
+    GoalStatus,
+    accepted,
+    action_type,
+    goal_id_of,
+)
+from zros.cdr import CdrError
+from zros.cdr.interfaces import ActionType
+from zros.cdr.message import Message, decode, encode
+from zros.clock import Time
+from zros.graph import entity_token
+from zros.keyexpr.bridge import EntityKind
+from zros.qos import Durability, QoS
+from zros.services import ERROR_PREFIX
+from zros.signal import Signal
+
+if TYPE_CHECKING:
+    from zros.node import Node
+    from zros.pubsub import Publisher
+
+_log = logging.getLogger('zros')
+
+#: finished goals a server remembers at most (older ones are forgotten first)
+MAX_FINISHED = 1000
+
+
+class ServerGoalHandle:
+    """One goal on the server side, handed to the execute callback.
+
+    Report progress with ``publish_feedback``; end with ``succeed()``, ``abort()`` or (after a
+    cancel request, see ``is_cancel_requested``) ``canceled()``, and return the result. Returning
+    without choosing means success, or canceled if a cancel was requested; raising means aborted.
+    """
+
+    def __init__(self, server: ActionServer, goal_id: bytes, request: Message, stamp: Time):
+        self.server = server
+        self.goal_id = goal_id
+        self.request = request  #: the Goal message
+        self.stamp = stamp  #: when the server accepted it
+        self._status = GoalStatus.ACCEPTED
+        self._result: Message | None = None
+        self._done = False  #: the result is known
+        self._finished_at = 0.0
+        self._waiters: list[Any] = []  #: get_result queries held until the result is known
+
+    @property
+    def goal_uuid(self) -> uuid.UUID:
+        return uuid.UUID(bytes=self.goal_id)
+
+    @property
+    def status(self) -> GoalStatus:
+        return self._status
+
+    @property
+    def is_active(self) -> bool:
+        return self._status.active
+
+    @property
+    def is_cancel_requested(self) -> bool:
+        """Whether a client asked to cancel (and the cancel callback agreed)."""
+        return self._status is GoalStatus.CANCELING
+
+    def publish_feedback(self, feedback: Message | None = None, **fields: Any) -> None:
+        """Send feedback to the clients (a Feedback message, or its fields)."""
+        self.server._publish_feedback(self, feedback, fields)
+
+    def _end(self, status: GoalStatus, allowed: tuple[GoalStatus, ...]) -> None:
+        with self.server._lock:
+            if self._status not in allowed:
+                raise ActionError(
+                    f'goal {self.goal_uuid} is {self._status.name.lower()}: it cannot become '
+                    f'{status.name.lower()}'
+                )
+            self._status = status
+
+    def succeed(self) -> None:
+        self._end(GoalStatus.SUCCEEDED, (GoalStatus.EXECUTING, GoalStatus.CANCELING))
+
+    def abort(self) -> None:
+        self._end(GoalStatus.ABORTED, (GoalStatus.EXECUTING, GoalStatus.CANCELING))
+
+    def canceled(self) -> None:
+        """End a goal whose cancel was requested."""
+        self._end(GoalStatus.CANCELED, (GoalStatus.CANCELING,))
+
+    def __repr__(self) -> str:
+        return f'<zros goal {self.goal_uuid} {self._status.name}>'
+
+
+class ActionServer:
+    """An action server (rclpy: ``ActionServer``).
+
+    ``execute_callback(goal_handle)`` runs each accepted goal and returns its Result.
+    ``goal_callback(goal)`` decides whether to accept a goal (default: accept);
+    ``cancel_callback(goal_handle)`` whether to accept a cancel request (default: accept, the goal
+    then sees ``is_cancel_requested``). Both return a ``GoalResponse``/``CancelResponse`` or a
+    bool. Finished goals stay queryable for ``result_timeout`` seconds.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        action: str | ActionType,
+        execute_callback: Callable[[ServerGoalHandle], Any],
+        *,
+        goal_callback: Callable[[Any], object] | None = None,
+        cancel_callback: Callable[[ServerGoalHandle], object] | None = None,
+        node: Node | None = None,
+        result_timeout: float = 900.0,
+        announce: bool = True,
+    ) -> None:
+        from zros.pubsub import Publisher, _node
+
+        owner = _node(node)
+        owner._check_open()
+        self.node = owner
+        self.action_type = action_type(owner, action)
+        self.type_name = self.action_type.__actiontype__
+        self.name = owner.resolve_name(name, 'action name')
+        self.key = owner.scheme.key(self.name)
+        self.execute_callback = execute_callback
+        self.goal_callback = goal_callback
+        self.cancel_callback = cancel_callback
+        self.result_timeout = result_timeout
+        self.Goal = self.action_type.Goal
+        self.Result = self.action_type.Result
+        self.Feedback = self.action_type.Feedback
+        registry = owner.registry
+        self._SendGoal = self.action_type.SendGoal
+        self._GetResult = self.action_type.GetResult
+        self._CancelGoal = registry.get_service('action_msgs/srv/CancelGoal')
+        self._StatusArray = registry.get_class('action_msgs/msg/GoalStatusArray')
+        self._GoalStatus = registry.get_class('action_msgs/msg/GoalStatus')
+        self._GoalInfo = registry.get_class('action_msgs/msg/GoalInfo')
+        self._lock = threading.RLock()
+        self._goals: collections.OrderedDict[bytes, ServerGoalHandle] = collections.OrderedDict()
+        self._warned_bad = False
+        self._closed = False
+        self._expiry_thread: threading.Thread | None = None
+        self._expiry_signal = Signal()
+        part = f'{self.name}/_action/'
+        self._feedback: Publisher = Publisher(
+            part + 'feedback', self.action_type.FeedbackMessage, QoS(10), node=owner, announce=False
+        )
+        self._status: Publisher = Publisher(
+            part + 'status',
+            self._StatusArray,
+            QoS(1, durability=Durability.TRANSIENT_LOCAL),
+            node=owner,
+            announce=False,
+        )
+        session = owner.transport.session
+        self._queryables = [
+            session.declare_queryable(f'{self.key}/_action/{service}', handler, complete=True)
+            for service, handler in (
+                ('send_goal', self._on_send_goal),
+                ('cancel_goal', self._on_cancel_goal),
+                ('get_result', self._on_get_result),
+            )
+        ]
+        zid = owner.transport.zid
+        self._tokens: list[str] = []
+        if announce:
+            kind = EntityKind.ACTION_SERVER
+            self._tokens = [
+                entity_token(zid, owner.fully_qualified_name, kind, self.key, self.type_name),
+                owner.scheme.token(kind, zid, self.name, self.type_name),
+            ]
+        for token in self._tokens:
+            owner.transport.declare_token(token)
+        owner._add(self)
+
+    # --- helpers -------------------------------------------------------------------------------
+
+    def _decode(self, query: Any, cls: type[Message]) -> Message | None:
+        payload = query.payload
+        try:
+            return decode(cls, payload.to_bytes() if payload is not None else b'')
+        except CdrError as exc:
+            reason = f'a request to {self.name} does not decode as {cls.__msgtype__}: {exc}'
+            if not self._warned_bad:
+                self._warned_bad = True
+                _log.warning('%s (reported once)', reason)
+            self._fail(query, reason)
+            return None
+
+    @staticmethod
+    def _reply(query: Any, message: Message) -> None:
+        try:
+            query.reply(query.key_expr, encode(message))
+        finally:
+            query.drop()
+
+    @staticmethod
+    def _fail(query: Any, reason: str) -> None:
+        try:
+            query.reply_err(ERROR_PREFIX + reason)
+        finally:
+            query.drop()
+
+    def _goal_info(self, handle: ServerGoalHandle) -> Message:
+        info = self._GoalInfo()
+        info.goal_id.uuid = handle.goal_id
+        info.stamp = handle.stamp.to_msg()
+        return info
+
+    def _publish_status(self) -> None:
+        with self._lock:
+            statuses = [
+                self._GoalStatus(goal_info=self._goal_info(goal), status=int(goal.status))
+                for goal in self._goals.values()
+            ]
+            if self._closed:
+                return
+            try:
+                self._status.write(self._StatusArray(status_list=statuses))
+            except Exception:
+                _log.debug('cannot publish the status of %s', self.name, exc_info=True)
+
+    def _expire(self) -> float | None:
+        """Forget goals finished more than ``result_timeout`` ago (or beyond MAX_FINISHED);
+        returns the seconds until the next one is due, None when none is finished."""
+        now = time.monotonic()
+        with self._lock:
+            finished = [g for g in self._goals.values() if g._done]
+            old = [g for g in finished if now - g._finished_at >= self.result_timeout]
+            kept = [g for g in finished if g not in old]
+            old += kept[: max(0, len(kept) - MAX_FINISHED)]
+            for goal in old:
+                self._goals.pop(goal.goal_id, None)
+            due = [g._finished_at + self.result_timeout - now for g in kept if g not in old]
+        if old:
+            self._publish_status()
+        return min(due, default=None)
+
+    def _expiry_loop(self) -> None:
+        while not self._closed:
+            wait = self._expire()
+            self._expiry_signal.wait(lambda: self._closed, wait)
+
+    def _start_expiry(self) -> None:
+        with self._lock:
+            if self._expiry_thread is None and not self._closed:
+                self._expiry_thread = threading.Thread(
+                    target=self._expiry_loop, name=f'zros results {self.name}', daemon=True
+                )
+                self._expiry_thread.start()
+        self._expiry_signal.notify()
+
+    def _in_spin(self, function: Callable[[], object]) -> None:
+        self.node._executor.call_soon(function)
+
+    # --- send_goal -----------------------------------------------------------------------------
+
+    def _on_send_goal(self, query: Any) -> None:
+        request = self._decode(query, self._SendGoal.Request)
+        if request is None:
+            return
+        if self.goal_callback is None:
+            self._decide(query, request)
+        else:
+            self._in_spin(lambda: self._decide(query, request))
+
+    def _decide(self, query: Any, request: Any) -> None:
+        goal_id = goal_id_of(request.goal_id)
+        answer = True
+        if self.goal_callback is not None:
+            try:
+                answer = accepted(self.goal_callback(request.goal))
+            except Exception:
+                _log.exception('the goal callback of action %s raised: goal rejected', self.name)
+                answer = False
+        stamp = self.node.now()
+        with self._lock:
+            if self._closed:
+                answer = False
+            elif goal_id in self._goals:
+                _log.warning('action %s: goal id %s already used: rejected', self.name, goal_id)
+                answer = False
+            if answer:
+                handle = ServerGoalHandle(self, goal_id, request.goal, stamp)
+                self._goals[goal_id] = handle
+        self._reply(query, self._SendGoal.Response(accepted=answer, stamp=stamp.to_msg()))
+        if answer:
+            self._publish_status()
+            self._execute(handle)
+
+    # --- executing -------------------------------------------------------------------------------
+
+    def _execute(self, handle: ServerGoalHandle) -> None:
+        with self._lock:
+            handle._status = GoalStatus.EXECUTING
+        self._publish_status()
+        if inspect.iscoroutinefunction(self.execute_callback):
+            future = self.node.run_coroutine(self.execute_callback(handle))
+            future.add_done_callback(lambda f: self._finish_from(handle, f))
+            return
+        thread = threading.Thread(
+            target=self._run, args=(handle,), name=f'zros goal {handle.goal_uuid}', daemon=True
+        )
+        thread.start()
+
+    def _run(self, handle: ServerGoalHandle) -> None:
+        future: concurrent.futures.Future[Any] = concurrent.futures.Future()
+        try:
+            result = self.execute_callback(handle)
+            if inspect.iscoroutine(result):
+                result = self.node.run_coroutine(result).result()
+            future.set_result(result)
+        except BaseException as exc:
+            future.set_exception(exc)
+        self._finish_from(handle, future)
+
+    def _finish_from(
+        self, handle: ServerGoalHandle, future: concurrent.futures.Future[Any]
+    ) -> None:
+        result_class = self.action_type.Result
+        try:
+            result = future.result()
+        except BaseException as exc:
+            _log.error(
+                'the execute callback of action %s raised: goal %s aborted',
+                self.name,
+                handle.goal_uuid,
+                exc_info=exc,
+            )
+            self._finish(handle, result_class(), GoalStatus.ABORTED)
+            return
+        if result is None:
+            result = result_class()
+        if type(result) is not result_class:
+            got = getattr(result, '__msgtype__', type(result).__name__)
+            _log.error(
+                'the execute callback of action %s returned %s, not %s: goal %s aborted',
+                self.name,
+                got,
+                result_class.__msgtype__,
+                handle.goal_uuid,
+            )
+            self._finish(handle, result_class(), GoalStatus.ABORTED)
+            return
+        self._finish(handle, result, None)
+
+    def _finish(self, handle: ServerGoalHandle, result: Message, forced: GoalStatus | None) -> None:
+        with self._lock:
+            status = handle._status
+            if forced is not None:
+                status = forced
+            elif status is GoalStatus.CANCELING:
+                status = GoalStatus.CANCELED
+            elif not status.terminal:
+                status = GoalStatus.SUCCEEDED
+            handle._status = status
+            handle._result = result
+            handle._done = True
+            handle._finished_at = time.monotonic()
+            waiters, handle._waiters = handle._waiters, []
+        response = self._GetResult.Response(status=int(status), result=result)
+        for query in waiters:
+            self._reply(query, response)
+        self._publish_status()
+        self._start_expiry()
+
+    def _publish_feedback(
+        self, handle: ServerGoalHandle, feedback: Message | None, fields: dict[str, Any]
+    ) -> None:
+        feedback_class = self.action_type.Feedback
+        if feedback is None:
+            feedback = feedback_class(**fields)
+        elif fields:
+            raise TypeError('give a feedback message or its fields, not both')
+        elif type(feedback) is not feedback_class:
+            got = getattr(feedback, '__msgtype__', type(feedback).__name__)
+            raise TypeError(f'{self.name} sends {feedback_class.__msgtype__} feedback, not {got}')
+        if self._closed or not handle.is_active:
+            return
+        message = self.action_type.FeedbackMessage(feedback=feedback)
+        message.goal_id.uuid = handle.goal_id
+        self._feedback.write(message)
+
+    # --- get_result ----------------------------------------------------------------------------
+
+    def _on_get_result(self, query: Any) -> None:
+        request = self._decode(query, self._GetResult.Request)
+        if request is None:
+            return
+        with self._lock:
+            closed = self._closed
+            handle = self._goals.get(goal_id_of(request.goal_id))
+            if handle is not None and not handle._done and not closed:
+                handle._waiters.append(query)
+                return
+        if closed:
+            self._fail(query, f'the action server {self.name} closed')
+            return
+        if handle is None:
+            response = self._GetResult.Response(status=int(GoalStatus.UNKNOWN))
+        else:
+            response = self._GetResult.Response(status=int(handle.status), result=handle._result)
+        self._reply(query, response)
+
+    # --- cancel_goal ---------------------------------------------------------------------------
+
+    def _on_cancel_goal(self, query: Any) -> None:
+        request = self._decode(query, self._CancelGoal.Request)
+        if request is None:
+            return
+        if self.cancel_callback is None:
+            self._cancel(query, request)
+        else:
+            self._in_spin(lambda: self._cancel(query, request))
+
+    def _candidates(self, request: Any) -> tuple[list[ServerGoalHandle], int | None]:
+        """The goals a cancel request names (ROS 2 rules), or the error code when none."""
+        info = request.goal_info
+        goal_id = goal_id_of(info.goal_id)
+        by_id = any(goal_id)
+        before = Time.from_msg(info.stamp)
+        with self._lock:
+            goals = list(self._goals.values())
+        named = [g for g in goals if by_id and g.goal_id == goal_id]
+        if before.nanoseconds:
+            named += [g for g in goals if g.stamp <= before and g not in named]
+        elif not by_id:
+            named = goals
+        active = [g for g in named if g.status.active]
+        if active:
+            return active, None
+        if by_id and not any(g.goal_id == goal_id for g in goals):
+            return [], int(CancelReturn.UNKNOWN_GOAL_ID)
+        if named:
+            return [], int(CancelReturn.GOAL_TERMINATED)
+        return [], int(CancelReturn.NONE)
+
+    def _cancel(self, query: Any, request: Any) -> None:
+        candidates, error = self._candidates(request)
+        canceling = []
+        for handle in candidates:
+            answer = True
+            if self.cancel_callback is not None:
+                try:
+                    answer = accepted(self.cancel_callback(handle))
+                except Exception:
+                    _log.exception('the cancel callback of action %s raised: refused', self.name)
+                    answer = False
+            if not answer:
+                continue
+            with self._lock:
+                if handle.status in (GoalStatus.ACCEPTED, GoalStatus.EXECUTING):
+                    handle._status = GoalStatus.CANCELING
+                if handle.status is GoalStatus.CANCELING:
+                    canceling.append(handle)
+        if error is None:
+            error = int(CancelReturn.NONE if canceling or not candidates else CancelReturn.REJECTED)
+        response = self._CancelGoal.Response(
+            return_code=error, goals_canceling=[self._goal_info(g) for g in canceling]
+        )
+        self._reply(query, response)
+        if canceling:
+            self._publish_status()
+
+    # --- lifetime ------------------------------------------------------------------------------
+
+    @property
+    def goals(self) -> list[ServerGoalHandle]:
+        """The goals the server knows: running ones and finished ones not yet forgotten."""
+        with self._lock:
+            return list(self._goals.values())
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        """Withdraw the server; held get_result calls get an error, running goals are left to
+        end on their own (their feedback goes nowhere)."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            waiters = [q for goal in self._goals.values() for q in goal._waiters]
+            for goal in self._goals.values():
+                goal._waiters = []
+        for token in reversed(self._tokens):
+            self.node.transport.release_token(token)
+        if not self.node.transport.closed:
+            for queryable in self._queryables:
+                queryable.undeclare()
+        self._expiry_signal.notify()
+        for query in waiters:
+            self._fail(query, f'the action server {self.name} closed')
+        self._feedback.close()
+        self._status.close()
+        self.node._remove(self)
+
+    def __repr__(self) -> str:
+        return f'<zros ActionServer {self.name} [{self.type_name}]>'
