@@ -502,7 +502,12 @@ def rclpy_rows(quick: bool) -> dict[str, dict[str, Any]] | None:
     subprocess.run(['ip', 'netns', 'add', namespace], check=True)
     try:
         subprocess.run(['ip', '-n', namespace, 'link', 'set', 'lo', 'up'], check=True)
-        env = {**os.environ, 'RMW_IMPLEMENTATION': 'rmw_fastrtps_cpp', 'ROS_DOMAIN_ID': '42'}
+        env = {
+            **os.environ,
+            'RMW_IMPLEMENTATION': 'rmw_fastrtps_cpp',
+            'ROS_DOMAIN_ID': '42',
+            'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4',  # like zros here: no shared memory
+        }
 
         def spawn(role: str, count: int) -> subprocess.Popen[str]:
             return subprocess.Popen(
