@@ -1,0 +1,38 @@
+"""Parameters: a node's own (declared, validated, served to ROS tools) and other nodes'."""
+
+from zros.params.client import (
+    NodeNotFoundError,
+    ParameterClient,
+    ParameterEvent,
+    ParameterTimeoutError,
+    subscribe_parameter_events,
+)
+from zros.params.files import dump, load_file, parse_file_text, parse_override, values_for
+from zros.params.store import (
+    Descriptor,
+    Parameter,
+    ParameterNotDeclaredError,
+    ParameterStore,
+    SetResult,
+)
+from zros.params.values import ParameterError, ParameterType
+
+__all__ = [
+    'Descriptor',
+    'NodeNotFoundError',
+    'Parameter',
+    'ParameterClient',
+    'ParameterError',
+    'ParameterEvent',
+    'ParameterNotDeclaredError',
+    'ParameterStore',
+    'ParameterTimeoutError',
+    'ParameterType',
+    'SetResult',
+    'dump',
+    'load_file',
+    'parse_file_text',
+    'parse_override',
+    'subscribe_parameter_events',
+    'values_for',
+]

@@ -1,0 +1,194 @@
+"""The parameters of another node (zros, or ROS 2 behind a bridge), through its services."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterable, Mapping
+from typing import TYPE_CHECKING, Any
+
+from zros.keyexpr.names import validate_full_name
+from zros.params.server import SERVICE_TYPES
+from zros.params.store import Descriptor, Parameter, SetResult
+from zros.params.values import ParameterError, ParameterType, from_message, infer_type, to_message
+from zros.services import ServiceTimeoutError, ServiceUnavailableError
+
+if TYPE_CHECKING:
+    from zros.node import Node
+    from zros.pubsub import Subscriber
+    from zros.services import Client
+
+
+class ParameterTimeoutError(ParameterError, TimeoutError):
+    """The node did not answer in time."""
+
+
+class NodeNotFoundError(ParameterError, LookupError):
+    """No node of that name serves parameters."""
+
+
+class ParameterClient:
+    """Reads and sets the parameters of the node ``node_name`` (fully qualified, e.g.
+    ``/robot/driver``). Every call waits at most ``timeout`` seconds."""
+
+    def __init__(self, node: Node, node_name: str, timeout: float = 5.0) -> None:
+        if not node_name.startswith('/'):
+            node_name = '/' + node_name
+        validate_full_name(node_name, 'node name')
+        self.node = node
+        self.target = node_name
+        self.timeout = timeout
+        from zros.services import Client
+
+        self._clients: dict[str, Client] = {
+            name: Client(f'{node_name}/{name}', srv_type, node=node, announce=False)
+            for name, srv_type in SERVICE_TYPES.items()
+        }
+        registry = node.registry
+        self._Value = registry.get_class('rcl_interfaces/msg/ParameterValue')
+        self._Parameter = registry.get_class('rcl_interfaces/msg/Parameter')
+
+    def _call(self, service: str, timeout: float | None, **fields: Any) -> Any:
+        client = self._clients[service]
+        wait = self.timeout if timeout is None else timeout
+        try:
+            return client.call(timeout=wait, **fields)
+        except ServiceUnavailableError:
+            raise NodeNotFoundError(
+                f'no node {self.target} serves parameters (nothing answers {client.name})'
+            ) from None
+        except ServiceTimeoutError:
+            raise ParameterTimeoutError(
+                f'node {self.target} did not answer {service} within {wait:g} s'
+            ) from None
+
+    def wait_for_node(self, timeout: float | None = 5.0) -> bool:
+        """Wait until the node's parameter services are reachable."""
+        return self._clients['get_parameters'].wait_for_service(timeout)
+
+    def list_parameters(
+        self, prefixes: Iterable[str] = (), depth: int = 0, timeout: float | None = None
+    ) -> list[str]:
+        """Parameter names (all, or under ``prefixes``, ``depth`` levels deep; 0 is all)."""
+        response = self._call('list_parameters', timeout, prefixes=list(prefixes), depth=depth)
+        return list(response.result.names)
+
+    def get_parameters(self, names: Iterable[str], timeout: float | None = None) -> dict[str, Any]:
+        """Values by name; names the node does not have map to None."""
+        names = list(names)
+        response = self._call('get_parameters', timeout, names=names)
+        values = [from_message(value)[0] for value in response.values]
+        if len(values) == len(names):
+            return dict(zip(names, values, strict=True))
+        # rclcpp answers nothing at all when one name is undeclared: ask one by one
+        if len(names) == 1:
+            return {names[0]: None}
+        return {name: self.get(name, timeout) for name in names}
+
+    def get(self, name: str, timeout: float | None = None) -> Any:
+        """One parameter's value (None when the node does not have it)."""
+        return self.get_parameters([name], timeout)[name]
+
+    def get_parameter_types(
+        self, names: Iterable[str], timeout: float | None = None
+    ) -> dict[str, ParameterType]:
+        names = list(names)
+        response = self._call('get_parameter_types', timeout, names=names)
+        kinds = [ParameterType(kind) for kind in response.types]
+        if len(kinds) != len(names):
+            return dict.fromkeys(names, ParameterType.NOT_SET)
+        return dict(zip(names, kinds, strict=True))
+
+    def describe_parameters(
+        self, names: Iterable[str], timeout: float | None = None
+    ) -> dict[str, Descriptor]:
+        names = list(names)
+        response = self._call('describe_parameters', timeout, names=names)
+        found = [Descriptor.from_message(message) for message in response.descriptors]
+        if len(found) != len(names):
+            return {name: Descriptor(name=name) for name in names}
+        return {
+            name: dataclasses.replace(d, name=name) for name, d in zip(names, found, strict=True)
+        }
+
+    def _messages(self, values: Mapping[str, Any] | Iterable[Parameter]) -> list[Any]:
+        items = (
+            [Parameter(name, value) for name, value in values.items()]
+            if isinstance(values, Mapping)
+            else list(values)
+        )
+        messages = []
+        for item in items:
+            kind = item.type if item.type is not None else infer_type(item.value)
+            value = to_message(item.value, kind, self._Value)
+            messages.append(self._Parameter(name=item.name, value=value))
+        return messages
+
+    def set_parameters(
+        self, values: Mapping[str, Any] | Iterable[Parameter], timeout: float | None = None
+    ) -> list[SetResult]:
+        """Set parameters one by one (each may fail on its own); None deletes a parameter."""
+        response = self._call('set_parameters', timeout, parameters=self._messages(values))
+        return [SetResult(r.successful, r.reason) for r in response.results]
+
+    def set_parameters_atomically(
+        self, values: Mapping[str, Any] | Iterable[Parameter], timeout: float | None = None
+    ) -> SetResult:
+        """Set parameters all or none."""
+        messages = self._messages(values)
+        response = self._call('set_parameters_atomically', timeout, parameters=messages)
+        return SetResult(response.result.successful, response.result.reason)
+
+    def set(self, name: str, value: Any, timeout: float | None = None) -> None:
+        """Set one parameter; raises ParameterError with the node's reason if it refuses."""
+        (result,) = self.set_parameters({name: value}, timeout)
+        if not result:
+            raise ParameterError(f'{self.target} refused to set {name}: {result.reason}')
+
+    def close(self) -> None:
+        for client in self._clients.values():
+            client.close()
+
+    def __repr__(self) -> str:
+        return f'<zros ParameterClient of {self.target}>'
+
+
+@dataclasses.dataclass(frozen=True)
+class ParameterEvent:
+    """One ``/parameter_events`` message, with plain values."""
+
+    node: str
+    stamp: Any  #: a zros.Time
+    new: dict[str, Any]
+    changed: dict[str, Any]
+    deleted: list[str]
+
+    @classmethod
+    def from_message(cls, message: Any) -> ParameterEvent:
+        from zros.clock import Time
+
+        def values(items: Any) -> dict[str, Any]:
+            return {item.name: from_message(item.value)[0] for item in items}
+
+        return cls(
+            node=message.node,
+            stamp=Time.from_msg(message.stamp),
+            new=values(message.new_parameters),
+            changed=values(message.changed_parameters),
+            deleted=[item.name for item in message.deleted_parameters],
+        )
+
+
+def subscribe_parameter_events(
+    node: Node, callback: Callable[[ParameterEvent], object], node_name: str | None = None
+) -> Subscriber:
+    """Call ``callback(event)`` (while ``node`` spins) for each parameter change on the network,
+    or only those of ``node_name``."""
+    from zros.qos import PARAMETER_EVENTS
+
+    def on_message(message: Any) -> None:
+        if node_name is None or message.node == node_name:
+            callback(ParameterEvent.from_message(message))
+
+    return node.create_subscription(
+        'rcl_interfaces/msg/ParameterEvent', '/parameter_events', on_message, PARAMETER_EVENTS
+    )

@@ -1,0 +1,476 @@
+"""A node's parameters: declared with descriptors, validated on every change, vetoable.
+
+The reasons given for refusals are those rclcpp gives, since ROS 2 tools print them.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from zros.params import files
+from zros.params.values import (
+    ParameterError,
+    ParameterType,
+    infer_type,
+    normalize,
+    same,
+)
+
+
+class ParameterNotDeclaredError(ParameterError, KeyError):
+    """The parameter is not declared (and the node does not allow undeclared ones)."""
+
+    def __str__(self) -> str:  # KeyError would repr the message
+        return str(self.args[0])
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A parameter's name, value and type."""
+
+    name: str
+    value: Any
+    type: ParameterType | None = None  #: None: inferred from the value
+
+
+@dataclass(frozen=True)
+class Descriptor:
+    """What a parameter may hold (``rcl_interfaces/msg/ParameterDescriptor``).
+
+    Ranges are ``(from, to, step)``; a step of 0 means any value in the range.
+    """
+
+    name: str = ''
+    type: ParameterType = ParameterType.NOT_SET
+    description: str = ''
+    additional_constraints: str = ''
+    read_only: bool = False
+    dynamic_typing: bool = False
+    integer_range: tuple[int, int, int] | None = None
+    floating_point_range: tuple[float, float, float] | None = None
+
+    def to_message(self, registry: Any) -> Any:
+        message = registry.get_class('rcl_interfaces/msg/ParameterDescriptor')(
+            name=self.name,
+            type=int(self.type),
+            description=self.description,
+            additional_constraints=self.additional_constraints,
+            read_only=self.read_only,
+            dynamic_typing=self.dynamic_typing,
+        )
+        if self.integer_range is not None:
+            low, high, step = self.integer_range
+            range_class = registry.get_class('rcl_interfaces/msg/IntegerRange')
+            message.integer_range = [range_class(from_value=low, to_value=high, step=step)]
+        if self.floating_point_range is not None:
+            low_f, high_f, step_f = self.floating_point_range
+            range_class = registry.get_class('rcl_interfaces/msg/FloatingPointRange')
+            message.floating_point_range = [
+                range_class(from_value=low_f, to_value=high_f, step=step_f)
+            ]
+        return message
+
+    @classmethod
+    def from_message(cls, message: Any) -> Descriptor:
+        integer = message.integer_range[0] if len(message.integer_range) else None
+        floating = message.floating_point_range[0] if len(message.floating_point_range) else None
+        try:
+            kind = ParameterType(message.type)
+        except ValueError:
+            kind = ParameterType.NOT_SET
+        return cls(
+            name=message.name,
+            type=kind,
+            description=message.description,
+            additional_constraints=message.additional_constraints,
+            read_only=message.read_only,
+            dynamic_typing=message.dynamic_typing,
+            integer_range=(
+                (integer.from_value, integer.to_value, integer.step) if integer else None
+            ),
+            floating_point_range=(
+                (floating.from_value, floating.to_value, floating.step) if floating else None
+            ),
+        )
+
+
+@dataclass(frozen=True)
+class SetResult:
+    """The outcome of setting one parameter (or several atomically)."""
+
+    successful: bool
+    reason: str = ''
+
+    def __bool__(self) -> bool:
+        return self.successful
+
+
+OK = SetResult(True)
+
+
+def _items(values: Mapping[str, Any] | Iterable[Parameter]) -> list[Parameter]:
+    if isinstance(values, Mapping):
+        return [Parameter(name, value) for name, value in values.items()]
+    return list(values)
+
+
+SetCallback = Callable[[list[Parameter]], object]
+ChangeCallback = Callable[[list[Parameter], list[Parameter], list[Parameter]], None]
+
+
+def _callback_result(answer: object) -> SetResult:
+    if answer is None or answer is True:
+        return OK
+    if answer is False:
+        return SetResult(False, 'refused by a callback')
+    if isinstance(answer, SetResult):
+        return answer
+    if hasattr(answer, 'successful') and hasattr(answer, 'reason'):  # an rclpy-style message
+        return SetResult(bool(answer.successful), str(answer.reason))
+    if isinstance(answer, tuple) and len(answer) == 2:
+        return SetResult(bool(answer[0]), str(answer[1]))
+    raise TypeError(f'a set callback returns SetResult, a bool or (bool, reason), not {answer!r}')
+
+
+def _in_integer_range(value: int, limits: tuple[int, int, int]) -> bool:
+    low, high, step = limits
+    if not low <= value <= high:
+        return False
+    return step == 0 or value == high or (value - low) % step == 0
+
+
+def _close(a: float, b: float) -> bool:
+    return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
+
+
+def _in_float_range(value: float, limits: tuple[float, float, float]) -> bool:
+    low, high, step = limits
+    if math.isnan(value) or not (low <= value <= high or _close(value, low) or _close(value, high)):
+        return False
+    if step == 0 or _close(value, high):
+        return True
+    return _close(value, low + round((value - low) / step) * step)
+
+
+@dataclass
+class _Entry:
+    value: Any
+    descriptor: Descriptor
+    kind: ParameterType = field(default=ParameterType.NOT_SET)
+
+
+class ParameterStore:
+    """The parameters of one node.
+
+    ``overrides`` (from parameter files and ``-p name:=value``) replace the default of a
+    parameter when it is declared; with ``allow_undeclared`` they are declared at once, and
+    setting an unknown name declares it.
+    """
+
+    def __init__(
+        self,
+        node_name: str,
+        overrides: Mapping[str, Any] | None = None,
+        allow_undeclared: bool = False,
+    ) -> None:
+        self.node_name = node_name
+        self.overrides: dict[str, Any] = dict(overrides or {})
+        self.allow_undeclared = allow_undeclared
+        self._entries: dict[str, _Entry] = {}
+        self._callbacks: list[SetCallback] = []
+        self._checks: list[SetCallback] = []
+        self._lock = threading.RLock()
+        #: called after every change with (new, changed, deleted) parameters
+        self.on_change: (
+            Callable[[list[Parameter], list[Parameter], list[Parameter]], None] | None
+        ) = None
+        if allow_undeclared:
+            for name, value in self.overrides.items():
+                self.declare(name, value, Descriptor(dynamic_typing=True))
+
+    # --- declaring ---------------------------------------------------------------------------
+
+    def declare(
+        self,
+        name: str,
+        value: Any = None,
+        descriptor: Descriptor | None = None,
+        *,
+        ignore_override: bool = False,
+        **fields: Any,
+    ) -> Any:
+        """Declare a parameter; returns its value (the override's, if one was given)."""
+        if not name:
+            raise ParameterError('a parameter needs a name')
+        descriptor = replace(descriptor or Descriptor(), name=name, **fields)
+        if not ignore_override and name in self.overrides:
+            value = self.overrides[name]
+        with self._lock:
+            if name in self._entries:
+                raise ParameterError(f"parameter '{name}' has already been declared")
+            kind = self._type_of(name, value, descriptor)
+            value = normalize(value, kind)
+            if descriptor.type is ParameterType.NOT_SET and not descriptor.dynamic_typing:
+                descriptor = replace(descriptor, type=kind)
+            parameter = Parameter(name, value, kind)
+            problem = self._check_value(parameter, descriptor) or self._run_callbacks([parameter])
+            if problem:
+                raise ParameterError(problem)
+            self._entries[name] = _Entry(value, descriptor, kind)
+        self._changed([parameter], [], [])
+        return value
+
+    def _type_of(self, name: str, value: Any, descriptor: Descriptor) -> ParameterType:
+        try:
+            kind = infer_type(value, descriptor.type)
+        except ParameterError as exc:
+            raise ParameterError(f"parameter '{name}': {exc}") from None
+        return kind
+
+    def undeclare(self, name: str) -> None:
+        """Remove a parameter (not a read-only one)."""
+        with self._lock:
+            entry = self._entries.get(name)
+            if entry is None:
+                raise ParameterNotDeclaredError(f"parameter '{name}' is not declared")
+            if entry.descriptor.read_only:
+                raise ParameterError(f"cannot undeclare parameter '{name}': it is read-only")
+            del self._entries[name]
+        self._changed([], [], [Parameter(name, None)])
+
+    # --- reading -----------------------------------------------------------------------------
+
+    def has(self, name: str) -> bool:
+        with self._lock:
+            return name in self._entries
+
+    def get(self, name: str) -> Any:
+        """The value of a parameter (None for an unknown one when undeclared ones are allowed)."""
+        with self._lock:
+            entry = self._entries.get(name)
+        if entry is None:
+            if self.allow_undeclared:
+                return None
+            raise ParameterNotDeclaredError(f"parameter '{name}' is not declared")
+        return entry.value
+
+    def parameter(self, name: str) -> Parameter:
+        with self._lock:
+            entry = self._entries.get(name)
+        if entry is None:
+            return Parameter(name, None, ParameterType.NOT_SET)
+        return Parameter(name, entry.value, entry.kind)
+
+    def type_of(self, name: str) -> ParameterType:
+        """The type of a parameter's value (NOT_SET for unknown names)."""
+        with self._lock:
+            entry = self._entries.get(name)
+        return entry.kind if entry is not None else ParameterType.NOT_SET
+
+    def describe(self, name: str) -> Descriptor:
+        """The descriptor of a parameter (an empty one, type NOT_SET, for unknown names)."""
+        with self._lock:
+            entry = self._entries.get(name)
+        if entry is None:
+            return Descriptor(name=name)
+        return replace(entry.descriptor, type=entry.kind)
+
+    def names(self) -> list[str]:
+        with self._lock:
+            return sorted(self._entries)
+
+    def values(self) -> dict[str, Any]:
+        """Every parameter's value, by name."""
+        with self._lock:
+            return {name: entry.value for name, entry in sorted(self._entries.items())}
+
+    def list_parameters(
+        self, prefixes: Iterable[str] = (), depth: int = 0
+    ) -> tuple[list[str], list[str]]:
+        """Names and their prefixes as ``list_parameters`` gives them.
+
+        With no prefixes: every name with fewer than ``depth`` dots (all with depth 0). With
+        prefixes: names equal to one, or under one at most ``depth`` levels down (rclpy's rule;
+        rclcpp counts one level fewer).
+        """
+        prefixes = list(prefixes)
+        names: list[str] = []
+        found: list[str] = []
+        for name in self.names():
+            if prefixes:
+                listed = any(
+                    name == prefix
+                    or (
+                        name.startswith(prefix + '.')
+                        and (depth == 0 or name[len(prefix) + 1 :].count('.') < depth)
+                    )
+                    for prefix in prefixes
+                )
+            else:
+                listed = depth == 0 or name.count('.') < depth
+            if listed:
+                names.append(name)
+                prefix, dot, _ = name.rpartition('.')
+                if dot and prefix not in found:
+                    found.append(prefix)
+        return names, found
+
+    def dump(self) -> str:
+        """The parameters as a ROS 2 parameter file."""
+        return files.dump(self.node_name, self.values())
+
+    # --- setting -----------------------------------------------------------------------------
+
+    def add_on_set_callback(self, callback: SetCallback, internal: bool = False) -> SetCallback:
+        """``callback(parameters)`` may refuse a change: it returns a SetResult, a bool, or
+        ``(ok, reason)`` (None means accept). It runs before every change, declarations too.
+        ``internal`` ones are zros's own checks, which may run on any thread."""
+        with self._lock:
+            (self._checks if internal else self._callbacks).append(callback)
+        return callback
+
+    def remove_on_set_callback(self, callback: SetCallback) -> None:
+        with self._lock:
+            self._callbacks.remove(callback)
+
+    @property
+    def has_callbacks(self) -> bool:
+        """Whether user callbacks watch changes (then network sets wait for a spin)."""
+        return bool(self._callbacks)
+
+    def _run_callbacks(self, parameters: list[Parameter]) -> str | None:
+        for callback in [*self._checks, *self._callbacks]:
+            try:
+                result = _callback_result(callback(parameters))
+            except Exception as exc:
+                return f'a set callback raised {exc!r}'
+            if not result:
+                return result.reason or 'refused by a callback'
+        return None
+
+    def _check_value(self, parameter: Parameter, descriptor: Descriptor) -> str | None:
+        name, value, kind = parameter.name, parameter.value, parameter.type
+        if descriptor.integer_range is not None and kind in (
+            ParameterType.INTEGER,
+            ParameterType.INTEGER_ARRAY,
+        ):
+            items = value if isinstance(value, list) else [value]
+            if not all(_in_integer_range(item, descriptor.integer_range) for item in items):
+                return f"Parameter {{{name}}} doesn't comply with integer range."
+        if descriptor.floating_point_range is not None and kind in (
+            ParameterType.DOUBLE,
+            ParameterType.DOUBLE_ARRAY,
+        ):
+            items = value if isinstance(value, list) else [value]
+            if not all(_in_float_range(item, descriptor.floating_point_range) for item in items):
+                return f"Parameter {{{name}}} doesn't comply with floating point range."
+        return None
+
+    def _prepare(
+        self, name: str, value: Any, kind_hint: ParameterType | None
+    ) -> tuple[Parameter, str | None, str]:
+        """The parameter a set would make, a refusal reason, and what it does (new/changed/
+        deleted)."""
+        entry = self._entries.get(name)
+        if entry is None and not self.allow_undeclared:
+            return (
+                Parameter(name, value),
+                (f"parameter '{name}' cannot be set because it was not declared"),
+                '',
+            )
+        descriptor = (
+            entry.descriptor if entry is not None else Descriptor(name, dynamic_typing=True)
+        )
+        if entry is not None and descriptor.read_only:
+            return (
+                Parameter(name, value),
+                (f"parameter '{name}' cannot be set because it is read-only"),
+                '',
+            )
+        expected = descriptor.type if not descriptor.dynamic_typing else ParameterType.NOT_SET
+        try:
+            kind = kind_hint if kind_hint is not None else infer_type(value, expected)
+            value = normalize(value, kind)
+        except (ParameterError, TypeError, ValueError) as exc:
+            return Parameter(name, value), f"parameter '{name}': {exc}", ''
+        parameter = Parameter(name, value, kind)
+        if kind is ParameterType.NOT_SET:
+            if entry is None:
+                return parameter, None, ''
+            if not descriptor.dynamic_typing and descriptor.type is not ParameterType.NOT_SET:
+                return (
+                    parameter,
+                    (
+                        f'Static parameter cannot be undeclared, parameter {{{name}}} is of type '
+                        f'{{{descriptor.type.ros_name}}}'
+                    ),
+                    '',
+                )
+            return parameter, None, 'deleted'
+        if expected is not ParameterType.NOT_SET and kind is not expected:
+            return (
+                parameter,
+                (
+                    f'Wrong parameter type, parameter {{{name}}} is of type '
+                    f'{{{expected.ros_name}}}, setting it to {{{kind.ros_name}}} is not allowed.'
+                ),
+                '',
+            )
+        problem = self._check_value(parameter, descriptor)
+        return parameter, problem, 'changed' if entry is not None else 'new'
+
+    def set_atomically(self, values: Mapping[str, Any] | Iterable[Parameter]) -> SetResult:
+        """Set several parameters, all or none."""
+        items = _items(values)
+        new: list[Parameter] = []
+        changed: list[Parameter] = []
+        deleted: list[Parameter] = []
+        with self._lock:
+            prepared = []
+            for item in items:
+                hint = ParameterType.NOT_SET if item.value is None else item.type
+                parameter, problem, action = self._prepare(item.name, item.value, hint)
+                if problem:
+                    return SetResult(False, problem)
+                prepared.append((parameter, action))
+            problem = self._run_callbacks([parameter for parameter, _ in prepared])
+            if problem:
+                return SetResult(False, problem)
+            for parameter, action in prepared:
+                kind = parameter.type or ParameterType.NOT_SET
+                if action == 'deleted':
+                    self._entries.pop(parameter.name, None)
+                    deleted.append(parameter)
+                elif action == 'new':
+                    self._entries[parameter.name] = _Entry(
+                        parameter.value, Descriptor(parameter.name, dynamic_typing=True), kind,
+                    )  # fmt: skip
+                    new.append(parameter)
+                elif action == 'changed':
+                    entry = self._entries[parameter.name]
+                    if not (entry.kind is kind and same(entry.value, parameter.value)):
+                        changed.append(parameter)
+                    entry.value, entry.kind = parameter.value, kind
+        self._changed(new, changed, deleted)
+        return OK
+
+    def set(self, name: str, value: Any) -> SetResult:
+        """Set one parameter (None undeclares a dynamically typed one)."""
+        return self.set_atomically([Parameter(name, value)])
+
+    def set_many(self, values: Mapping[str, Any] | Iterable[Parameter]) -> list[SetResult]:
+        """Set parameters one by one: each succeeds or fails on its own."""
+        return [self.set_atomically([item]) for item in _items(values)]
+
+    def _changed(
+        self, new: list[Parameter], changed: list[Parameter], deleted: list[Parameter]
+    ) -> None:
+        if (new or changed or deleted) and self.on_change is not None:
+            self.on_change(new, changed, deleted)
+
+    def __repr__(self) -> str:
+        return f'<zros parameters of {self.node_name}: {len(self._entries)}>'

@@ -1,0 +1,175 @@
+"""Parameter values: the nine ROS 2 types, Python values, and ``rcl_interfaces`` messages."""
+
+from __future__ import annotations
+
+import enum
+import math
+from typing import Any
+
+from zros.errors import ZrosError
+
+
+class ParameterError(ZrosError):
+    """A parameter operation failed (the message says why)."""
+
+
+class ParameterType(enum.IntEnum):
+    """``rcl_interfaces/msg/ParameterType``."""
+
+    NOT_SET = 0
+    BOOL = 1
+    INTEGER = 2
+    DOUBLE = 3
+    STRING = 4
+    BYTE_ARRAY = 5
+    BOOL_ARRAY = 6
+    INTEGER_ARRAY = 7
+    DOUBLE_ARRAY = 8
+    STRING_ARRAY = 9
+
+    @property
+    def ros_name(self) -> str:
+        """The name ROS 2 tools print: ``integer``, ``double_array``, ``not set``..."""
+        return 'not set' if self is ParameterType.NOT_SET else self.name.lower()
+
+    @property
+    def is_array(self) -> bool:
+        return self >= ParameterType.BYTE_ARRAY
+
+
+#: the ParameterValue field holding each type
+FIELDS = {
+    ParameterType.BOOL: 'bool_value',
+    ParameterType.INTEGER: 'integer_value',
+    ParameterType.DOUBLE: 'double_value',
+    ParameterType.STRING: 'string_value',
+    ParameterType.BYTE_ARRAY: 'byte_array_value',
+    ParameterType.BOOL_ARRAY: 'bool_array_value',
+    ParameterType.INTEGER_ARRAY: 'integer_array_value',
+    ParameterType.DOUBLE_ARRAY: 'double_array_value',
+    ParameterType.STRING_ARRAY: 'string_array_value',
+}
+
+_ELEMENT = {
+    ParameterType.BOOL_ARRAY: ParameterType.BOOL,
+    ParameterType.INTEGER_ARRAY: ParameterType.INTEGER,
+    ParameterType.DOUBLE_ARRAY: ParameterType.DOUBLE,
+    ParameterType.STRING_ARRAY: ParameterType.STRING,
+}
+_ARRAY = {element: array for array, element in _ELEMENT.items()}
+
+
+def _scalar_type(value: object) -> ParameterType | None:
+    import numpy as np
+
+    if isinstance(value, (bool, np.bool_)):
+        return ParameterType.BOOL
+    if isinstance(value, (int, np.integer)):
+        return ParameterType.INTEGER
+    if isinstance(value, (float, np.floating)):
+        return ParameterType.DOUBLE
+    if isinstance(value, str):
+        return ParameterType.STRING
+    return None
+
+
+def infer_type(value: object, expected: ParameterType = ParameterType.NOT_SET) -> ParameterType:
+    """The parameter type of a Python value (``expected`` settles empty lists and int/float)."""
+    import numpy as np
+
+    if value is None:
+        return ParameterType.NOT_SET
+    scalar = _scalar_type(value)
+    if scalar is not None:
+        if scalar is ParameterType.INTEGER and expected is ParameterType.DOUBLE:
+            return ParameterType.DOUBLE
+        return scalar
+    if isinstance(value, (bytes, bytearray)):
+        return ParameterType.BYTE_ARRAY
+    if (
+        isinstance(value, np.ndarray)
+        and value.dtype == np.uint8
+        and expected
+        in (
+            ParameterType.BYTE_ARRAY,
+            ParameterType.NOT_SET,
+        )
+    ):
+        return ParameterType.BYTE_ARRAY
+    if isinstance(value, (list, tuple, np.ndarray)):
+        items = list(value)
+        if not items:
+            if expected.is_array:
+                return expected
+            raise ParameterError('an empty list has no parameter type: declare the parameter first')
+        kinds = {_scalar_type(item) for item in items}
+        if None in kinds:
+            raise ParameterError(f'{value!r} holds values no parameter can (bool, int, float, str)')
+        if kinds == {ParameterType.INTEGER} and expected is ParameterType.DOUBLE_ARRAY:
+            return ParameterType.DOUBLE_ARRAY
+        if kinds == {ParameterType.INTEGER, ParameterType.DOUBLE}:
+            return ParameterType.DOUBLE_ARRAY
+        if len(kinds) != 1:
+            names = sorted(kind.ros_name for kind in kinds if kind is not None)
+            raise ParameterError(f'a parameter array holds one type, not {" and ".join(names)}')
+        return _ARRAY[kinds.pop()]  # type: ignore[index]
+    raise ParameterError(f'{type(value).__name__} is not a parameter type')
+
+
+def normalize(value: object, kind: ParameterType) -> Any:
+    """The canonical Python form of a value of type ``kind`` (lists, not arrays or tuples)."""
+    if kind is ParameterType.NOT_SET:
+        return None
+    if kind is ParameterType.BOOL:
+        return bool(value)
+    if kind is ParameterType.INTEGER:
+        number = int(value)  # type: ignore[call-overload]
+        if not -(2**63) <= number < 2**63:
+            raise ParameterError(f'{number} does not fit a 64-bit integer parameter')
+        return number
+    if kind is ParameterType.DOUBLE:
+        return float(value)  # type: ignore[arg-type]
+    if kind is ParameterType.STRING:
+        return str(value)
+    if kind is ParameterType.BYTE_ARRAY:
+        return bytes(value)  # type: ignore[call-overload]
+    element = _ELEMENT[kind]
+    return [normalize(item, element) for item in value]  # type: ignore[attr-defined]
+
+
+def to_message(value: Any, kind: ParameterType, message_class: type[Any]) -> Any:
+    """An ``rcl_interfaces/msg/ParameterValue``."""
+    message = message_class(type=int(kind))
+    if kind is not ParameterType.NOT_SET:
+        setattr(message, FIELDS[kind], value)
+    return message
+
+
+def from_message(message: Any) -> tuple[Any, ParameterType]:
+    """The Python value and type of an ``rcl_interfaces/msg/ParameterValue``."""
+    try:
+        kind = ParameterType(message.type)
+    except ValueError:
+        raise ParameterError(f'unknown parameter type number {message.type}') from None
+    if kind is ParameterType.NOT_SET:
+        return None, kind
+    raw = getattr(message, FIELDS[kind])
+    if kind is ParameterType.BYTE_ARRAY:
+        return bytes(raw), kind
+    if kind.is_array:
+        return [item.item() if hasattr(item, 'item') else item for item in raw], kind
+    return raw, kind
+
+
+def same(a: Any, b: Any) -> bool:
+    """Whether two parameter values are equal (NaN equals NaN, as a change detector needs)."""
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or (math.isnan(a) and math.isnan(b))
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
+    return bool(type(a) is type(b) and a == b)
+
+
+def describe_value(value: Any, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + '...'
