@@ -169,3 +169,92 @@ def time_now() -> Time:
     if _default is not None:
         return _default.now()
     return Time(time.time_ns())
+
+
+# --- parameters (rosR: ros.ParamSet/Get/Type/Delete) ----------------------------------------
+
+_MISSING: Any = object()
+_clients: dict[tuple[int, str], Any] = {}
+
+
+def _target(name: str, node: str | None) -> tuple[str | None, str]:
+    """``'/driver:speed'`` -> (``'/driver'``, ``'speed'``); a bare name is the default node's."""
+    if node is None and ':' in name:
+        node, _, name = name.rpartition(':')
+    if node is not None and not node.startswith('/'):
+        node = '/' + node
+    own = default_node().fully_qualified_name
+    return (None if node in (None, own) else node), name
+
+
+def _remote(node_name: str, timeout: float) -> Any:
+    owner = default_node()
+    key = (id(owner), node_name)
+    client = _clients.get(key)
+    if client is None or client.node is not owner:
+        client = _clients[key] = owner.parameter_client(node_name, timeout)
+    return client
+
+
+def param_set(name: str, value: Any, *, node: str | None = None, timeout: float = 5.0) -> None:
+    """Set a parameter (rosR: ``ros.ParamSet``): of the default node, declaring it if new, or of
+    another node with ``'/other_node:name'`` or ``node='/other_node'``. Raises ParameterError
+    with the reason when refused."""
+    from zros.params import ParameterError
+
+    target, parameter = _target(name, node)
+    if target is not None:
+        _remote(target, timeout).set(parameter, value, timeout)
+        return
+    own = default_node()
+    if not own.has_parameter(parameter):
+        own.declare_parameter(parameter, value, dynamic_typing=True, ignore_override=True)
+        return
+    result = own.parameters.set(parameter, value)
+    if not result:
+        raise ParameterError(result.reason)
+
+
+def param_get(
+    name: str, default: Any = _MISSING, *, node: str | None = None, timeout: float = 5.0
+) -> Any:
+    """A parameter's value (rosR: ``ros.ParamGet``); ``default`` when it is not set, else
+    ParameterNotDeclaredError."""
+    from zros.params import ParameterNotDeclaredError
+
+    target, parameter = _target(name, node)
+    if target is not None:
+        value = _remote(target, timeout).get(parameter, timeout)
+        found = value is not None
+    else:
+        own = default_node()
+        found = own.has_parameter(parameter)
+        value = own.parameters.get(parameter) if found else None
+    if found:
+        return value
+    if default is not _MISSING:
+        return default
+    where = target or default_node().fully_qualified_name
+    raise ParameterNotDeclaredError(f"node {where} has no parameter '{parameter}'")
+
+
+def param_type(name: str, *, node: str | None = None, timeout: float = 5.0) -> str | None:
+    """The ROS 2 type name of a parameter (``'integer'``, ``'double_array'``...), or None when
+    it is not set (rosR: ``ros.ParamType``, which gave NULL)."""
+    from zros.params import ParameterType
+
+    target, parameter = _target(name, node)
+    if target is not None:
+        kind = _remote(target, timeout).get_parameter_types([parameter], timeout)[parameter]
+    else:
+        kind = default_node().parameters.type_of(parameter)
+    return None if kind is ParameterType.NOT_SET else kind.ros_name
+
+
+def param_delete(name: str, *, node: str | None = None, timeout: float = 5.0) -> None:
+    """Remove a parameter (rosR: ``ros.ParamDelete``); another node's only if it allows it."""
+    target, parameter = _target(name, node)
+    if target is not None:
+        _remote(target, timeout).set(parameter, None, timeout)
+        return
+    default_node().undeclare_parameter(parameter)

@@ -12,10 +12,11 @@ import collections
 import concurrent.futures
 import contextlib
 import logging
+import os
 import threading
 import time
 import weakref
-from collections.abc import Callable, Coroutine, Iterable, Sequence
+from collections.abc import Callable, Coroutine, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from zros.clock import Clock, ClockSubscription, SimClock, Time, use_sim_time_from_environment
@@ -45,6 +46,8 @@ if TYPE_CHECKING:
     from zros.actions import ActionClient, ActionServer, ServerGoalHandle
     from zros.cdr import Message, TypeRegistry
     from zros.cdr.interfaces import ActionType, ServiceType
+    from zros.params import Descriptor, ParameterClient, SetResult
+    from zros.params.server import ParameterServer
     from zros.pubsub import Publisher, Subscriber
     from zros.services import Client, Service
 
@@ -52,6 +55,33 @@ if TYPE_CHECKING:
 _interrupted = threading.Event()
 T = TypeVar('T')
 _nodes: weakref.WeakSet[Node] = weakref.WeakSet()
+
+
+def _parameter_overrides(
+    node_fqn: str,
+    parameters: Mapping[str, Any] | None,
+    params_files: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | None,
+    ros_args: Any,
+) -> dict[str, Any]:
+    """A node's parameter values from code, files and ``-p`` (later ones win)."""
+    from zros.params import files
+
+    overrides = dict(parameters or {})
+    if params_files is None:
+        paths: list[str | os.PathLike[str]] = []
+    elif isinstance(params_files, (str, os.PathLike)):
+        paths = [params_files]
+    else:
+        paths = list(params_files)
+    for path in [*paths, *ros_args.params_files]:
+        overrides.update(files.values_for(files.load_file(path), node_fqn))
+    node_name = node_fqn.rpartition('/')[2]
+    for name, text in ros_args.parameters.items():
+        target, colon, parameter = name.rpartition(':')
+        if colon and target not in (node_name, node_fqn, node_fqn.lstrip('/')):
+            continue  # -p other_node:name:=value
+        overrides[parameter] = files.parse_override(f'{parameter}:={text}')[1]
+    return overrides
 
 
 def wake_all_nodes() -> None:
@@ -182,6 +212,11 @@ class Node:
     ``use_sim_time`` (also ``ZROS_USE_SIM_TIME=1``) makes the node's clock, timers and rates
     follow ``/clock``. ``log_level`` (also ``ZROS_LOG_LEVEL``) is the threshold of its logger;
     ``enable_rosout`` publishes its log records on ``/rosout``.
+
+    Parameters get their values, lowest priority first, from ``parameters``, the files of
+    ``params_file`` and ``--params-file``, and ``-p name:=value``; with
+    ``allow_undeclared_parameters`` those are declared at once and clients may set new names.
+    ``start_parameter_services`` serves them to ROS tools.
     """
 
     def __init__(
@@ -199,6 +234,10 @@ class Node:
         use_sim_time: bool | None = None,
         log_level: str | int | None = None,
         enable_rosout: bool = True,
+        parameters: Mapping[str, Any] | None = None,
+        params_file: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | None = None,
+        allow_undeclared_parameters: bool = False,
+        start_parameter_services: bool = True,
         **settings: Any,
     ) -> None:
         remapping = Remapping.parse(remap or ())
@@ -208,16 +247,18 @@ class Node:
             ros_args.remapping.node_name or remapping.node_name,
             ros_args.remapping.namespace or remapping.namespace,
         )
-        if use_sim_time is None:
-            from_args = ros_args.parameters.get('use_sim_time')
-            if from_args is not None:
-                use_sim_time = from_args.strip().lower() in ('true', '1', 'yes', 'on')
-            else:
-                use_sim_time = use_sim_time_from_environment()
         self.name = remapping.node_name or name
         self.namespace = remapping.namespace or namespace
         validate_node_name(self.name)
         validate_namespace(self.namespace)
+        overrides = _parameter_overrides(
+            self.fully_qualified_name, parameters, params_file, ros_args
+        )
+        if use_sim_time is None:
+            if 'use_sim_time' in overrides:
+                use_sim_time = overrides['use_sim_time'] is True
+            else:
+                use_sim_time = use_sim_time_from_environment()
         self.remapping = remapping
         if transport is None:
             if config is None and (connect is not None or settings):
@@ -261,6 +302,19 @@ class Node:
         transport.declare_token(self._node_token)
         transport.on_close(self.destroy)
         _nodes.add(self)
+        from zros.params import ParameterStore
+
+        self.parameters = ParameterStore(
+            self.fully_qualified_name, overrides, allow_undeclared_parameters
+        )
+        self._parameter_server: ParameterServer | None = None
+        if start_parameter_services:
+            from zros.params.server import ParameterServer
+
+            self._parameter_server = ParameterServer(self, self.parameters)
+        if not self.parameters.has('use_sim_time'):
+            self.parameters.declare('use_sim_time', bool(use_sim_time))
+        self.parameters.add_on_set_callback(self._refuse_sim_time_switch, internal=True)
 
     @staticmethod
     def _bridge_scheme(transport: Transport, namespace: str | None) -> BridgeScheme:
@@ -319,6 +373,73 @@ class Node:
             self._rosout.write(record)
         except Exception:  # logging must never break the program that logs
             logging.getLogger('zros').debug('cannot publish on /rosout', exc_info=True)
+
+    # --- parameters ----------------------------------------------------------------------
+
+    def _refuse_sim_time_switch(self, changes: list[Any]) -> object:
+        for change in changes:
+            if change.name == 'use_sim_time' and change.value is not self.use_sim_time:
+                return (
+                    False,
+                    'zros sets use_sim_time when a node starts (zros.Node(use_sim_time=...) '
+                    'or -p use_sim_time:=true), not while it runs',
+                )
+        return True
+
+    def declare_parameter(
+        self,
+        name: str,
+        value: Any = None,
+        descriptor: Descriptor | None = None,
+        *,
+        ignore_override: bool = False,
+        **fields: Any,
+    ) -> Any:
+        """Declare a parameter and return its value (an override's, if one was given).
+
+        ``fields`` are those of :class:`zros.params.Descriptor`: ``description``, ``read_only``,
+        ``integer_range=(low, high, step)``, ``floating_point_range``, ``dynamic_typing``...
+        """
+        return self.parameters.declare(
+            name, value, descriptor, ignore_override=ignore_override, **fields
+        )
+
+    def declare_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        """Declare several parameters with their defaults; returns their values."""
+        return {name: self.parameters.declare(name, value) for name, value in values.items()}
+
+    def has_parameter(self, name: str) -> bool:
+        return self.parameters.has(name)
+
+    def get_parameter(self, name: str) -> Any:
+        """A parameter's value; ParameterNotDeclaredError for an unknown name."""
+        return self.parameters.get(name)
+
+    def set_parameter(self, name: str, value: Any) -> None:
+        """Set a parameter; raises ParameterError with the reason when it is refused."""
+        from zros.params import ParameterError
+
+        result = self.parameters.set(name, value)
+        if not result:
+            raise ParameterError(result.reason)
+
+    def set_parameters(self, values: Mapping[str, Any]) -> list[SetResult]:
+        """Set parameters one by one; a result for each."""
+        return self.parameters.set_many(values)
+
+    def undeclare_parameter(self, name: str) -> None:
+        self.parameters.undeclare(name)
+
+    def add_on_set_parameters_callback(self, callback: Callable[[list[Any]], object]) -> None:
+        """``callback(parameters)`` may refuse changes (return False, ``(False, reason)`` or a
+        SetResult); it runs where the node spins when the change comes from the network."""
+        self.parameters.add_on_set_callback(callback)
+
+    def parameter_client(self, node_name: str, timeout: float = 5.0) -> ParameterClient:
+        """The parameters of another node (``/robot/driver``)."""
+        from zros.params import ParameterClient
+
+        return ParameterClient(self, node_name, timeout)
 
     # --- the graph -------------------------------------------------------------------------
 
@@ -554,6 +675,8 @@ class Node:
         if self._closed:
             return
         self._closed = True
+        if self._parameter_server is not None:
+            self.parameters.on_change = None
         self._executor.stopped = True
         for entity in list(reversed(self._entities)):
             entity.close()

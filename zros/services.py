@@ -148,10 +148,14 @@ class Service(_ServiceEntity):
         *,
         node: Node | None = None,
         announce: bool = True,
+        inline: Callable[[], bool] | None = None,
     ) -> None:
         owner = _node(node)
         super().__init__(owner, name, srv_type, announce)
         self._handler = handler
+        #: internal services whose handler runs no user code answer on Zenoh's thread while
+        #: this says so (a node's parameters answer even when nobody spins it)
+        self._inline = inline
         self._with_response = handler is not None and _takes_response(handler)
         self._pending: collections.deque[tuple[Any, float]] = collections.deque()
         self._taken: dict[int, tuple[Message, Any, float]] = {}
@@ -175,7 +179,9 @@ class Service(_ServiceEntity):
             return
         self._pending.append((query, time.monotonic()))
         self.received += 1
-        if self._handler is not None:
+        if self._inline is not None and self._inline():
+            self._dispatch()
+        elif self._handler is not None:
             self.node._executor.schedule(self)
         if self._arrived:
             self._arrived.notify()
@@ -242,7 +248,10 @@ class Service(_ServiceEntity):
         handler = self._handler
         done = 0
         while self._pending and handler is not None:
-            query, arrived = self._pending.popleft()
+            try:
+                query, arrived = self._pending.popleft()
+            except IndexError:  # taken by another thread (an inline answer)
+                break
             request = self._decode(query, arrived)
             if request is None:
                 continue

@@ -173,11 +173,26 @@ def test_zros_nodes_by_name_and_what_they_own(zros_node: Callable[..., Node]) ->
     talker.create_publisher('std_msgs/msg/String', 'chatter')
     talker.create_subscription('geometry_msgs/msg/Twist', 'cmd_vel', qos='sensor_data')
     graph = viewer.graph
-    assert graph.wait_until(lambda: len(graph.node_endpoints('/robot/talker')) == 2, timeout=5)
+    topics = {(EntityKind.PUBLISHER, 'robot/chatter', 'std_msgs/msg/String'),
+              (EntityKind.SUBSCRIBER, 'robot/cmd_vel', 'geometry_msgs/msg/Twist')}  # fmt: skip
+    parameters = {(EntityKind.PUBLISHER, 'parameter_events', 'rcl_interfaces/msg/ParameterEvent')}
+    parameters |= {
+        (EntityKind.SERVICE_SERVER, f'robot/talker/{name}', f'rcl_interfaces/srv/{kind}')
+        for name, kind in (
+            ('list_parameters', 'ListParameters'),
+            ('get_parameters', 'GetParameters'),
+            ('set_parameters', 'SetParameters'),
+            ('set_parameters_atomically', 'SetParametersAtomically'),
+            ('get_parameter_types', 'GetParameterTypes'),
+            ('describe_parameters', 'DescribeParameters'),
+        )
+    }
+
+    def owned() -> set[tuple[EntityKind, str, str]]:
+        return {(e.kind, e.key, e.type_name) for e in graph.node_endpoints('/robot/talker')}
+
+    assert graph.wait_until(lambda: owned() == topics | parameters, timeout=5), owned()
     assert graph.wait_until(lambda: {'/robot/talker', '/viewer'} <= set(viewer.get_node_names()))
-    kinds = {(e.kind, e.key, e.type_name) for e in graph.node_endpoints('/robot/talker')}
-    assert kinds == {(EntityKind.PUBLISHER, 'robot/chatter', 'std_msgs/msg/String'),
-                     (EntityKind.SUBSCRIBER, 'robot/cmd_vel', 'geometry_msgs/msg/Twist')}  # fmt: skip
     assert ('/robot/chatter', ['std_msgs/msg/String']) in viewer.get_topic_names_and_types()
     assert viewer.count_publishers('/robot/chatter') == 1
     assert viewer.count_subscribers('/robot/cmd_vel') == 1

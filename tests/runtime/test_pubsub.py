@@ -149,7 +149,7 @@ def test_write_checks_the_type(zros_node: Callable[..., Node]) -> None:
 def test_tokens_live_exactly_as_long_as_their_entities(
     zros_node: Callable[..., Node], zros_transport: Callable[..., Transport]
 ) -> None:
-    node = zros_node('talker', '/robot')
+    node = zros_node('talker', '/robot', start_parameter_services=False)  # only its topics
     observer = zros_transport()
 
     def tokens() -> list[str]:

@@ -249,6 +249,7 @@ def test_bytes_on_the_wire_match_the_bridge_spec(zros_node: Callable[..., Node])
         queryable.undeclare()
     server = zros_node('server')
     server.create_service(ADD, 'add_two_ints', add)
+    assert client.wait_for_service()
     with spinning(server):
         replies = list(raw.get('add_two_ints', payload=seen[0], timeout=5))
     assert [r.ok.payload.to_bytes() for r in replies] == [bytes.fromhex('000100000500000000000000')]
