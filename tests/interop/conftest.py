@@ -137,6 +137,8 @@ def zros_nodes() -> Iterator[Callable[..., Any]]:
         options.setdefault('bridge_namespace', bridge.namespace)
         options.setdefault('registry', registry)
         options.setdefault('enable_rosout', False)
+        # Token-counting tests expect only the entities they create.
+        options.setdefault('start_parameter_services', False)
         node = zros.Node(name, options.pop('namespace', '/'), transport=transport, **options)
         made.append((node, transport))
         return node
