@@ -158,6 +158,11 @@ class RosWorker:
         reply = self.call('wait_messages', timeout, name=name, count=count)
         return [bytes.fromhex(item) for item in reply['messages']]
 
+    def wait_readers(self, topic: str, count: int = 1, timeout: float = 10.0) -> int:
+        """Wait until the ROS graph shows ``count`` DDS readers of ``topic`` (hidden ones too,
+        say an action's ``_action/feedback``); returns how many it shows."""
+        return int(self.call('wait_readers', timeout, topic=topic, count=count)['count'])
+
     def topics(self) -> dict[str, list[str]]:
         return {name: types for name, types in self.call('topics')['topics']}
 
@@ -179,15 +184,50 @@ class RosWorker:
         reply = self.call('call', timeout, service=service, type=type_name, data=request.hex())
         return bytes.fromhex(reply['response'])
 
-    def action_server(self, action: str) -> str:
-        """A ``test_msgs/action/Fibonacci`` server publishing feedback at every step."""
+    def action_server(
+        self,
+        action: str,
+        *,
+        cancelable: bool = False,
+        abort_order: int | None = None,
+        hold: float = 0.0,
+    ) -> str:
+        """A ``test_msgs/action/Fibonacci`` server publishing feedback at every step; it accepts
+        cancel requests if ``cancelable``, aborts goals of ``abort_order`` after their first
+        step, and holds a goal after its first step until canceled (at most ``hold`` s)."""
         name = self._name('action')
-        self.call('action_server', name=name, action=action)
+        self.call(
+            'action_server',
+            name=name,
+            action=action,
+            cancelable=cancelable,
+            abort_order=abort_order,
+            hold=hold,
+        )
         return name
 
-    def action_call(self, action: str, order: int, timeout: float = 10.0) -> dict[str, Any]:
-        """Send a Fibonacci goal; ``status``, ``sequence`` and ``feedback`` of its run."""
-        return self.call('action_call', timeout, action=action, order=order)
+    def action_call(
+        self,
+        action: str,
+        order: int,
+        timeout: float = 10.0,
+        *,
+        cancel_after_feedback: bool = False,
+        record: bool = False,
+        feedback_count: int = 0,
+    ) -> dict[str, Any]:
+        """Send a Fibonacci goal; ``goal_id``, ``status``, ``sequence`` and ``feedback`` of its
+        run, with ``cancel`` (the cancel response) and what the action's topics carried
+        (``topic_feedback``, ``statuses``) when asked for (see ``ros_worker.py``)."""
+        return self.call(
+            'action_call',
+            timeout,
+            action=action,
+            order=order,
+            cancel_after_feedback=cancel_after_feedback,
+            record=record,
+            feedback_count=feedback_count,
+        )
 
     def destroy(self, name: str) -> None:
         self.call('destroy', name=name)

@@ -16,6 +16,8 @@ included, exactly what rclpy publishes and receives with ``raw=True``).
 ``publisher``          ``name, topic, type, qos`` -> create a publisher
 ``publish``            ``name, data: [hex...], interval`` -> publish the serialized messages
 ``wait_subscribers``   ``name, count, timeout`` -> ``count`` (matched DDS readers of the publisher)
+``wait_readers``       ``topic, count, timeout`` -> ``count`` (DDS readers of any topic, hidden ones
+                       too, in the ROS graph: rclpy ``count_subscribers``)
 ``subscription``       ``name, topic, type, qos`` -> create a raw subscription that records
 ``wait_messages``      ``name, count, timeout`` -> ``messages: [hex...]`` (all received so far)
 ``topics``             -> ``topics: [[name, [types...]], ...]`` (rclpy ``get_topic_names_and_types``)
@@ -23,15 +25,40 @@ included, exactly what rclpy publishes and receives with ``raw=True``).
 ``service``            ``name, service, type`` -> a server answering each request with a response
                        whose fields are copied from the request's fields of the same name
 ``call``               ``service, type, data: hex, timeout`` -> ``response: hex`` (a fresh client)
-``action_server``      ``name, action`` -> a ``test_msgs/action/Fibonacci`` server (feedback per step)
-``action_call``        ``action, order, timeout`` -> ``status, sequence, feedback`` (a Fibonacci
-                       goal sent by a fresh ``ActionClient``)
+``action_server``      ``name, action, cancelable, abort_order, hold`` -> a
+                       ``test_msgs/action/Fibonacci`` server (feedback per step; see below)
+``action_call``        ``action, order, timeout, cancel_after_feedback, record,
+                       feedback_count`` -> ``accepted, goal_id, status, sequence, feedback``
+                       (a Fibonacci goal sent by a fresh ``ActionClient``; see below)
 ``destroy``            ``name`` -> destroy that publisher, subscription, service or action server
 ``exit``               -> stop
 =====================  ============================================================================
 
 ``qos`` is ``{"reliability": "reliable"|"best_effort", "durability": "volatile"|
 "transient_local", "history": "keep_last"|"keep_all", "depth": n}`` (all optional).
+
+``action_server`` options (all optional; without them the server rejects cancel requests and
+succeeds every goal after ``order - 1`` steps):
+
+* ``cancelable``: accept cancel requests; a goal checks ``is_cancel_requested`` before each step
+  and ends with ``canceled()``, its result the sequence so far;
+* ``abort_order``: a goal of that order aborts right after its first step (and its feedback);
+* ``hold``: seconds a goal waits after its first step for a cancel request (with
+  ``cancelable``), so that a client can cancel it before it ends.
+
+``action_call`` options (all optional):
+
+* ``cancel_after_feedback``: once the first feedback arrived, cancel the goal; the reply gets
+  ``cancel: {return_code, goals_canceling: [hex goal ids]}``;
+* ``record``: also record the goal's feedback and states on the action's feedback and status
+  topics, with subscriptions of their own (matched before the goal is sent). rclpy's
+  ``ActionClient`` drops feedback it takes after the result (the result may overtake the last
+  feedback: a topic and a reply), these do not. Once the result is in, wait (up to ``timeout``)
+  for a terminal state and ``feedback_count`` feedback messages; the reply gets
+  ``topic_feedback: [[int...]...]`` and ``statuses: [int...]`` (the goal's state in each
+  ``GoalStatusArray``), in arrival order. (Not the goal handle's ``status``: rclpy ignores status
+  arrays taken before the goal response, and through a bridge a fast goal's last status can
+  overtake its goal response, so that status may stay UNKNOWN.)
 """
 
 from __future__ import annotations
@@ -86,12 +113,28 @@ class Worker:
         # the node spins all the time (servers must answer between commands)
         self.executor = MultiThreadedExecutor(num_threads=4)
         self.executor.add_node(self.node)
-        self.spinner = threading.Thread(target=self.executor.spin, daemon=True)
+        self.stopping = threading.Event()
+        self.spinner = threading.Thread(target=self.spin, daemon=True)
         self.spinner.start()
         self.publishers: dict[str, Any] = {}
         self.subscriptions: dict[str, Any] = {}
         self.received: dict[str, list[bytes]] = {}
         self.others: dict[str, Any] = {}
+
+    def spin(self) -> None:
+        """``executor.spin()``, except that a callback that raises does not stop it.
+
+        rclpy's ``ActionClient`` can raise a KeyError on an executor thread when a goal's last
+        feedback and its result are taken together: a done callback of the result, run on
+        another thread, removes the feedback callback between its check and its use (rclpy
+        Jazzy, ``ActionClient.execute``). ``executor.spin()`` re-raises that, and a worker that
+        stopped spinning would leave every later test waiting.
+        """
+        while not self.stopping.is_set() and self.rclpy.ok():
+            try:
+                self.executor.spin_once(timeout_sec=0.1)
+            except Exception as exc:
+                print(f'ros_worker: a callback raised {exc!r}', file=sys.stderr, flush=True)
 
     def spin_until(self, condition: Any, timeout: float) -> bool:
         """Wait (the node spins meanwhile) until ``condition()`` or ``timeout`` seconds pass."""
@@ -126,6 +169,14 @@ class Worker:
                 float(command.get('timeout', 10)),
             )
             return {'count': publisher.get_subscription_count()}
+        if op == 'wait_readers':
+            topic = command['topic']
+            count = int(command.get('count', 1))
+            self.spin_until(
+                lambda: self.node.count_subscribers(topic) >= count,
+                float(command.get('timeout', 10)),
+            )
+            return {'count': self.node.count_subscribers(topic)}
         if op == 'subscription':
             store: list[bytes] = []
             self.received[name] = store
@@ -171,12 +222,16 @@ class Worker:
         if op == 'call':
             return self.call(command)
         if op == 'action_server':
-            return self.action_server(name, command['action'])
+            return self.action_server(name, command)
         if op == 'action_call':
             return self.action_call(command)
         if op == 'destroy':
             if name in self.others:
-                self.others.pop(name).destroy()
+                other = self.others.pop(name)
+                # a service must leave the node's list, or its executor keeps it (and the graph
+                # keeps showing it); action servers remove themselves
+                if not self.node.destroy_service(other):
+                    other.destroy()
             if name in self.publishers:
                 self.node.destroy_publisher(self.publishers.pop(name))
             if name in self.subscriptions:
@@ -202,32 +257,81 @@ class Worker:
         finally:
             self.node.destroy_client(client)
 
-    def action_server(self, name: str, action: str) -> dict[str, Any]:
-        from rclpy.action import ActionServer
+    def action_server(self, name: str, command: dict[str, Any]) -> dict[str, Any]:
+        from rclpy.action import ActionServer, CancelResponse
         from test_msgs.action import Fibonacci
 
+        cancelable = bool(command.get('cancelable', False))
+        abort_order = command.get('abort_order')
+        hold = float(command.get('hold', 0.0))
+
         def execute(goal_handle: Any) -> Any:
+            order = goal_handle.request.order
             sequence = [0, 1]
-            for _ in range(1, goal_handle.request.order):
+            for step in range(1, order):
+                if cancelable and goal_handle.is_cancel_requested:
+                    goal_handle.canceled()
+                    return Fibonacci.Result(sequence=sequence)
                 sequence.append(sequence[-1] + sequence[-2])
                 goal_handle.publish_feedback(Fibonacci.Feedback(sequence=sequence))
-                time.sleep(STEP)
-            goal_handle.succeed()
+                if abort_order is not None and order == int(abort_order):
+                    goal_handle.abort()
+                    return Fibonacci.Result(sequence=sequence)
+                if step == 1 and cancelable and hold:
+                    self.spin_until(lambda: goal_handle.is_cancel_requested, hold)
+                else:
+                    time.sleep(STEP)
+            if cancelable and goal_handle.is_cancel_requested:
+                goal_handle.canceled()
+            else:
+                goal_handle.succeed()
             return Fibonacci.Result(sequence=sequence)
 
-        self.others[name] = ActionServer(self.node, Fibonacci, action, execute)
+        def cancel(_goal_handle: Any) -> Any:
+            return CancelResponse.ACCEPT if cancelable else CancelResponse.REJECT
+
+        self.others[name] = ActionServer(
+            self.node, Fibonacci, command['action'], execute, cancel_callback=cancel
+        )
         return {}
 
     def action_call(self, command: dict[str, Any]) -> dict[str, Any]:
+        from action_msgs.msg import GoalStatus, GoalStatusArray
         from rclpy.action import ActionClient
+        from rclpy.qos import QoSProfile, qos_profile_action_status_default
         from test_msgs.action import Fibonacci
 
         timeout = float(command.get('timeout', 10))
-        client = ActionClient(self.node, Fibonacci, command['action'])
+        action = command['action']
+        client = ActionClient(self.node, Fibonacci, action)
         feedback: list[list[int]] = []
+        messages: list[tuple[bytes, list[int]]] = []  # (goal id, sequence) on the feedback topic
+        arrays: list[list[tuple[bytes, int]]] = []  # [(goal id, state)...] on the status topic
+        subscriptions: list[Any] = []
+        if command.get('record'):
+            subscriptions = [
+                self.node.create_subscription(
+                    Fibonacci.Impl.FeedbackMessage,
+                    f'{action}/_action/feedback',
+                    lambda m: messages.append((bytes(m.goal_id.uuid), list(m.feedback.sequence))),
+                    QoSProfile(depth=100),
+                ),
+                self.node.create_subscription(
+                    GoalStatusArray,
+                    f'{action}/_action/status',
+                    lambda m: arrays.append(
+                        [(bytes(s.goal_info.goal_id.uuid), s.status) for s in m.status_list]
+                    ),
+                    qos_profile_action_status_default,
+                ),
+            ]
         try:
             if not client.wait_for_server(timeout_sec=timeout):
-                raise TimeoutError(f'no action server for {command["action"]}')
+                raise TimeoutError(f'no action server for {action}')
+            if not self.spin_until(
+                lambda: all(s.get_publisher_count() for s in subscriptions), timeout
+            ):
+                raise TimeoutError(f'the feedback or status topic of {action} has no publisher')
             goal = Fibonacci.Goal(order=int(command['order']))
             sent = client.send_goal_async(
                 goal, feedback_callback=lambda f: feedback.append(list(f.feedback.sequence))
@@ -237,17 +341,54 @@ class Worker:
             handle = sent.result()
             if not handle.accepted:
                 return {'accepted': False}
+            goal_id = bytes(handle.goal_id.uuid)
+            reply: dict[str, Any] = {'accepted': True, 'goal_id': goal_id.hex()}
+            if command.get('cancel_after_feedback'):
+                if not self.spin_until(lambda: bool(feedback), timeout):
+                    raise TimeoutError('no feedback came, so the goal was not canceled')
+                canceled = handle.cancel_goal_async()
+                if not self.spin_until(canceled.done, timeout):
+                    raise TimeoutError('cancel_goal got no response')
+                response = canceled.result()
+                reply['cancel'] = {
+                    'return_code': response.return_code,
+                    'goals_canceling': [
+                        bytes(info.goal_id.uuid).hex() for info in response.goals_canceling
+                    ],
+                }
             result = handle.get_result_async()
             if not self.spin_until(result.done, timeout):
                 raise TimeoutError('get_result got no response')
             wrapped = result.result()
-            return {
-                'accepted': True,
-                'status': wrapped.status,
-                'sequence': list(wrapped.result.sequence),
-                'feedback': feedback,
-            }
+            reply.update(
+                status=wrapped.status,
+                sequence=list(wrapped.result.sequence),
+                feedback=list(feedback),
+            )
+            if subscriptions:
+                terminal = (
+                    GoalStatus.STATUS_SUCCEEDED,
+                    GoalStatus.STATUS_CANCELED,
+                    GoalStatus.STATUS_ABORTED,
+                )
+
+                def seen() -> tuple[list[list[int]], list[int]]:
+                    return (
+                        [sequence for g, sequence in list(messages) if g == goal_id],
+                        [state for array in list(arrays) for g, state in array if g == goal_id],
+                    )
+
+                wanted = int(command.get('feedback_count', 0))
+                self.spin_until(
+                    lambda: len(seen()[0]) >= wanted and any(s in terminal for s in seen()[1]),
+                    timeout,
+                )
+                topic_feedback, statuses = seen()
+                reply.update(topic_feedback=topic_feedback, statuses=statuses)
+            return reply
         finally:
+            for subscription in subscriptions:
+                self.node.destroy_subscription(subscription)
             client.destroy()
 
     def serve(self, reader: TextIO, writer: TextIO) -> None:
@@ -267,6 +408,7 @@ class Worker:
             writer.flush()
 
     def close(self) -> None:
+        self.stopping.set()
         self.executor.shutdown()
         self.spinner.join(5)
         self.node.destroy_node()

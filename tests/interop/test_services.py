@@ -1,8 +1,9 @@
 """Services and actions through the bridge, seen from a plain Zenoh session (§5, §6).
 
-zros has no services or actions yet: these tests drive the Zenoh side by hand, as the spec
-says a client must, and check the bridge (stand-in or real) against real rclpy servers, clients
-and actions.
+These tests drive the Zenoh side by hand, byte by byte as the spec says a client or server
+must, and so check the bridge itself (stand-in or real) against real rclpy servers, clients and
+actions, independently of zros. zros's own services and actions against rclpy are tested in
+``test_zros_services.py``.
 """
 
 from __future__ import annotations
