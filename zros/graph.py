@@ -241,6 +241,28 @@ class Graph:
             )
         self._bump()
 
+    def refresh(self, timeout: float = 2.0) -> None:
+        """Ask the network for every token now, and wait until bridges told their version.
+
+        The view fills by itself shortly after a session opens; a command-line tool that looks
+        once calls this to see the whole graph at once.
+        """
+        liveliness = self._transport.session.liveliness()
+        deadline = time.monotonic() + timeout
+        for selector, handler in (
+            (ENTITY_TOKENS, self._on_entity),
+            (BRIDGE_TOKENS, self._on_entity),
+            (ZROS_TOKENS, self._on_zros),
+        ):
+            remaining = max(0.05, deadline - time.monotonic())
+            for reply in liveliness.get(selector, timeout=remaining):
+                if reply.ok is not None:
+                    handler(reply.ok)
+        self.wait_until(
+            lambda: all(b.version is not None for b in self.bridges()),
+            max(0.0, deadline - time.monotonic()),
+        )
+
     # --- queries ------------------------------------------------------------------------------
 
     def endpoints(self, kinds: tuple[EntityKind, ...] | None = None) -> list[Endpoint]:

@@ -31,9 +31,10 @@ def _parser() -> argparse.ArgumentParser:
     listing.add_argument('pattern', nargs='?', default='', help='only names containing this text')
     listing.set_defaults(run='zros.cli.interface:list_types')
 
-    from zros.cli.tls import add_parser as add_tls
+    from zros.cli import tls, topic
 
-    add_tls(commands)
+    for module in (topic, tls):
+        module.add_parser(commands)
     return parser
 
 
@@ -48,12 +49,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     module_name, function_name = target.split(':')
     import importlib
 
+    from zros.cli.common import CommandError
     from zros.errors import ZrosError
 
     function = getattr(importlib.import_module(module_name), function_name)
     try:
         return int(function(args))
-    except ZrosError as exc:
+    except (ZrosError, CommandError) as exc:
         print(f'zros: error: {exc}', file=sys.stderr)
         return 1
     except KeyboardInterrupt:

@@ -1,0 +1,115 @@
+"""Run the real ``zros`` console script against a router inside the test process."""
+
+from __future__ import annotations
+
+import os
+import queue
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+from zros.transport import Router
+
+ZROS = shutil.which('zros', path=str(Path(sys.executable).parent))
+TIMEOUT = 60.0
+
+
+@dataclass
+class Running:
+    """A ``zros`` command still running; its output lines arrive in ``lines``."""
+
+    process: subprocess.Popen[str]
+    lines: queue.Queue[str | None] = field(default_factory=queue.Queue)
+    seen: list[str] = field(default_factory=list)
+
+    def wait_line(self, predicate: Callable[[str], bool], timeout: float = TIMEOUT) -> str:
+        """The first new line for which ``predicate`` holds; fails on timeout or exit."""
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise AssertionError(f'no such line within {timeout} s; output: {self.seen}')
+            try:
+                line = self.lines.get(timeout=remaining)
+            except queue.Empty:
+                continue
+            if line is None:
+                error = self.process.stderr.read() if self.process.stderr else ''
+                raise AssertionError(f'the command ended; output: {self.seen}; stderr: {error}')
+            self.seen.append(line)
+            if predicate(line):
+                return line
+
+    def finish(self, timeout: float = TIMEOUT) -> tuple[int, str]:
+        """Wait for the end; exit code and the output lines not read yet."""
+        code = self.process.wait(timeout)
+        rest: list[str] = []
+        while (line := self.lines.get(timeout=timeout)) is not None:
+            rest.append(line)
+        return code, '\n'.join(rest)
+
+
+@dataclass
+class Cli:
+    """``run(...)`` a command to its end, or ``start(...)`` one to talk to while it runs."""
+
+    endpoint: str
+    started: list[Running] = field(default_factory=list)
+
+    def env(self) -> dict[str, str]:
+        env = dict(os.environ, ZROS_CONNECT=self.endpoint, PYTHONUNBUFFERED='1')
+        env.pop('ZENOH_CONFIG', None)
+        return env
+
+    def run(self, *args: str, timeout: float = TIMEOUT) -> subprocess.CompletedProcess[str]:
+        assert ZROS is not None
+        return subprocess.run(
+            [ZROS, *args],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            env=self.env(),
+            check=False,
+        )
+
+    def start(self, *args: str) -> Running:
+        assert ZROS is not None
+        process = subprocess.Popen(
+            [ZROS, *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            env=self.env(),
+        )
+        running = Running(process)
+
+        def pump() -> None:
+            assert process.stdout is not None
+            for line in process.stdout:
+                running.lines.put(line.rstrip('\n'))
+            running.lines.put(None)
+
+        threading.Thread(target=pump, daemon=True).start()
+        self.started.append(running)
+        return running
+
+
+@pytest.fixture
+def cli(zros_router: Router) -> Iterator[Cli]:
+    """The ``zros`` command connected to ``zros_router``."""
+    if ZROS is None:
+        pytest.skip('the zros console script is not installed in this environment')
+    commands = Cli(zros_router.endpoint)
+    yield commands
+    for running in commands.started:
+        if running.process.poll() is None:
+            running.process.kill()
+            running.process.wait(10)

@@ -1,0 +1,234 @@
+"""``zros topic ...`` run as a user runs it, against a router in the test process."""
+
+from __future__ import annotations
+
+import re
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import pytest
+
+import zros
+from tests.cli.conftest import Cli
+from zros.testing import spinning, wait_for
+
+Node = Callable[..., Any]
+
+
+@pytest.fixture
+def talker(zros_node: Node) -> Iterator[Callable[..., Any]]:
+    """``start(topic, type, every=0.02, **fields)``: a node publishing one message over and over
+    (rate-scheduled, so its mean rate is exact) until the test ends."""
+    stops: list[threading.Event] = []
+    threads: list[threading.Thread] = []
+
+    def start(topic: str, type_name: str, hz: float = 50.0, **fields: Any) -> Any:
+        node = zros_node('talker')
+        publisher = node.create_publisher(type_name, topic, 10)
+        message = zros.Message(type_name, **fields)
+        stop = threading.Event()
+
+        def loop() -> None:
+            rate = node.create_rate(hz)
+            while not stop.is_set():
+                if hasattr(message, 'header'):
+                    message.header.stamp = node.now().to_msg()
+                publisher.write(message)
+                rate.sleep()
+
+        thread = threading.Thread(target=loop, daemon=True)
+        thread.start()
+        stops.append(stop)
+        threads.append(thread)
+        return publisher
+
+    yield start
+    for stop in stops:
+        stop.set()
+    for thread in threads:
+        thread.join(5)
+
+
+def test_list_info_type_find(cli: Cli, zros_node: Node) -> None:
+    node = zros_node('graph_node', '/robot')
+    node.create_publisher('std_msgs/msg/String', 'chatter', 10)
+    node.create_subscription('geometry_msgs/msg/Twist', '/cmd_vel', lambda m: None)
+    other = zros_node('listener')
+    other.create_subscription('std_msgs/msg/String', '/robot/chatter', lambda m: None)
+
+    listing = cli.run('topic', 'list')
+    assert listing.returncode == 0, listing.stderr
+    assert {'/robot/chatter', '/cmd_vel'} <= set(listing.stdout.split())
+    typed = cli.run('topic', 'list', '-t').stdout.splitlines()
+    assert '/robot/chatter [std_msgs/msg/String]' in typed
+    assert '/cmd_vel [geometry_msgs/msg/Twist]' in typed
+    verbose = cli.run('topic', 'list', '-v').stdout
+    published, subscribed = verbose.split('Subscribed topics:')
+    assert ' * /robot/chatter [std_msgs/msg/String] 1 publisher' in published
+    assert '/cmd_vel' not in published
+    assert ' * /robot/chatter [std_msgs/msg/String] 1 subscriber' in subscribed
+    assert ' * /cmd_vel [geometry_msgs/msg/Twist] 1 subscriber' in subscribed
+
+    info = cli.run('topic', 'info', '/robot/chatter').stdout
+    assert info.splitlines()[:5] == [
+        'Type: std_msgs/msg/String',
+        '',
+        'Publisher count: 1',
+        '',
+        'Subscription count: 1',
+    ]
+    detailed = cli.run('topic', 'info', '/robot/chatter', '-v').stdout
+    assert 'Node name: /robot/graph_node' in detailed
+    assert 'Endpoint type: PUBLISHER' in detailed
+    assert 'Node name: /listener' in detailed
+    assert 'Endpoint type: SUBSCRIPTION' in detailed
+
+    assert cli.run('topic', 'type', '/cmd_vel').stdout == 'geometry_msgs/msg/Twist\n'
+    assert cli.run('topic', 'find', 'std_msgs/String').stdout == '/robot/chatter\n'
+
+
+def test_unknown_topics_fail_with_exit_1(cli: Cli) -> None:
+    for args in (('topic', 'info', '/nope'), ('topic', 'type', '/nope')):
+        result = cli.run(*args)
+        assert result.returncode == 1
+        assert '/nope' in result.stderr
+    echo = cli.run('topic', 'echo', '/nope', '--wait', '0.2')
+    assert echo.returncode == 1
+    assert 'topic /nope does not appear on the network' in echo.stderr
+    usage = cli.run('topic', 'echo')
+    assert usage.returncode == 2
+    assert 'usage: zros topic echo' in usage.stderr
+
+
+def test_echo_once_prints_yaml_like_ros2(cli: Cli, talker: Callable[..., Any]) -> None:
+    talker('/pose', 'geometry_msgs/msg/Pose', position={'x': 1.5, 'y': -2.0})
+    result = cli.run('topic', 'echo', '/pose', '--once')
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == (
+        'position:\n  x: 1.5\n  y: -2.0\n  z: 0.0\n'
+        'orientation:\n  x: 0.0\n  y: 0.0\n  z: 0.0\n  w: 1.0\n---\n'
+    )
+    field = cli.run('topic', 'echo', '/pose', '--once', '--field', 'position.y')
+    assert field.stdout == '-2.0\n---\n'
+    csv = cli.run('topic', 'echo', '/pose', '--count', '2', '--csv')
+    assert csv.stdout.splitlines() == ['1.5,-2.0,0.0,0.0,0.0,0.0,1.0'] * 2
+    wrong = cli.run('topic', 'echo', '/pose', '--once', '--field', 'position.q')
+    assert wrong.returncode == 1
+    assert 'position.q' in wrong.stderr
+
+
+def test_echo_abbreviates_arrays_and_strings(cli: Cli, talker: Callable[..., Any]) -> None:
+    talker('/scan', 'sensor_msgs/msg/LaserScan', ranges=[1.0, 2.0, 3.0], angle_max=1.0)
+    talker('/words', 'std_msgs/msg/String', data='x' * 40)
+    no_arr = cli.run('topic', 'echo', '/scan', '--once', '--no-arr').stdout
+    assert "ranges: '<sequence type: float, length: 3>'" in no_arr
+    full = cli.run('topic', 'echo', '/scan', '--once', '--flow-style').stdout
+    assert 'ranges: [1.0, 2.0, 3.0]' in full
+    assert cli.run('topic', 'echo', '/words', '--once', '--no-str').stdout == (
+        "data: '<string length: <40>>'\n---\n"
+    )
+    short = cli.run('topic', 'echo', '/words', '--once', '--truncate-length', '5').stdout
+    assert short == 'data: xxxxx...\n---\n'
+
+
+def test_echo_receives_a_latched_message(cli: Cli, zros_node: Node) -> None:
+    node = zros_node('static')
+    node.create_publisher('std_msgs/msg/String', '/map_name', 'latched').write(
+        zros.Message('std_msgs/msg/String', data='office')
+    )
+    result = cli.run('topic', 'echo', '/map_name', '--once')
+    assert result.stdout == 'data: office\n---\n'
+
+
+def test_pub_reaches_a_subscriber(cli: Cli, zros_node: Node) -> None:
+    node = zros_node('listener')
+    received: list[Any] = []
+    node.create_subscription('geometry_msgs/msg/Twist', '/cmd_vel', received.append)
+    with spinning(node):
+        result = cli.run(
+            'topic', 'pub', '/cmd_vel', 'geometry_msgs/Twist',
+            '{linear: {x: 0.5}, angular: {z: -1}}', '--once', '-w', '1',
+        )  # fmt: skip
+        assert result.returncode == 0, result.stderr
+        assert wait_for(lambda: received, 10)
+    assert received[0].linear.x == 0.5
+    assert received[0].angular.z == -1.0
+    assert 'publishing #1: geometry_msgs.msg.Twist(' in result.stdout
+    assert len(received) == 1
+
+
+def test_pub_at_a_rate_and_latched(cli: Cli, zros_node: Node) -> None:
+    node = zros_node('listener')
+    stamps: list[float] = []
+    node.create_subscription(
+        'std_msgs/msg/Int32', '/count', lambda m: stamps.append(time.monotonic())
+    )
+    with spinning(node):
+        result = cli.run('topic', 'pub', '/count', 'std_msgs/msg/Int32', '{data: 7}', '-r', '20',
+                         '-t', '5', '-w', '1')  # fmt: skip
+        assert result.returncode == 0, result.stderr
+        assert wait_for(lambda: len(stamps) == 5, 10)
+    assert 0.15 < stamps[-1] - stamps[0] < 0.6  # 4 gaps of 50 ms
+    latched = cli.start('topic', 'pub', '/level', 'std_msgs/msg/Int32', '{data: 3}', '--once',
+                        '--latched', '--keep-alive', '30')  # fmt: skip
+    latched.wait_line(lambda line: line.startswith('publishing #1'))
+    late = zros_node('late')
+    got = late.create_subscription('std_msgs/msg/Int32', '/level', qos='latched')
+    assert got.wait_for_message(timeout=10).data == 3
+    latched.process.terminate()
+
+
+def test_pub_rejects_bad_values(cli: Cli) -> None:
+    for values, expected in (
+        ('{data: [1, 2', 'not valid YAML'),
+        ('[1, 2]', 'must be a YAML mapping'),
+        ('{nope: 1}', 'cannot make a std_msgs/msg/Int32'),
+    ):
+        result = cli.run('topic', 'pub', '/x', 'std_msgs/msg/Int32', values, '--once')
+        assert result.returncode == 1
+        assert expected in result.stderr
+    result = cli.run('topic', 'pub', '/x', 'std_srvs/srv/SetBool', '{}', '--once')
+    assert result.returncode == 1
+    assert 'is not a message type' in result.stderr
+
+
+def test_hz_reports_a_50_hz_publisher_within_5_percent(
+    cli: Cli, talker: Callable[..., Any]
+) -> None:
+    talker('/fast', 'std_msgs/msg/Int32', hz=50.0, data=1)
+    running = cli.start('topic', 'hz', '/fast', '--period', '2', '--count', '2')
+    running.wait_line(lambda line: line.startswith('average rate:'))
+    rate_line = running.wait_line(lambda line: line.startswith('average rate:'))
+    stats = running.wait_line(lambda line: 'std dev' in line)
+    code, _ = running.finish()
+    assert code == 0
+    rate = float(rate_line.split(':')[1])
+    assert abs(rate - 50.0) / 50.0 < 0.05, rate_line
+    match = re.fullmatch(r'\tmin: (\S+)s max: (\S+)s std dev: (\S+)s window: (\d+)', stats)
+    assert match is not None, stats
+    assert float(match[1]) <= 0.02 <= float(match[2])
+    assert int(match[4]) > 50
+
+
+def test_bw_reports_message_sizes(cli: Cli, talker: Callable[..., Any]) -> None:
+    talker('/blob', 'std_msgs/msg/UInt8MultiArray', hz=50.0, data=bytes(2000))
+    running = cli.start('topic', 'bw', '/blob', '--period', '1', '--count', '2')
+    running.wait_line(lambda line: line.startswith('Subscribed to [/blob]'))
+    running.wait_line(lambda line: line.endswith('messages'))
+    sizes = running.wait_line(lambda line: 'Message size mean' in line)
+    # 2000 bytes of data, sequence lengths and the 4-byte CDR header
+    assert sizes.strip() == 'Message size mean: 2.02 KB min: 2.02 KB max: 2.02 KB'
+    assert running.finish()[0] == 0
+
+
+def test_delay_from_header_stamps(cli: Cli, talker: Callable[..., Any]) -> None:
+    talker('/imu', 'sensor_msgs/msg/Imu', hz=50.0)
+    running = cli.start('topic', 'delay', '/imu', '--period', '1', '--count', '1')
+    line = running.wait_line(lambda line: line.startswith('average delay:'))
+    assert 0.0 <= float(line.split(':')[1]) < 0.5
+    assert running.finish()[0] == 0
+    no_header = cli.run('topic', 'delay', '/x', 'std_msgs/msg/String', '--count', '1')
+    assert no_header.returncode == 1
+    assert 'std_msgs/msg/String has no header' in no_header.stderr

@@ -1,0 +1,109 @@
+"""What the ``zros`` subcommands share: connection options, the command node, values, exits.
+
+Exit codes: 0 success, 1 a failure the message explains, 2 a usage error (argparse), 130
+interrupted before finishing. Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from zros.node import Node
+
+
+class CommandError(Exception):
+    """A failure to report in one line, exit code 1."""
+
+
+def add_connection_options(parser: argparse.ArgumentParser) -> None:
+    """``--connect``, ``--mode`` and ``--bridge-namespace`` (environment: ZROS_CONNECT...)."""
+    group = parser.add_argument_group('connection')
+    group.add_argument(
+        '--connect',
+        action='append',
+        metavar='ENDPOINT',
+        help='router or bridge to reach, e.g. tcp/robot:7447 (default: $ZROS_CONNECT, '
+        'else tcp/127.0.0.1:7447)',
+    )
+    group.add_argument('--mode', choices=('client', 'peer'), help='Zenoh mode (default client)')
+    group.add_argument(
+        '--bridge-namespace',
+        metavar='NS',
+        help="the bridge's namespace setting (default: what the bridges report)",
+    )
+
+
+def open_node(args: argparse.Namespace, name: str = 'zros_cli', **options: Any) -> Node:
+    """A node for one command: no /rosout, no parameter services, its own session."""
+    import zros
+
+    settings: dict[str, Any] = {}
+    if getattr(args, 'mode', None):
+        settings['mode'] = args.mode
+    options.setdefault('enable_rosout', False)
+    options.setdefault('start_parameter_services', False)
+    return zros.Node(
+        f'{name}_{os.getpid()}',
+        connect=getattr(args, 'connect', None),
+        bridge_namespace=getattr(args, 'bridge_namespace', None),
+        **settings,
+        **options,
+    )
+
+
+def parse_values(text: str | None) -> dict[str, Any]:
+    """Message fields from YAML text, as ``ros2 topic pub`` takes them: ``"{data: hi}"``."""
+    if not text:
+        return {}
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    try:
+        values = YAML(typ='safe', pure=True).load(text)
+    except YAMLError as exc:
+        raise CommandError(f'the values are not valid YAML: {exc}') from None
+    if values is None:
+        return {}
+    if not isinstance(values, dict):
+        raise CommandError(f'the values must be a YAML mapping like "{{data: 1}}", not {text!r}')
+    return values
+
+
+def message_class(type_name: str) -> Any:
+    """The message class of a type name (``std_msgs/msg/String`` or ``std_msgs/String``)."""
+    from zros.cdr import default_registry
+    from zros.cdr.interfaces import ActionType, ServiceType
+
+    found = default_registry().get_type(type_name)
+    if isinstance(found, (ServiceType, ActionType)):
+        raise CommandError(f'{type_name} is not a message type')
+    return found
+
+
+def build_message(cls: Any, values: dict[str, Any]) -> Any:
+    """A message of ``cls`` with ``values`` (nested dicts for nested fields)."""
+    try:
+        return cls(**values)
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise CommandError(f'cannot make a {cls.__msgtype__} from {values}: {exc}') from None
+
+
+def run_until_interrupted(step: Callable[[], bool]) -> int:
+    """Call ``step()`` until it returns False or Ctrl-C; exit code 0 either way."""
+    try:
+        while step():
+            pass
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+def out(text: str = '') -> None:
+    """Print and flush (output often goes to a pipe another program reads line by line)."""
+    sys.stdout.write(text + '\n')
+    sys.stdout.flush()

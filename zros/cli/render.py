@@ -1,0 +1,180 @@
+"""Messages as text the way the ros2 command prints them: YAML (``ros2 topic echo``) and CSV.
+
+The YAML is what PyYAML's default dumper writes for rosidl's ordered dictionaries, reproduced
+with ruamel.yaml (a zros dependency): block style, fields in definition order, floats as
+``1.0e-05``, ambiguous strings quoted.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import sys
+from typing import Any
+
+from zros.cdr.model import FieldType, Kind
+
+#: IDL names rosidl gives the .msg primitives (what ``--no-arr`` prints)
+_PRIMITIVE_NAMES = {
+    'byte': 'octet',
+    'char': 'uint8',
+    'bool': 'boolean',
+    'float32': 'float',
+    'float64': 'double',
+}
+
+
+def _type_name(field_type: FieldType) -> str:
+    element = field_type.element
+    if element.is_nested:
+        return element.base
+    return _PRIMITIVE_NAMES.get(element.base, element.base)
+
+
+def _abbreviate(value: Any, field_type: FieldType) -> str:
+    name = _type_name(field_type)
+    if field_type.kind is Kind.ARRAY:
+        return f'<array type: {name}[{field_type.length}]>'
+    if field_type.kind is Kind.BOUNDED:
+        return f'<sequence type: {name}[{field_type.length}], length: {len(value)}>'
+    return f'<sequence type: {name}, length: {len(value)}>'
+
+
+def _plain(value: Any, truncate: int | None, no_arr: bool, no_str: bool) -> Any:
+    import numpy as np
+
+    if isinstance(value, str):
+        if no_str:
+            return f'<string length: <{len(value)}>>'
+        if truncate is not None and len(value) > truncate:
+            return value[:truncate] + '...'
+        return value
+    if isinstance(value, (bytes, bytearray)):
+        value = list(value)
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if hasattr(value, '__msgtype__'):
+        return to_plain(value, truncate=truncate, no_arr=no_arr, no_str=no_str)
+    if isinstance(value, (list, tuple)) or hasattr(value, '__len__'):  # lists, StructSeq
+        items = list(value)
+        cut = truncate is not None and len(items) > truncate
+        if cut:
+            items = items[:truncate]
+        converted = [_plain(item, truncate, no_arr, no_str) for item in items]
+        return [*converted, '...'] if cut else converted
+    return value
+
+
+def to_plain(
+    message: Any, *, truncate: int | None = None, no_arr: bool = False, no_str: bool = False
+) -> dict[str, Any]:
+    """A message as nested dicts and lists, fields in definition order."""
+    result: dict[str, Any] = {}
+    for field in message._definition.fields:
+        value = getattr(message, field.name)
+        if no_arr and not field.type.is_scalar:
+            result[field.name] = _abbreviate(value, field.type)
+        else:
+            result[field.name] = _plain(value, truncate, no_arr, no_str)
+    return result
+
+
+def _dumper(flow_style: bool) -> Any:
+    from ruamel.yaml import YAML
+
+    yaml = YAML(typ='safe', pure=True)
+    yaml.default_flow_style = False
+    yaml.width = sys.maxsize
+    yaml.allow_unicode = True
+
+    def represent_float(representer: Any, value: float) -> Any:
+        if math.isnan(value):
+            text = '.nan'
+        elif math.isinf(value):
+            text = '.inf' if value > 0 else '-.inf'
+        else:
+            text = repr(value).lower()
+            if '.' not in text and 'e' in text:
+                text = text.replace('e', '.0e', 1)
+        return representer.represent_scalar('tag:yaml.org,2002:float', text)
+
+    def represent_dict(representer: Any, value: dict[str, Any]) -> Any:  # in field order
+        return representer.represent_mapping('tag:yaml.org,2002:map', list(value.items()))
+
+    def represent_list(representer: Any, value: list[Any]) -> Any:
+        # ros2's --flow-style makes sequences flow and leaves messages in block style
+        return representer.represent_sequence('tag:yaml.org,2002:seq', value, flow_style=flow_style)
+
+    def represent_str(representer: Any, value: str) -> Any:
+        if '\n' in value and all(c == '\n' or c.isprintable() for c in value):
+            # PyYAML single-quotes multi-line text where ruamel would double-quote it
+            return representer.represent_scalar('tag:yaml.org,2002:str', value, style="'")
+        return representer.represent_str(value)
+
+    yaml.representer.add_representer(str, represent_str)
+    yaml.representer.add_representer(float, represent_float)
+    yaml.representer.add_representer(dict, represent_dict)
+    yaml.representer.add_representer(list, represent_list)
+    return yaml
+
+
+def to_yaml(value: Any, flow_style: bool = False) -> str:
+    """YAML text of plain data (``to_plain``'s result) as ros2 prints it."""
+    buffer = io.StringIO()
+    _dumper(flow_style).dump(value, buffer)
+    return buffer.getvalue()
+
+
+def message_to_yaml(
+    message: Any,
+    *,
+    truncate: int | None = None,
+    no_arr: bool = False,
+    no_str: bool = False,
+    flow_style: bool = False,
+) -> str:
+    """A message as ``ros2 topic echo`` prints it (without the ``---`` line)."""
+    return to_yaml(to_plain(message, truncate=truncate, no_arr=no_arr, no_str=no_str), flow_style)
+
+
+def value_to_yaml(
+    value: Any,
+    *,
+    truncate: int | None = None,
+    no_arr: bool = False,
+    no_str: bool = False,
+    flow_style: bool = False,
+) -> str:
+    """A field's value (``--field``) as YAML; scalars without the ``...`` end marker."""
+    text = to_yaml(_plain(value, truncate, no_arr, no_str), flow_style)
+    return text[: -len('...\n')] if text.endswith('\n...\n') else text
+
+
+def message_to_csv(
+    message: Any, *, truncate: int | None = None, no_arr: bool = False, no_str: bool = False
+) -> str:
+    """A message as ``ros2 topic echo --csv`` prints it: leaf values, comma separated."""
+
+    def text(value: Any) -> str:
+        if isinstance(value, dict):
+            return ','.join(text(item) for item in value.values())
+        if isinstance(value, list):
+            return ','.join(text(item) for item in value)
+        return str(value)
+
+    return text(to_plain(message, truncate=truncate, no_arr=no_arr, no_str=no_str))
+
+
+def select(message: Any, path: str) -> Any:
+    """The value at a dotted path (``pose.position``), for ``--field``."""
+    value = message
+    for part in path.strip('.').split('.'):
+        if not part:
+            continue
+        if not hasattr(value, '__msgtype__') or part not in value.__slots__:
+            where = getattr(value, '__msgtype__', type(value).__name__)
+            raise KeyError(f"--field {path}: '{part}' is not a field of {where}")
+        value = getattr(value, part)
+    return value

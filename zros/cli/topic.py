@@ -1,0 +1,401 @@
+"""``zros topic``: list, info, type, find, echo, pub, hz, bw, delay (as ``ros2 topic``)."""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import statistics
+import threading
+import time
+from collections import deque
+from typing import TYPE_CHECKING, Any
+
+from zros.cli.common import (
+    CommandError,
+    add_connection_options,
+    build_message,
+    message_class,
+    open_node,
+    out,
+    parse_values,
+)
+
+if TYPE_CHECKING:
+    from zros.graph import Endpoint
+    from zros.node import Node
+
+DISCOVERY = 2.0  #: seconds a one-shot command gives the graph to show itself
+
+
+def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
+    key = node.scheme.key(node.resolve_name(topic))
+    return node.graph.publishers(key), node.graph.subscribers(key)
+
+
+def _topic_type(node: Node, topic: str, wait: float) -> str:
+    """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear."""
+    name = node.resolve_name(topic)
+
+    def found() -> list[str]:
+        return node.graph.topics(node.scheme.namespace).get(name, [])
+
+    node.graph.wait_until(found, wait)
+    types = found()
+    if not types:
+        raise CommandError(
+            f'topic {name} does not appear on the network: give its type, or check the name '
+            '(zros topic list)'
+        )
+    if len(types) > 1:
+        raise CommandError(f'topic {name} has several types ({", ".join(types)}): give one')
+    return types[0]
+
+
+# --- one-shot commands -----------------------------------------------------------------------
+
+
+def list_topics(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        topics = node.graph.topics(node.scheme.namespace)
+        if args.verbose:
+            for title, kind in (('Published topics', 0), ('Subscribed topics', 1)):
+                out(f'{title}:')
+                for name, types in topics.items():
+                    ends = _publishers_and_subscribers(node, name)[kind]
+                    if ends:
+                        noun = 'publisher' if kind == 0 else 'subscriber'
+                        count = len(ends)
+                        plural = '' if count == 1 else 's'
+                        out(f' * {name} [{", ".join(types)}] {count} {noun}{plural}')
+                out()
+            return 0
+        for name, types in topics.items():
+            out(f'{name} [{", ".join(types)}]' if args.show_types else name)
+    return 0
+
+
+def info(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        name = node.resolve_name(args.topic)
+        types = node.graph.topics(node.scheme.namespace).get(name)
+        if not types:
+            raise CommandError(f'unknown topic {name}')
+        publishers, subscribers = _publishers_and_subscribers(node, name)
+        out(f'Type: {", ".join(types)}')
+        out()
+        for title, ends in (('Publisher count', publishers), ('Subscription count', subscribers)):
+            out(f'{title}: {len(ends)}')
+            if args.verbose:
+                out()
+                for end in ends:
+                    owner = end.node or f'(bridge {end.zid})'
+                    out(f'Node name: {owner}')
+                    out(f'Topic type: {end.type_name}')
+                    out(f'Endpoint type: {"PUBLISHER" if end in publishers else "SUBSCRIPTION"}')
+                    out(f'Zenoh session: {end.zid}')
+                    out(f'QoS profile: {end.qos}')
+                    out()
+            elif title.startswith('Publisher'):
+                out()
+    return 0
+
+
+def topic_type(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        out(_topic_type(node, args.topic, 0))
+    return 0
+
+
+def find(args: argparse.Namespace) -> int:
+    wanted = message_class(args.type).__msgtype__
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        for name, types in node.graph.topics(node.scheme.namespace).items():
+            if wanted in types:
+                out(name)
+    return 0
+
+
+# --- echo and pub ----------------------------------------------------------------------------
+
+
+def echo(args: argparse.Namespace) -> int:
+    from zros.cli.render import message_to_csv, message_to_yaml, select, value_to_yaml
+
+    options = {'truncate': args.truncate_length, 'no_arr': args.no_arr, 'no_str': args.no_str}
+
+    def text_of(message: Any) -> str:
+        value = message
+        if args.field:
+            try:
+                value = select(message, args.field)
+            except KeyError as exc:
+                raise CommandError(str(exc.args[0])) from None
+        if args.csv:
+            return message_to_csv(value, **options) if hasattr(value, '__msgtype__') else str(value)
+        if hasattr(value, '__msgtype__'):
+            return message_to_yaml(value, flow_style=args.flow_style, **options)
+        return value_to_yaml(value, flow_style=args.flow_style, **options)
+
+    with open_node(args) as node:
+        type_name = args.type or _topic_type(node, args.topic, args.wait)
+        publishers = _publishers_and_subscribers(node, args.topic)[0]
+        latched = bool(publishers) and all(
+            p.qos is not None and p.qos.transient_local for p in publishers
+        )
+        subscriber = node.create_subscription(
+            type_name, args.topic, qos='latched' if latched else args.qos_depth
+        )
+        printed = 0
+        try:
+            while node.ok():
+                message = subscriber.wait_for_message(timeout=0.5)
+                if message is None:
+                    continue
+                out(text_of(message).rstrip('\n'))
+                if not args.csv:
+                    out('---')
+                printed += 1
+                if args.once or (args.count and printed >= args.count):
+                    break
+        except KeyboardInterrupt:
+            pass
+    return 0
+
+
+def pub(args: argparse.Namespace) -> int:
+    cls = message_class(args.type)
+    message = build_message(cls, parse_values(args.values))
+    with open_node(args, 'zros_pub') as node:
+        qos = 'latched' if args.latched else 10
+        publisher = node.create_publisher(cls, args.topic, qos=qos)
+        if args.wait_matching_subscriptions:
+            deadline = time.monotonic() + 30
+            while len(_publishers_and_subscribers(node, args.topic)[1]) < (
+                args.wait_matching_subscriptions
+            ):
+                if time.monotonic() > deadline:
+                    raise CommandError('no subscriber matched within 30 s')
+                node.graph.wait_until(lambda: False, 0.1)
+        publisher.wait_for_subscribers(1.0)
+        out('publisher: beginning loop')
+        rate = node.create_rate(args.rate) if args.rate > 0 else None
+        times = 1 if args.once else args.times
+        sent = 0
+        try:
+            while node.ok():
+                sent += 1
+                out(f'publishing #{sent}: {message!r}')
+                out()
+                publisher.write(message)
+                if times and sent >= times:
+                    break
+                if rate is not None:
+                    rate.sleep()
+        except KeyboardInterrupt:
+            pass
+        if args.once or args.latched:
+            # give late subscribers of a latched topic, and the network, a moment
+            node.spin(timeout=0.3 if not args.latched else args.keep_alive)
+    return 0
+
+
+# --- hz, bw, delay ---------------------------------------------------------------------------
+
+
+class _Window:
+    """Arrival times (and sizes) of the last ``size`` messages, filled on Zenoh's thread."""
+
+    def __init__(self, size: int) -> None:
+        self.times: deque[float] = deque(maxlen=size)
+        self.sizes: deque[int] = deque(maxlen=size)
+        self.lock = threading.Lock()
+        self.total = 0
+
+    def add(self, sample: Any) -> None:
+        now = time.monotonic()
+        with self.lock:
+            self.times.append(now)
+            self.sizes.append(len(sample.payload))
+            self.total += 1
+
+
+def _raw_subscription(node: Node, topic: str, window: _Window) -> Any:
+    key = node.scheme.key(node.resolve_name(topic))
+    return node.transport.session.declare_subscriber(key, window.add)
+
+
+def _report_loop(node: Node, args: argparse.Namespace, report: Any) -> int:
+    reports = 0
+    try:
+        while node.ok():
+            node.spin(timeout=args.period)
+            if report():
+                reports += 1
+                if args.count and reports >= args.count:
+                    break
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+def hz(args: argparse.Namespace) -> int:
+    with open_node(args, 'zros_hz') as node:
+        window = _Window(args.window)
+        subscription = _raw_subscription(node, args.topic, window)
+
+        def report() -> bool:
+            with window.lock:
+                times = list(window.times)
+            if len(times) < 2:
+                out('no new messages')
+                return False
+            gaps = [b - a for a, b in itertools.pairwise(times)]
+            mean = statistics.fmean(gaps)
+            deviation = statistics.pstdev(gaps)
+            out(f'average rate: {1 / mean:.3f}')
+            out(
+                f'\tmin: {min(gaps):.3f}s max: {max(gaps):.3f}s std dev: {deviation:.5f}s '
+                f'window: {len(times)}'
+            )
+            return True
+
+        try:
+            return _report_loop(node, args, report)
+        finally:
+            subscription.undeclare()
+
+
+def _size(value: float) -> str:
+    for unit in ('B', 'KB', 'MB'):
+        if value < 1000 or unit == 'MB':
+            return f'{value:.0f} {unit}' if unit == 'B' else f'{value:.2f} {unit}'
+        value /= 1000
+    return f'{value:.2f} MB'
+
+
+def bw(args: argparse.Namespace) -> int:
+    with open_node(args, 'zros_bw') as node:
+        window = _Window(args.window)
+        subscription = _raw_subscription(node, args.topic, window)
+        out(f'Subscribed to [{node.resolve_name(args.topic)}]')
+
+        def report() -> bool:
+            with window.lock:
+                times, sizes = list(window.times), list(window.sizes)
+            if len(times) < 2:
+                return False
+            span = max(times[-1] - times[0], 1e-9)
+            rate = sum(sizes[1:]) / span
+            out(f'{_size(rate)}/s from {len(sizes)} messages')
+            out(
+                f'\tMessage size mean: {_size(statistics.fmean(sizes))} min: {_size(min(sizes))} '
+                f'max: {_size(max(sizes))}'
+            )
+            return True
+
+        try:
+            return _report_loop(node, args, report)
+        finally:
+            subscription.undeclare()
+
+
+def delay(args: argparse.Namespace) -> int:
+    from zros.clock import Time
+
+    with open_node(args, 'zros_delay') as node:
+        type_name = args.type or _topic_type(node, args.topic, args.wait)
+        if 'header' not in message_class(type_name).__slots__:
+            raise CommandError(f'{type_name} has no header: its delay cannot be measured')
+        delays: deque[float] = deque(maxlen=args.window)
+
+        def on_message(message: Any) -> None:
+            delays.append((node.now() - Time.from_msg(message.header.stamp)).seconds)
+
+        node.create_subscription(type_name, args.topic, on_message, qos='sensor_data')
+
+        def report() -> bool:
+            if not delays:
+                out('no new messages')
+                return False
+            values = list(delays)
+            out(f'average delay: {statistics.fmean(values):.3f}')
+            out(
+                f'\tmin: {min(values):.3f}s max: {max(values):.3f}s '
+                f'std dev: {statistics.pstdev(values):.5f}s window: {len(values)}'
+            )
+            return True
+
+        return _report_loop(node, args, report)
+
+
+# --- the parser ------------------------------------------------------------------------------
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    topic = commands.add_parser('topic', help='topics: list, echo, pub, hz...')
+    verbs = topic.add_subparsers(dest='verb', metavar='VERB', required=True)
+
+    def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:
+        parser = verbs.add_parser(name, help=help_text, description=help_text)
+        parser.set_defaults(run=f'zros.cli.topic:{target}')
+        add_connection_options(parser)
+        return parser
+
+    listing = verb('list', 'list the topics on the network', 'list_topics')
+    listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
+    listing.add_argument('-v', '--verbose', action='store_true', help='publishers, subscribers')
+
+    parser = verb('info', 'type and endpoints of a topic', 'info')
+    parser.add_argument('topic')
+    parser.add_argument('-v', '--verbose', action='store_true', help='each endpoint')
+
+    parser = verb('type', 'the type of a topic', 'topic_type')
+    parser.add_argument('topic')
+
+    parser = verb('find', 'the topics of a type', 'find')
+    parser.add_argument('type')
+
+    parser = verb('echo', 'print the messages of a topic', 'echo')
+    parser.add_argument('topic')
+    parser.add_argument('type', nargs='?', help='its type (default: from the network)')
+    parser.add_argument('--field', help='print only this field, e.g. pose.position')
+    parser.add_argument('--once', action='store_true', help='print one message and exit')
+    parser.add_argument('--count', type=int, default=0, help='exit after N messages')
+    parser.add_argument('--csv', action='store_true', help='comma-separated values')
+    parser.add_argument('--no-arr', action='store_true', help='abbreviate arrays')
+    parser.add_argument('--no-str', action='store_true', help='abbreviate strings')
+    parser.add_argument('--flow-style', action='store_true', help='arrays on one line')
+    parser.add_argument('--truncate-length', type=int, metavar='N', help='cut long values')
+    parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
+    parser.add_argument('--wait', type=float, default=10.0, metavar='S',
+                        help='how long to wait for the topic to appear (default 10)')  # fmt: skip
+
+    parser = verb('pub', 'publish messages on a topic', 'pub')
+    parser.add_argument('topic')
+    parser.add_argument('type')
+    parser.add_argument('values', nargs='?', help='YAML, e.g. "{data: hello}"')
+    parser.add_argument('-r', '--rate', type=float, default=1.0, help='Hz (default 1; 0: no wait)')
+    parser.add_argument('-1', '--once', action='store_true', help='publish once and exit')
+    parser.add_argument('-t', '--times', type=int, default=0, help='publish N times and exit')
+    parser.add_argument('--latched', action='store_true', help='transient local, like /tf_static')
+    parser.add_argument('--keep-alive', type=float, default=1.0, metavar='S',
+                        help='with --latched: seconds to stay for late subscribers')  # fmt: skip
+    parser.add_argument('-w', '--wait-matching-subscriptions', type=int, default=0, metavar='N')
+
+    for name, help_text in (
+        ('hz', 'the rate of a topic'),
+        ('bw', 'the bandwidth of a topic'),
+        ('delay', 'the delay of a topic from its header stamps'),
+    ):
+        parser = verb(name, help_text, name)
+        parser.add_argument('topic')
+        if name == 'delay':
+            parser.add_argument('type', nargs='?')
+            parser.add_argument('--wait', type=float, default=10.0, metavar='S')
+        parser.add_argument('-w', '--window', type=int, default=10_000 if name == 'hz' else 100)
+        parser.add_argument('--period', type=float, default=1.0, help='seconds between reports')
+        parser.add_argument('--count', type=int, default=0, help='exit after N reports')
