@@ -31,9 +31,9 @@ def _parser() -> argparse.ArgumentParser:
     listing.add_argument('pattern', nargs='?', default='', help='only names containing this text')
     listing.set_defaults(run='zros.cli.interface:list_types')
 
-    from zros.cli import tls, topic
+    from zros.cli import action, node, param, service, tls, topic
 
-    for module in (topic, tls):
+    for module in (topic, node, service, action, param, tls):
         module.add_parser(commands)
     return parser
 

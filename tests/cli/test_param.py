@@ -1,0 +1,139 @@
+"""``zros param`` run as a user runs it, against a zros node's parameter services."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.cli.conftest import Cli
+
+Node = Callable[..., Any]
+
+
+@pytest.fixture
+def driver(zros_node: Node) -> Any:
+    node = zros_node('driver', '/robot', enable_rosout=False)
+    node.declare_parameter('speed', 1.5, floating_point_range=(0.0, 3.0, 0.0))
+    node.declare_parameter('wheels', 4, read_only=True, description='how many wheels')
+    node.declare_parameter('name', 'r2', dynamic_typing=True)
+    node.declare_parameter('gains', [1, 2, 3])
+    node.declare_parameter('camera.enabled', True)
+    return node
+
+
+def test_list_and_get(cli: Cli, driver: Any) -> None:
+    listing = cli.run('param', 'list', '/robot/driver')
+    assert listing.returncode == 0, listing.stderr
+    assert listing.stdout.splitlines() == [
+        '  camera.enabled',
+        '  gains',
+        '  name',
+        '  speed',
+        '  use_sim_time',
+        '  wheels',
+    ]
+    typed = cli.run('param', 'list', '/robot/driver', '--param-type').stdout.splitlines()
+    assert '  gains (type: integer_array)' in typed
+    everyone = cli.run('param', 'list').stdout.splitlines()
+    assert everyone[0] == '/robot/driver:'
+    assert '  speed' in everyone
+    for name, expected in (
+        ('speed', 'Double value is: 1.5'),
+        ('wheels', 'Integer value is: 4'),
+        ('name', 'String value is: r2'),
+        ('gains', 'Integer values are: [1, 2, 3]'),
+        ('camera.enabled', 'Boolean value is: True'),
+    ):
+        assert cli.run('param', 'get', '/robot/driver', name).stdout == expected + '\n'
+    assert cli.run('param', 'get', '/robot/driver', 'speed', '--hide-type').stdout == '1.5\n'
+    missing = cli.run('param', 'get', '/robot/driver', 'nope')
+    assert (missing.returncode, missing.stderr) == (
+        1,
+        'zros: error: parameter nope not set on /robot/driver\n',
+    )
+
+
+def test_set_changes_the_node_parameter(cli: Cli, driver: Any) -> None:
+    result = cli.run('param', 'set', '/robot/driver', 'speed', '2.25')
+    assert (result.returncode, result.stdout) == (0, 'Set parameter successful\n')
+    assert driver.get_parameter('speed') == 2.25
+    assert cli.run('param', 'set', '/robot/driver', 'gains', '[4, 5]').returncode == 0
+    assert driver.get_parameter('gains') == [4, 5]
+    for name, value, reason in (
+        ('speed', '9.0', 'range'),
+        ('wheels', '6', 'read-only'),
+        ('speed', 'fast', 'double'),
+    ):
+        refused = cli.run('param', 'set', '/robot/driver', name, value)
+        assert refused.returncode == 1
+        assert refused.stdout.startswith('Setting parameter failed: ')
+        assert reason in refused.stdout
+    assert driver.get_parameter('speed') == 2.25
+    deleted = cli.run('param', 'delete', '/robot/driver', 'name')
+    assert deleted.stdout == 'Deleted parameter successfully\n'
+    assert not driver.has_parameter('name')
+    static = cli.run('param', 'delete', '/robot/driver', 'speed')
+    assert static.returncode == 1
+    assert static.stdout.startswith('Deleting parameter failed: Static parameter')
+
+
+def test_describe(cli: Cli, driver: Any) -> None:
+    result = cli.run('param', 'describe', '/robot/driver', 'wheels', 'speed')
+    assert result.stdout.splitlines() == [
+        'Parameter name: wheels',
+        '  Type: integer',
+        '  Description: how many wheels',
+        '  Constraints:',
+        '    Read only: true',
+        'Parameter name: speed',
+        '  Type: double',
+        '  Constraints:',
+        '    Min value: 0.0',
+        '    Max value: 3.0',
+    ]
+
+
+def test_dump_and_load(cli: Cli, driver: Any, tmp_path: Path) -> None:
+    dumped = cli.run('param', 'dump', '/robot/driver').stdout
+    assert dumped.splitlines()[:4] == [
+        '/robot/driver:',
+        '  ros__parameters:',
+        '    camera:',
+        '      enabled: true',
+    ]
+    assert '    gains: [1, 2, 3]\n' in dumped
+    assert '    name: "r2"\n' in dumped
+    saved = tmp_path / 'driver.yaml'
+    assert cli.run('param', 'dump', '/robot/driver', '-o', str(saved)).returncode == 0
+    assert saved.read_text() == dumped
+    changed = dumped.replace('speed: 1.5', 'speed: 0.5').replace('"r2"', '"c3po"')
+    saved.write_text(changed.replace('wheels: 4', 'wheels: 3'))
+    loaded = cli.run('param', 'load', '/robot/driver', str(saved))
+    assert loaded.returncode == 1  # wheels is read-only
+    assert 'Set parameter speed successful' in loaded.stdout
+    assert 'Set parameter wheels failed: ' in loaded.stdout
+    assert (driver.get_parameter('speed'), driver.get_parameter('name')) == (0.5, 'c3po')
+    atomic = cli.run('param', 'load', '/robot/driver', str(saved), '--atomic')
+    assert atomic.returncode == 1
+    assert atomic.stdout.startswith('Setting parameters failed: ')
+    other = tmp_path / 'other.yaml'
+    other.write_text('/someone_else:\n  ros__parameters:\n    x: 1\n')
+    none = cli.run('param', 'load', '/robot/driver', str(other))
+    assert (none.returncode, none.stderr) == (
+        1,
+        f'zros: error: {other} has no parameters for /robot/driver\n',
+    )
+    absent = cli.run('param', 'load', '/robot/driver', str(tmp_path / 'missing.yaml'))
+    assert absent.returncode == 1
+    assert 'missing.yaml' in absent.stderr
+
+
+def test_unknown_node(cli: Cli) -> None:
+    result = cli.run('param', 'get', '/ghost', 'x', '--timeout', '0.3')
+    assert (result.returncode, result.stderr) == (
+        1,
+        'zros: error: node /ghost not found (nothing serves its parameters)\n',
+    )

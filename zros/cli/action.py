@@ -1,0 +1,137 @@
+"""``zros action``: list, info, type, send_goal (as ``ros2 action``)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from zros.cli.common import (
+    CommandError,
+    add_connection_options,
+    build_message,
+    open_node,
+    out,
+    parse_values,
+)
+
+DISCOVERY = 2.0
+
+
+def _indented(text: str, spaces: int = 4) -> str:
+    return '\n'.join(' ' * spaces + line if line else line for line in text.rstrip().split('\n'))
+
+
+def list_actions(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        for name, types in node.graph.actions(node.scheme.namespace).items():
+            out(f'{name} [{", ".join(types)}]' if args.show_types else name)
+    return 0
+
+
+def action_type(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        name = node.resolve_name(args.action)
+        types = node.graph.actions(node.scheme.namespace).get(name)
+        if not types:
+            raise CommandError(f'action {name} does not appear on the network')
+        for type_name in types:
+            out(type_name)
+    return 0
+
+
+def info(args: argparse.Namespace) -> int:
+    from zros.keyexpr.bridge import EntityKind
+
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        name = node.resolve_name(args.action)
+        key = node.scheme.key(name)
+        if name not in node.graph.actions(node.scheme.namespace):
+            raise CommandError(f'action {name} does not appear on the network')
+        out(f'Action: {name}')
+        for title, kind in (
+            ('Action clients', EntityKind.ACTION_CLIENT),
+            ('Action servers', EntityKind.ACTION_SERVER),
+        ):
+            ends = [e for e in node.graph.endpoints((kind,)) if e.key == key]
+            out(f'{title}: {len(ends)}')
+            for end in ends:
+                owner = end.node or f'(bridge {end.zid})'
+                out(f'    {owner} [{end.type_name}]' if args.show_types else f'    {owner}')
+    return 0
+
+
+def send_goal(args: argparse.Namespace) -> int:
+    from zros.actions import GoalStatus
+    from zros.cdr import default_registry
+    from zros.cdr.interfaces import ActionType
+    from zros.cli.render import message_to_yaml
+    from zros.services import ServiceError
+
+    action = default_registry().get_type(args.type)
+    if not isinstance(action, ActionType):
+        raise CommandError(f'{args.type} is not an action type')
+    values = parse_values(args.values)
+    with open_node(args, 'zros_send_goal') as node:
+        client = node.create_action_client(action, args.action)
+        goal = build_message(client.Goal, values)
+
+        def on_feedback(feedback: Any) -> None:
+            out('Feedback:')
+            out(_indented(message_to_yaml(feedback)))
+            out()
+
+        out('Waiting for an action server to become available...')
+        if not client.wait_for_server(args.wait):
+            raise CommandError(f'no server for {client.name} appeared within {args.wait:g} s')
+        out('Sending goal:')
+        out(_indented(message_to_yaml(goal), 5))
+        out()
+        try:
+            handle = client.send_goal(goal, on_feedback if args.feedback else None)
+        except ServiceError as exc:
+            raise CommandError(str(exc)) from None
+        if not handle.accepted:
+            out('Goal was rejected.')
+            return 1
+        out(f'Goal accepted with ID: {handle.goal_id.hex()}')
+        out()
+        try:
+            while not handle.done:
+                node.spin(timeout=0.1)  # runs the feedback callback here
+            result = handle.result(0)
+        except KeyboardInterrupt:
+            out('Canceling goal...')
+            handle.cancel(timeout=5.0)
+            return 130
+        out('Result:')
+        out(_indented(message_to_yaml(result)))
+        out()
+        out(f'Goal finished with status: {handle.status.name}')
+        return 0 if handle.status is GoalStatus.SUCCEEDED else 1
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = commands.add_parser('action', help='actions: list, info, type, send_goal')
+    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+
+    def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:
+        sub = verbs.add_parser(name, help=help_text, description=help_text)
+        sub.set_defaults(run=f'zros.cli.action:{target}')
+        add_connection_options(sub)
+        return sub
+
+    listing = verb('list', 'list the actions on the network', 'list_actions')
+    listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
+    verb('type', 'the type of an action', 'action_type').add_argument('action')
+    sub = verb('info', 'the clients and servers of an action', 'info')
+    sub.add_argument('action')
+    sub.add_argument('-t', '--show-types', action='store_true', help='with their types')
+    sub = verb('send_goal', 'send a goal and print its result', 'send_goal')
+    sub.add_argument('action', help='e.g. /fibonacci')
+    sub.add_argument('type', help='e.g. example_interfaces/action/Fibonacci')
+    sub.add_argument('values', nargs='?', help='the goal as YAML, e.g. "{order: 5}"')
+    sub.add_argument('-f', '--feedback', action='store_true', help='print the feedback')
+    sub.add_argument('--wait', type=float, default=10.0, help='seconds to wait for a server')

@@ -1,0 +1,85 @@
+"""``zros node``: list and info (as ``ros2 node``), from what the graph view knows.
+
+zros nodes announce themselves by name. ROS nodes behind a zenoh-bridge-ros2dds do not: the
+bridge shows its ROS entities as its own, so they appear under the bridge's node name.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import TYPE_CHECKING
+
+from zros.cli.common import CommandError, add_connection_options, open_node, out
+
+if TYPE_CHECKING:
+    from zros.graph import Endpoint
+    from zros.node import Node
+
+DISCOVERY = 2.0
+
+_SECTIONS = (
+    ('Subscribers', 'MS'),
+    ('Publishers', 'MP'),
+    ('Service Servers', 'SS'),
+    ('Service Clients', 'SC'),
+    ('Action Servers', 'AS'),
+    ('Action Clients', 'AC'),
+)
+
+
+def _others(node: Node) -> list[str]:
+    return [name for name in node.graph.nodes() if name != node.fully_qualified_name]
+
+
+def list_nodes(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        names = _others(node)
+        if args.count_nodes:
+            out(str(len(names)))
+            return 0
+        for name in names:
+            out(name)
+    return 0
+
+
+def _endpoints_of(node: Node, name: str) -> list[Endpoint]:
+    for bridge in node.graph.bridges():
+        if bridge.node_name == name:
+            return [e for e in node.graph.endpoints() if e.is_bridged and e.zid == bridge.zid]
+    return node.graph.node_endpoints(name)
+
+
+def info(args: argparse.Namespace) -> int:
+    from zros.keyexpr.bridge import ros_name
+
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        name = node.resolve_name(args.node)
+        if name not in _others(node):
+            raise CommandError(f'unknown node {name} (zros node list shows the nodes)')
+        endpoints = _endpoints_of(node, name)
+        out(name)
+        for title, code in _SECTIONS:
+            out(f'  {title}:')
+            lines = {
+                f'    {ros_name(e.key, node.scheme.namespace)}: {e.type_name}'
+                for e in endpoints
+                if e.kind.value == code
+            }
+            for line in sorted(lines):
+                out(line)
+    return 0
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = commands.add_parser('node', help='nodes: list, info')
+    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+    listing = verbs.add_parser('list', help='list the nodes on the network')
+    listing.add_argument('-c', '--count-nodes', action='store_true', help='only their number')
+    listing.set_defaults(run='zros.cli.node:list_nodes')
+    add_connection_options(listing)
+    detail = verbs.add_parser('info', help="a node's publishers, subscribers, services, actions")
+    detail.add_argument('node', help='e.g. /robot/driver')
+    detail.set_defaults(run='zros.cli.node:info')
+    add_connection_options(detail)

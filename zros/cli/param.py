@@ -1,0 +1,220 @@
+"""``zros param``: list, get, set, delete, describe, dump, load (as ``ros2 param``).
+
+Any node serving the six ROS 2 parameter services answers: zros nodes, and ROS nodes behind a
+bridge (whose ``ros2 param`` view needs the services, not the node list).
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import TYPE_CHECKING, Any
+
+from zros.cli.common import CommandError, add_connection_options, open_node, out
+
+if TYPE_CHECKING:
+    from zros.node import Node
+    from zros.params.client import ParameterClient
+
+DISCOVERY = 2.0
+
+_LABELS = {
+    'BOOL': 'Boolean value is:',
+    'INTEGER': 'Integer value is:',
+    'DOUBLE': 'Double value is:',
+    'STRING': 'String value is:',
+    'BYTE_ARRAY': 'Byte values are:',
+    'BOOL_ARRAY': 'Boolean values are:',
+    'INTEGER_ARRAY': 'Integer values are:',
+    'DOUBLE_ARRAY': 'Double values are:',
+    'STRING_ARRAY': 'String values are:',
+}
+
+
+def _client(node: Node, target: str, timeout: float) -> ParameterClient:
+    from zros.params.client import ParameterClient
+
+    client = ParameterClient(node, node.resolve_name(target), timeout=timeout)
+    if not client.wait_for_node(timeout):
+        raise CommandError(f'node {client.target} not found (nothing serves its parameters)')
+    return client
+
+
+def _parameter_nodes(node: Node) -> list[str]:
+    """Nodes serving parameters: those with a ``<node>/get_parameters`` service."""
+    suffix = '/get_parameters'
+    services = node.graph.services(node.scheme.namespace)
+    return sorted(name[: -len(suffix)] for name in services if name.endswith(suffix))
+
+
+def list_parameters(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        if args.node:
+            targets = [node.resolve_name(args.node)]
+        else:
+            node.graph.refresh(DISCOVERY)
+            targets = _parameter_nodes(node)
+        for target in targets:
+            client = _client(node, target, args.timeout)
+            names = sorted(client.list_parameters(args.prefixes or ()))
+            if not args.node:
+                out(f'{target}:')
+            kinds = client.get_parameter_types(names) if args.param_type and names else {}
+            for name in names:
+                suffix = f' (type: {kinds[name].ros_name})' if args.param_type else ''
+                out(f'  {name}{suffix}')
+    return 0
+
+
+def get(args: argparse.Namespace) -> int:
+    from zros.params.values import ParameterType
+
+    with open_node(args) as node:
+        client = _client(node, args.node, args.timeout)
+        kind = client.get_parameter_types([args.name])[args.name]
+        if kind is ParameterType.NOT_SET:
+            raise CommandError(f'parameter {args.name} not set on {client.target}')
+        value = client.get(args.name)
+        if isinstance(value, (bytes, bytearray)):
+            value = list(value)
+        out(str(value) if args.hide_type else f'{_LABELS[kind.name]} {value}')
+    return 0
+
+
+def set_parameter(args: argparse.Namespace) -> int:
+    from zros.params.files import parse_override
+    from zros.params.values import ParameterError
+
+    try:
+        _, value = parse_override(f'{args.name}:={args.value}')
+    except ParameterError as exc:
+        raise CommandError(str(exc)) from None
+    with open_node(args) as node:
+        (result,) = _client(node, args.node, args.timeout).set_parameters({args.name: value})
+    if not result:
+        out(f'Setting parameter failed: {result.reason}')
+        return 1
+    out('Set parameter successful')
+    return 0
+
+
+def delete(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        (result,) = _client(node, args.node, args.timeout).set_parameters({args.name: None})
+    if not result:
+        out(f'Deleting parameter failed: {result.reason}')
+        return 1
+    out('Deleted parameter successfully')
+    return 0
+
+
+def describe(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        client = _client(node, args.node, args.timeout)
+        names = args.names
+        descriptors = client.describe_parameters(names)
+        kinds = client.get_parameter_types(names)
+    for name in names:
+        descriptor = descriptors[name]
+        out(f'Parameter name: {name}')
+        out(f'  Type: {kinds[name].ros_name}')
+        if descriptor.description:
+            out(f'  Description: {descriptor.description}')
+        out('  Constraints:')
+        if descriptor.read_only:
+            out('    Read only: true')
+        if descriptor.dynamic_typing:
+            out('    Dynamic typing: true')
+        if descriptor.additional_constraints:
+            out(f'    Additional constraints: {descriptor.additional_constraints}')
+        for value_range in (descriptor.integer_range, descriptor.floating_point_range):
+            if value_range is not None:
+                low, high, step = value_range
+                out(f'    Min value: {low}')
+                out(f'    Max value: {high}')
+                if step:
+                    out(f'    Step: {step}')
+    return 0
+
+
+def dump(args: argparse.Namespace) -> int:
+    from zros.params.files import dump as dump_file
+
+    with open_node(args) as node:
+        client = _client(node, args.node, args.timeout)
+        names = client.list_parameters()
+        values = client.get_parameters(names) if names else {}
+    text = dump_file(client.target, values)
+    if args.output:
+        with open(args.output, 'w', encoding='utf-8') as file:
+            file.write(text)
+        out(f'Saved parameters of {client.target} to {args.output}')
+    else:
+        out(text.rstrip('\n'))
+    return 0
+
+
+def load(args: argparse.Namespace) -> int:
+    from zros.params.files import load_file, values_for
+    from zros.params.values import ParameterError
+
+    try:
+        entries = load_file(args.file)
+    except (OSError, ParameterError) as exc:
+        raise CommandError(str(exc)) from None
+    failed = 0
+    with open_node(args) as node:
+        client = _client(node, args.node, args.timeout)
+        values = values_for(entries, client.target)
+        if not values:
+            raise CommandError(f'{args.file} has no parameters for {client.target}')
+        if args.atomic:
+            result = client.set_parameters_atomically(values)
+            if not result:
+                out(f'Setting parameters failed: {result.reason}')
+                return 1
+            out(f'Set {len(values)} parameters successfully')
+            return 0
+        for (name, _), result in zip(values.items(), client.set_parameters(values), strict=True):
+            if result:
+                out(f'Set parameter {name} successful')
+            else:
+                failed += 1
+                out(f'Set parameter {name} failed: {result.reason}')
+    return 1 if failed else 0
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = commands.add_parser('param', help='parameters: list, get, set, describe, dump...')
+    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+
+    def verb(name: str, help_text: str, target: str, node_optional: bool = False) -> Any:
+        sub = verbs.add_parser(name, help=help_text, description=help_text)
+        sub.set_defaults(run=f'zros.cli.param:{target}')
+        if node_optional:
+            sub.add_argument('node', nargs='?', help='e.g. /robot/driver (default: all)')
+        else:
+            sub.add_argument('node', help='e.g. /robot/driver')
+        sub.add_argument('--timeout', type=float, default=5.0, help='seconds for each answer')
+        add_connection_options(sub)
+        return sub
+
+    sub = verb('list', 'the parameters of a node, or of every node', 'list_parameters', True)
+    sub.add_argument('--param-prefixes', dest='prefixes', nargs='*', default=[])
+    sub.add_argument('--param-type', action='store_true', help='with their types')
+    sub = verb('get', "a parameter's value", 'get')
+    sub.add_argument('name')
+    sub.add_argument('--hide-type', action='store_true', help='only the value')
+    sub = verb(
+        'set', 'set a parameter (the value is YAML: 1, 1.0, true, "[1, 2]"...)', 'set_parameter'
+    )
+    sub.add_argument('name')
+    sub.add_argument('value')
+    sub = verb('delete', 'undeclare a parameter', 'delete')
+    sub.add_argument('name')
+    sub = verb('describe', "parameters' types and constraints", 'describe')
+    sub.add_argument('names', nargs='+', metavar='name')
+    sub = verb('dump', "a node's parameters as a parameter file", 'dump')
+    sub.add_argument('-o', '--output', metavar='FILE', help='write to FILE, not the screen')
+    sub = verb('load', 'set parameters from a parameter file', 'load')
+    sub.add_argument('file')
+    sub.add_argument('--atomic', action='store_true', help='all or none')

@@ -1,0 +1,120 @@
+"""``zros service``: list, type, find, call (as ``ros2 service``)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+from zros.cli.common import (
+    CommandError,
+    add_connection_options,
+    build_message,
+    open_node,
+    out,
+    parse_values,
+)
+
+DISCOVERY = 2.0
+
+
+def _service_type(type_name: str) -> Any:
+    from zros.cdr import default_registry
+    from zros.cdr.interfaces import ServiceType
+
+    found = default_registry().get_type(type_name)
+    if not isinstance(found, ServiceType):
+        raise CommandError(f'{type_name} is not a service type')
+    return found
+
+
+def list_services(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        for name, types in node.graph.services(node.scheme.namespace).items():
+            out(f'{name} [{", ".join(types)}]' if args.show_types else name)
+    return 0
+
+
+def service_type(args: argparse.Namespace) -> int:
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        name = node.resolve_name(args.service)
+        types = node.graph.services(node.scheme.namespace).get(name)
+        if not types:
+            raise CommandError(f'service {name} does not appear on the network')
+        for type_name in types:
+            out(type_name)
+    return 0
+
+
+def find(args: argparse.Namespace) -> int:
+    wanted = _service_type(args.type).__srvtype__
+    with open_node(args) as node:
+        node.graph.refresh(DISCOVERY)
+        for name, types in node.graph.services(node.scheme.namespace).items():
+            if wanted in types:
+                out(name)
+    return 0
+
+
+def call(args: argparse.Namespace) -> int:
+    from zros.cli.render import message_to_yaml
+    from zros.services import ServiceError
+
+    srv = _service_type(args.type)
+    values = parse_values(args.values)
+    with open_node(args, 'zros_service_call') as node:
+        client = node.create_client(srv, args.service, timeout=args.timeout)
+        request = build_message(client.Request, values)
+        if not client.service_is_ready():
+            out('waiting for service to become available...')
+            if not client.wait_for_service(args.wait):
+                raise CommandError(
+                    f'no server for {client.name} [{srv.__srvtype__}] appeared within '
+                    f'{args.wait:g} s'
+                )
+        rate = node.create_rate(args.rate) if args.rate else None
+        for index in range(args.times or 1 if rate else 1):
+            out(f'requester: making request: {request!r}')
+            out()
+            started = time.monotonic()
+            try:
+                response = client.call(request)
+            except ServiceError as exc:
+                raise CommandError(str(exc)) from None
+            elapsed = time.monotonic() - started
+            out('response:')
+            out(message_to_yaml(response).rstrip('\n') if args.yaml else repr(response))
+            if args.verbose:
+                out(f'(answered in {elapsed * 1000:.1f} ms)')
+            out()
+            if rate is not None and index + 1 < (args.times or 1):
+                rate.sleep()
+    return 0
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = commands.add_parser('service', help='services: list, type, find, call')
+    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+
+    def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:
+        sub = verbs.add_parser(name, help=help_text, description=help_text)
+        sub.set_defaults(run=f'zros.cli.service:{target}')
+        add_connection_options(sub)
+        return sub
+
+    listing = verb('list', 'list the services on the network', 'list_services')
+    listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
+    verb('type', 'the type of a service', 'service_type').add_argument('service')
+    verb('find', 'the services of a type', 'find').add_argument('type')
+    sub = verb('call', 'call a service and print the response', 'call')
+    sub.add_argument('service', help='e.g. /add_two_ints')
+    sub.add_argument('type', help='e.g. example_interfaces/srv/AddTwoInts')
+    sub.add_argument('values', nargs='?', help='the request as YAML, e.g. "{a: 1, b: 2}"')
+    sub.add_argument('-r', '--rate', type=float, default=0.0, help='repeat at this rate (Hz)')
+    sub.add_argument('--times', type=int, default=0, help='with --rate: how many calls')
+    sub.add_argument('--yaml', action='store_true', help='print the response as YAML')
+    sub.add_argument('--timeout', type=float, default=10.0, help='seconds for each reply')
+    sub.add_argument('--wait', type=float, default=10.0, help='seconds to wait for a server')
+    sub.add_argument('-v', '--verbose', action='store_true', help='with the round-trip time')
