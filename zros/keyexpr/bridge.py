@@ -279,6 +279,8 @@ class BridgeScheme:
     """
 
     name = 'bridge'
+    attachments = False  #: samples, requests and replies carry no attachment
+    action_tokens = True  #: an action is announced by one AS/AC token, not by its parts
 
     def __init__(self, namespace: str = '/', send_type_hash: bool = False) -> None:
         validate_namespace(namespace)
@@ -289,6 +291,14 @@ class BridgeScheme:
         """The Zenoh key of a fully qualified topic, service or action name."""
         return topic_key(ros_name, self.namespace)
 
+    def data_key(self, ros_name: str, type_name: str, type_hash: str | None) -> str:
+        """The Zenoh key to declare entities on: the name's key (the type is not part of it)."""
+        return self.key(ros_name)
+
+    def node_token(self, zid: str, node_id: int, namespace: str, name: str) -> None:
+        """Bridges have no node tokens (zros announces its nodes under ``@zros_lv``)."""
+        return None
+
     def token(
         self,
         kind: EntityKind,
@@ -298,8 +308,11 @@ class BridgeScheme:
         *,
         qos: QoS | None = None,
         type_hash: str | None = None,
+        node: object = None,
+        entity_id: int | None = None,
     ) -> str:
-        """The liveliness key announcing one entity to bridges."""
+        """The liveliness key announcing one entity to bridges (``node`` and ``entity_id`` are
+        for schemes whose tokens name them)."""
         token_qos = None
         if kind.has_qos:
             token_qos = TokenQoS.from_qos(qos or QoS(), type_hash if self.send_type_hash else None)
