@@ -40,51 +40,129 @@ def _abbreviate(value: Any, field_type: FieldType) -> str:
     return f'<sequence type: {name}, length: {len(value)}>'
 
 
-def _plain(value: Any, truncate: int | None, no_arr: bool, no_str: bool) -> Any:
+def _byte_text(value: Any, csv: bool) -> str:
+    """rclpy holds ``byte`` values as ``bytes``: ros2 prints them as characters in YAML and as
+    ``b'\\xff'`` in CSV."""
+    data = value if isinstance(value, bytes) else bytes([int(value)])
+    return repr(data) if csv else ''.join(chr(c) for c in data)
+
+
+def _plain(
+    value: Any,
+    field_type: FieldType | None,
+    options: tuple[int | None, bool, bool, bool],
+) -> Any:
     import numpy as np
 
+    truncate, no_arr, no_str, csv = options
+    is_byte = field_type is not None and field_type.element.base == 'byte'
+    if field_type is not None and not field_type.is_scalar:
+        if no_arr:
+            return _abbreviate(value, field_type)
+        items = value.tolist() if isinstance(value, np.ndarray) else list(value)
+        cut = truncate is not None and len(items) > truncate
+        if cut:
+            items = items[:truncate]
+        converted = [
+            _byte_text(item, csv) if is_byte else _plain(item, field_type.element, options)
+            for item in items
+        ]
+        return [*converted, '...'] if cut else converted
+    if is_byte:
+        return _byte_text(value, csv)
     if isinstance(value, str):
         if no_str:
             return f'<string length: <{len(value)}>>'
         if truncate is not None and len(value) > truncate:
             return value[:truncate] + '...'
         return value
-    if isinstance(value, (bytes, bytearray)):
-        value = list(value)
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
     if isinstance(value, np.generic):
         return value.item()
     if hasattr(value, '__msgtype__'):
-        return to_plain(value, truncate=truncate, no_arr=no_arr, no_str=no_str)
-    if isinstance(value, (list, tuple)) or hasattr(value, '__len__'):  # lists, StructSeq
-        items = list(value)
-        cut = truncate is not None and len(items) > truncate
-        if cut:
-            items = items[:truncate]
-        converted = [_plain(item, truncate, no_arr, no_str) for item in items]
-        return [*converted, '...'] if cut else converted
+        return _fields(value, options)
+    if isinstance(value, (bytes, bytearray, np.ndarray, list, tuple)):  # a --field selection
+        return [_plain(item, None, options) for item in list(value)]
     return value
 
 
+def _fields(message: Any, options: tuple[int | None, bool, bool, bool]) -> dict[str, Any]:
+    return {
+        field.name: _plain(getattr(message, field.name), field.type, options)
+        for field in message._definition.fields
+    }
+
+
 def to_plain(
-    message: Any, *, truncate: int | None = None, no_arr: bool = False, no_str: bool = False
+    message: Any,
+    *,
+    truncate: int | None = None,
+    no_arr: bool = False,
+    no_str: bool = False,
+    csv: bool = False,
 ) -> dict[str, Any]:
-    """A message as nested dicts and lists, fields in definition order."""
-    result: dict[str, Any] = {}
-    for field in message._definition.fields:
-        value = getattr(message, field.name)
-        if no_arr and not field.type.is_scalar:
-            result[field.name] = _abbreviate(value, field.type)
-        else:
-            result[field.name] = _plain(value, truncate, no_arr, no_str)
-    return result
+    """A message as nested dicts and lists, fields in definition order, values as ros2 shows
+    them (``csv`` for the forms of ``--csv``)."""
+    return _fields(message, (truncate, no_arr, no_str, csv))
+
+
+#: PyYAML's implicit tags (YAML 1.1 as PyYAML reads it), with the first characters that select
+#: them: a string looking like one is quoted by ros2 (``'yes'``, ``'123'``, ``'2001-12-14'``);
+#: ruamel's own 1.1 and 1.2 rules differ a little (``y``, ``1e5``...)
+_IMPLICIT = (
+    (
+        'bool',
+        r'yes|Yes|YES|no|No|NO|true|True|TRUE|false|False|FALSE|on|On|ON|off|Off|OFF',
+        'yYnNtTfFoO',
+    ),
+    (
+        'float',
+        r'[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?'
+        r'|[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)',
+        '-+0123456789.',
+    ),
+    (
+        'int',
+        r'[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+'
+        r'|[-+]?[1-9][0-9_]*(?::[0-5]?[0-9])+',
+        '-+0123456789',
+    ),
+    ('merge', r'<<', '<'),
+    ('null', r'~|null|Null|NULL|', '~nN'),
+    (
+        'timestamp',
+        r'[0-9]{4}-[0-9]{2}-[0-9]{2}|[0-9]{4}-[0-9]{1,2}-[0-9]{1,2}(?:[Tt]|[ \t]+)[0-9]{1,2}'
+        r':[0-9]{2}:[0-9]{2}(?:\.[0-9]*)?(?:[ \t]*(?:Z|[-+][0-9]{1,2}(?::[0-9]{2})?))?',
+        '0123456789',
+    ),
+    ('value', r'=', '='),
+    ('yaml', r'!|&|\*', '!&*'),
+)
+
+
+def _resolver() -> Any:
+    import re
+
+    from ruamel.yaml.resolver import VersionedResolver
+
+    table: dict[str, list[tuple[str, Any]]] = {'': [('tag:yaml.org,2002:null', re.compile(''))]}
+    for tag, pattern, first in _IMPLICIT:
+        regexp = re.compile(f'^(?:{pattern})$')
+        for char in first:
+            table.setdefault(char, []).append((f'tag:yaml.org,2002:{tag}', regexp))
+
+    class PyYamlResolver(VersionedResolver):  # type: ignore[misc]
+        @property
+        def versioned_resolver(self) -> Any:
+            return {char: list(rules) for char, rules in table.items()}
+
+    return PyYamlResolver
 
 
 def _dumper(flow_style: bool) -> Any:
     from ruamel.yaml import YAML
 
     yaml = YAML(typ='safe', pure=True)
+    yaml.Resolver = _resolver()
     yaml.default_flow_style = False
     yaml.width = sys.maxsize
     yaml.allow_unicode = True
@@ -148,7 +226,7 @@ def value_to_yaml(
     flow_style: bool = False,
 ) -> str:
     """A field's value (``--field``) as YAML; scalars without the ``...`` end marker."""
-    text = to_yaml(_plain(value, truncate, no_arr, no_str), flow_style)
+    text = to_yaml(_plain(value, None, (truncate, no_arr, no_str, False)), flow_style)
     return text[: -len('...\n')] if text.endswith('\n...\n') else text
 
 
@@ -157,14 +235,23 @@ def message_to_csv(
 ) -> str:
     """A message as ``ros2 topic echo --csv`` prints it: leaf values, comma separated."""
 
+    def join(items: Any) -> str:
+        # ros2 adds a comma only after non-empty text: a leading '' element leaves no trace
+        result = ''
+        for item in items:
+            if result:
+                result += ','
+            result += text(item)
+        return result
+
     def text(value: Any) -> str:
         if isinstance(value, dict):
-            return ','.join(text(item) for item in value.values())
+            return join(value.values())
         if isinstance(value, list):
-            return ','.join(text(item) for item in value)
+            return join(value)
         return str(value)
 
-    return text(to_plain(message, truncate=truncate, no_arr=no_arr, no_str=no_str))
+    return text(to_plain(message, truncate=truncate, no_arr=no_arr, no_str=no_str, csv=True))
 
 
 def select(message: Any, path: str) -> Any:
