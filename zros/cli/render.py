@@ -150,7 +150,7 @@ def _resolver() -> Any:
         for char in first:
             table.setdefault(char, []).append((f'tag:yaml.org,2002:{tag}', regexp))
 
-    class PyYamlResolver(VersionedResolver):  # type: ignore[misc]
+    class PyYamlResolver(VersionedResolver):
         @property
         def versioned_resolver(self) -> Any:
             return {char: list(rules) for char, rules in table.items()}
