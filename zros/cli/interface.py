@@ -1,16 +1,18 @@
-"""``zros interface``: list types and show their definitions."""
+"""``zros interface``: list, packages, package, show (as ``ros2 interface``)."""
 
 from __future__ import annotations
 
 import argparse
 
-from zros.cdr import default_registry
-from zros.cdr.model import MessageDef
-from zros.cdr.render import render_bundle, render_definition
+from zros.cli.common import CommandError, out
 
 
 def show(args: argparse.Namespace) -> int:
     """Print the definition of a type (with its dependencies with --all, its hash with --hash)."""
+    from zros.cdr import default_registry
+    from zros.cdr.model import MessageDef
+    from zros.cdr.render import render_bundle, render_definition
+
     registry = default_registry()
     definition = registry.definition(args.type)
     if args.all and isinstance(definition, MessageDef):
@@ -24,9 +26,58 @@ def show(args: argparse.Namespace) -> int:
     return 0
 
 
+def _names(kind: str = '') -> list[str]:
+    from zros.cdr import default_registry
+
+    names = default_registry().names()
+    return [name for name in names if not kind or f'/{kind}/' in name]
+
+
 def list_types(args: argparse.Namespace) -> int:
-    """Print every type name zros can resolve, one per line."""
-    for name in default_registry().names():
-        if args.pattern in name:
-            print(name)
+    """Print every type name zros can resolve, one per line (``ros2 interface list`` groups
+    them; zros prints plain names so that grep and scripts work)."""
+    kinds = [k for k, wanted in (('msg', args.only_msgs), ('srv', args.only_srvs),
+                                 ('action', args.only_actions)) if wanted]  # fmt: skip
+    for name in _names():
+        if args.pattern in name and (not kinds or name.split('/')[1] in kinds):
+            out(name)
     return 0
+
+
+def packages(args: argparse.Namespace) -> int:
+    """Print the packages that have types."""
+    for package in sorted({name.split('/')[0] for name in _names()}):
+        out(package)
+    return 0
+
+
+def package(args: argparse.Namespace) -> int:
+    """Print the types of one package."""
+    found = [name for name in _names() if name.split('/')[0] == args.package]
+    if not found:
+        raise CommandError(f'no types of package {args.package} (zros interface packages)')
+    for name in found:
+        out(name)
+    return 0
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    interface = commands.add_parser('interface', help='message, service and action types')
+    verbs = interface.add_subparsers(dest='verb', metavar='VERB', required=True)
+    show_parser = verbs.add_parser('show', help='print the definition of a type')
+    show_parser.add_argument('type', help='e.g. geometry_msgs/msg/Twist')
+    show_parser.add_argument('--hash', action='store_true', help='also print the RIHS01 hash')
+    show_parser.add_argument('--all', action='store_true', help='append its dependencies')
+    show_parser.set_defaults(run='zros.cli.interface:show')
+    listing = verbs.add_parser('list', help='list the types zros can resolve')
+    listing.add_argument('pattern', nargs='?', default='', help='only names containing this')
+    listing.add_argument('-m', '--only-msgs', action='store_true')
+    listing.add_argument('-s', '--only-srvs', action='store_true')
+    listing.add_argument('-a', '--only-actions', action='store_true')
+    listing.set_defaults(run='zros.cli.interface:list_types')
+    verbs.add_parser('packages', help='list the packages that have types').set_defaults(
+        run='zros.cli.interface:packages'
+    )
+    one = verbs.add_parser('package', help='list the types of a package')
+    one.add_argument('package')
+    one.set_defaults(run='zros.cli.interface:package')

@@ -20,20 +20,9 @@ def _parser() -> argparse.ArgumentParser:
     demo = commands.add_parser('demo', help='run the rosR sensor tutorial')
     demo.set_defaults(run='zros.cli.demo:run')
 
-    interface = commands.add_parser('interface', help='show message, service and action types')
-    verbs = interface.add_subparsers(dest='verb', metavar='VERB', required=True)
-    show = verbs.add_parser('show', help='print the definition of a type')
-    show.add_argument('type', help='e.g. geometry_msgs/msg/Twist')
-    show.add_argument('--hash', action='store_true', help='also print the RIHS01 type hash')
-    show.add_argument('--all', action='store_true', help='append the definitions it depends on')
-    show.set_defaults(run='zros.cli.interface:show')
-    listing = verbs.add_parser('list', help='list the types zros can resolve')
-    listing.add_argument('pattern', nargs='?', default='', help='only names containing this text')
-    listing.set_defaults(run='zros.cli.interface:list_types')
+    from zros.cli import action, completion, interface, node, param, service, tls, topic
 
-    from zros.cli import action, node, param, service, tls, topic
-
-    for module in (topic, node, service, action, param, tls):
+    for module in (topic, node, service, action, param, interface, tls, completion):
         module.add_parser(commands)
     return parser
 

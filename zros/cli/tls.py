@@ -6,10 +6,10 @@ import argparse
 import os
 from pathlib import Path
 
-from zros.transport.pki import make_certificates
-
 
 def init(args: argparse.Namespace) -> int:
+    from zros.transport.pki import make_certificates
+
     hosts = args.host or ['localhost', '127.0.0.1']
     clients = args.client or ['laptop']
     certificates = make_certificates(
