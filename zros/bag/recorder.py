@@ -1,0 +1,436 @@
+"""Record live topics into a rosbag2 MCAP bag, as ``ros2 bag record`` does.
+
+Topics are found in the graph as publishers announce them, also after recording started (with
+``all`` or a ``regex``). Each one gets a raw Zenoh subscription (announced like a zros
+subscriber) whose callback only stamps the receive time and queues the sample; one writer thread
+appends the CDR bytes to the bag as they came, never decoding them. A full queue makes the
+callbacks wait, which slows reliable publishers down instead of losing their messages.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import os
+import re
+import threading
+import time
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, Any
+
+from zros.bag.bag_writer import BagTopic, BagWriter
+from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE
+from zros.errors import ZrosError
+from zros.graph import entity_token
+from zros.keyexpr.bridge import EntityKind, ros_name
+from zros.qos import Durability, History, QoS, Reliability
+from zros.signal import Signal
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from zros.graph import Endpoint
+    from zros.node import Node
+
+_log = logging.getLogger('zros.bag')
+
+#: unwritten messages (and bytes) the recorder holds before its callbacks make publishers wait
+MAX_QUEUE = 100_000
+MAX_QUEUE_BYTES = 512 * 1024 * 1024
+#: seconds between forced chunk flushes: at most this much is lost to a SIGKILL
+FLUSH_INTERVAL = 1.0
+
+
+class RecorderError(ZrosError):
+    """A recording cannot start (nothing selected, a bad regex) or failed while writing."""
+
+
+def is_hidden(name: str) -> bool:
+    """Whether a topic is hidden (a name part starts with ``_``), as ROS 2 tools hide them."""
+    return any(part.startswith('_') for part in name.split('/'))
+
+
+def recording_qos(offered: Iterable[QoS]) -> QoS:
+    """The QoS to record publishers with, adapted as rosbag2 adapts it: reliable and transient
+    local only when every publisher is, deep enough for the deepest one."""
+    offers = list(offered)
+    reliable = all(q.reliable for q in offers)
+    latched = bool(offers) and all(q.transient_local for q in offers)
+    depth = max((q.depth for q in offers), default=10)
+    return QoS(
+        max(depth, 1),
+        Reliability.RELIABLE if reliable else Reliability.BEST_EFFORT,
+        Durability.TRANSIENT_LOCAL if latched else Durability.VOLATILE,
+        History.KEEP_LAST,
+    )
+
+
+def publish_time(sample: Any, fallback: int) -> int:
+    """A Zenoh sample's source timestamp (set by the publishing session) in nanoseconds."""
+    stamp = sample.timestamp
+    if stamp is None:
+        return fallback
+    try:
+        return int(stamp.get_time_as_ntp64().as_nanos())
+    except Exception:  # a zenoh without the NTP64 helpers
+        return fallback
+
+
+class _Tap:
+    """A raw subscription on one topic, announced in the graph like a zros subscriber."""
+
+    def __init__(
+        self,
+        node: Node,
+        topic: str,
+        type_name: str,
+        *,
+        qos: QoS,
+        type_hash: str,
+        callback: Callable[[Any], None],
+    ) -> None:
+        self.transport = node.transport
+        key = node.scheme.key(topic)
+        session = self.transport.session
+        if qos.transient_local:
+            from zenoh import ext
+
+            history = ext.HistoryConfig(detect_late_publishers=True, max_samples=qos.depth)
+            self._subscriber: Any = ext.declare_advanced_subscriber(
+                session, key, callback, history=history
+            )
+        else:
+            self._subscriber = session.declare_subscriber(key, callback)
+        tokens = []
+        try:
+            tokens.append(
+                entity_token(
+                    self.transport.zid, node.fully_qualified_name, EntityKind.SUBSCRIBER, key,
+                    type_name,
+                )
+            )  # fmt: skip
+            tokens.append(
+                node.scheme.token(
+                    EntityKind.SUBSCRIBER, self.transport.zid, topic, type_name, qos=qos,
+                    type_hash=type_hash or None,
+                )
+            )  # fmt: skip
+        except ZrosError as exc:  # a type name no token can carry: record without announcing
+            _log.debug('not announcing the recording of %s: %s', topic, exc)
+        self._tokens = tuple(tokens)
+        for token in self._tokens:
+            self.transport.declare_token(token)
+
+    def close(self) -> None:
+        for token in reversed(self._tokens):
+            self.transport.release_token(token)
+        if not self.transport.closed:
+            try:
+                self._subscriber.undeclare()
+            except Exception:  # the session is closing
+                _log.debug('undeclaring a recording subscriber failed', exc_info=True)
+
+
+class Recorder:
+    """Records topics of the live graph into a bag folder (``ros2 bag record``).
+
+    Choose ``topics`` (names), a ``regex`` (searched in names), or ``all``; with ``all`` or a
+    regex, topics that appear later are recorded too, hidden ones (``/_x``) only with
+    ``include_hidden``. ``split_size`` (bytes) and ``split_duration`` (seconds) split the bag
+    into ``<name>_0.mcap``, ``<name>_1.mcap``...; ``compression`` is ``'zstd'``, ``'lz4'`` or
+    None. Recording starts at once; :meth:`close` (or leaving a ``with`` block) writes the end
+    of the last file and ``metadata.yaml``. ``on_topic(name, type)`` is called for every topic
+    as its recording starts. ``node`` None uses the default node of ``zros.init``.
+
+    Chunks are written when full (``chunk_size``) and at least every ``flush_interval``
+    seconds, so a killed recorder leaves files readable up to their last chunk.
+    """
+
+    def __init__(
+        self,
+        node: Node | None,
+        path: str | os.PathLike[str],
+        topics: Iterable[str] | None = None,
+        regex: str | None = None,
+        all: bool = False,
+        *,
+        split_size: int | None = None,
+        split_duration: float | None = None,
+        compression: str | None = 'zstd',
+        include_hidden: bool = False,
+        chunk_size: int = DEFAULT_CHUNK_SIZE,
+        flush_interval: float | None = FLUSH_INTERVAL,
+        on_topic: Callable[[str, str], object] | None = None,
+        max_queue: int = MAX_QUEUE,
+    ) -> None:
+        if node is None:
+            from zros.api import default_node
+
+            node = default_node()
+        node._check_open()
+        self.node = node
+        self._names = {node.resolve_name(name) for name in topics or ()}
+        try:
+            self._regex = re.compile(regex) if regex is not None else None
+        except re.error as exc:
+            raise RecorderError(f'the topic regex {regex!r} is invalid: {exc}') from None
+        self._all = all
+        if not (self._names or self._regex or all):
+            raise RecorderError('nothing to record: give topic names, a regex, or all=True')
+        if flush_interval is not None and not flush_interval > 0:
+            raise RecorderError(f'flush_interval must be positive, got {flush_interval}')
+        self._include_hidden = include_hidden
+        self._on_topic = on_topic
+        self._flush_interval = flush_interval
+        self._max_queue = max(1, max_queue)
+        self._bag = BagWriter(
+            path,
+            compression=compression,
+            split_size=split_size,
+            split_duration=split_duration,
+            chunk_size=chunk_size,
+            ros_distro=node.registry.distro,
+        )
+        self.path: Path = self._bag.path
+        self._sim = node.use_sim_time
+        self._lock = threading.Lock()  # guards the queue, and taps against close
+        self._queue: collections.deque[tuple[int, int, Any, int]] = collections.deque()
+        self._queued_bytes = 0
+        self._arrived = Signal()
+        self._room = Signal()
+        self._topic_list: list[BagTopic] = []  #: in recording order (the bag adds them so)
+        self._types: dict[str, str] = {}
+        self._taps: list[_Tap] = []
+        self._started = Signal()  #: a topic started recording
+        self._stopping = False  #: no new taps, callbacks drop
+        self._draining = False  #: the writer thread finishes the queue and ends
+        self._closed = False
+        self.error: BaseException | None = None  #: what stopped the writer thread, if anything
+        self.message_count = 0  #: messages written so far
+        self.size = 0  #: bytes written so far (the open chunk counted uncompressed)
+        self._writer = threading.Thread(target=self._write_loop, name='zros recorder', daemon=True)
+        self._writer.start()
+        self._discovery = threading.Thread(
+            target=self._discover_loop, name='zros recorder discovery', daemon=True
+        )
+        self._discovery.start()
+
+    # --- what to record ------------------------------------------------------------------------
+
+    def _wanted(self, name: str) -> bool:
+        if name in self._names:
+            return True
+        if not self._include_hidden and is_hidden(name):
+            return False
+        return self._all or (self._regex is not None and self._regex.search(name) is not None)
+
+    def _discover_loop(self) -> None:
+        graph = self.node.graph
+        while not self._stopping:
+            seen = graph.version
+            try:
+                self._discover()
+            except Exception:
+                _log.exception('the recorder failed to look at the graph')
+            graph.wait_until(self._graph_changed(seen), 0.1)
+
+    def _graph_changed(self, seen: int) -> Callable[[], bool]:
+        graph = self.node.graph
+        return lambda: graph.version != seen or self._stopping
+
+    def _discover(self) -> None:
+        namespace = self.node.scheme.namespace
+        by_name: dict[str, list[Endpoint]] = {}
+        for endpoint in self.node.graph.endpoints((EntityKind.PUBLISHER,)):
+            by_name.setdefault(ros_name(endpoint.key, namespace), []).append(endpoint)
+        for name, endpoints in sorted(by_name.items()):
+            if name in self._types or not self._wanted(name):
+                continue
+            types = sorted({e.type_name for e in endpoints})
+            if len(types) > 1:
+                _log.warning('topic %s has several types %s: recording %s', name, types, types[0])
+            offered = [e.qos for e in endpoints if e.qos is not None and e.type_name == types[0]]
+            self._start(name, types[0], offered)
+
+    def _start(self, name: str, type_name: str, offered: list[QoS]) -> None:
+        topic = BagTopic.from_registry(self.node.registry, name, type_name, offered)
+        with self._lock:
+            if self._stopping:
+                return
+            index = len(self._topic_list)
+            self._topic_list.append(topic)
+            self._types[name] = type_name
+            tap = _Tap(
+                self.node,
+                name,
+                type_name,
+                qos=recording_qos(offered),
+                type_hash=topic.type_hash,
+                callback=self._callback(index),
+            )
+            self._taps.append(tap)
+        _log.info('recording %s [%s]', name, type_name)
+        if self._on_topic is not None:
+            try:
+                self._on_topic(name, type_name)
+            except Exception:
+                _log.exception('on_topic callback %r raised', self._on_topic)
+        self._started.notify()
+
+    # --- on Zenoh's threads ---------------------------------------------------------------------
+
+    def _callback(self, index: int) -> Callable[[Any], None]:
+        clock = self.node.clock
+        now: Callable[[], int] = (lambda: clock.now().nanoseconds) if self._sim else time.time_ns
+        queue = self._queue
+        lock = self._lock
+        arrived = self._arrived
+
+        def on_sample(sample: Any) -> None:
+            if self._stopping:
+                return
+            size = len(sample.payload)
+            if len(queue) >= self._max_queue or self._queued_bytes >= MAX_QUEUE_BYTES:
+                self._wait_for_room()
+            with lock:
+                queue.append((index, now(), sample, size))
+                self._queued_bytes += size
+            if arrived:
+                arrived.notify()
+
+        return on_sample
+
+    def _has_room(self) -> bool:
+        return self._stopping or (
+            len(self._queue) < self._max_queue and self._queued_bytes < MAX_QUEUE_BYTES
+        )
+
+    def _wait_for_room(self) -> None:
+        while not self._has_room():
+            self._room.wait(self._has_room, 0.5)
+
+    # --- the writer thread ---------------------------------------------------------------------
+
+    def _register_topics(self, done: int) -> int:
+        """Add the topics found since (their messages may be queued); returns how many are."""
+        while done < len(self._topic_list):
+            self._bag.add_topic(self._topic_list[done])
+            done += 1
+        return done
+
+    def _write_loop(self) -> None:
+        bag = self._bag
+        registered = 0
+        last_flush = time.monotonic()
+        interval = self._flush_interval
+
+        def ready() -> bool:
+            return bool(self._queue) or self._draining
+
+        try:
+            while True:
+                wait = (
+                    None if interval is None else max(0.0, last_flush + interval - time.monotonic())
+                )
+                self._arrived.wait(ready, wait)
+                with self._lock:
+                    batch = list(self._queue)
+                    self._queue.clear()
+                    self._queued_bytes = 0
+                if self._room:
+                    self._room.notify()
+                registered = self._register_topics(registered)
+                for index, log_time, sample, _ in batch:
+                    stamp = log_time if self._sim else publish_time(sample, log_time)
+                    bag.write(index, log_time, sample.payload.to_bytes(), stamp)
+                self.message_count = bag.message_count
+                if interval is not None and time.monotonic() - last_flush >= interval:
+                    bag.flush()
+                    last_flush = time.monotonic()
+                self.size = bag.size
+                if self._draining and not self._queue:
+                    self._register_topics(registered)
+                    return
+        except BaseException as exc:
+            _log.exception('the recording to %s failed', self.path)
+            self.error = exc
+            self._stopping = True
+            self._room.notify()
+            self._started.notify()
+
+    # --- the user's side -----------------------------------------------------------------------
+
+    @property
+    def topics(self) -> dict[str, str]:
+        """The topics being recorded and their types."""
+        with self._lock:
+            return dict(self._types)
+
+    @property
+    def files(self) -> list[Path]:
+        """The bag's storage files so far."""
+        return self._bag.files
+
+    def wait_for_topics(self, names: Iterable[str] | int, timeout: float | None = 5.0) -> bool:
+        """Wait until the named topics (or that many topics) are being recorded."""
+        if isinstance(names, int):
+            count = names
+
+            def ready() -> bool:
+                return len(self._types) >= count
+
+        else:
+            wanted = {self.node.resolve_name(name) for name in names}
+
+            def ready() -> bool:
+                return wanted <= self._types.keys()
+
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not ready():
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if self._stopping or (remaining is not None and remaining <= 0):
+                return False
+            self._started.wait(lambda: ready() or self._stopping, remaining)
+        return True
+
+    def close(self) -> None:
+        """Stop recording, write what is queued, close the last file and write metadata.yaml.
+
+        Raises RecorderError if writing failed during the recording.
+        """
+        if self._closed:
+            return
+        self._closed = True
+        with self._lock:
+            self._stopping = True
+            taps, self._taps = self._taps, []
+        for tap in taps:
+            tap.close()
+        self._room.notify()
+        self._draining = True
+        self._arrived.notify()
+        self._writer.join()
+        self._discovery.join(2.0)
+        self._started.notify()
+        try:
+            self._bag.close()
+        except Exception as exc:
+            if self.error is None:
+                raise RecorderError(f'cannot finish the bag {self.path}: {exc}') from exc
+        finally:
+            self.message_count = self._bag.message_count
+            self.size = sum(path.stat().st_size for path in self._bag.files if path.exists())
+        if self.error is not None:
+            reason = f'the recording to {self.path} failed: {self.error}'
+            raise RecorderError(reason) from self.error
+
+    stop = close
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f'<zros Recorder {self.path} ({len(self._types)} topics, {self.message_count} msgs)>'
