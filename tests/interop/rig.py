@@ -229,6 +229,64 @@ class RosWorker:
             feedback_count=feedback_count,
         )
 
+    # parameters: values, parameters and descriptors as JSON, see ros_worker.py
+
+    def param_node(
+        self,
+        node: str,
+        parameters: list[dict[str, Any]],
+        *,
+        namespace: str = '/',
+        allow_undeclared: bool = False,
+    ) -> tuple[str, str]:
+        """A further rclpy node declaring ``parameters``; its handle and fully qualified name."""
+        name = self._name('pnode')
+        reply = self.call(
+            'param_node',
+            name=name,
+            node=node,
+            namespace=namespace,
+            parameters=parameters,
+            allow_undeclared=allow_undeclared,
+        )
+        return name, str(reply['fqn'])
+
+    def param_node_op(
+        self, name: str, op: str, parameters: list[dict[str, Any]]
+    ) -> list[dict[str, Any]]:
+        """``declare``, ``undeclare`` or ``set`` ``parameters`` on a ``param_node`` itself; the
+        results of a ``set``."""
+        return list(
+            self.call('param_node_op', name=name, op=op, parameters=parameters).get('results', [])
+        )
+
+    def param_client(self, node: str, timeout: float = 10.0) -> tuple[str, bool]:
+        """An rclpy ``AsyncParameterClient`` of ``node``; its handle and whether all six
+        services became ready within ``timeout``."""
+        name = self._name('pclient')
+        reply = self.call('param_client', timeout, name=name, node=node)
+        return name, bool(reply['ready'])
+
+    def param_call(self, name: str, op: str, timeout: float = 10.0, **args: Any) -> dict[str, Any]:
+        """One call of a parameter client (``list``, ``get``, ``types``, ``describe``, ``set``,
+        ``set_atomically``, ``delete``)."""
+        reply = self.call('param_call', timeout, name=name, op=op, **args)
+        reply.pop('ok', None)
+        return reply
+
+    def param_events(self, client: str) -> str:
+        """Record ``/parameter_events`` through ``client.on_parameter_event``."""
+        name = self._name('pevents')
+        self.call('param_events', name=name, client=client)
+        return name
+
+    def wait_param_events(
+        self, name: str, node: str, count: int = 1, timeout: float = 10.0
+    ) -> list[dict[str, Any]]:
+        """The recorded events of ``node`` (once there are ``count``, or after ``timeout``)."""
+        reply = self.call('wait_param_events', timeout, name=name, node=node, count=count)
+        return list(reply['events'])
+
     def destroy(self, name: str) -> None:
         self.call('destroy', name=name)
 

@@ -30,7 +30,20 @@ included, exactly what rclpy publishes and receives with ``raw=True``).
 ``action_call``        ``action, order, timeout, cancel_after_feedback, record,
                        feedback_count`` -> ``accepted, goal_id, status, sequence, feedback``
                        (a Fibonacci goal sent by a fresh ``ActionClient``; see below)
+``param_node``         ``name, node, namespace, parameters, allow_undeclared`` -> a further rclpy
+                       node (on the same executor) declaring ``parameters`` (see below); ``fqn``
+``param_node_op``      ``name, op: declare|undeclare|set, parameters`` -> on that node itself:
+                       ``declare`` (specs), ``undeclare`` (``name`` of each spec), ``set``
+                       (``results``: one ``{successful, reason}`` per parameter)
+``param_client``       ``name, node, timeout`` -> an rclpy ``AsyncParameterClient`` of the remote
+                       node ``node``; ``ready`` once all six services are (or after ``timeout``)
+``param_call``         ``name, op, timeout, ...`` -> one call of that client, see below
+``param_events``       ``name, client`` -> record ``/parameter_events`` through
+                       ``client.on_parameter_event`` (an ``AsyncParameterClient``'s subscription)
+``wait_param_events``  ``name, node, count, timeout`` -> ``events`` (all those of ``node`` so
+                       far, once there are ``count``)
 ``destroy``            ``name`` -> destroy that publisher, subscription, service or action server
+                       (or parameter node, parameter client)
 ``exit``               -> stop
 =====================  ============================================================================
 
@@ -59,6 +72,19 @@ succeeds every goal after ``order - 1`` steps):
   ``GoalStatusArray``), in arrival order. (Not the goal handle's ``status``: rclpy ignores status
   arrays taken before the goal response, and through a bridge a fast goal's last status can
   overtake its goal response, so that status may stay UNKNOWN.)
+
+Parameters travel as JSON: a value is ``{"type": n, "value": v}`` (``rcl_interfaces``
+``ParameterType`` numbers; a byte array's value is a hex string, NOT_SET's null), a parameter
+``{"name": s, "type": n, "value": v}``, a descriptor ``{"name", "type", "description",
+"additional_constraints", "read_only", "dynamic_typing", "integer_range": [from, to, step] |
+null, "floating_point_range": [...] | null}``, a parameter spec of ``param_node`` a parameter
+with an optional ``descriptor`` (its optional fields; ``type`` comes from the value), an event
+``{"node", "new": [parameter...], "changed": [...], "deleted": [...]}``.
+
+``param_call`` ops and their replies: ``list`` (``prefixes, depth``) -> ``names, prefixes``;
+``get`` (``names``) -> ``values``; ``types`` (``names``) -> ``types``; ``describe`` (``names``) ->
+``descriptors``; ``set`` (``parameters``) -> ``results``; ``set_atomically`` (``parameters``) ->
+``result``; ``delete`` (``names``) -> ``results``. A result is ``{"successful", "reason"}``.
 """
 
 from __future__ import annotations
@@ -99,6 +125,114 @@ def _profile(spec: dict[str, Any] | None) -> Any:
     )
 
 
+#: ParameterValue field of each parameter type number (1 BOOL ... 9 STRING_ARRAY)
+PARAMETER_FIELDS = {
+    1: 'bool_value',
+    2: 'integer_value',
+    3: 'double_value',
+    4: 'string_value',
+    5: 'byte_array_value',
+    6: 'bool_array_value',
+    7: 'integer_array_value',
+    8: 'double_array_value',
+    9: 'string_array_value',
+}
+
+
+def _value_json(message: Any) -> dict[str, Any]:
+    """``{"type", "value"}`` of an ``rcl_interfaces/msg/ParameterValue``."""
+    kind = int(message.type)
+    if kind not in PARAMETER_FIELDS:
+        return {'type': kind, 'value': None}
+    raw = getattr(message, PARAMETER_FIELDS[kind])
+    if kind == 5:
+        value: Any = b''.join(bytes(item) for item in raw).hex()
+    elif kind > 5:
+        value = [item.item() if hasattr(item, 'item') else item for item in raw]
+    else:
+        value = raw
+    return {'type': kind, 'value': value}
+
+
+def _python_value(spec: dict[str, Any]) -> Any:
+    """The rclpy ``Parameter`` value of a JSON value (a byte array: a list of 1-byte bytes)."""
+    kind = int(spec['type'])
+    value: Any = spec.get('value')
+    if kind == 0:
+        return None
+    if kind == 5:
+        return [bytes([item]) for item in bytes.fromhex(value)]
+    if kind == 3:
+        return float(value)
+    if kind == 8:
+        return [float(item) for item in value]
+    return value
+
+
+def _parameter(spec: dict[str, Any]) -> Any:
+    """An rclpy ``Parameter`` of a JSON parameter."""
+    from rclpy.parameter import Parameter
+
+    return Parameter(spec['name'], Parameter.Type(int(spec['type'])), _python_value(spec))
+
+
+def _parameter_json(message: Any) -> dict[str, Any]:
+    return {'name': message.name, **_value_json(message.value)}
+
+
+def _result_json(result: Any) -> dict[str, Any]:
+    return {'successful': bool(result.successful), 'reason': result.reason}
+
+
+def _descriptor(spec: dict[str, Any]) -> Any:
+    """An ``rcl_interfaces/msg/ParameterDescriptor`` from its JSON fields (all optional)."""
+    from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+
+    descriptor = ParameterDescriptor(
+        description=spec.get('description', ''),
+        additional_constraints=spec.get('additional_constraints', ''),
+        read_only=bool(spec.get('read_only', False)),
+        dynamic_typing=bool(spec.get('dynamic_typing', False)),
+    )
+    if spec.get('integer_range'):
+        low, high, step = spec['integer_range']
+        descriptor.integer_range = [IntegerRange(from_value=low, to_value=high, step=step)]
+    if spec.get('floating_point_range'):
+        low, high, step = (float(item) for item in spec['floating_point_range'])
+        descriptor.floating_point_range = [
+            FloatingPointRange(from_value=low, to_value=high, step=step)
+        ]
+    return descriptor
+
+
+def _descriptor_json(message: Any) -> dict[str, Any]:
+    integer = message.integer_range[0] if len(message.integer_range) else None
+    floating = message.floating_point_range[0] if len(message.floating_point_range) else None
+    return {
+        'name': message.name,
+        'type': int(message.type),
+        'description': message.description,
+        'additional_constraints': message.additional_constraints,
+        'read_only': bool(message.read_only),
+        'dynamic_typing': bool(message.dynamic_typing),
+        'integer_range': (
+            [integer.from_value, integer.to_value, integer.step] if integer else None
+        ),
+        'floating_point_range': (
+            [floating.from_value, floating.to_value, floating.step] if floating else None
+        ),
+    }
+
+
+def _event_json(event: Any) -> dict[str, Any]:
+    return {
+        'node': event.node,
+        'new': [_parameter_json(item) for item in event.new_parameters],
+        'changed': [_parameter_json(item) for item in event.changed_parameters],
+        'deleted': [_parameter_json(item) for item in event.deleted_parameters],
+    }
+
+
 class Worker:
     """One rclpy node executing commands."""
 
@@ -120,6 +254,9 @@ class Worker:
         self.subscriptions: dict[str, Any] = {}
         self.received: dict[str, list[bytes]] = {}
         self.others: dict[str, Any] = {}
+        self.param_nodes: dict[str, Any] = {}
+        self.param_clients: dict[str, Any] = {}
+        self.param_events: dict[str, list[dict[str, Any]]] = {}
 
     def spin(self) -> None:
         """``executor.spin()``, except that a callback that raises does not stop it.
@@ -225,6 +362,48 @@ class Worker:
             return self.action_server(name, command)
         if op == 'action_call':
             return self.action_call(command)
+        if op in ('param_node', 'param_node_op', 'param_client', 'param_call'):
+            handler: Any = getattr(self, op)
+            return dict(handler(name, command))
+        if op == 'param_events':
+            client = self.param_clients[command['client']]
+            store_events: list[dict[str, Any]] = []
+            self.param_events[name] = store_events
+            self.subscriptions[name] = client.on_parameter_event(
+                lambda event: store_events.append(_event_json(event))
+            )
+            return {}
+        if op == 'wait_param_events':
+            events = self.param_events[name]
+            node = command['node']
+            count = int(command.get('count', 1))
+
+            def of_node() -> list[dict[str, Any]]:
+                return [event for event in list(events) if event['node'] == node]
+
+            self.spin_until(lambda: len(of_node()) >= count, float(command.get('timeout', 10)))
+            return {'events': of_node()}
+        if op == 'destroy' and name in self.param_nodes:
+            node = self.param_nodes.pop(name)
+            self.executor.remove_node(node)
+            node.destroy_node()
+            return {}
+        if op == 'destroy' and name in self.param_clients:
+            client = self.param_clients.pop(name)
+            for part in (
+                client._get_parameter_client,
+                client._list_parameter_client,
+                client._set_parameter_client,
+                client._get_parameter_types_client,
+                client._describe_parameters_client,
+                client._set_parameters_atomically_client,
+            ):
+                self.node.destroy_client(part)
+            return {}
+        if op == 'destroy' and name in self.param_events:
+            self.param_events.pop(name)
+            self.node.destroy_subscription(self.subscriptions.pop(name))
+            return {}
         if op == 'destroy':
             if name in self.others:
                 other = self.others.pop(name)
@@ -239,6 +418,96 @@ class Worker:
                 self.received.pop(name, None)
             return {}
         raise ValueError(f'unknown command {op!r}')
+
+    # --- parameters ---------------------------------------------------------------------------
+
+    def param_node(self, name: str, command: dict[str, Any]) -> dict[str, Any]:
+        from rclpy.node import Node
+
+        node = Node(
+            command['node'],
+            namespace=command.get('namespace', '/'),
+            allow_undeclared_parameters=bool(command.get('allow_undeclared', False)),
+        )
+        try:
+            self._declare(node, command.get('parameters', []))
+        except BaseException:
+            node.destroy_node()
+            raise
+        self.param_nodes[name] = node
+        self.executor.add_node(node)
+        return {'fqn': node.get_fully_qualified_name()}
+
+    @staticmethod
+    def _declare(node: Any, specs: list[dict[str, Any]]) -> None:
+        for spec in specs:
+            node.declare_parameter(
+                spec['name'], _python_value(spec), _descriptor(spec.get('descriptor', {}))
+            )
+
+    def param_node_op(self, name: str, command: dict[str, Any]) -> dict[str, Any]:
+        node = self.param_nodes[name]
+        specs = command.get('parameters', [])
+        op = command['op']
+        if op == 'declare':
+            self._declare(node, specs)
+            return {}
+        if op == 'undeclare':
+            for spec in specs:
+                node.undeclare_parameter(spec['name'])
+            return {}
+        if op == 'set':
+            results = node.set_parameters([_parameter(spec) for spec in specs])
+            return {'results': [_result_json(result) for result in results]}
+        raise ValueError(f'unknown param_node_op {op!r}')
+
+    def param_client(self, name: str, command: dict[str, Any]) -> dict[str, Any]:
+        from rclpy.parameter_client import AsyncParameterClient
+
+        client = AsyncParameterClient(self.node, command['node'])
+        self.param_clients[name] = client
+        ready = self.spin_until(client.services_are_ready, float(command.get('timeout', 10)))
+        return {'ready': ready}
+
+    def param_call(self, name: str, command: dict[str, Any]) -> dict[str, Any]:
+        client = self.param_clients[name]
+        op = command['op']
+        names = list(command.get('names', []))
+        parameters = [_parameter(spec) for spec in command.get('parameters', [])]
+        if op == 'list':
+            future = client.list_parameters(command.get('prefixes'), command.get('depth'))
+        elif op == 'get':
+            future = client.get_parameters(names)
+        elif op == 'types':
+            future = client.get_parameter_types(names)
+        elif op == 'describe':
+            future = client.describe_parameters(names)
+        elif op == 'set':
+            future = client.set_parameters(parameters)
+        elif op == 'set_atomically':
+            future = client.set_parameters_atomically(parameters)
+        elif op == 'delete':
+            future = client.delete_parameters(names)
+        else:
+            raise ValueError(f'unknown param_call op {op!r}')
+        if not self.spin_until(future.done, float(command.get('timeout', 10))):
+            future.cancel()
+            raise TimeoutError(f'no response to {op} from {client.remote_node_name}')
+        response = future.result()
+        if op == 'list':
+            return {
+                'names': list(response.result.names),
+                'prefixes': list(response.result.prefixes),
+            }
+        if op == 'get':
+            return {'values': [_value_json(value) for value in response.values]}
+        if op == 'types':
+            return {'types': [int(kind) for kind in response.types]}
+        if op == 'describe':
+            return {'descriptors': [_descriptor_json(item) for item in response.descriptors]}
+        if op == 'set_atomically':
+            return {'result': _result_json(response.result)}
+        return {'results': [_result_json(result) for result in response.results]}
 
     def call(self, command: dict[str, Any]) -> dict[str, Any]:
         from rclpy.serialization import deserialize_message, serialize_message
