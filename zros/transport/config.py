@@ -5,6 +5,11 @@ Precedence, highest first: arguments, environment (``ZROS_CONNECT``, ``ZROS_LIST
 json5 file named by ``config`` or ``ZENOH_CONFIG``, then zros's defaults: client mode connecting
 to the local bridge at ``tcp/127.0.0.1:7447``, multicast scouting off, timestamping on
 (transient-local publishers need it).
+
+With ``wire='rmw_zenoh'`` (or ``ZROS_WIRE=rmw_zenoh``) the defaults are rmw_zenoh's own session
+settings: a peer that connects to the ``rmw_zenohd`` router at ``tcp/localhost:7447`` and listens on
+``tcp/localhost:0``, and rmw_zenoh's variables apply: ``ZENOH_SESSION_CONFIG_URI`` names the file,
+``ZENOH_CONFIG_OVERRIDE="path=json5;path=json5"`` overrides single settings.
 """
 
 from __future__ import annotations
@@ -18,7 +23,46 @@ from typing import Any
 
 #: zenoh-bridge-ros2dds and zenohd listen here by default
 DEFAULT_ENDPOINT = 'tcp/127.0.0.1:7447'
+#: where rmw_zenoh sessions find the rmw_zenohd router, and where they listen for peers
+RMW_ZENOH_ENDPOINT = 'tcp/localhost:7447'
+RMW_ZENOH_LISTEN = 'tcp/localhost:0'
 MODES = ('client', 'peer')
+
+
+def _wire(value: str | None) -> str | None:
+    """None for the bridge (the default), 'rmw_zenoh' for rmw_zenoh's session defaults."""
+    if value in (None, '', 'bridge'):
+        return None
+    if value != 'rmw_zenoh':
+        raise ValueError(f'wire must be "bridge" or "rmw_zenoh", got {value!r}')
+    return value
+
+
+def parse_override(text: str) -> list[tuple[str, str]]:
+    """``ZENOH_CONFIG_OVERRIDE``: ``path=json5`` items separated by ``;`` (outside brackets
+    and quotes)."""
+    items: list[str] = []
+    depth, quote, start = 0, '', 0
+    for index, char in enumerate(text):
+        if quote:
+            quote = '' if char == quote else quote
+        elif char in '"\'':
+            quote = char
+        elif char in '[{':
+            depth += 1
+        elif char in ']}':
+            depth -= 1
+        elif char == ';' and depth == 0:
+            items.append(text[start:index])
+            start = index + 1
+    items.append(text[start:])
+    pairs = []
+    for item in filter(str.strip, items):
+        key, equals, value = item.partition('=')
+        if not equals or not key.strip() or not value.strip():
+            raise ValueError(f'ZENOH_CONFIG_OVERRIDE item {item!r} is not path=json5')
+        pairs.append((key.strip(), value.strip()))
+    return pairs
 
 
 def _endpoints(value: str | Sequence[str] | None) -> tuple[str, ...] | None:
@@ -62,6 +106,7 @@ class TransportConfig:
     user: str | None = None
     password: str | None = None
     zenoh: dict[str, Any] = field(default_factory=dict)
+    wire: str | None = None  #: 'rmw_zenoh': rmw_zenoh's session defaults (None: the bridge's)
 
     @classmethod
     def create(
@@ -81,6 +126,9 @@ class TransportConfig:
         if 'user' not in options and env.get('ZROS_USER'):
             options['user'] = env['ZROS_USER']
             options.setdefault('password', env.get('ZROS_PASSWORD'))
+        options['wire'] = _wire(options.get('wire') or env.get('ZROS_WIRE'))
+        if not config_file and options['wire']:
+            config_file = env.get('ZENOH_SESSION_CONFIG_URI')
         config = cls(
             connect=_endpoints(connect if connect is not None else env.get('ZROS_CONNECT')),
             listen=_endpoints(listen if listen is not None else env.get('ZROS_LISTEN')),
@@ -112,15 +160,18 @@ class TransportConfig:
         def put(key: str, value: Any) -> None:
             config.insert_json5(key, json.dumps(value))
 
+        rmw = self.wire == 'rmw_zenoh'
         if self.mode is not None or unset('mode'):
-            put('mode', self.mode or 'client')
+            put('mode', self.mode or ('peer' if rmw else 'client'))
         mode = json.loads(config.get_json('mode'))
         if self.connect is not None:
             put('connect/endpoints', list(self.connect))
-        elif unset('connect/endpoints') and mode == 'client':
-            put('connect/endpoints', [DEFAULT_ENDPOINT])
+        elif unset('connect/endpoints') and (mode == 'client' or rmw):
+            put('connect/endpoints', [RMW_ZENOH_ENDPOINT if rmw else DEFAULT_ENDPOINT])
         if self.listen is not None:
             put('listen/endpoints', list(self.listen))
+        elif rmw and mode == 'peer' and not self.config_file:
+            put('listen/endpoints', [RMW_ZENOH_LISTEN])
         if not self.config_file or self.multicast_scouting:
             put('scouting/multicast/enabled', self.multicast_scouting)
         if self.shared_memory is not None:
@@ -141,6 +192,9 @@ class TransportConfig:
         if self.user is not None:
             put('transport/auth/usrpwd/user', self.user)
             put('transport/auth/usrpwd/password', self.password)
+        if rmw:
+            for key, text in parse_override(os.environ.get('ZENOH_CONFIG_OVERRIDE', '')):
+                config.insert_json5(key, text)
         for key, value in self.zenoh.items():
             put(key, value)
         return config
@@ -151,4 +205,4 @@ class TransportConfig:
             return ', '.join(self.connect)
         if self.config_file:
             return f'the endpoints of {self.config_file}'
-        return DEFAULT_ENDPOINT
+        return RMW_ZENOH_ENDPOINT if self.wire else DEFAULT_ENDPOINT

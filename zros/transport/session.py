@@ -13,6 +13,7 @@ import weakref
 from typing import Any
 
 from zros.errors import ZrosError
+from zros.keyexpr.rmw_zenoh import IdCounter
 from zros.transport.config import TransportConfig
 
 _log = logging.getLogger('zros.transport')
@@ -74,6 +75,8 @@ class Transport:
         except zenoh.ZError as exc:
             raise _explain(exc, self.config) from None
         self.zid = str(self.session.zid())
+        #: node and entity ids of rmw_zenoh tokens: one counter per session, from 0
+        self.next_entity_id = IdCounter()
         self._tokens: dict[str, tuple[Any, int]] = {}
         self._token_lock = threading.Lock()
         self._closed = False
