@@ -230,19 +230,22 @@ class ClockSubscription:
         from zros.cdr import decode
         from zros.keyexpr.bridge import EntityKind
         from zros.qos import QoS, Reliability
+        from zros.wire import entity_wire
 
         self.clock = clock
         self._cls = node.registry.get_class('rosgraph_msgs/msg/Clock')
         self._decode = decode
-        topic = '/clock'
-        self.key = node.scheme.key(topic)
         qos = QoS(1, Reliability.BEST_EFFORT)
-        self._token = node.scheme.token(
-            EntityKind.SUBSCRIBER, node.transport.zid, topic, self._cls.__msgtype__, qos=qos
-        )
+        wire = entity_wire(
+            node, EntityKind.SUBSCRIBER, '/clock', self._cls.__msgtype__, self._cls._registry,
+            qos=qos,
+        )  # fmt: skip
+        self.key = wire.key
+        self._tokens = wire.tokens[-1:]  # the bridge's token only: no zros node owns it
         self._transport = node.transport
         self._subscriber = node.transport.session.declare_subscriber(self.key, self._on_sample)
-        node.transport.declare_token(self._token)
+        for token in self._tokens:
+            node.transport.declare_token(token)
         self._closed = False
 
     def _on_sample(self, sample: Any) -> None:
@@ -255,6 +258,7 @@ class ClockSubscription:
     def close(self) -> None:
         if not self._closed:
             self._closed = True
-            self._transport.release_token(self._token)
+            for token in self._tokens:
+                self._transport.release_token(token)
             if not self._transport.closed:
                 self._subscriber.undeclare()

@@ -11,6 +11,11 @@ parse it: they abort on unknown forms under ``@ros2_lv``):
 The view follows tokens as they come and go (a closed session's tokens go within milliseconds, a
 vanished one's within the Zenoh lease). A bridge's version and namespace come from its admin
 space (``@/<zid>/ros2/version`` and ``/config``).
+
+ROS 2 nodes running rmw_zenoh (and zros nodes on that wire) announce themselves and each entity
+as ``@ros2_lv/<domain>/<zid>/<nid>/<eid>/<kind>/...``; the view parses those too. Their
+endpoints' ``key`` is ``<domain>/<name>`` (what ``RmwZenohScheme.key`` gives) and ``wire`` says
+which scheme announced an endpoint.
 """
 
 from __future__ import annotations
@@ -35,6 +40,9 @@ from zros.keyexpr.bridge import (
     ros_name,
     unescape,
 )
+from zros.keyexpr.rmw_zenoh import ALL_TOKENS as RMW_TOKENS
+from zros.keyexpr.rmw_zenoh import EndpointToken as RmwEndpoint
+from zros.keyexpr.rmw_zenoh import NodeToken, gid, name_key, parse_token
 from zros.qos import QoS
 from zros.signal import Signal
 
@@ -69,7 +77,14 @@ class Endpoint:
     key: str  #: its Zenoh key
     type_name: str
     qos: QoS | None  #: publishers and subscribers
-    node: str | None  #: the zros node owning it, when a zros node announced it
+    node: str | None  #: the node owning it, when known (zros nodes, rmw_zenoh nodes)
+    wire: str = 'bridge'  #: the scheme that announced it: 'bridge' or 'rmw_zenoh'
+    name: str | None = None  #: rmw_zenoh: the ROS name as announced
+    gid: bytes | None = None  #: rmw_zenoh: the entity's GID (what ``ros2 topic info -v`` shows)
+
+    def ros_name(self, namespace: str = '/') -> str:
+        """Its ROS name (through a bridge with ``namespace``, for bridged endpoints)."""
+        return self.name if self.name is not None else ros_name(self.key, namespace)
 
     @property
     def is_bridged(self) -> bool:
@@ -143,6 +158,8 @@ class Graph:
         self._owner_tokens: dict[str, tuple[str, EntityKind, str, str, str]] = {}
         self._nodes: dict[str, tuple[str, str]] = {}  # token key -> (zid, node fqn)
         self._bridges: dict[str, BridgeInfo] = {}
+        self._rmw_entities: dict[str, RmwEndpoint] = {}  # token key -> rmw_zenoh endpoint
+        self._rmw_nodes: dict[str, NodeToken] = {}  # token key -> rmw_zenoh node
         self._changed = Signal()
         self.version = 0  #: bumped on every change
         self._closed = False
@@ -151,6 +168,7 @@ class Graph:
             liveliness.declare_subscriber(ENTITY_TOKENS, self._on_entity, history=True),
             liveliness.declare_subscriber(BRIDGE_TOKENS, self._on_entity, history=True),
             liveliness.declare_subscriber(ZROS_TOKENS, self._on_zros, history=True),
+            liveliness.declare_subscriber(RMW_TOKENS, self._on_rmw, history=True),
         ]
 
     # --- token handling, on Zenoh's threads -----------------------------------------------------
@@ -218,6 +236,26 @@ class Graph:
                 return
         self._bump()
 
+    def _on_rmw(self, sample: Any) -> None:
+        import zenoh
+
+        key = str(sample.key_expr)
+        alive = sample.kind == zenoh.SampleKind.PUT
+        try:
+            token = parse_token(key)
+        except TokenError as exc:
+            _log.debug('ignoring a malformed rmw_zenoh token %s: %s', key, exc)
+            return
+        with self._lock:
+            table: dict[str, Any] = (
+                self._rmw_nodes if isinstance(token, NodeToken) else self._rmw_entities
+            )
+            if alive:
+                table[key] = token
+            else:
+                table.pop(key, None)
+        self._bump()
+
     def _ask_bridge(self, zid: str) -> None:
         session = self._transport.session
         info: dict[str, Any] = {}
@@ -253,6 +291,7 @@ class Graph:
             (ENTITY_TOKENS, self._on_entity),
             (BRIDGE_TOKENS, self._on_entity),
             (ZROS_TOKENS, self._on_zros),
+            (RMW_TOKENS, self._on_rmw),
         ):
             remaining = max(0.05, deadline - time.monotonic())
             for reply in liveliness.get(selector, timeout=remaining):
@@ -270,6 +309,7 @@ class Graph:
         with self._lock:
             tokens = list(self._entities.values())
             owners = dict(self._owners)
+            rmw = list(self._rmw_entities.items())
         result = []
         for token in tokens:
             if kinds is not None and token.kind not in kinds:
@@ -277,12 +317,28 @@ class Graph:
             owner = owners.get((token.zid, token.kind, token.key, token.type_name))
             qos = token.qos.to_qos(token.kind is EntityKind.PUBLISHER) if token.qos else None
             result.append(Endpoint(token.kind, token.zid, token.key, token.type_name, qos, owner))
+        for key, entity in rmw:
+            if kinds is not None and entity.kind not in kinds:
+                continue
+            result.append(
+                Endpoint(
+                    entity.kind,
+                    entity.node.zid,
+                    name_key(entity.node.domain, entity.topic),
+                    entity.type_name,
+                    entity.qos.to_qos(),
+                    entity.node.fully_qualified_name,
+                    'rmw_zenoh',
+                    entity.topic,
+                    gid(key),
+                )
+            )
         return sorted(result, key=lambda e: (e.key, e.kind.value, e.zid))
 
     def _names(self, kinds: tuple[EntityKind, ...], namespace: str) -> dict[str, list[str]]:
         names: dict[str, set[str]] = {}
         for endpoint in self.endpoints(kinds):
-            names.setdefault(ros_name(endpoint.key, namespace), set()).add(endpoint.type_name)
+            names.setdefault(endpoint.ros_name(namespace), set()).add(endpoint.type_name)
         return {name: sorted(types) for name, types in sorted(names.items())}
 
     def topics(self, namespace: str = '/') -> dict[str, list[str]]:
@@ -294,8 +350,17 @@ class Graph:
         return self._names((EntityKind.SERVICE_SERVER, EntityKind.SERVICE_CLIENT), namespace)
 
     def actions(self, namespace: str = '/') -> dict[str, list[str]]:
-        """Action names and types (servers or clients announced)."""
-        return self._names((EntityKind.ACTION_SERVER, EntityKind.ACTION_CLIENT), namespace)
+        """Action names and types (servers or clients announced; under rmw_zenoh, found by
+        their ``send_goal`` services as ROS finds them)."""
+        names = self._names((EntityKind.ACTION_SERVER, EntityKind.ACTION_CLIENT), namespace)
+        suffix = '/_action/send_goal'
+        for name, types in self.services(namespace).items():
+            if name.endswith(suffix):
+                found = [t[: -len('_SendGoal')] for t in types if t.endswith('_SendGoal')]
+                if found:
+                    action = names.setdefault(name[: -len(suffix)], [])
+                    action[:] = sorted(set(action) | set(found))
+        return dict(sorted(names.items()))
 
     def publishers(self, key: str) -> list[Endpoint]:
         """The publishers announced on a Zenoh key."""
@@ -315,7 +380,20 @@ class Graph:
         with self._lock:
             names = {fqn for _, fqn in self._nodes.values()}
             names |= {bridge.node_name for bridge in self._bridges.values()}
+            names |= {node.fully_qualified_name for node in self._rmw_nodes.values()}
+            names |= {e.node.fully_qualified_name for e in self._rmw_entities.values()}
         return sorted(names)
+
+    def wires(self) -> list[str]:
+        """The wire schemes present on the network: ``'bridge'`` (bridges, or zros nodes
+        speaking to bridges) and ``'rmw_zenoh'`` (nodes running rmw_zenoh, zros ones included)."""
+        with self._lock:
+            found = set()
+            if self._bridges or self._entities or self._nodes:
+                found.add('bridge')
+            if self._rmw_nodes or self._rmw_entities:
+                found.add('rmw_zenoh')
+        return sorted(found)
 
     def node_endpoints(self, node_fqn: str) -> list[Endpoint]:
         """What a zros node announced (its publishers, subscribers, services...)."""

@@ -29,6 +29,7 @@ from zros.keyexpr.names import (
     validate_namespace,
     validate_node_name,
 )
+from zros.keyexpr.rmw_zenoh import NodeToken, RmwZenohScheme
 from zros.logger import (
     INFO,
     Logger,
@@ -82,6 +83,20 @@ def _parameter_overrides(
             continue  # -p other_node:name:=value
         overrides[parameter] = files.parse_override(f'{parameter}:={text}')[1]
     return overrides
+
+
+def _domain_id(value: int | None) -> int:
+    """The ROS domain: ``value``, else ``ROS_DOMAIN_ID``, else 0."""
+    if value is None:
+        text = os.environ.get('ROS_DOMAIN_ID', '').strip()
+        if not text:
+            return 0
+        if not text.isdigit():
+            raise ValueError(f'ROS_DOMAIN_ID must be a non-negative integer, not {text!r}')
+        value = int(text)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ValueError(f'a ROS domain id is a non-negative integer, not {value!r}')
+    return value
 
 
 def wake_all_nodes() -> None:
@@ -217,6 +232,10 @@ class Node:
     ``params_file`` and ``--params-file``, and ``-p name:=value``; with
     ``allow_undeclared_parameters`` those are declared at once and clients may set new names.
     ``start_parameter_services`` serves them to ROS tools.
+
+    ``wire`` picks the key scheme: ``'bridge'`` (zenoh-bridge-ros2dds, the default) or
+    ``'rmw_zenoh'`` (ROS 2 nodes running rmw_zenoh, no bridge), also from ``ZROS_WIRE``; under
+    rmw_zenoh ``domain_id`` (default ``ROS_DOMAIN_ID``, else 0) is the ROS domain.
     """
 
     def __init__(
@@ -238,6 +257,8 @@ class Node:
         params_file: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | None = None,
         allow_undeclared_parameters: bool = False,
         start_parameter_services: bool = True,
+        wire: str | None = None,
+        domain_id: int | None = None,
         **settings: Any,
     ) -> None:
         remapping = Remapping.parse(remap or ())
@@ -260,9 +281,12 @@ class Node:
             else:
                 use_sim_time = use_sim_time_from_environment()
         self.remapping = remapping
+        from zros.wire import check_wire
+
+        self.wire = check_wire(wire or os.environ.get('ZROS_WIRE') or 'bridge')
         if transport is None:
-            if config is None and (connect is not None or settings):
-                config = TransportConfig.create(connect=connect, **settings)
+            if config is None and (connect is not None or settings or wire is not None):
+                config = TransportConfig.create(connect=connect, wire=self.wire, **settings)
             elif settings:
                 raise TypeError(f'give settings {sorted(settings)} in config=, not beside it')
             transport = default_transport(config)
@@ -274,7 +298,19 @@ class Node:
 
             registry = default_registry()
         self.registry = registry
-        self.scheme = self._bridge_scheme(transport, bridge_namespace)
+        self.scheme: BridgeScheme | RmwZenohScheme
+        self._wire_node: NodeToken | None = None  #: rmw_zenoh: the node's id and names
+        if self.wire == 'rmw_zenoh':
+            if bridge_namespace is not None:
+                raise TypeError("bridge_namespace= is for wire='bridge'")
+            self.scheme = RmwZenohScheme(_domain_id(domain_id), humble=registry.distro == 'humble')
+            self._wire_node = self.scheme.node(
+                transport.zid, transport.next_entity_id(), self.namespace, self.name
+            )
+        else:
+            if domain_id is not None:
+                raise TypeError("domain_id= is for wire='rmw_zenoh' (bridges set their own)")
+            self.scheme = self._bridge_scheme(transport, bridge_namespace)
         self._executor = Executor()
         self._spin_loop: asyncio.AbstractEventLoop | None = None  #: the loop of spin_async
         self._own_loop: asyncio.AbstractEventLoop | None = None  #: async callbacks otherwise
@@ -298,7 +334,10 @@ class Node:
             sim.add_listener(self._executor.wake)
         else:
             self.clock = Clock()
-        self._node_token = node_token(transport.zid, self.fully_qualified_name)
+        if self._wire_node is not None:
+            self._node_token = self._wire_node.format()
+        else:
+            self._node_token = node_token(transport.zid, self.fully_qualified_name)
         transport.declare_token(self._node_token)
         transport.on_close(self.destroy)
         _nodes.add(self)

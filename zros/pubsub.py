@@ -18,10 +18,10 @@ from typing import TYPE_CHECKING, Any
 from zros.cdr import CdrError, encode
 from zros.cdr.message import EncodeBuffer, Message, decode
 from zros.cdr.model import Kind
-from zros.graph import entity_token
 from zros.keyexpr.bridge import EntityKind
 from zros.qos import QoS, QoSLike, as_qos
 from zros.signal import Signal
+from zros.wire import Sequence, entity_wire, read_attachment
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -68,20 +68,14 @@ class _Entity:
         self.type_name = self.msg_type.__msgtype__
         self.topic = node.resolve_name(topic)
         self.qos: QoS = as_qos(qos)
-        self.key = node.scheme.key(self.topic)
-        #: the liveliness tokens announcing it: its owner first, then the bridge's
-        self._tokens: tuple[str, ...] = ()
-        if announce:
-            self._tokens = (
-                entity_token(
-                    node.transport.zid, node.fully_qualified_name, self.kind, self.key,
-                    self.type_name,
-                ),
-                node.scheme.token(
-                    self.kind, node.transport.zid, self.topic, self.type_name, qos=self.qos,
-                    type_hash=self._type_hash(),
-                ),
-            )  # fmt: skip
+        wire = entity_wire(
+            node, self.kind, self.topic, self.type_name, self.msg_type._registry, qos=self.qos,
+            announce=announce,
+        )  # fmt: skip
+        self.key = wire.key
+        #: the liveliness tokens announcing it (through a bridge: its owner first)
+        self._tokens: tuple[str, ...] = wire.tokens
+        self.gid = wire.gid  #: rmw_zenoh: the GID in its attachments (and its token's hash)
         self._closed = False
 
     def _announce(self) -> None:
@@ -91,13 +85,6 @@ class _Entity:
     def _withdraw(self) -> None:
         for token in reversed(self._tokens):
             self.node.transport.release_token(token)
-
-    def _type_hash(self) -> str | None:
-        if not self.node.scheme.send_type_hash:
-            return None
-        from zros.cdr.hashing import type_hash
-
-        return type_hash(self.msg_type._registry, self.type_name)
 
     @property
     def closed(self) -> bool:
@@ -138,6 +125,9 @@ class Publisher(_Entity):
             from zenoh import ext
 
             cache = ext.CacheConfig(max_samples=self.qos.depth)
+            miss = None
+            if self.gid is not None and self.qos.reliable:  # as rmw_zenoh publishers do
+                miss = ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=0.5)
             self._publisher: Any = ext.declare_advanced_publisher(
                 session,
                 self.key,
@@ -145,12 +135,16 @@ class Publisher(_Entity):
                 publisher_detection=True,
                 congestion_control=congestion,
                 reliability=reliability,
+                sample_miss_detection=miss,
             )
         else:
             self._publisher = session.declare_publisher(
                 self.key, congestion_control=congestion, reliability=reliability
             )
-        self._put = self._publisher.put
+        self._put: Callable[[Any], None] = self._publisher.put
+        if self.gid is not None:
+            put, attach = self._publisher.put, Sequence(self.gid).next
+            self._put = lambda data: put(data, attachment=attach())
         # types that can grow large (sequences) reuse one output buffer, under a lock
         self._buffer: EncodeBuffer | None = None
         self._lock = threading.Lock()
@@ -267,20 +261,39 @@ class Subscriber(_Entity):
         self.received = 0  #: samples received so far
         self.dropped = 0  #: samples that did not decode
         self._bad_sources: set[str] = set()
+        self.unattached = 0  #: rmw_zenoh: samples dropped for want of a valid attachment
         session = owner.transport.session
+        on_sample = self._on_sample if self.gid is None else self._on_attached_sample
         if self.qos.transient_local:
             from zenoh import ext
 
             history = ext.HistoryConfig(detect_late_publishers=True, max_samples=self.qos.depth)
+            recovery = None
+            if self.gid is not None and self.qos.reliable:  # as rmw_zenoh subscriptions do
+                recovery = ext.RecoveryConfig(periodic_queries=None, heartbeat=True)
             self._subscriber: Any = ext.declare_advanced_subscriber(
-                session, self.key, self._on_sample, history=history
-            )
+                session, self.key, on_sample, history=history, recovery=recovery,
+                subscriber_detection=self.gid is not None or None,
+            )  # fmt: skip
         else:
-            self._subscriber = session.declare_subscriber(self.key, self._on_sample)
+            self._subscriber = session.declare_subscriber(self.key, on_sample)
         self._announce()
         owner._add(self)
 
     # --- on Zenoh's thread -------------------------------------------------------------------
+
+    def _on_attached_sample(self, sample: Any) -> None:
+        """rmw_zenoh drops samples without a valid attachment; so does zros (logged once)."""
+        if read_attachment(sample) is not None:
+            self._on_sample(sample)
+            return
+        self.unattached += 1
+        if self.unattached == 1:
+            _log.warning(
+                'dropped a message on %s without a valid rmw_zenoh attachment, as rmw_zenoh '
+                'does (reported once per subscriber)',
+                self.topic,
+            )
 
     def _on_sample(self, sample: Any) -> None:
         queue = self._queue

@@ -21,9 +21,9 @@ from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
 from zros.errors import ZrosError
-from zros.graph import entity_token
 from zros.keyexpr.bridge import EntityKind
 from zros.signal import Signal
+from zros.wire import Requests, Sequence, attachment_of_reply, entity_wire
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -86,14 +86,12 @@ class _ServiceEntity:
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
         self.name = node.resolve_name(name, 'service name')
-        self.key = node.scheme.key(self.name)
-        zid = node.transport.zid
-        self._tokens: list[str] = []
-        if announce:
-            self._tokens = [
-                entity_token(zid, node.fully_qualified_name, self.kind, self.key, self.type_name),
-                node.scheme.token(self.kind, zid, self.name, self.type_name),
-            ]
+        wire = entity_wire(
+            node, self.kind, self.name, self.type_name, self.Request._registry, announce=announce
+        )
+        self.key = wire.key
+        self._tokens: tuple[str, ...] = wire.tokens
+        self.gid = wire.gid  #: rmw_zenoh: the GID in its attachments
         self._closed = False
 
     def _announce(self) -> None:
@@ -165,6 +163,7 @@ class Service(_ServiceEntity):
         self._warned_bad = False
         self.received = 0  #: requests received
         self.failed = 0  #: requests answered with an error
+        self._requests = Requests(self.gid is not None, self.name, ERROR_PREFIX)
         self._queryable = owner.transport.session.declare_queryable(
             self.key, self._on_query, complete=True
         )
@@ -174,6 +173,9 @@ class Service(_ServiceEntity):
     # --- on Zenoh's thread -------------------------------------------------------------------
 
     def _on_query(self, query: Any) -> None:
+        if not self._requests.admit(query):
+            self.failed += 1
+            return
         if len(self._pending) >= MAX_PENDING:
             self._fail(query, f'{self.name} holds {MAX_PENDING} unanswered requests', None)
             return
@@ -202,20 +204,14 @@ class Service(_ServiceEntity):
         except CdrError as exc:
             self._fail(query, f'the response of {self.name} does not encode: {exc}', arrived)
             return
-        try:
-            query.reply(query.key_expr, data)
-        finally:
-            query.drop()
+        self._requests.reply(query, data)
         self._check_late(arrived)
 
     def _fail(self, query: Any, reason: str, arrived: float | None, log: bool = True) -> None:
         self.failed += 1
         if log:
             _log.error('%s', reason)
-        try:
-            query.reply_err(ERROR_PREFIX + reason)
-        finally:
-            query.drop()
+        self._requests.fail(query, reason)
 
     def _check_late(self, arrived: float) -> None:
         elapsed = time.monotonic() - arrived
@@ -386,6 +382,14 @@ class Client(_ServiceEntity):
         self._zenoh = zenoh
         session = owner.transport.session
         self._get = session.get
+        #: rmw_zenoh: every request carries an attachment and asks every complete queryable
+        self._sequence = Sequence(self.gid) if self.gid is not None else None
+        self._options: dict[str, Any] = {}
+        if self._sequence is not None:
+            self._options = {
+                'target': zenoh.QueryTarget.ALL_COMPLETE,
+                'consolidation': zenoh.ConsolidationMode.NONE,
+            }
         self._matching = Signal()
         self._querier = session.declare_querier(self.key)
         self._listener = self._querier.declare_matching_listener(
@@ -420,9 +424,24 @@ class Client(_ServiceEntity):
             raise TypeError(f'{self.name} takes {self.Request.__msgtype__}, not {got}')
         return encode(request)
 
-    def _outcome(self, reply: Any, started: float, timeout: float) -> Any:
+    def _send(self, data: bytes, timeout: float, handler: Any, attachment: bytes | None) -> Any:
+        """Send a request (with its rmw_zenoh attachment); Zenoh's reply channel."""
+        if attachment is None:
+            return self._get(self.key, handler, payload=data, timeout=timeout)
+        return self._get(
+            self.key, handler, payload=data, timeout=timeout, attachment=attachment,
+            **self._options,
+        )  # fmt: skip
+
+    def _outcome(
+        self, reply: Any, started: float, timeout: float, sent: bytes | None = None
+    ) -> Any:
         """The response of a reply, or the error to raise."""
         if reply.ok is not None:
+            if sent is not None:
+                mismatch = attachment_of_reply(reply.ok, sent)
+                if mismatch is not None:
+                    return ServiceCallError(f'{self.name}: {mismatch}')
             data = reply.ok.payload.to_bytes()
             try:
                 return decode(self.Response, data)
@@ -451,8 +470,9 @@ class Client(_ServiceEntity):
         data = self._request(request, fields)
         timeout = self.timeout if timeout is None else timeout
         started = time.monotonic()
-        for reply in self._get(self.key, payload=data, timeout=timeout):
-            outcome = self._outcome(reply, started, timeout)
+        sent = None if self._sequence is None else self._sequence.next()
+        for reply in self._send(data, timeout, None, sent):
+            outcome = self._outcome(reply, started, timeout, sent)
             if isinstance(outcome, ServiceError):
                 raise outcome
             return outcome
@@ -477,11 +497,12 @@ class Client(_ServiceEntity):
         future.set_running_or_notify_cancel()
         started = time.monotonic()
         executor = self.node._executor
+        sent = None if self._sequence is None else self._sequence.next()
 
         def on_reply(reply: Any) -> None:
             if future.done():
                 return
-            outcome = self._outcome(reply, started, timeout)
+            outcome = self._outcome(reply, started, timeout, sent)
             if isinstance(outcome, ServiceError):
                 future.set_exception(outcome)
             else:
@@ -494,7 +515,7 @@ class Client(_ServiceEntity):
                 executor.call_soon(lambda: callback(future))
 
         handler = self._zenoh.handlers.Callback(on_reply, on_end)
-        self._get(self.key, handler, payload=data, timeout=timeout)
+        self._send(data, timeout, handler, sent)
         return future
 
     def close(self) -> None:

@@ -29,10 +29,11 @@ from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode
 from zros.clock import Time
-from zros.graph import entity_token
 from zros.keyexpr.bridge import EntityKind
+from zros.qos import Durability, QoS
 from zros.services import Client, ServiceError, ServiceFuture
 from zros.signal import Signal
+from zros.wire import entity_wire, read_attachment
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -164,33 +165,47 @@ class ActionClient:
         )
         self._lock = threading.Lock()
         part = f'{self.name}/_action/'
+        #: through a bridge one AC token announces the action; under rmw_zenoh its parts do
+        parts = announce and not owner.scheme.action_tokens
         self._send_goal = Client(part + 'send_goal', self.action_type.SendGoal, node=owner,
-                                 announce=False)  # fmt: skip
+                                 announce=parts)  # fmt: skip
         self._get_result = Client(part + 'get_result', self.action_type.GetResult, node=owner,
-                                  announce=False)  # fmt: skip
+                                  announce=parts)  # fmt: skip
         self._cancel = Client(part + 'cancel_goal', 'action_msgs/srv/CancelGoal', node=owner,
-                              announce=False)  # fmt: skip
+                              announce=parts)  # fmt: skip
         self._services = (self._send_goal, self._get_result, self._cancel)
         session = owner.transport.session
+        subscriber = EntityKind.SUBSCRIBER
+        status_qos = QoS(1, durability=Durability.TRANSIENT_LOCAL)
+        feedback = entity_wire(
+            owner, subscriber, part + 'feedback', self._FeedbackMessage.__msgtype__,
+            self._FeedbackMessage._registry, qos=QoS(10), announce=parts,
+        )  # fmt: skip
+        status = entity_wire(
+            owner, subscriber, part + 'status', self._StatusArray.__msgtype__,
+            self._StatusArray._registry, qos=status_qos, announce=parts,
+        )  # fmt: skip
+        attached = feedback.gid is not None  # rmw_zenoh: samples need an attachment
         self._feedback_subscriber = session.declare_subscriber(
-            f'{self.key}/_action/feedback', self._on_feedback
+            feedback.key, self._attached(self._on_feedback) if attached else self._on_feedback
         )
         from zenoh import ext
 
         self._status_subscriber: Any = ext.declare_advanced_subscriber(
             session,
-            f'{self.key}/_action/status',
-            self._on_status,
+            status.key,
+            self._attached(self._on_status) if attached else self._on_status,
             history=ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
+            recovery=ext.RecoveryConfig(periodic_queries=None, heartbeat=True)
+            if attached
+            else None,
+            subscriber_detection=True if attached else None,
         )
-        zid = owner.transport.zid
-        self._tokens: list[str] = []
-        if announce:
-            kind = EntityKind.ACTION_CLIENT
-            self._tokens = [
-                entity_token(zid, owner.fully_qualified_name, kind, self.key, self.type_name),
-                owner.scheme.token(kind, zid, self.name, self.type_name),
-            ]
+        self._tokens: list[str] = [*feedback.tokens, *status.tokens]
+        if announce and owner.scheme.action_tokens:
+            self._tokens += entity_wire(
+                owner, EntityKind.ACTION_CLIENT, self.name, self.type_name, registry
+            ).tokens
         for token in self._tokens:
             owner.transport.declare_token(token)
         self._closed = False
@@ -212,6 +227,17 @@ class ActionClient:
         return True
 
     # --- on Zenoh's threads --------------------------------------------------------------------
+
+    def _attached(self, handler: Callable[[Any], None]) -> Callable[[Any], None]:
+        """``handler`` for samples with a valid rmw_zenoh attachment (others are dropped)."""
+
+        def on_sample(sample: Any) -> None:
+            if read_attachment(sample) is not None:
+                handler(sample)
+            else:
+                _log.debug('dropped a sample of %s without an rmw_zenoh attachment', self.name)
+
+        return on_sample
 
     def _on_feedback(self, sample: Any) -> None:
         try:

@@ -32,11 +32,11 @@ from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode
 from zros.clock import Time
-from zros.graph import entity_token
 from zros.keyexpr.bridge import EntityKind
 from zros.qos import Durability, QoS
 from zros.services import ERROR_PREFIX
 from zros.signal import Signal
+from zros.wire import Requests, entity_wire
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -142,6 +142,8 @@ class ActionServer:
         self.type_name = self.action_type.__actiontype__
         self.name = owner.resolve_name(name, 'action name')
         self.key = owner.scheme.key(self.name)
+        #: through a bridge one AS token announces the action; under rmw_zenoh its parts do
+        parts_announced = announce and not owner.scheme.action_tokens
         self.execute_callback = execute_callback
         self.goal_callback = goal_callback
         self.cancel_callback = cancel_callback
@@ -164,32 +166,37 @@ class ActionServer:
         self._expiry_signal = Signal()
         part = f'{self.name}/_action/'
         self._feedback: Publisher = Publisher(
-            part + 'feedback', self.action_type.FeedbackMessage, QoS(10), node=owner, announce=False
-        )
+            part + 'feedback', self.action_type.FeedbackMessage, QoS(10), node=owner,
+            announce=parts_announced,
+        )  # fmt: skip
         self._status: Publisher = Publisher(
             part + 'status',
             self._StatusArray,
             QoS(1, durability=Durability.TRANSIENT_LOCAL),
             node=owner,
-            announce=False,
+            announce=parts_announced,
         )
         session = owner.transport.session
-        self._queryables = [
-            session.declare_queryable(f'{self.key}/_action/{service}', handler, complete=True)
-            for service, handler in (
-                ('send_goal', self._on_send_goal),
-                ('cancel_goal', self._on_cancel_goal),
-                ('get_result', self._on_get_result),
-            )
-        ]
-        zid = owner.transport.zid
+        self._requests = Requests(owner.scheme.attachments, self.name, ERROR_PREFIX)
         self._tokens: list[str] = []
-        if announce:
-            kind = EntityKind.ACTION_SERVER
-            self._tokens = [
-                entity_token(zid, owner.fully_qualified_name, kind, self.key, self.type_name),
-                owner.scheme.token(kind, zid, self.name, self.type_name),
-            ]
+        self._queryables = []
+        for service, srv, handler in (
+            ('send_goal', self._SendGoal, self._on_send_goal),
+            ('cancel_goal', self._CancelGoal, self._on_cancel_goal),
+            ('get_result', self._GetResult, self._on_get_result),
+        ):
+            wire = entity_wire(
+                owner, EntityKind.SERVICE_SERVER, part + service, srv.__srvtype__,
+                srv.Request._registry, announce=parts_announced,
+            )  # fmt: skip
+            self._tokens += wire.tokens
+            self._queryables.append(
+                session.declare_queryable(wire.key, self._admitted(handler), complete=True)
+            )
+        if announce and owner.scheme.action_tokens:
+            self._tokens += entity_wire(
+                owner, EntityKind.ACTION_SERVER, self.name, self.type_name, registry
+            ).tokens
         for token in self._tokens:
             owner.transport.declare_token(token)
         owner._add(self)
@@ -208,19 +215,20 @@ class ActionServer:
             self._fail(query, reason)
             return None
 
-    @staticmethod
-    def _reply(query: Any, message: Message) -> None:
-        try:
-            query.reply(query.key_expr, encode(message))
-        finally:
-            query.drop()
+    def _admitted(self, handler: Callable[[Any], None]) -> Callable[[Any], None]:
+        """``handler`` for the queries that pass the wire's rules (rmw_zenoh attachments)."""
 
-    @staticmethod
-    def _fail(query: Any, reason: str) -> None:
-        try:
-            query.reply_err(ERROR_PREFIX + reason)
-        finally:
-            query.drop()
+        def on_query(query: Any) -> None:
+            if self._requests.admit(query):
+                handler(query)
+
+        return on_query
+
+    def _reply(self, query: Any, message: Message) -> None:
+        self._requests.reply(query, encode(message))
+
+    def _fail(self, query: Any, reason: str) -> None:
+        self._requests.fail(query, reason)
 
     def _goal_info(self, handle: ServerGoalHandle) -> Message:
         info = self._GoalInfo()
