@@ -19,6 +19,7 @@ _LAZY = {
     'get_type': ('zros.cdr', 'get_type'),
     'register_type': ('zros.cdr', 'register_type'),
     'type_hash': ('zros.cdr', 'type_hash'),
+    'bag_read': ('zros.bag', 'bag_read'),
     'init': ('zros.api', 'init'),
     'ok': ('zros.api', 'ok'),
     'spin_once': ('zros.api', 'spin_once'),
@@ -107,6 +108,7 @@ if TYPE_CHECKING:
         time_now,
         warn,
     )
+    from zros.bag import bag_read
     from zros.cdr import (
         CdrError,
         InterfaceSyntaxError,
@@ -210,6 +212,7 @@ __all__ = [
     'TransportError',
     'UnknownTypeError',
     'ZrosError',
+    'bag_read',
     'debug',
     'default_node',
     'error',

@@ -1,0 +1,206 @@
+"""Typed reading: every recorded message equals what rosbags decodes, and bad data is named."""
+
+from __future__ import annotations
+
+import logging
+import re
+from pathlib import Path
+
+import pytest
+
+import zros
+from tests.bag.makebags import make_db3
+from tests.bag.reference import RECORDINGS, assert_same, rosbags_messages
+from zros.bag import Bag, BagError, bag_read
+from zros.cdr import encode, new_message
+
+
+@pytest.mark.parametrize('name', RECORDINGS)
+def test_every_message_equals_rosbags(testdata: Path, name: str) -> None:
+    path = testdata / name
+    expected = rosbags_messages(path)
+    with Bag(path) as bag:
+        got = list(bag.messages())
+        assert bag.message_count == len(expected)
+        assert sum(info.count for info in bag.topics.values()) == len(expected)
+    assert [(t, s) for t, s, _ in got] == [(e[0], e[2]) for e in expected] or sorted(
+        (t, s) for t, s, _ in got
+    ) == sorted((e[0], e[2]) for e in expected)
+    # messages with equal timestamps may be ordered differently: pair them per topic
+    by_topic: dict[str, list[tuple[int, object]]] = {}
+    for topic, stamp, message in got:
+        by_topic.setdefault(topic, []).append((stamp, message))
+    theirs: dict[str, list[tuple[int, str, object]]] = {}
+    for topic, type_name, stamp, message in expected:
+        theirs.setdefault(topic, []).append((stamp, type_name, message))
+    assert by_topic.keys() == theirs.keys()
+    for topic, mine in by_topic.items():
+        for (stamp, message), (stamp2, type_name, other) in zip(mine, theirs[topic], strict=True):
+            assert stamp == stamp2
+            assert message.__msgtype__ == type_name
+            assert_same(message, other, f'{name} {topic} @{stamp}')
+
+
+def test_bag_read_has_the_four_rosr_columns(testdata: Path) -> None:
+    path = testdata / 'ros2' / 'talker_mcap'
+    read = zros.bag_read(path, topics=['/topic'])
+    assert len(read) == 10
+    assert read.topic == ['/topic'] * 10
+    assert read['data_type'] == ['std_msgs/msg/String'] * 10
+    assert read.time_stamp == sorted(read.time_stamp)
+    assert [m.data for m in read.message] == [f'Hello, world! {i}' for i in range(10)]
+    rows = list(read)
+    assert rows[0] == ('/topic', 'std_msgs/msg/String', read.time_stamp[0], read.message[0])
+    with pytest.raises(KeyError, match='the columns are'):
+        read['stamp']
+    everything = bag_read(path)
+    assert set(everything.topic) == {'/topic', '/rosout'}
+    assert len(everything) == 20
+
+
+def test_topics_and_time_window(testdata: Path) -> None:
+    with Bag(testdata / 'ros2' / 'talker_mcap') as bag:
+        assert bag.topics['/rosout'].type_name == 'rcl_interfaces/msg/Log'
+        assert bag.topics['/rosout'].count == 10
+        stamps = [s for _, s, _ in bag.messages('/rosout')]
+        window = [s for _, s, _ in bag.messages('/rosout', start=stamps[3], end=stamps[6])]
+        assert window == stamps[3:6]
+        assert [s for _, s, _ in bag.messages('/rosout', start=zros.Time(stamps[8]))] == stamps[8:]
+        with pytest.raises(TypeError, match='nanoseconds'):
+            list(bag.messages(start=1.5))
+        with pytest.raises(BagError, match=r'no topic /nothing in the recording; it has: /topic'):
+            list(bag.messages(['/nothing']))
+        assert bag.message_class('/topic').__msgtype__ == 'std_msgs/msg/String'
+
+
+def test_messages_are_decoded_as_the_iteration_reaches_them(testdata: Path) -> None:
+    with Bag(testdata / 'ros2' / 'wbag_split_mcap') as bag:
+        decoded = []
+        original = bag.types.decode
+
+        def counting(raw: object) -> object:
+            decoded.append(raw)
+            return original(raw)  # type: ignore[arg-type]
+
+        bag.types.decode = counting  # type: ignore[method-assign]
+        stream = bag.messages()
+        next(stream)
+        next(stream)
+        assert len(decoded) == 2
+
+
+def test_wrong_embedded_definition_falls_back_to_the_registry(
+    testdata: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    with (
+        caplog.at_level(logging.WARNING, 'zros.bag'),
+        Bag(testdata / 'ros2' / 'talker_sqlite3') as bag,
+    ):
+        logs = [m for _, _, m in bag.messages('/rosout')]
+    assert [m.msg for m in logs][:1] and all(m.name == 'minimal_publisher' for m in logs)
+    warnings = [
+        r.getMessage() for r in caplog.records if 'does not match its data' in r.getMessage()
+    ]
+    assert len(warnings) == 1
+    assert 'talker_sqlite3' in warnings[0] and '/rosout' in warnings[0]
+
+
+def test_definition_mismatch_without_fallback(tmp_path: Path) -> None:
+    # a type no registry knows, whose embedded definition is too short for its data
+    data = b'\x00\x01\x00\x00' + bytes(range(12))
+    path = make_db3(
+        tmp_path / 'mismatch.db3',
+        [('/thing', 'zros_test/msg/Thing')],
+        [(0, 5, data)],
+        {'zros_test/msg/Thing': 'uint8 level'},
+    )
+    with Bag(path) as bag, pytest.raises(BagError) as info:
+        list(bag.messages())
+    text = str(info.value)
+    assert str(path) in text
+    assert 'cannot decode the message of /thing at 5 as zros_test/msg/Thing' in text
+    assert 'bytes left after the end of the message' in text
+
+
+def test_unknown_type_without_definition(tmp_path: Path) -> None:
+    path = make_db3(
+        tmp_path / 'unknown.db3',
+        [('/thing', 'zros_test/msg/Unknown')],
+        [(0, 5, b'\x00\x01\x00\x00\x01')],
+    )
+    with Bag(path) as bag, pytest.raises(BagError) as info:
+        list(bag.messages())
+    assert re.search(
+        r'unknown\.db3: cannot decode topic /thing: type zros_test/msg/Unknown has no definition '
+        r'in the recording and none zros knows',
+        str(info.value),
+    )
+
+
+def test_data_that_fits_no_definition(tmp_path: Path) -> None:
+    # a known type with a truncated message: the embedded and registry definitions both fail
+    good = encode(new_message('std_msgs/msg/String', data='hello'))
+    path = make_db3(
+        tmp_path / 'short.db3',
+        [('/chatter', 'std_msgs/msg/String')],
+        [(0, 1, good), (0, 2, good[:-4])],
+        {'std_msgs/msg/String': 'string data'},
+    )
+    with Bag(path) as bag:
+        stream = bag.messages()
+        assert next(stream)[2].data == 'hello'
+        with pytest.raises(BagError, match='cannot decode the message of /chatter at 2'):
+            next(stream)
+
+
+def test_recording_without_definitions_uses_the_registry(tmp_path: Path) -> None:
+    twist = new_message('geometry_msgs/msg/Twist', linear={'x': 1.5})
+    path = make_db3(
+        tmp_path / 'plain.db3', [('/cmd_vel', 'geometry_msgs/msg/Twist')], [(0, 7, encode(twist))]
+    )
+    with Bag(path) as bag:
+        assert bag.connections[0].definition_format == ''
+        ((topic, stamp, message),) = list(bag.messages())
+    assert (topic, stamp) == ('/cmd_vel', 7)
+    assert message == twist
+
+
+def test_idl_definitions_are_parsed(tmp_path: Path) -> None:
+    from mcap.writer import Writer
+
+    idl = (
+        'module zros_test {\n  module msg {\n    struct Point {\n      double x;\n'
+        '      int32 count;\n    };\n  };\n};\n'
+    )
+    path = tmp_path / 'idl.mcap'
+    data = b'\x00\x01\x00\x00' + (2.5).hex().encode()[:0] + b'\x00' * 0
+    import struct
+
+    data = b'\x00\x01\x00\x00' + struct.pack('<di', 2.5, 7)
+    with path.open('wb') as stream:
+        writer = Writer(stream)
+        writer.start(profile='ros2', library='test')
+        schema = writer.register_schema('zros_test/msg/Point', 'ros2idl', idl.encode())
+        channel = writer.register_channel('/point', 'cdr', schema)
+        writer.add_message(channel, log_time=3, data=data, publish_time=3)
+        writer.finish()
+    with Bag(path) as bag:
+        assert bag.connections[0].definition_format == 'ros2idl'
+        ((_, _, point),) = list(bag.messages())
+    assert (point.x, point.count) == (2.5, 7)
+
+
+def test_service_events_decode(testdata: Path) -> None:
+    path = testdata / 'ros2' / 'services_and_topics' / 'topics_and_services.mcap'
+    with Bag(path) as bag:
+        events = [m for _, _, m in bag.messages('/add_two_ints/_service_event')]
+    assert len(events) == 6
+    requests = [e.request[0] for e in events if len(e.request)]
+    assert requests and all(hasattr(r, 'a') and hasattr(r, 'b') for r in requests)
+    responses = [e.response[0] for e in events if len(e.response)]
+    assert responses and all(hasattr(r, 'sum') for r in responses)
+
+
+def test_bag_error_is_a_zros_error(tmp_path: Path) -> None:
+    with pytest.raises(zros.ZrosError):
+        Bag(tmp_path / 'missing')

@@ -1,0 +1,56 @@
+"""rosR's ``ros.BagRead``: a whole recording as four parallel columns."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from zros.cdr import Message
+
+
+@dataclass
+class BagRead:
+    """Parallel columns, one row per message: ``topic``, ``data_type``, ``time_stamp`` (receive
+    time, integer ns) and ``message``. ``read['topic']`` works too, as ``bag$topic`` in R."""
+
+    topic: list[str] = field(default_factory=list)
+    data_type: list[str] = field(default_factory=list)
+    time_stamp: list[int] = field(default_factory=list)
+    message: list[Message] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.topic)
+
+    def __getitem__(self, column: str) -> list[Any]:
+        if column not in ('topic', 'data_type', 'time_stamp', 'message'):
+            raise KeyError(f'{column!r}; the columns are topic, data_type, time_stamp, message')
+        return getattr(self, column)  # type: ignore[no-any-return]
+
+    def __iter__(self) -> Iterator[tuple[str, str, int, Message]]:
+        """Rows: ``(topic, data_type, time_stamp, message)``."""
+        return zip(self.topic, self.data_type, self.time_stamp, self.message, strict=True)
+
+
+def bag_read(
+    path: str | Path,
+    topics: str | Iterable[str] | None = None,
+    start: Any = None,
+    end: Any = None,
+) -> BagRead:
+    """Read a recording's messages into memory (rosR: ``ros.BagRead(file, topics)``).
+
+    ``topics`` selects topics (default all); ``start``/``end`` bound the receive time
+    (``start <= time < end``, integer ns or ``zros.Time``).
+    """
+    from zros.bag.reader import Bag
+
+    result = BagRead()
+    with Bag(path) as bag:
+        for topic, stamp, message in bag.messages(topics, start, end):
+            result.topic.append(topic)
+            result.data_type.append(message.__msgtype__)
+            result.time_stamp.append(stamp)
+            result.message.append(message)
+    return result
