@@ -21,8 +21,7 @@ from typing import TYPE_CHECKING, Any
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE
 from zros.errors import ZrosError
-from zros.graph import entity_token
-from zros.keyexpr.bridge import EntityKind, ros_name
+from zros.keyexpr.bridge import EntityKind
 from zros.qos import Durability, History, QoS, Reliability
 from zros.signal import Signal
 
@@ -66,7 +65,14 @@ def recording_qos(offered: Iterable[QoS]) -> QoS:
 
 
 def publish_time(sample: Any, fallback: int) -> int:
-    """A Zenoh sample's source timestamp (set by the publishing session) in nanoseconds."""
+    """When a sample was published, in nanoseconds: the time in its rmw_zenoh attachment, else
+    its Zenoh timestamp (set by the publishing session), else ``fallback``."""
+    if sample.attachment is not None:
+        from zros.wire import read_attachment
+
+        attachment = read_attachment(sample)
+        if attachment is not None:
+            return int(attachment.source_timestamp)
     stamp = sample.timestamp
     if stamp is None:
         return fallback
@@ -77,7 +83,11 @@ def publish_time(sample: Any, fallback: int) -> int:
 
 
 class _Tap:
-    """A raw subscription on one topic, announced in the graph like a zros subscriber."""
+    """A raw subscription on one topic, announced in the graph like a zros subscriber.
+
+    ``key`` (the publishers' key) is used when the node cannot make the topic's key and tokens
+    itself (a type it does not know): the topic is then recorded without being announced.
+    """
 
     def __init__(
         self,
@@ -86,11 +96,20 @@ class _Tap:
         type_name: str,
         *,
         qos: QoS,
-        type_hash: str,
+        key: str,
         callback: Callable[[Any], None],
     ) -> None:
+        from zros.wire import entity_wire
+
         self.transport = node.transport
-        key = node.scheme.key(topic)
+        tokens: tuple[str, ...] = ()
+        try:
+            wire = entity_wire(
+                node, EntityKind.SUBSCRIBER, topic, type_name, node.registry, qos=qos
+            )
+            key, tokens = wire.key, wire.tokens
+        except ZrosError as exc:
+            _log.debug('not announcing the recording of %s: %s', topic, exc)
         session = self.transport.session
         if qos.transient_local:
             from zenoh import ext
@@ -101,23 +120,7 @@ class _Tap:
             )
         else:
             self._subscriber = session.declare_subscriber(key, callback)
-        tokens = []
-        try:
-            tokens.append(
-                entity_token(
-                    self.transport.zid, node.fully_qualified_name, EntityKind.SUBSCRIBER, key,
-                    type_name,
-                )
-            )  # fmt: skip
-            tokens.append(
-                node.scheme.token(
-                    EntityKind.SUBSCRIBER, self.transport.zid, topic, type_name, qos=qos,
-                    type_hash=type_hash or None,
-                )
-            )  # fmt: skip
-        except ZrosError as exc:  # a type name no token can carry: record without announcing
-            _log.debug('not announcing the recording of %s: %s', topic, exc)
-        self._tokens = tuple(tokens)
+        self._tokens = tokens
         for token in self._tokens:
             self.transport.declare_token(token)
 
@@ -242,17 +245,18 @@ class Recorder:
         namespace = self.node.scheme.namespace
         by_name: dict[str, list[Endpoint]] = {}
         for endpoint in self.node.graph.endpoints((EntityKind.PUBLISHER,)):
-            by_name.setdefault(ros_name(endpoint.key, namespace), []).append(endpoint)
+            by_name.setdefault(endpoint.ros_name(namespace), []).append(endpoint)
         for name, endpoints in sorted(by_name.items()):
             if name in self._types or not self._wanted(name):
                 continue
             types = sorted({e.type_name for e in endpoints})
             if len(types) > 1:
                 _log.warning('topic %s has several types %s: recording %s', name, types, types[0])
-            offered = [e.qos for e in endpoints if e.qos is not None and e.type_name == types[0]]
-            self._start(name, types[0], offered)
+            chosen = [e for e in endpoints if e.type_name == types[0]]
+            offered = [e.qos for e in chosen if e.qos is not None]
+            self._start(name, types[0], offered, chosen[0].key)
 
-    def _start(self, name: str, type_name: str, offered: list[QoS]) -> None:
+    def _start(self, name: str, type_name: str, offered: list[QoS], key: str) -> None:
         topic = BagTopic.from_registry(self.node.registry, name, type_name, offered)
         with self._lock:
             if self._stopping:
@@ -265,7 +269,7 @@ class Recorder:
                 name,
                 type_name,
                 qos=recording_qos(offered),
-                type_hash=topic.type_hash,
+                key=key,
                 callback=self._callback(index),
             )
             self._taps.append(tap)
