@@ -5,6 +5,12 @@
 * ``zros_transport``: a factory of sessions connected to that router (each like a process of
   its own).
 * ``zros_node``: a factory of nodes, each on a session of its own unless ``transport=`` is given.
+* ``zros_wire``: the wire scheme of those nodes, ``'bridge'``; override it in a test module to
+  run its tests under rmw_zenoh too::
+
+      @pytest.fixture(params=['bridge', 'rmw_zenoh'])
+      def zros_wire(request):
+          return request.param
 
 Everything is closed at teardown. ``with spinning(node):`` spins a node (say, a service server)
 on a background thread. Wait for conditions with :func:`wait_for`, never with sleeps::
@@ -99,11 +105,20 @@ def zros_transport(zros_router: Router) -> Iterator[Callable[..., Transport]]:
 
 
 @pytest.fixture
-def zros_node(zros_transport: Callable[..., Transport]) -> Iterator[Callable[..., Node]]:
+def zros_wire() -> str:
+    """The wire scheme of the nodes ``zros_node`` makes (override it to parametrise)."""
+    return 'bridge'
+
+
+@pytest.fixture
+def zros_node(
+    zros_transport: Callable[..., Transport], zros_wire: str
+) -> Iterator[Callable[..., Node]]:
     """``make(name, namespace='/', **options)``: a node on a session of its own."""
     made: list[Node] = []
 
     def make(name: str = 'test_node', namespace: str = '/', **options: Any) -> Node:
+        options.setdefault('wire', zros_wire)
         if 'transport' not in options:
             options['transport'] = zros_transport()
         node = Node(name, namespace, **options)

@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 
 import zros
+from tests.runtime.wire_support import reply_options, request_options, service_key
 from zros.actions import (
     ActionError,
     CancelResponse,
@@ -25,6 +26,13 @@ from zros.cdr import decode, encode
 from zros.node import Node
 from zros.services import ServiceUnavailableError
 from zros.testing import spinning, wait_for
+
+
+@pytest.fixture(params=['bridge', 'rmw_zenoh'])
+def zros_wire(request: pytest.FixtureRequest) -> str:
+    """Every test of this module that makes nodes runs on both wire schemes."""
+    return str(request.param)
+
 
 FIB = 'example_interfaces/action/Fibonacci'
 
@@ -298,11 +306,19 @@ def test_wire_bytes_match_the_bridge_spec(pair: tuple[Node, Node]) -> None:
     def on_send_goal(query: Any) -> None:
         captured.append(query.payload.to_bytes())
         with query:
-            query.reply(query.key_expr, encode(action.SendGoal.Response(accepted=False)))
+            response = encode(action.SendGoal.Response(accepted=False))
+            query.reply(query.key_expr, response, **reply_options(query))
 
-    queryables = [session.declare_queryable('fib/_action/send_goal', on_send_goal)]
-    for part in ('get_result', 'cancel_goal'):
-        queryables.append(session.declare_queryable(f'fib/_action/{part}', lambda q: q.drop()))
+    def key(part: str, srv_type: str) -> str:
+        return service_key(server_node, f'/fib/_action/{part}', srv_type)
+
+    queryables = [
+        session.declare_queryable(key('send_goal', f'{FIB}_SendGoal'), on_send_goal, complete=True),
+        session.declare_queryable(key('get_result', f'{FIB}_GetResult'), lambda q: q.drop(),
+                                  complete=True),
+        session.declare_queryable(key('cancel_goal', 'action_msgs/srv/CancelGoal'),
+                                  lambda q: q.drop(), complete=True),
+    ]  # fmt: skip
     try:
         client = client_node.create_action_client(FIB, 'fib')
         assert client.wait_for_server()
@@ -335,6 +351,7 @@ def test_status_reaches_late_subscribers(pair: tuple[Node, Node]) -> None:
     assert status.status == GoalStatus.SUCCEEDED
 
 
+@pytest.mark.parametrize('zros_wire', ['bridge'])  # rmw_zenoh: tests/rmw/test_runtime.py
 def test_only_the_action_tokens_are_announced(pair: tuple[Node, Node]) -> None:
     """Never MP/SS tokens for the _action parts: the bridge would build a second route."""
     server_node, client_node = pair
@@ -357,7 +374,13 @@ def test_requests_that_do_not_decode(
     server_node.create_action_server(FIB, 'fib', fibonacci)
     session = client_node.transport.session
     with caplog.at_level(logging.WARNING, logger='zros'):
-        replies = list(session.get('fib/_action/send_goal', payload=b'\x00\x01\x00\x00\x01'))
+        replies = list(
+            session.get(
+                service_key(client_node, '/fib/_action/send_goal', f'{FIB}_SendGoal'),
+                payload=b'\x00\x01\x00\x00\x01',
+                **request_options(client_node),
+            )
+        )
     assert replies and replies[0].err is not None
     assert 'does not decode' in replies[0].err.payload.to_string()
     assert 'does not decode' in caplog.text

@@ -25,6 +25,12 @@ from zros.testing import spinning, wait_for
 from zros.transport import Router
 
 
+@pytest.fixture(params=['bridge', 'rmw_zenoh'])
+def zros_wire(request: pytest.FixtureRequest) -> str:
+    """Every test of this module that makes nodes runs on both wire schemes."""
+    return str(request.param)
+
+
 @pytest.fixture
 def driver(zros_node: Callable[..., Node]) -> Node:
     node = zros_node('driver', '/robot')
@@ -143,8 +149,8 @@ def test_use_sim_time_is_a_parameter(zros_node: Callable[..., Node]) -> None:
 
 
 @pytest.fixture
-def rosr(zros_router: Router) -> Iterator[Node]:
-    node = zros.init('R_node', connect=zros_router.endpoint, handle_sigint=False)
+def rosr(zros_router: Router, zros_wire: str) -> Iterator[Node]:
+    node = zros.init('R_node', connect=zros_router.endpoint, handle_sigint=False, wire=zros_wire)
     yield node
     zros.shutdown()
 

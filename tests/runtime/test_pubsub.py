@@ -10,10 +10,18 @@ from collections.abc import Callable
 import pytest
 
 import zros
+from tests.runtime.wire_support import put_options
 from zros.node import Node
 from zros.qos import LATCHED, QoS
 from zros.testing import wait_for
 from zros.transport import Transport
+
+
+@pytest.fixture(params=['bridge', 'rmw_zenoh'])
+def zros_wire(request: pytest.FixtureRequest) -> str:
+    """Every test of this module that makes nodes runs on both wire schemes."""
+    return str(request.param)
+
 
 String = 'std_msgs/msg/String'
 
@@ -120,12 +128,12 @@ def test_malformed_payloads_are_logged_once_per_publisher_and_dropped(
     _, listener = connected(zros_node)
     sub = listener.create_subscription('geometry_msgs/msg/Twist', 'cmd_vel')
     rogue = zros_transport()
-    publisher = rogue.session.declare_publisher('cmd_vel')
+    publisher = rogue.session.declare_publisher(sub.key)
     assert wait_for(lambda: publisher.matching_status.matching)
     good = zros.cdr.encode(zros.Message('geometry_msgs/msg/Twist', linear={'x': 1.0}))
     with caplog.at_level(logging.WARNING, logger='zros'):
         for payload in (b'garbage', good, b'\x00\x01\x00\x00\x01', good[:20], good):
-            publisher.put(payload)
+            publisher.put(payload, **put_options(listener))
         assert wait_for(lambda: sub.received == 5)
         messages = sub.take()
     assert [m.linear.x for m in messages] == [1.0, 1.0]
@@ -146,6 +154,7 @@ def test_write_checks_the_type(zros_node: Callable[..., Node]) -> None:
         pub.write(broken)
 
 
+@pytest.mark.parametrize('zros_wire', ['bridge'])  # rmw_zenoh: tests/rmw/test_runtime.py
 def test_tokens_live_exactly_as_long_as_their_entities(
     zros_node: Callable[..., Node], zros_transport: Callable[..., Transport]
 ) -> None:
@@ -174,6 +183,7 @@ def test_tokens_live_exactly_as_long_as_their_entities(
     assert wait_for(lambda: tokens() == [])
 
 
+@pytest.mark.parametrize('zros_wire', ['bridge'])  # rmw_zenoh: tests/rmw/test_runtime.py
 def test_names_namespaces_remapping_and_bridge_namespace(zros_node: Callable[..., Node]) -> None:
     node = zros_node('cam', '/robot', remap=['raw:=/camera/raw'], bridge_namespace='/bot1')
     assert node.fully_qualified_name == '/robot/cam'

@@ -12,6 +12,7 @@ from typing import Any
 import pytest
 
 import zros
+from tests.runtime.wire_support import reply_options, request_options
 from zros import services
 from zros.node import Node
 from zros.services import (
@@ -21,6 +22,13 @@ from zros.services import (
     ServiceUnavailableError,
 )
 from zros.testing import spinning, wait_for
+
+
+@pytest.fixture(params=['bridge', 'rmw_zenoh'])
+def zros_wire(request: pytest.FixtureRequest) -> str:
+    """Every test of this module that makes nodes runs on both wire schemes."""
+    return str(request.param)
+
 
 ADD = 'example_interfaces/srv/AddTwoInts'
 
@@ -181,7 +189,14 @@ def test_a_request_that_does_not_decode(
     service = server.create_service(ADD, 'add', add)
     raw = zros_node('raw').transport.session
     with spinning(server), caplog.at_level(logging.WARNING, logger='zros'):
-        replies = list(raw.get('add', payload=b'\x00\x01\x00\x00\x02', timeout=5))
+        replies = list(
+            raw.get(
+                service.key,
+                payload=b'\x00\x01\x00\x00\x02',
+                timeout=5,
+                **request_options(server),
+            )
+        )
         assert len(replies) == 1 and replies[0].err is not None
         text = replies[0].err.payload.to_string()
         assert text.startswith(services.ERROR_PREFIX)
@@ -198,11 +213,11 @@ def test_a_reply_that_does_not_decode(zros_node: Callable[..., Node]) -> None:
 
     def reply_garbage(query: Any) -> None:
         with query:
-            query.reply(query.key_expr, b'\x00\x01\x00\x00\x05')
+            query.reply(query.key_expr, b'\x00\x01\x00\x00\x05', **reply_options(query))
 
-    queryable = rogue.declare_queryable('rogue', reply_garbage, complete=True)
+    client = zros_node('caller').create_client(ADD, 'rogue')
+    queryable = rogue.declare_queryable(client.key, reply_garbage, complete=True)
     try:
-        client = zros_node('caller').create_client(ADD, 'rogue')
         assert client.wait_for_service()
         with pytest.raises(ServiceCallError, match=r'does not decode as .*AddTwoInts_Response'):
             client.call(a=1, b=2)
@@ -219,9 +234,9 @@ def test_a_foreign_error_reply(zros_node: Callable[..., Node]) -> None:
         with query:
             query.reply_err('not today')
 
-    queryable = rogue.declare_queryable('refuse', refuse, complete=True)
+    client = zros_node('caller').create_client(ADD, 'refuse')
+    queryable = rogue.declare_queryable(client.key, refuse, complete=True)
     try:
-        client = zros_node('caller').create_client(ADD, 'refuse')
         assert client.wait_for_service()
         with pytest.raises(ServiceCallError, match='replied with an error: not today'):
             client.call(a=1, b=2)
@@ -237,11 +252,13 @@ def test_bytes_on_the_wire_match_the_bridge_spec(zros_node: Callable[..., Node])
     def capture(query: Any) -> None:
         seen.append(query.payload.to_bytes())
         with query:
-            query.reply(query.key_expr, bytes.fromhex('000100000500000000000000'))
+            query.reply(
+                query.key_expr, bytes.fromhex('000100000500000000000000'), **reply_options(query)
+            )
 
-    queryable = raw.declare_queryable('add_two_ints', capture, complete=True)
+    client = zros_node('caller').create_client(ADD, 'add_two_ints')
+    queryable = raw.declare_queryable(client.key, capture, complete=True)
     try:
-        client = zros_node('caller').create_client(ADD, 'add_two_ints')
         assert client.wait_for_service()
         assert client.call(a=2, b=3).sum == 5
         assert seen == [bytes.fromhex('0001000002000000000000000300000000000000')]
@@ -251,7 +268,7 @@ def test_bytes_on_the_wire_match_the_bridge_spec(zros_node: Callable[..., Node])
     server.create_service(ADD, 'add_two_ints', add)
     assert client.wait_for_service()
     with spinning(server):
-        replies = list(raw.get('add_two_ints', payload=seen[0], timeout=5))
+        replies = list(raw.get(client.key, payload=seen[0], timeout=5, **request_options(server)))
     assert [r.ok.payload.to_bytes() for r in replies] == [bytes.fromhex('000100000500000000000000')]
 
 
@@ -268,7 +285,11 @@ def test_requests_without_fields(zros_node: Callable[..., Node]) -> None:
     assert client.wait_for_service()
     with spinning(server):
         client.call()
-        replies = list(caller.transport.session.get('reset', payload=b'\x00\x01\x00\x00\x00'))
+        replies = list(
+            caller.transport.session.get(
+                client.key, payload=b'\x00\x01\x00\x00\x00', **request_options(caller)
+            )
+        )
     assert len(calls) == 2 and replies[0].ok is not None
     assert replies[0].ok.payload.to_bytes() == b'\x00\x01\x00\x00\x00'
 
@@ -284,7 +305,8 @@ def test_services_in_the_graph(zros_node: Callable[..., Node]) -> None:
     def owned() -> set[tuple[str, str]]:
         return {(e.kind.value, e.key) for e in graph.node_endpoints('/robot/server')}
 
-    expected = {('SS', 'robot/add'), ('SC', 'robot/server/reset')}
+    key = server.scheme.key
+    expected = {('SS', key('/robot/add')), ('SC', key('/robot/server/reset'))}
     assert graph.wait_until(lambda: expected <= owned(), timeout=5), owned()
     service.close()
     client.close()
