@@ -133,9 +133,9 @@ def parse_qos_profiles(profiles: str | Sequence[Mapping[str, Any]] | None) -> li
         result.append(
             QoS(
                 depth or 10,
-                reliability or Reliability.RELIABLE,
-                durability or Durability.VOLATILE,
-                history or History.KEEP_LAST,
+                Reliability.RELIABLE if reliability is None else reliability,
+                Durability.VOLATILE if durability is None else durability,
+                History.KEEP_LAST if history is None else history,
             )
         )
     return result

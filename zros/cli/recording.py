@@ -1,0 +1,212 @@
+"""``zros bag record`` and ``zros bag play`` (as ``ros2 bag record`` and ``ros2 bag play``).
+
+``record`` runs until Ctrl-C or SIGTERM, then finishes the bag (last chunk, summary,
+metadata.yaml); a SIGKILL leaves files readable up to their last chunk (written at least every
+second). ``play`` plays with the recorded timing; on a terminal, space pauses and resumes, the
+right arrow (or ``s``) publishes the next message while paused, up and down change the rate
+by 10 %, ``q`` quits. A status line shows on stderr when it is a terminal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from zros.cli.common import CommandError, add_connection_options, open_node, out
+
+
+@contextmanager
+def _stop_on_signals(stop: threading.Event) -> Iterator[None]:
+    """SIGINT and SIGTERM set ``stop`` instead of killing the process (restored after)."""
+
+    def handler(signum: int, frame: Any) -> None:
+        stop.set()
+
+    saved = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, previous in saved.items():
+            signal.signal(sig, previous)
+
+
+def default_bag_name() -> str:
+    """``rosbag2_YYYY_MM_DD-HH_MM_SS``, the folder name ``ros2 bag record`` picks."""
+    return datetime.datetime.now().strftime('rosbag2_%Y_%m_%d-%H_%M_%S')
+
+
+# --- record ------------------------------------------------------------------------------------
+
+
+def record(args: argparse.Namespace) -> int:
+    from zros.bag.progress import Progress, human_size
+    from zros.bag.recorder import Recorder
+
+    if not (args.all or args.topics or args.regex):
+        raise CommandError('nothing to record: give topic names, -a (all) or -e REGEX')
+    path = args.output or default_bag_name()
+    stop = threading.Event()
+    progress = Progress()
+    with _stop_on_signals(stop), open_node(args, 'zros_bag_record') as node:
+
+        def subscribed(name: str, type_name: str) -> None:
+            progress.close()
+            out(f'Subscribed to topic {name} [{type_name}]')
+
+        recorder = Recorder(
+            node,
+            path,
+            args.topics,
+            args.regex,
+            args.all,
+            split_size=args.max_bag_size or None,
+            split_duration=args.max_bag_duration or None,
+            compression=None if args.compression == 'none' else args.compression,
+            include_hidden=args.include_hidden_topics,
+            on_topic=subscribed,
+        )
+        out(f'Recording to {recorder.path}')
+        try:
+            while not stop.wait(0.1) and recorder.error is None:
+                progress.update(
+                    f'[RECORDING] {recorder.message_count} messages, '
+                    f'{human_size(recorder.size)}, {len(recorder.files)} file(s)'
+                )
+        finally:
+            progress.close()
+            recorder.close()
+        out(
+            f'Recorded {recorder.message_count} messages on {len(recorder.topics)} topics '
+            f'into {len(recorder.files)} file(s) of {recorder.path}'
+        )
+    return 0
+
+
+# --- play --------------------------------------------------------------------------------------
+
+
+def _status(player: Any) -> str:
+    state = 'PAUSED ' if player.paused else 'PLAYING'
+    elapsed = max(0, player.clock.now() - player.start_ns) / 1e9
+    total = max(0, player.end_ns - player.start_ns) / 1e9
+    return (
+        f'[{state}] bag time {player.clock.now() / 1e9:.3f}  {elapsed:.1f}/{total:.1f} s  '
+        f'rate {player.rate:.2f}  {player.published} messages'
+    )
+
+
+def _on_key(player: Any, key: str) -> bool:
+    """Steer the player from a key; False to quit."""
+    if key == ' ':
+        player.toggle_pause()
+    elif key in ('right', 's'):
+        player.step()
+    elif key == 'up':
+        player.set_rate(player.rate * 1.1)
+    elif key == 'down':
+        player.set_rate(player.rate / 1.1)
+    elif key in ('q', 'Q'):
+        return False
+    return True
+
+
+def play(args: argparse.Namespace) -> int:
+    from zros.bag.player import Player
+    from zros.bag.progress import Keys, Progress
+
+    clock: bool | float = False if args.clock is None else args.clock
+    stop = threading.Event()
+    progress = Progress()
+    with _stop_on_signals(stop), open_node(args, 'zros_bag_play') as node:
+        player = Player(
+            node,
+            args.path,
+            rate=args.rate,
+            start_offset=args.start_offset,
+            loop=args.loop,
+            topics=args.topics,
+            remap=args.remap,
+            clock=clock,
+            wait_for_subscribers=args.wait_for_subscribers,
+        )
+        with player, Keys() as keys:
+            source = player.source
+            out(
+                f'Playing {source.path}: {source.message_count} messages on '
+                f'{len(player.topics)} topics, {source.duration_ns / 1e9:.3f} s'
+            )
+            if keys.enabled:
+                progress.close()
+                progress.stream.write(
+                    'space: pause/resume, right arrow: next message, up/down: rate, q: quit\n'
+                )
+            player.start(paused=args.start_paused)
+            while not stop.is_set():
+                if keys.enabled:
+                    key = keys.read(0.1)
+                    if (key is not None and not _on_key(player, key)) or player.done:
+                        break
+                elif player.wait(0.1):
+                    break
+                progress.update(_status(player))
+            progress.close()
+            player.stop()
+        if player.error is not None:
+            raise CommandError(f'playing {args.path} failed: {player.error}')
+        out(f'Played {player.published} messages')
+    return 0
+
+
+# --- the parser --------------------------------------------------------------------------------
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f'must be positive, got {text}')
+    return value
+
+
+def add_verbs(verbs: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``record`` and ``play`` to the verbs of ``zros bag``."""
+    help_text = 'record topics into a bag (rosbag2 MCAP)'
+    parser = verbs.add_parser('record', help=help_text, description=help_text)
+    parser.set_defaults(run='zros.cli.recording:record')
+    add_connection_options(parser)
+    parser.add_argument('topics', nargs='*', metavar='TOPIC', help='topics to record')
+    parser.add_argument('-a', '--all', action='store_true', help='every topic, also later ones')
+    parser.add_argument('-e', '--regex', metavar='REGEX', help='topics whose name matches')
+    parser.add_argument('-o', '--output', metavar='FOLDER',
+                        help='the bag folder (default: rosbag2_<date>-<time>)')  # fmt: skip
+    parser.add_argument('-b', '--max-bag-size', type=int, default=0, metavar='BYTES',
+                        help='split files at this size (0: never)')  # fmt: skip
+    parser.add_argument('-d', '--max-bag-duration', type=float, default=0, metavar='S',
+                        help='split files after this many seconds (0: never)')  # fmt: skip
+    parser.add_argument('--compression', choices=('zstd', 'lz4', 'none'), default='zstd',
+                        help='chunk compression (default zstd)')  # fmt: skip
+    parser.add_argument('--include-hidden-topics', action='store_true',
+                        help='with -a or -e, also topics with a part starting with _')  # fmt: skip
+
+    help_text = 'play a bag into the graph'
+    parser = verbs.add_parser('play', help=help_text, description=help_text)
+    parser.set_defaults(run='zros.cli.recording:play')
+    add_connection_options(parser)
+    parser.add_argument('path', help='bag folder, .mcap, .db3 or ROS 1 .bag')
+    parser.add_argument('-r', '--rate', type=_positive, default=1.0, help='speed (default 1)')
+    parser.add_argument('--start-offset', type=float, default=0.0, metavar='S',
+                        help='skip this many seconds from the start')  # fmt: skip
+    parser.add_argument('-l', '--loop', action='store_true', help='play again and again')
+    parser.add_argument('--topics', nargs='+', metavar='TOPIC', help='only these topics')
+    parser.add_argument('--remap', nargs='+', action='extend', metavar='FROM:=TO',
+                        help='rename topics, e.g. /chatter:=/talk')  # fmt: skip
+    parser.add_argument('--clock', nargs='?', type=_positive, const=40.0, metavar='HZ',
+                        help='publish /clock with the bag time (default 40 Hz)')  # fmt: skip
+    parser.add_argument('--start-paused', action='store_true', help='start paused')
+    parser.add_argument('--wait-for-subscribers', type=float, default=0.5, metavar='S',
+                        help='wait up to S seconds for each topic to have a subscriber '
+                        '(default 0.5)')  # fmt: skip
