@@ -1,4 +1,4 @@
-"""Recordings: read ROS 2 bags (folders, .mcap, .db3) and ROS 1 bags.
+"""Recordings: read ROS 2 bags (folders, .mcap, .db3) and ROS 1 bags; record and play MCAP bags.
 
 >>> from zros.bag import Bag                                      # doctest: +SKIP
 >>> with Bag('my_bag') as bag:
@@ -7,8 +7,11 @@
 
 from __future__ import annotations
 
+from zros.bag.bag_writer import BagTopic, BagWriteError, BagWriter
 from zros.bag.errors import BagError
+from zros.bag.player import Player, PlayerError
 from zros.bag.reader import Bag, TopicInfo
+from zros.bag.recorder import Recorder, RecorderError
 from zros.bag.rosr import BagRead, bag_read
 from zros.bag.source import Connection, RawMessage, Source, open_source
 
@@ -16,8 +19,15 @@ __all__ = [
     'Bag',
     'BagError',
     'BagRead',
+    'BagTopic',
+    'BagWriteError',
+    'BagWriter',
     'Connection',
+    'Player',
+    'PlayerError',
     'RawMessage',
+    'Recorder',
+    'RecorderError',
     'Source',
     'TopicInfo',
     'bag_read',
