@@ -28,6 +28,7 @@ from zros.testing import spinning
 from zros.transport import Router
 
 EXAMPLES = Path(__file__).resolve().parent.parent / 'examples'
+DOCS = Path(__file__).resolve().parent.parent / 'docs'
 SCRIPTS = sorted(path.name for path in EXAMPLES.glob('*.py'))
 TIMEOUT = 90.0  # seconds for one script, on a loaded 2-core machine
 
@@ -111,6 +112,42 @@ def test_example_runs_on_its_own(script: str, tmp_path: Path) -> None:
     assert result.returncode == 0, output
     check_output(result.stdout, EXPECTED.get(script, []))
     assert 'Traceback' not in result.stderr, result.stderr
+
+
+def docs_blocks() -> list[tuple[str, str]]:
+    """``(page:line, code)`` of every Python block in docs/, but those marked ``<!-- not run``."""
+    blocks = []
+    for page in sorted(DOCS.rglob('*.md')):
+        text = page.read_text()
+        for match in re.finditer(
+            r'(?:^(<!-- not run[^\n]*)\n)?^```python\n(.*?)^```', text, re.M | re.S
+        ):
+            if match.group(1) is None:
+                line = text.count('\n', 0, match.start()) + 1
+                blocks.append((f'{page.relative_to(DOCS)}:{line}', match.group(2)))
+    return blocks
+
+
+DOCS_BLOCKS = docs_blocks()
+
+
+@pytest.mark.parametrize('code', [code for _, code in DOCS_BLOCKS], ids=[i for i, _ in DOCS_BLOCKS])
+def test_docs_python_blocks_run(code: str, tmp_path: Path) -> None:
+    """The documentation's Python examples run as written (tests through pytest)."""
+    script = tmp_path / ('test_docs_block.py' if 'def test_' in code else 'docs_block.py')
+    script.write_text(code)
+    command = [sys.executable, '-m', 'pytest', '-q', '-p', 'no:cacheprovider', str(script)]
+    result = subprocess.run(
+        command if 'def test_' in code else [sys.executable, str(script)],
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+        cwd=tmp_path,
+        env=environment(),
+        check=False,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert result.stdout.strip(), 'a documentation example prints what it shows'
 
 
 def test_the_fit_matches_the_paper(tmp_path: Path) -> None:
