@@ -57,3 +57,108 @@ def make_db3(
     finally:
         db.close()
     return path
+
+
+def make_sensor_bag(path: Path, count: int, storage: str = 'mcap', vary: bool = True) -> Path:
+    """A rosbag2 folder of Imu (/imu), LaserScan (/scan) and Odometry (/odom), written by
+    rosbags. With ``vary`` the frame ids and scan lengths change from message to message."""
+    import numpy as np
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    T = store.types
+    rng = np.random.default_rng(3)
+    plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
+
+    def header(index: int, frame: str) -> object:
+        name = frame + ('_x' * (index % 3) if vary else '')
+        stamp = T['builtin_interfaces/msg/Time'](sec=index, nanosec=index * 7)
+        return T['std_msgs/msg/Header'](stamp=stamp, frame_id=name)
+
+    def vector(x: float, y: float, z: float) -> object:
+        return T['geometry_msgs/msg/Vector3'](x=x, y=y, z=z)
+
+    with Writer(path, version=9, storage_plugin=plugin) as writer:
+        imu = writer.add_connection('/imu', 'sensor_msgs/msg/Imu', typestore=store)
+        scan = writer.add_connection('/scan', 'sensor_msgs/msg/LaserScan', typestore=store)
+        odom = writer.add_connection('/odom', 'nav_msgs/msg/Odometry', typestore=store)
+        for index in range(count):
+            stamp = 1_000_000_000 + index * 1_000_000
+            values = rng.random(40)
+            kind = index % 3
+            if kind == 0:
+                message = T['sensor_msgs/msg/Imu'](
+                    header=header(index, 'imu'),
+                    orientation=T['geometry_msgs/msg/Quaternion'](*values[:4]),
+                    orientation_covariance=values[4:13],
+                    angular_velocity=vector(*values[13:16]),
+                    angular_velocity_covariance=values[16:25],
+                    linear_acceleration=vector(*values[25:28]),
+                    linear_acceleration_covariance=values[28:37],
+                )
+                connection, type_name = imu, 'sensor_msgs/msg/Imu'
+            elif kind == 1:
+                size = 32 + (index % 2 if vary else 0)
+                message = T['sensor_msgs/msg/LaserScan'](
+                    header=header(index, 'laser'),
+                    angle_min=-1.0,
+                    angle_max=1.0,
+                    angle_increment=2.0 / size,
+                    time_increment=0.0,
+                    scan_time=0.1,
+                    range_min=0.1,
+                    range_max=30.0,
+                    ranges=rng.random(size).astype(np.float32),
+                    intensities=rng.random(size if index % 5 else 0).astype(np.float32),
+                )
+                connection, type_name = scan, 'sensor_msgs/msg/LaserScan'
+            else:
+                point = T['geometry_msgs/msg/Point'](*values[:3])
+                pose = T['geometry_msgs/msg/Pose'](
+                    point, T['geometry_msgs/msg/Quaternion'](*values[3:7])
+                )
+                twist = T['geometry_msgs/msg/Twist'](vector(*values[7:10]), vector(*values[10:13]))
+                message = T['nav_msgs/msg/Odometry'](
+                    header=header(index, 'odom'),
+                    child_frame_id='base_link',
+                    pose=T['geometry_msgs/msg/PoseWithCovariance'](pose, rng.random(36)),
+                    twist=T['geometry_msgs/msg/TwistWithCovariance'](twist, rng.random(36)),
+                )
+                connection, type_name = odom, 'nav_msgs/msg/Odometry'
+            writer.write(connection, stamp, store.serialize_cdr(message, type_name))
+    return path
+
+
+def make_points_mcap(
+    path: Path, count: int, compression: str = 'zstd', chunked: bool = True, shuffle: bool = True
+) -> Path:
+    """A bare ``.mcap`` of geometry_msgs/Point on /point written by the mcap library, chunks
+    compressed with ``compression`` ('zstd', 'lz4', 'none'), or no chunks and no summary.
+    With ``shuffle`` every 7th message is stamped before the one preceding it."""
+    from mcap.writer import CompressionType, IndexType, Writer
+
+    from zros.cdr import encode, new_message
+
+    kind = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4, 'none': CompressionType.NONE}
+    with path.open('wb') as stream:
+        writer = Writer(
+            stream,
+            chunk_size=2048,
+            compression=kind[compression],
+            use_chunking=chunked,
+            index_types=IndexType.ALL if chunked else IndexType.NONE,
+            use_summary_offsets=chunked,
+            use_statistics=chunked,
+        )
+        writer.start(profile='ros2', library='zros tests')
+        schema = writer.register_schema(
+            'geometry_msgs/msg/Point', 'ros2msg', b'float64 x\nfloat64 y\nfloat64 z\n'
+        )
+        channel = writer.register_channel('/point', 'cdr', schema)
+        for index in range(count):
+            data = encode(new_message('geometry_msgs/msg/Point', x=index, y=-index, z=0.5))
+            stamp = 1000 + index * 10 - (15 if shuffle and index % 7 == 6 else 0)
+            writer.add_message(channel, log_time=stamp, data=data, publish_time=stamp)
+        writer.finish()
+    return path

@@ -184,3 +184,33 @@ def test_corrupt_record_length_is_an_error_not_an_allocation(
     path.write_bytes(bytes(data))
     with pytest.raises(BagError, match=r'corrupt\.mcap'):
         open_source(path)
+
+
+@pytest.mark.parametrize('mode', ['MESSAGE', 'FILE'])
+@pytest.mark.parametrize('storage', ['MCAP', 'SQLITE3'])
+def test_compressed_bags(tmp_path: Path, mode: str, storage: str) -> None:
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, Reader, StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from zros.cdr import encode, new_message
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    path = tmp_path / 'compressed'
+    writer = Writer(path, version=9, storage_plugin=StoragePlugin[storage])
+    writer.set_compression(CompressionMode[mode], CompressionFormat.ZSTD)
+    with writer:
+        conn = writer.add_connection('/text', 'std_msgs/msg/String', typestore=store)
+        for index in range(30):
+            text = new_message('std_msgs/msg/String', data=f'message {index}')
+            writer.write(conn, 1000 + index, encode(text))
+    with Reader(path) as reader:
+        expected = [(t, bytes(d)) for _, t, d in reader.messages()]
+    with open_source(path) as source:
+        assert source.compression_mode == mode.lower()
+        assert source.compression_format == 'zstd'
+        assert [(m.timestamp, bytes(m.data)) for m in source.messages()] == expected
+        names = [f.name for f in source.files]
+    assert names[0] == 'metadata.yaml'
+    assert all((path / name).exists() for name in names)
+    if mode == 'FILE':
+        assert names[1].endswith('.zstd')

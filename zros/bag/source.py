@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import heapq
 import importlib
+import itertools
 import sys
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -23,11 +24,13 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
 from zros.bag.errors import BagError
+from zros.bag.mcap_bulk import Unsupported
 
 if TYPE_CHECKING:
     from typing_extensions import Self
 
 #: MessageDefinitionFormat names of rosbags -> the encodings of MCAP schemas and rosbag2
+_SQL_BATCH = 16384
 _FORMATS = {'MSG': 'ros2msg', 'IDL': 'ros2idl', 'NONE': ''}
 
 
@@ -58,6 +61,16 @@ class RawMessage:
     connection: Connection
     timestamp: int
     data: bytes | memoryview
+
+
+@dataclass
+class Block:
+    """Messages of one connection read in bulk: receive times, file-order keys, CDR bytes."""
+
+    connection: Connection
+    times: Any  #: int64 numpy array
+    keys: Any  #: int64 numpy array, ascending in file order
+    data: list[bytes]
 
 
 @dataclass
@@ -136,6 +149,14 @@ class Source:
 
     def _messages(self, ids: set[int], start: int | None, end: int | None) -> Iterator[RawMessage]:
         raise NotImplementedError
+
+    def blocks(
+        self, connections: Iterable[Connection], start: int | None = None, end: int | None = None
+    ) -> Iterator[list[Block]]:
+        """Messages in bulk, chunk by chunk, for column extraction (not in time order: each
+        block's ``keys`` give the file order). Raises :class:`Unsupported` (possibly after some
+        blocks) where the storage has no index for it: read :meth:`messages` instead."""
+        raise Unsupported(f'{self.storage_id} storage')
 
     def close(self) -> None:
         """Release the files (idempotent)."""
@@ -220,8 +241,6 @@ class _Rosbag2Source(Source):
         else:
             self.files = [self.path]
         self.storage_id = 'mcap' if type(storages[0]).__name__ == 'McapReader' else 'sqlite3'
-        if folder:
-            self.storage_id = _metadata_storage_id(self.path) or self.storage_id
         self._build_connections(list(storage.connections) if folder else [])
 
     def _compressed_files(self) -> list[Path]:
@@ -304,20 +323,67 @@ class _Rosbag2Source(Source):
             raw = data if decompress is None else decompress(data)
             yield RawMessage(mapping[item.id], timestamp, raw)
 
+    def blocks(
+        self, connections: Iterable[Connection], start: int | None = None, end: int | None = None
+    ) -> Iterator[list[Block]]:
+        from zros.bag.mcap_bulk import read_blocks
+
+        if self._decompress is not None:
+            raise Unsupported('compressed messages are read one by one')
+        ids = {c.id for c in connections}
+        base = 0
+        for stream in self._streams:
+            channels = {cid for cid, c in stream.mapping.items() if c.id in ids}
+            if not channels:
+                continue
+            if self.storage_id == 'sqlite3':
+                yield from _sqlite_blocks(stream, channels, start, end)
+                continue
+            for found in read_blocks(Path(stream.reader.path), channels, start, end):
+                blocks = [
+                    Block(stream.mapping[b.channel], b.times, base + b.order, b.data)
+                    for b in found
+                    if b.order is not None and len(b.times)
+                ]
+                base += sum(len(b.times) for b in found)
+                if blocks:
+                    yield blocks
+
+
+def _sqlite_blocks(
+    stream: _Stream, topics: set[int], start: int | None, end: int | None
+) -> Iterator[list[Block]]:
+    """Rows of the messages table in batches, unordered (the row id is the file order)."""
+    import numpy as np
+
+    query = 'SELECT topic_id, timestamp, id, data FROM messages WHERE topic_id IN ({})'.format(
+        ','.join('?' * len(topics))
+    )
+    args: list[int] = sorted(topics)
+    if start is not None:
+        query += ' AND timestamp >= ?'
+        args.append(start)
+    if end is not None:
+        query += ' AND timestamp < ?'
+        args.append(end)
+    cursor = stream.reader.dbconn.execute(query, args)
+    while rows := list(itertools.islice(cursor, _SQL_BATCH)):
+        grouped: dict[int, tuple[list[int], list[int], list[bytes]]] = {}
+        for topic, stamp, key, data in rows:
+            entry = grouped.get(topic)
+            if entry is None:
+                entry = grouped[topic] = ([], [], [])
+            entry[0].append(stamp)
+            entry[1].append(key)
+            entry[2].append(data)
+        yield [
+            Block(stream.mapping[topic], np.asarray(t, np.int64), np.asarray(k, np.int64), d)
+            for topic, (t, k, d) in grouped.items()
+        ]
+
 
 def _timestamp(message: RawMessage) -> int:
     return message.timestamp
-
-
-def _metadata_storage_id(folder: Path) -> str:
-    from ruamel.yaml import YAML
-
-    try:
-        text = (folder / 'metadata.yaml').read_text(encoding='utf-8')
-        info = YAML(typ='safe').load(text)['rosbag2_bagfile_information']
-        return str(info.get('storage_identifier') or '')
-    except Exception:
-        return ''
 
 
 # --- ROS 1 ----------------------------------------------------------------------------------

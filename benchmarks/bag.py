@@ -1,0 +1,200 @@
+"""Bag column extraction: zros ``Bag.columns`` against a plain rosbags loop, same fields.
+
+Writes a rosbag2 bag of sensor_msgs/Imu, sensor_msgs/LaserScan and nav_msgs/Odometry (a third
+each) with rosbags' writer into a temporary folder, then pulls the same numeric fields into
+numpy arrays two ways and prints the seconds (best of ``--repeat`` runs) and the ratio. The goal
+is zros at least 3x faster than rosbags.
+
+    python benchmarks/bag.py                  # 100,000 messages, mcap
+    python benchmarks/bag.py --count 20000 --storage sqlite3
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from zros.bag import Bag
+
+FIELDS = {
+    '/imu': [
+        'orientation.x',
+        'orientation.y',
+        'orientation.z',
+        'orientation.w',
+        'angular_velocity.z',
+        'linear_acceleration.x',
+        'linear_acceleration.y',
+        'linear_acceleration.z',
+    ],
+    '/scan': ['header.stamp.sec', 'angle_min', 'angle_increment', 'ranges'],
+    '/odom': [
+        'pose.pose.position.x',
+        'pose.pose.position.y',
+        'pose.pose.orientation.z',
+        'pose.pose.orientation.w',
+        'twist.twist.linear.x',
+        'twist.twist.angular.z',
+    ],
+}
+TYPES = {
+    '/imu': 'sensor_msgs/msg/Imu',
+    '/scan': 'sensor_msgs/msg/LaserScan',
+    '/odom': 'nav_msgs/msg/Odometry',
+}
+SCAN_SIZE = 360
+
+
+def write_bag(path: Path, count: int, storage: str) -> None:
+    """``count`` messages, cycling Imu, LaserScan, Odometry, 1 ms apart."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    T = store.types
+    rng = np.random.default_rng(1)
+    plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
+
+    def header(index: int, frame: str) -> Any:
+        stamp = T['builtin_interfaces/msg/Time'](sec=index // 1000, nanosec=index % 1000)
+        return T['std_msgs/msg/Header'](stamp=stamp, frame_id=frame)
+
+    def vector(v: np.ndarray) -> Any:
+        return T['geometry_msgs/msg/Vector3'](*v)
+
+    def quaternion(v: np.ndarray) -> Any:
+        return T['geometry_msgs/msg/Quaternion'](*v)
+
+    with Writer(path, version=9, storage_plugin=plugin) as writer:
+        connections = {
+            topic: writer.add_connection(topic, type_name, typestore=store)
+            for topic, type_name in TYPES.items()
+        }
+        topics = list(TYPES)
+        for index in range(count):
+            topic = topics[index % 3]
+            v = rng.random(16)
+            message: Any
+            if topic == '/imu':
+                message = T[TYPES[topic]](
+                    header(index, 'imu_link'),
+                    quaternion(v[:4]),
+                    rng.random(9),
+                    vector(v[4:7]),
+                    rng.random(9),
+                    vector(v[7:10]),
+                    rng.random(9),
+                )
+            elif topic == '/scan':
+                message = T[TYPES[topic]](
+                    header(index, 'laser'),
+                    -3.1,
+                    3.1,
+                    6.2 / SCAN_SIZE,
+                    0.0,
+                    0.1,
+                    0.1,
+                    30.0,
+                    rng.random(SCAN_SIZE).astype(np.float32),
+                    rng.random(SCAN_SIZE).astype(np.float32),
+                )
+            else:
+                pose = T['geometry_msgs/msg/Pose'](
+                    T['geometry_msgs/msg/Point'](*v[:3]), quaternion(v[3:7])
+                )
+                twist = T['geometry_msgs/msg/Twist'](vector(v[7:10]), vector(v[10:13]))
+                message = T[TYPES[topic]](
+                    header(index, 'odom'),
+                    'base_link',
+                    T['geometry_msgs/msg/PoseWithCovariance'](pose, rng.random(36)),
+                    T['geometry_msgs/msg/TwistWithCovariance'](twist, rng.random(36)),
+                )
+            data = store.serialize_cdr(message, TYPES[topic])
+            writer.write(connections[topic], 1_000_000_000 + index * 1_000_000, data)
+
+
+def _pick(message: Any, path: str) -> Any:
+    for part in path.split('.'):
+        message = getattr(message, part)
+    return message
+
+
+def with_rosbags(path: Path) -> dict[str, dict[str, np.ndarray]]:
+    """The plain way: AnyReader, deserialize_cdr per message, fields into lists, then numpy."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    values: dict[str, dict[str, list[Any]]] = {
+        topic: {name: [] for name in ['time', *fields]} for topic, fields in FIELDS.items()
+    }
+    with AnyReader([path], default_typestore=store) as reader:
+        for connection, stamp, data in reader.messages():
+            message = reader.typestore.deserialize_cdr(data, connection.msgtype)
+            columns = values[connection.topic]
+            columns['time'].append(stamp)
+            for name in FIELDS[connection.topic]:
+                columns[name].append(_pick(message, name))
+    return {
+        topic: {name: np.asarray(column) for name, column in columns.items()}
+        for topic, columns in values.items()
+    }
+
+
+def with_zros(path: Path) -> dict[str, dict[str, np.ndarray]]:
+    """``Bag.columns`` per topic."""
+    with Bag(path) as bag:
+        return {topic: bag.columns(topic, fields) for topic, fields in FIELDS.items()}
+
+
+def best(function: Callable[[Path], Any], path: Path, repeat: int) -> tuple[float, Any]:
+    times = []
+    result = None
+    for _ in range(repeat):
+        begin = time.perf_counter()
+        result = function(path)
+        times.append(time.perf_counter() - begin)
+    return min(times), result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--count', type=int, default=100_000, help='messages in the bag')
+    parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
+    parser.add_argument('--repeat', type=int, default=3, help='runs of each; the best counts')
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / 'sensors'
+        begin = time.perf_counter()
+        write_bag(path, args.count, args.storage)
+        size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
+        print(
+            f'bag: {args.count} messages ({args.storage}, {size:.1f} MB), '
+            f'written in {time.perf_counter() - begin:.1f} s'
+        )
+        theirs_time, theirs = best(with_rosbags, path, args.repeat)
+        mine_time, mine = best(with_zros, path, args.repeat)
+    for topic, columns in theirs.items():
+        for name, column in columns.items():
+            assert np.array_equal(mine[topic][name], column), (topic, name)
+    print()
+    print('| reader | seconds | µs per message |')
+    print('|---|---|---|')
+    for name, seconds in (
+        ('rosbags AnyReader + deserialize_cdr', theirs_time),
+        ('zros Bag.columns', mine_time),
+    ):
+        print(f'| {name} | {seconds:.3f} | {seconds / args.count * 1e6:.2f} |')
+    ratio = theirs_time / mine_time
+    verdict = 'met' if ratio >= 3 else 'NOT met'
+    print(f'\nzros is {ratio:.1f}x faster than rosbags (goal >= 3x: {verdict}); columns equal')
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,161 @@
+"""Whole chunks of an indexed MCAP file: the messages of chosen channels without a Python step
+per message record.
+
+The mcap library reads the summary and the chunk records; each chunk's message index gives the
+offset of every message of a channel, so times, lengths and positions of its messages are numpy
+arrays and the payloads are slices of the decompressed chunk. Files without a summary or message
+indexes, or whose indexes do not add up, are refused with :class:`Unsupported`: the caller then
+reads them record by record through rosbags.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: opcodes of the MCAP records this module reads
+_MESSAGE = 0x05
+_MESSAGE_INDEX = 0x07
+#: a message record before its data: opcode, length, channel, sequence, log and publish time
+_HEAD = 1 + 8 + 2 + 4 + 8 + 8
+#: a decompressed chunk larger than this is not trusted to the fast path
+_MAX_CHUNK = 1 << 31
+_INDEX = np.dtype([('time', '<u8'), ('offset', '<u8')])
+
+
+class Unsupported(Exception):
+    """The file cannot be read in chunks; read it message by message instead."""
+
+
+@dataclass
+class Block:
+    """Messages of one channel in one chunk, in the chunk's order."""
+
+    channel: int
+    times: np.ndarray  #: int64 log times
+    offsets: np.ndarray  #: int64 record offsets in the chunk (ascending)
+    data: list[bytes]
+    order: np.ndarray | None = None  #: int64 rank of each message in its chunk (file order)
+
+
+def _decompress(chunk: Any) -> bytes:
+    if chunk.uncompressed_size > _MAX_CHUNK:
+        raise Unsupported('chunk too large')
+    if chunk.compression == '':
+        data = bytes(chunk.data)
+    elif chunk.compression == 'zstd':
+        import zstandard
+
+        data = zstandard.ZstdDecompressor().decompress(
+            chunk.data, max_output_size=chunk.uncompressed_size
+        )
+    elif chunk.compression == 'lz4':
+        import lz4.frame  # type: ignore[import-untyped]
+
+        data = lz4.frame.decompress(chunk.data)
+    else:
+        raise Unsupported(f'compression {chunk.compression!r}')
+    if len(data) != chunk.uncompressed_size:
+        raise Unsupported('chunk size does not match its index')
+    return data
+
+
+def _index(stream: io.BufferedReader, at: int, limit: int) -> np.ndarray:
+    """The (time, offset) entries of the MessageIndex record at ``at``."""
+    stream.seek(at)
+    head = stream.read(1 + 8 + 2 + 4)
+    if len(head) < 15 or head[0] != _MESSAGE_INDEX:
+        raise Unsupported('no message index record where the chunk index says')
+    size = int.from_bytes(head[11:15], 'little')
+    if at + 15 + size > limit or size % 16:
+        raise Unsupported('message index out of bounds')
+    return np.frombuffer(stream.read(size), _INDEX)
+
+
+def read_blocks(
+    path: Path, channels: set[int], start: int | None, end: int | None
+) -> Iterator[list[Block]]:
+    """The blocks of each chunk holding messages of ``channels`` with ``start <= log time < end``,
+    in file order (chunks may overlap in time: the caller sorts)."""
+    from mcap.data_stream import ReadDataStream
+    from mcap.reader import make_reader
+    from mcap.records import Chunk
+
+    with path.open('rb') as stream:
+        size = path.stat().st_size
+        try:
+            summary = make_reader(stream).get_summary()
+        except Exception as exc:
+            raise Unsupported(str(exc)) from exc
+        if summary is None or not summary.chunk_indexes:
+            raise Unsupported('no chunk index')
+        indexes = sorted(summary.chunk_indexes, key=lambda index: index.chunk_start_offset)
+        for index in indexes:
+            wanted = channels & set(index.message_index_offsets)
+            if not wanted:
+                continue
+            if start is not None and index.message_end_time < start:
+                continue
+            if end is not None and index.message_start_time >= end:
+                continue
+            limit = index.chunk_start_offset + index.chunk_length + index.message_index_length
+            if limit > size:
+                raise Unsupported('chunk beyond the end of the file')
+            stream.seek(index.chunk_start_offset + 1 + 8)
+            chunk = Chunk.read(ReadDataStream(stream))
+            data = _decompress(chunk)
+            blocks = [
+                _block(data, channel, _index(stream, index.message_index_offsets[channel], limit))
+                for channel in sorted(wanted)
+            ]
+            blocks = [_window(block, start, end) for block in blocks]
+            offsets = np.concatenate([block.offsets for block in blocks])
+            ranks = np.empty(len(offsets), np.int64)
+            ranks[np.argsort(offsets, kind='stable')] = np.arange(len(offsets))
+            at = 0
+            for block in blocks:
+                block.order = ranks[at : at + len(block.offsets)]
+                at += len(block.offsets)
+            yield blocks
+
+
+def _window(block: Block, start: int | None, end: int | None) -> Block:
+    keep = np.ones(len(block.times), bool)
+    if start is not None:
+        keep &= block.times >= start
+    if end is not None:
+        keep &= block.times < end
+    if keep.all():
+        return block
+    data = [payload for payload, kept in zip(block.data, keep.tolist(), strict=True) if kept]
+    return Block(block.channel, block.times[keep], block.offsets[keep], data)
+
+
+def _block(data: bytes, channel: int, entries: np.ndarray) -> Block:
+    times = entries['time'].astype(np.int64)
+    offsets = entries['offset'].astype(np.int64)
+    order = np.argsort(offsets, kind='stable')
+    times, offsets = times[order], offsets[order]
+    raw = np.frombuffer(data, np.uint8)
+    if len(offsets) and (offsets.min() < 0 or offsets.max() + _HEAD > len(raw)):
+        raise Unsupported('message offset out of the chunk')
+    heads = raw[offsets[:, None] + np.arange(_HEAD)]
+    lengths = heads[:, 1:9].copy().view('<u8')[:, 0].astype(np.int64)
+    ends = offsets + 9 + lengths
+    recorded = heads[:, 15:23].copy().view('<u8')[:, 0].astype(np.int64)
+    if (
+        (heads[:, 0] != _MESSAGE).any()
+        or (heads[:, 9:11].copy().view('<u2')[:, 0] != channel).any()
+        or (lengths < _HEAD - 9).any()
+        or (len(ends) and ends.max() > len(raw))
+        or (recorded != times).any()
+    ):
+        raise Unsupported('message index does not match the chunk')
+    begins = (offsets + _HEAD).tolist()
+    payloads = [data[b:e] for b, e in zip(begins, ends.tolist(), strict=True)]
+    return Block(channel, times, offsets, payloads)
