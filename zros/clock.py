@@ -35,6 +35,7 @@ class Duration:
 
     @classmethod
     def from_seconds(cls, seconds: float) -> Duration:
+        """A duration of ``seconds`` (a float), rounded to nanoseconds."""
         return cls(_nanoseconds(seconds))
 
     @classmethod
@@ -54,6 +55,7 @@ class Duration:
 
     @property
     def seconds(self) -> float:
+        """The duration in seconds, as a float."""
         return self.nanoseconds / _NS
 
     def __add__(self, other: Duration) -> Duration:
@@ -89,6 +91,7 @@ class Time:
 
     @classmethod
     def from_seconds(cls, seconds: float) -> Time:
+        """A time of ``seconds`` since the epoch (a float), rounded to nanoseconds."""
         return cls(_nanoseconds(seconds))
 
     @classmethod
@@ -105,10 +108,12 @@ class Time:
 
     @property
     def sec(self) -> int:
+        """Whole seconds since the epoch (``builtin_interfaces/Time.sec``)."""
         return self.nanoseconds // _NS
 
     @property
     def nanosec(self) -> int:
+        """The nanoseconds past :attr:`sec` (``builtin_interfaces/Time.nanosec``)."""
         return self.nanoseconds % _NS
 
     def __float__(self) -> float:
@@ -116,6 +121,7 @@ class Time:
 
     @property
     def seconds(self) -> float:
+        """Seconds since the epoch, as a float (loses nanoseconds today)."""
         return self.nanoseconds / _NS
 
     def to_datetime(self) -> datetime.datetime:
@@ -150,6 +156,7 @@ class Clock:
     sim = False
 
     def now(self) -> Time:
+        """The current time."""
         return Time(time.time_ns())
 
     def timer_now(self) -> int:
@@ -164,6 +171,7 @@ class Clock:
         """Sim clocks wake listeners on every update; the system clock never needs to."""
 
     def remove_listener(self, wake: Callable[[], None]) -> None:
+        """Stop calling ``wake`` on time changes (the wall clock has none)."""
         pass
 
 
@@ -180,6 +188,7 @@ class SimClock(Clock):
         self.received = 0
 
     def now(self) -> Time:
+        """The latest time ``/clock`` gave (0 before the first)."""
         return Time(self._now)
 
     def set(self, stamp: Time) -> None:
@@ -192,17 +201,21 @@ class SimClock(Clock):
             self._updated.notify()
 
     def timer_now(self) -> int:
+        """The nanoseconds timers count in: sim time."""
         return self._now
 
     def seconds_until(self, due: int) -> float | None:
+        """None (wait for the next ``/clock``) before ``due``, else 0."""
         # sim time moves only when /clock says so: wait for the next update
         return None if due > self._now else 0.0
 
     def add_listener(self, wake: Callable[[], None]) -> None:
+        """Call ``wake()`` (from Zenoh's thread) whenever ``/clock`` moves."""
         with self._lock:
             self._listeners.append(wake)
 
     def remove_listener(self, wake: Callable[[], None]) -> None:
+        """Stop calling ``wake`` when ``/clock`` moves."""
         with self._lock:
             if wake in self._listeners:
                 self._listeners.remove(wake)
@@ -256,6 +269,7 @@ class ClockSubscription:
         self.clock.set(Time.from_msg(message.clock))
 
     def close(self) -> None:
+        """Stop following ``/clock``."""
         if not self._closed:
             self._closed = True
             for token in self._tokens:

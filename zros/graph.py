@@ -103,6 +103,7 @@ class BridgeInfo:
 
     @property
     def version_tuple(self) -> tuple[int, ...] | None:
+        """The version as numbers, e.g. ``(1, 10, 0)``; None if unknown."""
         if not self.version:
             return None
         digits = self.version.lstrip('v').split('-')[0].split('.')
@@ -413,6 +414,7 @@ class Graph:
         return lambda: self.version != version or self._closed
 
     def close(self) -> None:
+        """Stop following the network's announcements."""
         if self._closed:
             return
         self._closed = True

@@ -61,6 +61,7 @@ def parse_level(level: str | int | None) -> int:
 
 
 def level_from_environment() -> int | None:
+    """The level in ``ZROS_LOG_LEVEL``, or None when unset."""
     value = os.environ.get('ZROS_LOG_LEVEL')
     return parse_level(value) if value else None
 
@@ -82,6 +83,7 @@ class RosFormatter(logging.Formatter):
     """``[SEVERITY] [seconds.nanoseconds] [logger]: message``, as ROS 2 prints by default."""
 
     def format(self, record: logging.LogRecord) -> str:
+        """The ROS 2 console line of a record: ``[LEVEL] [stamp] [name]: text``."""
         stamp = getattr(record, 'ros_stamp', None)
         if stamp is None:
             stamp = int(record.created * 1e9)
@@ -142,6 +144,7 @@ class Logger:
         return level_from_environment() or INFO
 
     def set_level(self, level: str | int) -> None:
+        """Set the threshold: ``'debug'``...``'fatal'`` or a number."""
         self._level = parse_level(level)
 
     def get_child(self, suffix: str) -> Logger:
@@ -149,6 +152,7 @@ class Logger:
         return Logger(f'{self.name}.{suffix}', self.node, self._level)
 
     def is_enabled_for(self, level: int) -> bool:
+        """Whether a record at ``level`` would be logged."""
         return level >= self.level
 
     def log(
@@ -202,20 +206,25 @@ class Logger:
         self._py.handle(record)
 
     def debug(self, message: object, **options: Any) -> bool:
+        """Log at DEBUG; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, DEBUG, stacklevel=2, **options)
 
     def info(self, message: object, **options: Any) -> bool:
+        """Log at INFO; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, INFO, stacklevel=2, **options)
 
     def warn(self, message: object, **options: Any) -> bool:
+        """Log at WARN; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, WARN, stacklevel=2, **options)
 
     warning = warn
 
     def error(self, message: object, **options: Any) -> bool:
+        """Log at ERROR; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, ERROR, stacklevel=2, **options)
 
     def fatal(self, message: object, **options: Any) -> bool:
+        """Log at FATAL; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, FATAL, stacklevel=2, **options)
 
     def __repr__(self) -> str:
@@ -234,6 +243,7 @@ class RosoutHandler(logging.Handler):
         self.node = node
 
     def emit(self, record: logging.LogRecord) -> None:
+        """Publish a Python logging record on the node's ``/rosout``."""
         if getattr(record, 'ros_published', False):
             return
         try:

@@ -161,10 +161,12 @@ class Executor:
             waker()
 
     def add_timer(self, timer: Timer) -> None:
+        """Run ``timer`` when it is due."""
         self._timers.append(timer)
         self.wake()
 
     def remove_timer(self, timer: Timer) -> None:
+        """Stop running ``timer``."""
         if timer in self._timers:
             self._timers.remove(timer)
 
@@ -379,6 +381,7 @@ class Node:
         return self.clock.sim
 
     def get_clock(self) -> Clock:
+        """The node's clock (ROS time; sim time with ``use_sim_time``)."""
         return self.clock
 
     def now(self) -> Time:
@@ -448,6 +451,7 @@ class Node:
         return {name: self.parameters.declare(name, value) for name, value in values.items()}
 
     def has_parameter(self, name: str) -> bool:
+        """Whether the node has declared ``name``."""
         return self.parameters.has(name)
 
     def get_parameter(self, name: str) -> Any:
@@ -467,6 +471,7 @@ class Node:
         return self.parameters.set_many(values)
 
     def undeclare_parameter(self, name: str) -> None:
+        """Remove a declared parameter (not a read-only one)."""
         self.parameters.undeclare(name)
 
     def add_on_set_parameters_callback(self, callback: Callable[[list[Any]], object]) -> None:

@@ -47,14 +47,17 @@ class QoS:
 
     @property
     def reliable(self) -> bool:
+        """Whether the reliability is RELIABLE."""
         return self.reliability is Reliability.RELIABLE
 
     @property
     def transient_local(self) -> bool:
+        """Whether the durability is TRANSIENT_LOCAL (latched)."""
         return self.durability is Durability.TRANSIENT_LOCAL
 
     @property
     def keep_all(self) -> bool:
+        """Whether the history keeps every message."""
         return self.history is History.KEEP_ALL
 
     def with_(self, **changes: object) -> QoS:

@@ -43,6 +43,7 @@ class Timer:
 
     @property
     def cancelled(self) -> bool:
+        """Whether :meth:`cancel` was called."""
         return self._cancelled
 
     def seconds_until_due(self) -> float | None:

@@ -70,6 +70,7 @@ class ClientGoalHandle:
 
     @property
     def goal_uuid(self) -> uuid.UUID:
+        """The goal's id as a UUID."""
         return uuid.UUID(bytes=self.goal_id)
 
     @property
@@ -386,6 +387,7 @@ class ActionClient:
 
     @property
     def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
         return self._closed
 
     def close(self) -> None:

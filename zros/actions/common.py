@@ -34,10 +34,12 @@ class GoalStatus(enum.IntEnum):
 
     @property
     def terminal(self) -> bool:
+        """Whether the goal has ended: succeeded, canceled or aborted."""
         return self in (GoalStatus.SUCCEEDED, GoalStatus.CANCELED, GoalStatus.ABORTED)
 
     @property
     def active(self) -> bool:
+        """Whether the goal still runs: accepted, executing or canceling."""
         return self in (GoalStatus.ACCEPTED, GoalStatus.EXECUTING, GoalStatus.CANCELING)
 
 

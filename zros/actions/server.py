@@ -69,14 +69,17 @@ class ServerGoalHandle:
 
     @property
     def goal_uuid(self) -> uuid.UUID:
+        """The goal's id as a UUID."""
         return uuid.UUID(bytes=self.goal_id)
 
     @property
     def status(self) -> GoalStatus:
+        """The goal's current state."""
         return self._status
 
     @property
     def is_active(self) -> bool:
+        """Whether the goal still runs (accepted, executing or canceling)."""
         return self._status.active
 
     @property
@@ -98,9 +101,11 @@ class ServerGoalHandle:
             self._status = status
 
     def succeed(self) -> None:
+        """End the goal as succeeded; return its result after."""
         self._end(GoalStatus.SUCCEEDED, (GoalStatus.EXECUTING, GoalStatus.CANCELING))
 
     def abort(self) -> None:
+        """End the goal as aborted (it failed); return its result after."""
         self._end(GoalStatus.ABORTED, (GoalStatus.EXECUTING, GoalStatus.CANCELING))
 
     def canceled(self) -> None:
@@ -501,6 +506,7 @@ class ActionServer:
 
     @property
     def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
         return self._closed
 
     def close(self) -> None:

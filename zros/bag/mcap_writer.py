@@ -24,6 +24,7 @@ COMPRESSIONS = ('zstd', 'lz4', 'none')
 
 
 def compression_type(name: str | None) -> Any:
+    """The MCAP compression for ``'zstd'``, ``'lz4'`` or ``'none'``/None."""
     from mcap.writer import CompressionType
 
     choice = (name or 'none').lower()

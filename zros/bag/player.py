@@ -372,19 +372,24 @@ class Player:
 
     @property
     def done(self) -> bool:
+        """Whether playing has finished (or was stopped)."""
         return self._done.is_set()
 
     @property
     def paused(self) -> bool:
+        """Whether playing is paused."""
         return self.clock.paused
 
     def pause(self) -> None:
+        """Pause playing; :meth:`resume` continues where it stopped."""
         self.clock.pause()
 
     def resume(self) -> None:
+        """Continue playing after :meth:`pause`."""
         self.clock.resume()
 
     def toggle_pause(self) -> None:
+        """Pause if playing, resume if paused."""
         if self.clock.paused:
             self.clock.resume()
         else:
@@ -397,6 +402,7 @@ class Player:
             self.clock.interrupt()
 
     def set_rate(self, rate: float) -> None:
+        """Change the playing speed (1.0: as recorded)."""
         self.clock.set_rate(rate)
         self.rate = rate
 

@@ -66,10 +66,12 @@ class Bag:
 
     @property
     def path(self) -> Path:
+        """The recording's path."""
         return self.source.path
 
     @property
     def connections(self) -> list[Connection]:
+        """The recording's connections (topic, type, QoS...), as stored."""
         return self.source.connections
 
     @property
@@ -100,10 +102,12 @@ class Bag:
 
     @property
     def duration_ns(self) -> int:
+        """Nanoseconds from the first message to the last."""
         return self.source.duration_ns
 
     @property
     def message_count(self) -> int:
+        """How many messages the recording holds."""
         return self.source.message_count
 
     def message_class(self, topic: str) -> type[Message]:
@@ -204,6 +208,7 @@ class Bag:
     # --- lifetime -------------------------------------------------------------------------
 
     def close(self) -> None:
+        """Close the recording's files."""
         self.source.close()
 
     def __enter__(self) -> Self:

@@ -485,6 +485,7 @@ class StructSeq(MutableSequence[M]):
         del self._list()[index]
 
     def insert(self, index: int, value: M) -> None:
+        """Insert a message at ``index`` (the sequence becomes a list of objects)."""
         self._list().insert(index, value)
 
     def __iter__(self) -> Iterator[M]:

@@ -55,6 +55,7 @@ def escape(text: str) -> str:
 
 
 def unescape(chunk: str) -> str:
+    """Undo the escaping of ``/`` in one chunk of a liveliness token."""
     return chunk.replace(ESCAPE, '/')
 
 

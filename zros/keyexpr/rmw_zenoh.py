@@ -52,6 +52,7 @@ def mangle(name: str) -> str:
 
 
 def demangle(chunk: str) -> str:
+    """Undo rmw_zenoh's mangling of ``/`` (as ``%``) in one token chunk."""
     return chunk.replace('%', '/')
 
 

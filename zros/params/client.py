@@ -91,6 +91,7 @@ class ParameterClient:
     def get_parameter_types(
         self, names: Iterable[str], timeout: float | None = None
     ) -> dict[str, ParameterType]:
+        """The type of each of ``names`` (``NOT_SET`` when absent)."""
         names = list(names)
         response = self._call('get_parameter_types', timeout, names=names)
         kinds = [ParameterType(kind) for kind in response.types]
@@ -101,6 +102,7 @@ class ParameterClient:
     def describe_parameters(
         self, names: Iterable[str], timeout: float | None = None
     ) -> dict[str, Descriptor]:
+        """The descriptors (type, ranges, read-only...) of ``names``."""
         names = list(names)
         response = self._call('describe_parameters', timeout, names=names)
         found = [Descriptor.from_message(message) for message in response.descriptors]
@@ -145,6 +147,7 @@ class ParameterClient:
             raise ParameterError(f'{self.target} refused to set {name}: {result.reason}')
 
     def close(self) -> None:
+        """Close the service clients to the node."""
         for client in self._clients.values():
             client.close()
 
@@ -164,6 +167,7 @@ class ParameterEvent:
 
     @classmethod
     def from_message(cls, message: Any) -> ParameterEvent:
+        """The event of an ``rcl_interfaces/msg/ParameterEvent`` message."""
         from zros.clock import Time
 
         def values(items: Any) -> dict[str, Any]:

@@ -54,6 +54,7 @@ class Descriptor:
     floating_point_range: tuple[float, float, float] | None = None
 
     def to_message(self, registry: Any) -> Any:
+        """This descriptor as an ``rcl_interfaces/msg/ParameterDescriptor``."""
         message = registry.get_class('rcl_interfaces/msg/ParameterDescriptor')(
             name=self.name,
             type=int(self.type),
@@ -76,6 +77,7 @@ class Descriptor:
 
     @classmethod
     def from_message(cls, message: Any) -> Descriptor:
+        """A descriptor from an ``rcl_interfaces/msg/ParameterDescriptor``."""
         integer = message.integer_range[0] if len(message.integer_range) else None
         floating = message.floating_point_range[0] if len(message.floating_point_range) else None
         try:
@@ -245,6 +247,7 @@ class ParameterStore:
     # --- reading -----------------------------------------------------------------------------
 
     def has(self, name: str) -> bool:
+        """Whether ``name`` is declared."""
         with self._lock:
             return name in self._entries
 
@@ -259,6 +262,7 @@ class ParameterStore:
         return entry.value
 
     def parameter(self, name: str) -> Parameter:
+        """``name`` as a :class:`Parameter` (type ``NOT_SET`` when absent)."""
         with self._lock:
             entry = self._entries.get(name)
         if entry is None:
@@ -280,6 +284,7 @@ class ParameterStore:
         return replace(entry.descriptor, type=entry.kind)
 
     def names(self) -> list[str]:
+        """The declared names, sorted."""
         with self._lock:
             return sorted(self._entries)
 
@@ -334,6 +339,7 @@ class ParameterStore:
         return callback
 
     def remove_on_set_callback(self, callback: SetCallback) -> None:
+        """Remove a callback added by :meth:`add_on_set_callback`."""
         with self._lock:
             self._callbacks.remove(callback)
 

@@ -34,6 +34,7 @@ class ParameterType(enum.IntEnum):
 
     @property
     def is_array(self) -> bool:
+        """Whether the type is one of the array types."""
         return self >= ParameterType.BYTE_ARRAY
 
 
@@ -171,5 +172,6 @@ def same(a: Any, b: Any) -> bool:
 
 
 def describe_value(value: Any, limit: int = 60) -> str:
+    """A short ``repr`` of ``value`` for messages (cut at ``limit``)."""
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + '...'

@@ -43,16 +43,20 @@ class Certificates:
 
     @property
     def router_certificate(self) -> Path:
+        """The router's certificate."""
         return self.folder / f'{ROUTER}.pem'
 
     @property
     def router_key(self) -> Path:
+        """The router's private key."""
         return self.folder / f'{ROUTER}.key'
 
     def client_certificate(self, name: str) -> Path:
+        """The certificate of the client ``name``."""
         return self.folder / f'{self._client(name)}.pem'
 
     def client_key(self, name: str) -> Path:
+        """The private key of the client ``name``."""
         return self.folder / f'{self._client(name)}.key'
 
     def _client(self, name: str) -> str:

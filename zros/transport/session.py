@@ -93,6 +93,7 @@ class Transport:
 
     @property
     def closed(self) -> bool:
+        """Whether the session was closed."""
         return self._closed
 
     @property
