@@ -69,6 +69,13 @@ EXPECTED: dict[str, list[str]] = {
         r'laptop -> robot: cmd_vel linear\.x = 0\.2',
         r'requires a client certificate \(mutual TLS\)',
     ],
+    'bag_to_numpy.py': [
+        r'recorded 554 messages into sharp_sensor/',
+        r'/sharpGP2D120/Voltage: 314 x std_msgs/msg/Float32',
+        r"calibration: a structured array of 240 records, fields \('time', 'dist', 'volt'\)",
+        r'fitted from the bag: 0\.8 V -> 0\.1[56]\d m',
+        r'bag_read: 240 rows',
+    ],
     'real_robot.py': [r'No bridge answered at tcp/127\.0\.0\.1:7447|connected to tcp/127\.0\.0\.1'],
 }
 
