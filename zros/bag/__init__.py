@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from zros.bag.bag_writer import BagTopic, BagWriteError, BagWriter
 from zros.bag.errors import BagError
+from zros.bag.info import BagInfo, info
 from zros.bag.player import Player, PlayerError
 from zros.bag.reader import Bag, TopicInfo
 from zros.bag.recorder import Recorder, RecorderError
@@ -18,6 +19,7 @@ from zros.bag.source import Connection, RawMessage, Source, open_source
 __all__ = [
     'Bag',
     'BagError',
+    'BagInfo',
     'BagRead',
     'BagTopic',
     'BagWriteError',
@@ -31,5 +33,6 @@ __all__ = [
     'Source',
     'TopicInfo',
     'bag_read',
+    'info',
     'open_source',
 ]

@@ -1,0 +1,40 @@
+"""``zros bag``: info (as ``ros2 bag info``); record and play are added beside it."""
+
+from __future__ import annotations
+
+import argparse
+
+from zros.cli.common import out
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    bag = commands.add_parser('bag', help='read, record and play recordings')
+    verbs = bag.add_subparsers(dest='verb', metavar='VERB', required=True)
+
+    show = verbs.add_parser(
+        'info',
+        help='print what a recording holds',
+        description='Print the files, size, time range and topics of a recording, laid out as '
+        '`ros2 bag info` lays them out. Reads ROS 2 bag folders, .mcap and .db3 files, and '
+        'ROS 1 .bag files.',
+    )
+    show.add_argument('path', help='a bag folder, .mcap, .db3 or ROS 1 .bag file')
+    show.add_argument(
+        '--sort',
+        choices=('name', 'type', 'count'),
+        default='name',
+        help='order of the topics (default name)',
+    )
+    show.set_defaults(run='zros.cli.bag:info')
+
+    # --- record and play: verbs of zros.cli.recording go here ---------------------------------
+    from zros.cli.recording import add_verbs
+
+    add_verbs(verbs)
+
+
+def info(args: argparse.Namespace) -> int:
+    from zros.bag.info import info as read_info
+
+    out(read_info(args.path).format(args.sort))
+    return 0
