@@ -6,6 +6,7 @@ import logging
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import zros
@@ -204,3 +205,50 @@ def test_service_events_decode(testdata: Path) -> None:
 def test_bag_error_is_a_zros_error(tmp_path: Path) -> None:
     with pytest.raises(zros.ZrosError):
         Bag(tmp_path / 'missing')
+
+
+@pytest.mark.parametrize('compression', ['BZ2', 'LZ4', None])
+def test_ros1_bags_with_compressed_chunks(tmp_path: Path, compression: str | None) -> None:
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    T = store.types
+    path = tmp_path / 'sensors.bag'
+    writer = Writer(path)
+    if compression:
+        writer.set_compression(Writer.CompressionFormat[compression])
+    with writer:
+        imu = writer.add_connection('/imu', 'sensor_msgs/msg/Imu', typestore=store, latching=1)
+        text = writer.add_connection('/text', 'std_msgs/msg/String', typestore=store)
+        for index in range(40):
+            header = T['std_msgs/msg/Header'](
+                seq=index, stamp=T['builtin_interfaces/msg/Time'](index, 5), frame_id='imu'
+            )
+            vector = T['geometry_msgs/msg/Vector3'](index, -1.0, 0.5)
+            message = T['sensor_msgs/msg/Imu'](
+                header,
+                T['geometry_msgs/msg/Quaternion'](0.0, 0.0, 0.0, 1.0),
+                np.arange(9, dtype=np.float64) * index,
+                vector,
+                np.zeros(9),
+                vector,
+                np.ones(9),
+            )
+            stamp = 10**9 + index * 10**6
+            writer.write(imu, stamp, store.serialize_ros1(message, 'sensor_msgs/msg/Imu'))
+            words = T['std_msgs/msg/String'](f'word {index}')
+            writer.write(text, stamp + 1, store.serialize_ros1(words, 'std_msgs/msg/String'))
+    expected = rosbags_messages(path)
+    with Bag(path) as bag:
+        got = list(bag.messages())
+        # a latched ROS 1 topic is offered transient local (durability 1), as rosbags-convert does
+        assert 'durability: 1' in bag.topics['/imu'].connections[0].qos
+        assert bag.topics['/text'].connections[0].qos == ''
+        columns = bag.columns('/imu', ['angular_velocity.x', 'orientation_covariance'])
+    assert len(got) == len(expected) == 80
+    for (topic, stamp, message), (topic2, _, stamp2, other) in zip(got, expected, strict=True):
+        assert (topic, stamp) == (topic2, stamp2)
+        assert_same(message, other, topic)
+    assert columns['angular_velocity.x'].tolist() == list(range(40))
+    assert columns['orientation_covariance'][3].tolist() == [3.0 * i for i in range(9)]
