@@ -3,7 +3,7 @@
 Over a WAN the laptop is a Zenoh *client* of the robot's router (zenoh-bridge-ros2dds is one):
 it dials out, needs no open port of its own, and all its traffic crosses one TLS link. With
 mutual TLS the router also checks the laptop's certificate, so only machines you gave one can
-join. The setup for real, with a CA of your own (``pip install 'zros[tls]'``)::
+join. The setup for real, with a CA of your own (``pip install '.[tls]'`` in a checkout)::
 
     zros tls init certs --host robot.example.org --client laptop
     # on the robot:  zenoh-bridge-ros2dds -c certs/router.json5
@@ -34,7 +34,7 @@ def on_loopback(folder: str) -> int:
         from zros.transport.pki import make_certificates
 
         certs = make_certificates(folder, hosts=['localhost'], clients=['laptop', 'robot'])
-    except zros.ZrosError as missing:  # no cryptography package: pip install 'zros[tls]'
+    except zros.ZrosError as missing:  # no cryptography package: the tls extra
         print(f'cannot make certificates here: {missing}')
         return 1
     print(f'made a CA, a router certificate for "localhost" and two client ones in {folder}')
