@@ -16,6 +16,8 @@ import contextlib
 import heapq
 import importlib
 import itertools
+import logging
+import re
 import sys
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -30,6 +32,7 @@ if TYPE_CHECKING:
     from typing_extensions import Self
 
 #: MessageDefinitionFormat names of rosbags -> the encodings of MCAP schemas and rosbag2
+_log = logging.getLogger('zros.bag')
 _SQL_BATCH = 16384
 _FORMATS = {'MSG': 'ros2msg', 'IDL': 'ros2idl', 'NONE': ''}
 
@@ -217,8 +220,19 @@ class _Rosbag2Source(Source):
     def open(self) -> None:
         from rosbags.rosbag2 import Reader
 
+        folder = self.path.is_dir()
+        if folder and not (self.path / 'metadata.yaml').is_file():
+            self._open_files(storage_files(self.path), 'it has no metadata.yaml')
+            return
         reader = Reader(self.path)
-        reader.open()
+        try:
+            reader.open()
+        except Exception:
+            files = self._listed_files() if folder else [self.path]
+            if not files or not all(f.suffix == '.mcap' and _mcap_file(f) for f in files):
+                raise
+            self._open_files(files, 'its files do not open as complete MCAP files')
+            return
         self._closers.append(reader.close)
         storage: Any = reader.storage
         folder = self.path.is_dir()
@@ -242,6 +256,52 @@ class _Rosbag2Source(Source):
             self.files = [self.path]
         self.storage_id = 'mcap' if type(storages[0]).__name__ == 'McapReader' else 'sqlite3'
         self._build_connections(list(storage.connections) if folder else [])
+
+    def _listed_files(self) -> list[Path]:
+        try:
+            return self._compressed_files()
+        except Exception:
+            return []
+
+    def _open_files(self, paths: list[Path], reason: str) -> None:
+        """Open storage files one by one, reading MCAP files that were never finished (no
+        summary or end: a recorder killed mid-file) up to their last complete record."""
+        from rosbags.rosbag2.storage_mcap import McapReader
+        from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
+
+        from zros.bag.mcap_recover import RecoveredMcap
+
+        if not paths:
+            raise BagError(self.path, f'not a ROS 2 bag folder: {reason} and no .mcap or .db3 file')
+        notes = []
+        for path in paths:
+            storage: Any = Sqlite3Reader(path) if path.suffix == '.db3' else McapReader(path)
+            try:
+                storage.open()
+            except Exception:
+                if path.suffix != '.mcap' or not _mcap_file(path):
+                    raise
+                storage = RecoveredMcap(path)
+                storage.open()
+                if not storage.connections:
+                    if len(paths) == 1:
+                        raise BagError(path, f'no complete record: {storage.stopped_at}') from None
+                    notes.append(f'{path.name}: no complete record, skipped')
+                    continue
+                notes.append(
+                    f'{path.name}: {storage.metadata.message_count} messages up to its last '
+                    f'complete record ({storage.stopped_at or "no summary"})'
+                )
+            self._closers.append(storage.close)
+            self._streams.append(_Stream(storage))
+        metadata = self.path / 'metadata.yaml'
+        self.files = ([metadata] if metadata.is_file() else []) + paths
+        self.storage_id = 'sqlite3' if paths[0].suffix == '.db3' else 'mcap'
+        self._build_connections([])
+        if notes or self.path.is_dir():
+            _log.warning(
+                '%s: %s: read file by file%s', self.path, reason, ''.join('; ' + n for n in notes)
+            )
 
     def _compressed_files(self) -> list[Path]:
         from ruamel.yaml import YAML
@@ -386,6 +446,28 @@ def _timestamp(message: RawMessage) -> int:
     return message.timestamp
 
 
+def _mcap_file(path: Path) -> bool:
+    from zros.bag.mcap_recover import is_mcap
+
+    try:
+        return path.is_file() and is_mcap(path)
+    except OSError:
+        return False
+
+
+def storage_files(folder: Path) -> list[Path]:
+    """The ``.mcap`` or ``.db3`` files of a folder, in split order (``name_0``, ``name_1``...)."""
+
+    def order(path: Path) -> tuple[str, int, str]:
+        match = re.search(r'_(\d+)$', path.stem)
+        stem = path.stem[: match.start()] if match else path.stem
+        return (stem, int(match.group(1)) if match else -1, path.name)
+
+    found = sorted([*folder.glob('*.mcap'), *folder.glob('*.db3')], key=order)
+    kinds = {path.suffix for path in found}
+    return [path for path in found if path.suffix == '.mcap'] if len(kinds) > 1 else found
+
+
 # --- ROS 1 ----------------------------------------------------------------------------------
 
 
@@ -465,8 +547,6 @@ def open_source(path: str | Path) -> Source:
         raise BagError(location, 'no such file or folder')
     source: _Rosbag1Source | _Rosbag2Source
     if location.is_dir():
-        if not (location / 'metadata.yaml').is_file():
-            raise BagError(location, 'not a ROS 2 bag folder (it has no metadata.yaml)')
         source = _Rosbag2Source(location)
     elif location.suffix == '.bag':
         source = _Rosbag1Source(location)
@@ -481,6 +561,9 @@ def open_source(path: str | Path) -> Source:
         )
     try:
         source.open()
+    except BagError:
+        source.close()
+        raise
     except Exception as exc:
         source.close()
         raise BagError(location, f'cannot open the recording: {_describe(exc)}') from exc
