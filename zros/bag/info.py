@@ -47,6 +47,7 @@ class BagInfo:
 
     @property
     def duration_ns(self) -> int:
+        """Nanoseconds from the first message to the last."""
         return self.end_ns - self.start_ns
 
     def format(self, sort: str = 'name') -> str:
