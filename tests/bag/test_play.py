@@ -19,6 +19,7 @@ from zros.bag.play_clock import PlayClock
 from zros.bag.player import Player, PlayerError, parse_remap, playback_qos
 from zros.bag.recorder import Recorder
 from zros.cdr import default_registry, encode
+from zros.keyexpr.bridge import EntityKind
 from zros.qos import Durability, History, QoS, Reliability
 from zros.testing import wait_for
 
@@ -59,19 +60,36 @@ def irregular(count: int, topics: list[str], seed: int = 1) -> list[tuple[str, i
     return found
 
 
-class Listener:
-    """A raw Zenoh subscriber on some keys: (monotonic ns, key, text) of every sample."""
+def selector(node: Any, pattern: str) -> str:
+    """The key expression of the ROS names matching ``pattern`` (``/play/*``) on the node's wire."""
+    key = node.scheme.key(pattern.replace('*', 'any_chunk')).replace('any_chunk', '*')
+    return key + '/*/*' if node.wire == 'rmw_zenoh' else key  # rmw_zenoh: type and hash follow
 
-    def __init__(self, node: Any, selector: str) -> None:
+
+def topic_key(node: Any, key: str) -> str:
+    """A sample's key without rmw_zenoh's domain, type and hash chunks."""
+    return '/'.join(key.split('/')[1:-2]) if node.wire == 'rmw_zenoh' else key
+
+
+class Listener:
+    """A raw Zenoh subscriber on some topics: (monotonic ns, topic key, text) of every sample."""
+
+    def __init__(self, node: Any, pattern: str) -> None:
         self.node = node
         self.got: list[tuple[int, str, str]] = []
         cls = default_registry().get_class(STRING)
         self._decode = lambda data: zros.cdr.decode(cls, data).data
-        self._subscriber = node.transport.session.declare_subscriber(selector, self._on_sample)
+        self._subscriber = node.transport.session.declare_subscriber(
+            selector(node, pattern), self._on_sample
+        )
 
     def _on_sample(self, sample: Any) -> None:
         self.got.append(
-            (time.monotonic_ns(), str(sample.key_expr), self._decode(sample.payload.to_bytes()))
+            (
+                time.monotonic_ns(),
+                topic_key(self.node, str(sample.key_expr)),
+                self._decode(sample.payload.to_bytes()),
+            )
         )
 
     def texts(self) -> list[str]:
@@ -101,7 +119,7 @@ def gap_errors_ms(
 def test_order_and_timing(zros_node: Node, player_node: Any, tmp_path: Path, rate: float) -> None:
     messages = irregular(150, ['/play/a', '/play/b'])
     bag = write_bag(tmp_path / 'bag', messages)
-    listener = Listener(zros_node('listener'), 'play/*')
+    listener = Listener(zros_node('listener'), '/play/*')
     with Player(player_node, bag, rate=rate, wait_for_subscribers=5.0) as player:
         player.play()
         assert player.published == 150
@@ -120,7 +138,7 @@ def test_start_offset_skips_the_beginning(
 ) -> None:
     messages = [('/off', START + n * 100 * MS, str(n)) for n in range(10)]
     bag = write_bag(tmp_path / 'bag', messages)
-    listener = Listener(zros_node('listener'), 'off')
+    listener = Listener(zros_node('listener'), '/off')
     with Player(player_node, bag, start_offset=0.45, wait_for_subscribers=5.0) as player:
         began = time.monotonic_ns()
         player.play()
@@ -133,7 +151,7 @@ def test_start_offset_skips_the_beginning(
 def test_loop_plays_again_and_again(zros_node: Node, player_node: Any, tmp_path: Path) -> None:
     messages = [('/again', START + n * 5 * MS, str(n)) for n in range(5)]
     bag = write_bag(tmp_path / 'bag', messages)
-    listener = Listener(zros_node('listener'), 'again')
+    listener = Listener(zros_node('listener'), '/again')
     player = Player(player_node, bag, loop=True, wait_for_subscribers=5.0)
     player.start()
     assert wait_for(lambda: len(listener.got) >= 16, 10)
@@ -149,7 +167,7 @@ def test_topic_selection_and_remap(zros_node: Node, player_node: Any, tmp_path: 
         for topic in ('/sel/a', '/sel/b', '/sel/c'):
             messages.append((topic, START + (3 * n + len(messages) % 3) * MS, f'{topic}{n}'))
     bag = write_bag(tmp_path / 'bag', messages)
-    listener = Listener(zros_node('listener'), 'sel/*')
+    listener = Listener(zros_node('listener'), '/sel/*')
     with Player(
         player_node, bag, topics=['/sel/a', '/sel/b'], remap=['/sel/a:=/sel/x'],
         wait_for_subscribers=5.0,
@@ -179,9 +197,17 @@ def test_latched_topics_stay_latched(zros_node: Node, player_node: Any, tmp_path
         subscriber = late.create_subscription(STRING, '/static', qos='latched')
         message = subscriber.wait_for_message(timeout=5)
         assert message is not None and message.data == 'once'
-        publishers = late.graph.publishers(late.scheme.key('/static'))
-        assert publishers and publishers[0].qos is not None
-        assert publishers[0].qos.transient_local
+
+        def announced() -> list[Any]:
+            return [
+                e
+                for e in late.graph.endpoints((EntityKind.PUBLISHER,))
+                if e.ros_name(late.scheme.namespace) == '/static'
+            ]
+
+        assert late.graph.wait_until(announced, 5)
+        (publisher,) = announced()
+        assert publisher.qos is not None and publisher.qos.transient_local
 
 
 def test_playback_qos_follows_the_offers() -> None:
@@ -207,7 +233,7 @@ def test_clock_drives_a_sim_time_node(zros_node: Node, player_node: Any, tmp_pat
         with lock:
             seen.append((sim.now().nanoseconds, messages[int(text.data) - 1][1]))
 
-    subscription = sim.transport.session.declare_subscriber('sim', on_sample)
+    subscription = sim.transport.session.declare_subscriber(selector(sim, '/sim'), on_sample)
     try:
         with Player(player_node, bag, clock=200, wait_for_subscribers=5.0) as player:
             player.play()
@@ -226,7 +252,7 @@ def test_clock_drives_a_sim_time_node(zros_node: Node, player_node: Any, tmp_pat
 def test_pause_step_resume(zros_node: Node, player_node: Any, tmp_path: Path) -> None:
     messages = [('/steps', START + n * 10 * MS, str(n)) for n in range(6)]
     bag = write_bag(tmp_path / 'bag', messages)
-    listener = Listener(zros_node('listener'), 'steps')
+    listener = Listener(zros_node('listener'), '/steps')
     player = Player(player_node, bag, wait_for_subscribers=5.0)
     player.start(paused=True)
     assert player.paused
@@ -333,7 +359,7 @@ def test_types_come_from_the_bag_when_the_node_does_not_know_them(
     got: list[bytes] = []
     listener = zros_node('listener')
     subscription = listener.transport.session.declare_subscriber(
-        'own', lambda s: got.append(s.payload.to_bytes())
+        selector(listener, '/own'), lambda s: got.append(s.payload.to_bytes())
     )
     with Player(player_node, tmp_path / 'own', wait_for_subscribers=5.0) as player:
         assert player.topics == {'/own': 'their_pkg/msg/Level'}

@@ -19,7 +19,7 @@ Node = Callable[..., Any]
 def test_play_with_rate_and_remap(zros_cli: Cli, zros_node: Node, tmp_path: Path) -> None:  # noqa: F811
     messages = irregular(40, ['/cli/chat'], seed=3)
     bag = write_bag(tmp_path / 'bag', messages)
-    listener = Listener(zros_node('listener'), 'cli/talk')
+    listener = Listener(zros_node('listener'), '/cli/talk')
     result = zros_cli.run(
         'bag', 'play', str(bag), '--rate', '2', '--remap', '/cli/chat:=/cli/talk',
         '--wait-for-subscribers', '10',
@@ -44,7 +44,7 @@ def test_play_selected_topics_in_a_loop_until_interrupted(
     messages = [(t, START + n * 10 * MS, f'{t}{n}') for n in range(3) for t in ('/l/a', '/l/b')]
     messages.sort(key=lambda m: m[1])
     bag = write_bag(tmp_path / 'bag', messages)
-    listener = Listener(zros_node('listener'), 'l/*')
+    listener = Listener(zros_node('listener'), '/l/*')
     running = zros_cli.start(
         'bag', 'play', str(bag), '--loop', '--topics', '/l/b', '--wait-for-subscribers', '10'
     )

@@ -85,8 +85,8 @@ def publish_time(sample: Any, fallback: int) -> int:
 class _Tap:
     """A raw subscription on one topic, announced in the graph like a zros subscriber.
 
-    ``key`` (the publishers' key) is used when the node cannot make the topic's key and tokens
-    itself (a type it does not know): the topic is then recorded without being announced.
+    ``key`` (matching the publishers' keys) is used when the node cannot make the topic's key
+    and tokens itself (a type it does not know): the topic is then recorded unannounced.
     """
 
     def __init__(
@@ -254,7 +254,10 @@ class Recorder:
                 _log.warning('topic %s has several types %s: recording %s', name, types, types[0])
             chosen = [e for e in endpoints if e.type_name == types[0]]
             offered = [e.qos for e in chosen if e.qos is not None]
-            self._start(name, types[0], offered, chosen[0].key)
+            key = chosen[0].key
+            if chosen[0].wire == 'rmw_zenoh':  # <domain>/<name>, then the type and hash chunks
+                key += '/*/*'
+            self._start(name, types[0], offered, key)
 
     def _start(self, name: str, type_name: str, offered: list[QoS], key: str) -> None:
         topic = BagTopic.from_registry(self.node.registry, name, type_name, offered)
