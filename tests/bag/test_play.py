@@ -169,7 +169,7 @@ def test_topic_selection_and_remap(zros_node: Node, player_node: Any, tmp_path: 
     bag = write_bag(tmp_path / 'bag', messages)
     listener = Listener(zros_node('listener'), '/sel/*')
     with Player(
-        player_node, bag, topics=['/sel/a', '/sel/b'], remap=['/sel/a:=/sel/x'],
+        player_node, bag, topics=['sel/a', '/sel/b'], remap=['sel/a:=/sel/x'],
         wait_for_subscribers=5.0,
     ) as player:  # fmt: skip
         assert player.topics == {'/sel/x': STRING, '/sel/b': STRING}

@@ -159,15 +159,17 @@ class Player:
     ) -> None:
         source = self.source
         connections = list(source.connections)
+        remap = {self._full_name(old): new for old, new in remap.items()}
         if topics is not None:
-            wanted = set(topics)
-            missing = wanted - {c.topic for c in connections}
+            name = self._full_name  # 'chatter' in a bag is '/chatter' on the network
+            wanted = {name(t) for t in topics}
+            missing = wanted - {name(c.topic) for c in connections}
             if missing:
                 raise PlayerError(
                     f'the bag {source.path} has no topic {", ".join(sorted(missing))}; it has '
-                    f'{", ".join(sorted({c.topic for c in connections}))}'
+                    f'{", ".join(sorted({name(c.topic) for c in connections}))}'
                 )
-            connections = [c for c in connections if c.topic in wanted]
+            connections = [c for c in connections if name(c.topic) in wanted]
         self.connections = connections
         self.start_ns = source.start_ns + round(start_offset * _NS)
         self.end_ns = source.end_ns
@@ -176,7 +178,8 @@ class Player:
         from zros.pubsub import Publisher
 
         for connection in connections:
-            target = remap.get(connection.topic, connection.topic)
+            full = self._full_name(connection.topic)
+            target = remap.get(full, full)
             key = (target, connection.type_name)
             publisher = by_topic.get(key)
             if publisher is None:
@@ -199,6 +202,12 @@ class Player:
             self._clock_msg = self._clock_publisher.msg_type()
         self.clock = PlayClock(self.start_ns, self.rate)
         self.clock.pause()
+
+    def _full_name(self, name: str) -> str:
+        try:
+            return self.node.resolve_name(name)
+        except ZrosError:  # not a valid ROS name: left for the publisher to refuse
+            return name
 
     # --- reading ahead -------------------------------------------------------------------------
 
