@@ -52,6 +52,8 @@ if TYPE_CHECKING:
 _log = logging.getLogger('zros.graph')
 
 ZROS_PREFIX = '@zros_lv'
+#: replies one graph refresh can hold per selector (tokens of a very large graph)
+REFRESH_CAPACITY = 1_000_000
 ZROS_TOKENS = f'@/*/{ZROS_PREFIX}/**'
 
 
@@ -286,6 +288,8 @@ class Graph:
         The view fills by itself shortly after a session opens; a command-line tool that looks
         once calls this to see the whole graph at once.
         """
+        from zenoh.handlers import FifoChannel
+
         liveliness = self._transport.session.liveliness()
         deadline = time.monotonic() + timeout
         for selector, handler in (
@@ -295,7 +299,12 @@ class Graph:
             (RMW_TOKENS, self._on_rmw),
         ):
             remaining = max(0.05, deadline - time.monotonic())
-            for reply in liveliness.get(selector, timeout=remaining):
+            # a FIFO of Zenoh's default size (256) that fills while this thread takes the GIL
+            # back from the graph's callbacks stalls the session: give it room for any graph
+            replies = liveliness.get(
+                selector, handler=FifoChannel(REFRESH_CAPACITY), timeout=remaining
+            )
+            for reply in replies:
                 if reply.ok is not None:
                     handler(reply.ok)
         self.wait_until(

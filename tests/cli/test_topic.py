@@ -232,3 +232,15 @@ def test_delay_from_header_stamps(cli: Cli, talker: Callable[..., Any]) -> None:
     no_header = cli.run('topic', 'delay', '/x', 'std_msgs/msg/String', '--count', '1')
     assert no_header.returncode == 1
     assert 'std_msgs/msg/String has no header' in no_header.stderr
+
+
+def test_list_on_a_graph_larger_than_zenoh_channels(cli: Cli, zros_node: Node) -> None:
+    """More tokens than a default Zenoh channel holds (256) used to stall the session."""
+    node = zros_node('crowd', enable_rosout=False, start_parameter_services=False)
+    for index in range(300):
+        node.create_publisher('std_msgs/msg/Empty', f'/crowd/t{index:03d}', 1)
+    listing = cli.run('topic', 'list', timeout=30)
+    assert listing.returncode == 0, listing.stderr
+    assert [name for name in listing.stdout.split() if name.startswith('/crowd/')] == [
+        f'/crowd/t{index:03d}' for index in range(300)
+    ]
