@@ -20,9 +20,20 @@ def _parser() -> argparse.ArgumentParser:
     demo = commands.add_parser('demo', help='run the rosR sensor tutorial')
     demo.set_defaults(run='zros.cli.demo:run')
 
-    from zros.cli import action, bag, completion, interface, node, param, service, tls, topic
+    from zros.cli import (
+        action,
+        bag,
+        completion,
+        doctor,
+        interface,
+        node,
+        param,
+        service,
+        tls,
+        topic,
+    )
 
-    for module in (topic, node, service, action, param, interface, tls, bag, completion):
+    for module in (topic, node, service, action, param, interface, bag, doctor, tls, completion):
         module.add_parser(commands)
     return parser
 
