@@ -222,6 +222,9 @@ def test_ros_action_server_from_zenoh(interop: Interop, raw_session: Any) -> Non
             return bool(parts) and parts['feedback']['is_active'] and parts['status']['is_active']
 
         assert wait_for(parts_active, TIMEOUT)
+    # and the server's feedback writer has discovered the bridge's reader: before that, DDS
+    # drops what it writes (the goal runs in milliseconds)
+    assert interop.ros.wait_readers(f'{action}/_action/feedback') >= 1
 
     goal_id = UUID(uuid=list(os.urandom(16)))
     goal = Fibonacci.Impl.SendGoalService.Request(goal_id=goal_id, goal=Fibonacci.Goal(order=5))
