@@ -21,7 +21,7 @@ from zros.cdr.model import Kind
 from zros.keyexpr.bridge import EntityKind
 from zros.qos import QoS, QoSLike, as_qos
 from zros.signal import Signal
-from zros.wire import Sequence, entity_wire, read_attachment
+from zros.wire import Sequence, entity_wire, has_attachment
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -284,7 +284,7 @@ class Subscriber(_Entity):
 
     def _on_attached_sample(self, sample: Any) -> None:
         """rmw_zenoh drops samples without a valid attachment; so does zros (logged once)."""
-        if read_attachment(sample) is not None:
+        if has_attachment(sample):
             self._on_sample(sample)
             return
         self.unattached += 1

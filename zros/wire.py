@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import itertools
 import logging
+import struct
 import threading
 import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from zros.keyexpr.attachment import Attachment, AttachmentError
+from zros.keyexpr.attachment import GID_SIZE, SIZE, Attachment, AttachmentError
 from zros.keyexpr.bridge import EntityKind
 from zros.keyexpr.rmw_zenoh import RmwZenohScheme, gid
 from zros.qos import QoS
@@ -83,6 +84,21 @@ def entity_wire(
     return EntityWire(key, (owner, token), None)
 
 
+def has_attachment(carrier: Any) -> bool:
+    """Whether a sample carries a valid rmw_zenoh attachment (fast for the 33-byte form)."""
+    raw = carrier.attachment
+    if raw is None:
+        return False
+    data = raw.to_bytes()
+    if len(data) == SIZE:
+        return bool(data[16] == GID_SIZE)
+    try:
+        Attachment.decode(data)
+    except AttachmentError:
+        return False
+    return True
+
+
 def read_attachment(carrier: Any) -> Attachment | None:
     """The rmw_zenoh attachment of a sample, query or reply; None if absent or malformed."""
     raw = carrier.attachment
@@ -97,13 +113,17 @@ def read_attachment(carrier: Any) -> Attachment | None:
 class Sequence:
     """The attachments of one sending entity: sequence numbers from 1, the time, its GID."""
 
+    _pack = struct.Struct('<qqB16s').pack  # the 33-byte form of Attachment.encode
+
     def __init__(self, entity_gid: bytes) -> None:
+        if len(entity_gid) != GID_SIZE:
+            raise AttachmentError(f'a GID has {GID_SIZE} bytes, not {len(entity_gid)}')
         self.gid = entity_gid
         self._numbers = itertools.count(1)
 
     def next(self) -> bytes:
         """The attachment of the next publication or request."""
-        return Attachment(next(self._numbers), time.time_ns(), self.gid).encode()
+        return self._pack(next(self._numbers), time.time_ns(), GID_SIZE, self.gid)
 
 
 class Requests:

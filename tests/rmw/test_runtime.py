@@ -426,3 +426,31 @@ def test_the_graph_ignores_malformed_tokens(
     bad.undeclare()
     good.undeclare()
     assert graph.wait_until(lambda: graph.nodes() == [], timeout=5)
+
+
+def test_attachment_helpers() -> None:
+    from zros.keyexpr.attachment import AttachmentError
+    from zros.wire import Sequence, has_attachment, read_attachment
+
+    class Carrier:
+        def __init__(self, data: bytes | None) -> None:
+            self.attachment = None if data is None else zenoh.ZBytes(data)
+
+    sequence = Sequence(OTHER_GID)
+    first, second = Attachment.decode(sequence.next()), Attachment.decode(sequence.next())
+    assert (first.sequence_number, second.sequence_number) == (1, 2)
+    assert first.gid == OTHER_GID
+    with pytest.raises(AttachmentError, match='16 bytes'):
+        Sequence(b'short')
+    good = Attachment(3, 4, OTHER_GID)
+    for data, valid in (
+        (None, False),
+        (good.encode(), True),
+        (good.encode()[:16] + b'\x0f' + OTHER_GID, False),  # a wrong GID length byte
+        (good.encode_legacy(), True),
+        (b'\x00' * 77, False),
+        (b'garbage', False),
+    ):
+        carrier = Carrier(data)
+        assert has_attachment(carrier) is valid, data
+        assert (read_attachment(carrier) is not None) is valid, data

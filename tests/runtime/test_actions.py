@@ -372,6 +372,8 @@ def test_requests_that_do_not_decode(
 ) -> None:
     server_node, client_node = pair
     server_node.create_action_server(FIB, 'fib', fibonacci)
+    client = client_node.create_action_client(FIB, 'fib')
+    assert client.wait_for_server()  # a query sent before the route exists finds no server
     session = client_node.transport.session
     with caplog.at_level(logging.WARNING, logger='zros'):
         replies = list(
@@ -384,9 +386,7 @@ def test_requests_that_do_not_decode(
     assert replies and replies[0].err is not None
     assert 'does not decode' in replies[0].err.payload.to_string()
     assert 'does not decode' in caplog.text
-    client = client_node.create_action_client(FIB, 'fib')  # the server still works
-    assert client.wait_for_server()
-    assert client.send_goal(order=1).result(5) is not None
+    assert client.send_goal(order=1).result(5) is not None  # the server still works
 
 
 def test_goal_and_cancel_callbacks_run_on_the_spinning_thread(pair: tuple[Node, Node]) -> None:

@@ -187,7 +187,9 @@ def test_a_request_that_does_not_decode(
 ) -> None:
     server = zros_node('server')
     service = server.create_service(ADD, 'add', add)
-    raw = zros_node('raw').transport.session
+    raw_node = zros_node('raw')
+    assert raw_node.create_client(ADD, 'add').wait_for_service()  # the raw session sees it
+    raw = raw_node.transport.session
     with spinning(server), caplog.at_level(logging.WARNING, logger='zros'):
         replies = list(
             raw.get(
@@ -247,7 +249,8 @@ def test_a_foreign_error_reply(zros_node: Callable[..., Node]) -> None:
 def test_bytes_on_the_wire_match_the_bridge_spec(zros_node: Callable[..., Node]) -> None:
     """bridge-protocol.md §5: AddTwoInts a=2, b=3 and its reply 5, little-endian."""
     seen: list[bytes] = []
-    raw = zros_node('raw').transport.session
+    raw_node = zros_node('raw')
+    raw = raw_node.transport.session
 
     def capture(query: Any) -> None:
         seen.append(query.payload.to_bytes())
@@ -266,7 +269,7 @@ def test_bytes_on_the_wire_match_the_bridge_spec(zros_node: Callable[..., Node])
         queryable.undeclare()
     server = zros_node('server')
     server.create_service(ADD, 'add_two_ints', add)
-    assert client.wait_for_service()
+    assert raw_node.create_client(ADD, 'add_two_ints').wait_for_service()
     with spinning(server):
         replies = list(raw.get(client.key, payload=seen[0], timeout=5, **request_options(server)))
     assert [r.ok.payload.to_bytes() for r in replies] == [bytes.fromhex('000100000500000000000000')]

@@ -33,7 +33,7 @@ from zros.keyexpr.bridge import EntityKind
 from zros.qos import Durability, QoS
 from zros.services import Client, ServiceError, ServiceFuture
 from zros.signal import Signal
-from zros.wire import entity_wire, read_attachment
+from zros.wire import entity_wire, has_attachment
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -233,7 +233,7 @@ class ActionClient:
         """``handler`` for samples with a valid rmw_zenoh attachment (others are dropped)."""
 
         def on_sample(sample: Any) -> None:
-            if read_attachment(sample) is not None:
+            if has_attachment(sample):
                 handler(sample)
             else:
                 _log.debug('dropped a sample of %s without an rmw_zenoh attachment', self.name)
