@@ -1,7 +1,8 @@
 """Transport speed: raw zenoh-python against zros, publisher and subscriber in two processes.
 
 Both go through one Zenoh router (started by this script) with the same session settings
-(client mode, shared memory off unless ``--shm``). Three rows:
+(client mode, shared memory off unless ``--shm``); zros runs twice, on the bridge's keys and on
+rmw_zenoh's (attachments on every message). Three rows:
 
   (a) std_msgs/String messages per second (reliable, the subscriber decodes each message);
   (b) sensor_msgs/Image 1920x1080 rgb8 throughput in MB/s;
@@ -27,6 +28,7 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from typing import Any
 
 HERE = os.path.abspath(__file__)
@@ -50,7 +52,7 @@ def _session(endpoint: str, shm: bool, peer: bool = False) -> Any:
     return zenoh.open(zenoh.Config.from_json5(json.dumps(settings)))
 
 
-def _zros_node(name: str, endpoint: str, shm: bool, peer: bool = False) -> Any:
+def _zros_node(name: str, endpoint: str, shm: bool, peer: bool = False, impl: str = 'zros') -> Any:
     import zros
     from zros.transport import Transport, TransportConfig
 
@@ -60,7 +62,8 @@ def _zros_node(name: str, endpoint: str, shm: bool, peer: bool = False) -> Any:
         mode='peer' if peer else 'client',
         listen='tcp/127.0.0.1:0' if peer else None,
     )
-    return zros.Node(name, transport=Transport(config))
+    wire = 'rmw_zenoh' if impl == 'zros_rmw' else 'bridge'
+    return zros.Node(name, transport=Transport(config), wire=wire)
 
 
 def _payload(kind: str) -> Any:
@@ -98,7 +101,7 @@ def role_publish(args: argparse.Namespace) -> None:
         time.sleep(1)
         session.close()
     else:
-        node = _zros_node('bench_pub', args.endpoint, args.shm)
+        node = _zros_node('bench_pub', args.endpoint, args.shm, impl=args.impl)
         publisher = node.create_publisher(message.__msgtype__, '/bench/data', qos='keep_all')
         publisher.wait_for_subscribers(30)
         write = publisher.write
@@ -143,7 +146,7 @@ def role_subscribe(args: argparse.Namespace) -> None:
     else:
         from zros.qos import KEEP_ALL
 
-        node = _zros_node('bench_sub', args.endpoint, args.shm)
+        node = _zros_node('bench_sub', args.endpoint, args.shm, impl=args.impl)
 
         def on_message(message: Any) -> None:  # the ROS way: callbacks run by spin
             nonlocal received, first, last
@@ -183,7 +186,7 @@ def role_echo(args: argparse.Namespace) -> None:
         subscriber.undeclare()
         session.close()
     else:
-        node = _zros_node('bench_echo', args.endpoint, args.shm, args.peer)
+        node = _zros_node('bench_echo', args.endpoint, args.shm, args.peer, args.impl)
         pong = node.create_publisher('std_msgs/msg/Float64', '/bench/pong')
         node.create_subscription('std_msgs/msg/Float64', '/bench/ping', pong.write, qos=100)
         print('ready', flush=True)
@@ -215,7 +218,7 @@ def role_ping(args: argparse.Namespace) -> None:
                 times.append(time.perf_counter() - start)
         session.close()
     else:
-        node = _zros_node('bench_ping', args.endpoint, args.shm, args.peer)
+        node = _zros_node('bench_ping', args.endpoint, args.shm, args.peer, args.impl)
         pongs = node.create_subscription('std_msgs/msg/Float64', '/bench/pong', qos=100)
         ping = node.create_publisher('std_msgs/msg/Float64', '/bench/ping')
         ping.wait_for_subscribers(30)
@@ -322,7 +325,7 @@ def main() -> None:
         f'{"on" if args.shm else "off"}, eclipse-zenoh {metadata.version("eclipse-zenoh")}, '
         f'median of {repeats} alternating runs'
     )
-    impls = ('zenoh', 'zros')
+    impls = ('zenoh', 'zros', 'zros_rmw')
     runs: dict[str, dict[str, list[dict[str, Any]]]] = {
         impl: {'string': [], 'image': [], 'rtt': [], 'rtt_peer': []} for impl in impls
     }
@@ -362,37 +365,39 @@ def report(rows: dict[str, dict[str, dict[str, Any]]]) -> None:
     def us(row: dict[str, Any], key: str) -> float:
         return float(row[key]) * 1e6
 
-    z, r = rows['zenoh'], rows['zros']
+    z, r, w = rows['zenoh'], rows['zros'], rows['zros_rmw']
     ros = rows.get('rclpy')
     print()
-    header = f'{"":34} {"raw zenoh":>10} {"zros":>10} {"zros/raw":>9}'
+    header = (
+        f'{"":34} {"raw zenoh":>10} {"zros":>10} {"zros/raw":>9} {"rmw_zenoh":>10} {"rmw/raw":>8}'
+    )
     print(header + (f' {"rclpy":>10}' if ros else ''))
+
+    def row(key: str, value: Callable[[dict[str, Any]], float]) -> tuple[float, float, float]:
+        return value(z[key]), value(r[key]), value(w[key])
+
     lines = [
-        (
-            '(a) String msgs/s',
-            z['string']['rate'],
-            r['string']['rate'],
-            ros and ros['string']['rate'],
-        ),
-        ('(b) Image 1080p MB/s', mbs(z['image']), mbs(r['image']), ros and mbs(ros['image'])),
-        ('(c) Float64 RTT median us, router', us(z['rtt'], 'median'), us(r['rtt'], 'median'), None),
-        ('    Float64 RTT p99 us, router', us(z['rtt'], 'p99'), us(r['rtt'], 'p99'), None),
+        ('(a) String msgs/s', *row('string', lambda x: x['rate']), ros and ros['string']['rate']),
+        ('(b) Image 1080p MB/s', *row('image', mbs), ros and mbs(ros['image'])),
+        ('(c) Float64 RTT median us, router', *row('rtt', lambda x: us(x, 'median')), None),
+        ('    Float64 RTT p99 us, router', *row('rtt', lambda x: us(x, 'p99')), None),
         (
             '    RTT median us, peer to peer',
-            us(z['rtt_peer'], 'median'),
-            us(r['rtt_peer'], 'median'),
+            *row('rtt_peer', lambda x: us(x, 'median')),
             ros and us(ros['rtt'], 'median'),
         ),
         (
             '    RTT p99 us, peer to peer',
-            us(z['rtt_peer'], 'p99'),
-            us(r['rtt_peer'], 'p99'),
+            *row('rtt_peer', lambda x: us(x, 'p99')),
             ros and us(ros['rtt'], 'p99'),
         ),
     ]
-    for label, raw, ours, theirs in lines:
+    for label, raw, ours, rmw, theirs in lines:
         extra = f' {theirs:>10,.0f}' if theirs else (' ' * 11 if ros else '')
-        print(f'{label:34} {raw:>10,.0f} {ours:>10,.0f} {ours / raw:>9.2f}{extra}')
+        print(
+            f'{label:34} {raw:>10,.0f} {ours:>10,.0f} {ours / raw:>9.2f} {rmw:>10,.0f} '
+            f'{rmw / raw:>8.2f}{extra}'
+        )
     print()
     goals = [
         ('(a) String rate >= 50 % of raw zenoh', r['string']['rate'] >= 0.5 * z['string']['rate']),
