@@ -10,8 +10,9 @@ away. This script publishes what the tutorial's recording held:
   by hand and the voltage read there, which ``rosr_demo2_fit.py`` fits a curve to.
 
 The data is made up from a model of the sensor's characteristic with noise, the same on every
-run. The tutorial scripts (``rosr_demo*.py``) start this sensor inside themselves when they are
-given no robot; run it alone to feed them, or any ROS tool, from another process::
+run (``zros.demo.sensor``, from which ``zros demo`` makes its bag). The tutorial scripts
+(``rosr_demo*.py``) start this sensor inside themselves when they are given no robot; run it
+alone to feed them, or any ROS tool, from another process::
 
     python sharp_sensor.py --connect tcp/127.0.0.1:7447
 """
@@ -19,25 +20,26 @@ given no robot; run it alone to feed them, or any ROS tool, from another process
 from __future__ import annotations
 
 import argparse
-import math
 import os
-import random
 import threading
 from pathlib import Path
 
 import zros
 
-VOLTAGE_TOPIC = '/sharpGP2D120/Voltage'
-CALIBRATION_TOPIC = '/sharpGP2D120/Linearization'
-LINEARIZATION = 'rosR_demos/msg/Linearization'
-MIN_RANGE, MAX_RANGE = 0.04, 0.30  # metres, from the datasheet
-READINGS, PAIRS = 314, 240  # as many as the paper's bag held
-
-
-def voltage_at(distance: float) -> float:
-    """The sensor's output in volts for an object ``distance`` metres away (a fitted model:
-    2.95 V at 4 cm, 2.0 V at 6.1 cm, 0.8 V at 16.4 cm, 0.47 V at 30 cm)."""
-    return 0.1246 / (distance + 0.003) + 0.054
+# the sensor's model is zros's own, the one `zros demo` makes its bag from; the other examples
+# import the topics and limits from here
+from zros.demo.sensor import (  # noqa: F401
+    CALIBRATION_TOPIC,
+    LINEARIZATION,
+    MAX_RANGE,
+    MIN_RANGE,
+    PAIRS,
+    READINGS,
+    VOLTAGE_TOPIC,
+    calibration_pairs,
+    readings,
+    voltage_at,
+)
 
 
 def register_linearization() -> str:
@@ -49,24 +51,6 @@ def register_linearization() -> str:
     definition = Path(__file__).with_name('interfaces') / 'rosR_demos/msg/Linearization.msg'
     zros.register_type(LINEARIZATION, definition.read_text())
     return LINEARIZATION
-
-
-def readings(count: int = READINGS, seed: int = 2013) -> list[tuple[float, float]]:
-    """``(distance, voltage)`` of an object sweeping from 5 to 29 cm and back, with noise."""
-    noise = random.Random(seed)
-    sweep = [0.17 + 0.12 * math.sin(2 * math.pi * i / 157) for i in range(count)]
-    return [(d, voltage_at(d) + noise.gauss(0.0, 0.02)) for d in sweep]
-
-
-def calibration_pairs(count: int = PAIRS, seed: int = 1) -> list[tuple[float, float]]:
-    """``(distance, voltage)`` pairs over the sensor's range, as a careful student takes them."""
-    noise = random.Random(seed)
-    step = (MAX_RANGE - MIN_RANGE) / (count - 1)
-    pairs = []
-    for i in range(count):
-        distance = MIN_RANGE + i * step + noise.gauss(0.0, 0.0005)  # half a millimetre off
-        pairs.append((distance, voltage_at(distance) + noise.gauss(0.0, 0.01)))
-    return pairs
 
 
 def run_sensor(

@@ -17,13 +17,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument('--version', action='version', version=f'zros {__version__}')
     commands = parser.add_subparsers(dest='command', metavar='COMMAND')
 
-    demo = commands.add_parser('demo', help='run the rosR sensor tutorial')
-    demo.set_defaults(run='zros.cli.demo:run')
-
     from zros.cli import (
         action,
         bag,
         completion,
+        demo,
         doctor,
         interface,
         node,
@@ -33,7 +31,19 @@ def _parser() -> argparse.ArgumentParser:
         topic,
     )
 
-    for module in (topic, node, service, action, param, interface, bag, doctor, tls, completion):
+    for module in (
+        demo,
+        topic,
+        node,
+        service,
+        action,
+        param,
+        interface,
+        bag,
+        doctor,
+        tls,
+        completion,
+    ):
         module.add_parser(commands)
     return parser
 
