@@ -1,0 +1,39 @@
+"""Plots with matplotlib: live topics (rqt_plot), recordings, and the graph picture (rqt_graph).
+
+>>> import zros.plot                                                  # doctest: +SKIP
+>>> zros.plot.live(['/imu/linear_acceleration/x'], filter=5, duration=10, png='imu.png')
+>>> zros.plot.bag('run1', ['/odom/twist/twist/linear/x'], png='speed.png')
+>>> zros.plot.graph(node, 'graph.svg')
+
+Fields are addressed as rqt_plot addresses them, ``/topic/field/path``. matplotlib is imported
+when a figure is made, not with this package. Without a window, figures are plain
+``matplotlib.figure.Figure`` objects rendered by Agg (no display, no pyplot state).
+"""
+
+from __future__ import annotations
+
+from zros.plot.bag_plot import bag
+from zros.plot.fields import PlotError, Series, moving_average, resolve
+from zros.plot.graph_picture import draw_graph, graph, graph_model, to_dot
+from zros.plot.layout import Box, GraphModel, Layout, Route, Vertex, layout_graph
+from zros.plot.live_plot import LivePlot, live
+
+__all__ = [
+    'Box',
+    'GraphModel',
+    'Layout',
+    'LivePlot',
+    'PlotError',
+    'Route',
+    'Series',
+    'Vertex',
+    'bag',
+    'draw_graph',
+    'graph',
+    'graph_model',
+    'layout_graph',
+    'live',
+    'moving_average',
+    'resolve',
+    'to_dot',
+]

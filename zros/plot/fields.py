@@ -1,0 +1,231 @@
+"""Plot addresses (``/imu/linear_acceleration/x``): which topic, which field, which element.
+
+An address is a topic name followed by a field path, both with slashes, as rqt_plot takes
+them. Where the topic ends is not written down: :func:`resolve` tries the known topics that are
+prefixes of the address, longest first, and keeps the first whose message type has the rest as
+a field. A field that is a message stands for its numeric fields (``/imu/linear_acceleration``
+is ``x``, ``y`` and ``z``; a whole topic leaves out its ``header``); an element of an array is
+``name[i]`` or ``name/i`` (``/joint_states/position[0]``).
+"""
+
+from __future__ import annotations
+
+import keyword
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from zros.errors import ZrosError
+
+#: ROS primitive types that plot as numbers
+NUMERIC = frozenset({
+    'bool', 'byte', 'char', 'octet', 'int8', 'uint8', 'int16', 'uint16', 'int32', 'uint32',
+    'int64', 'uint64', 'float32', 'float64', 'float', 'double',
+})  # fmt: skip
+_TYPE = re.compile(r'^(?P<base>[^\[<]+)(?:<=\d+)?(?P<array>\[(?P<bound><=)?(?P<size>\d*)\])?$')
+_INDEXED = re.compile(r'^(?P<name>.*?)\[(?P<index>\d+)\]$')
+
+
+class PlotError(ZrosError, ValueError):
+    """An address that names no numeric field, a topic that is absent, a file with no data."""
+
+
+@dataclass(frozen=True)
+class Series:
+    """One plotted quantity: a numeric field (or one element of an array) of a topic."""
+
+    label: str  #: the address, as the legend shows it: ``/imu/linear_acceleration/x``
+    topic: str  #: ``/imu``
+    type_name: str  #: ``sensor_msgs/msg/Imu``
+    field: str  #: the ROS field path, dotted: ``linear_acceleration.x``
+    index: int | None = None  #: the element of an array field, else None
+
+    @property
+    def attributes(self) -> tuple[str, ...]:
+        """The Python attribute names along :attr:`field` (keywords get a trailing ``_``)."""
+        return tuple(
+            part + '_' if keyword.iskeyword(part) else part for part in self.field.split('.')
+        )
+
+    def value(self, message: Any) -> float:
+        """The value of this field in ``message`` as a float (NaN for a missing element)."""
+        value = message
+        for name in self.attributes:
+            value = getattr(value, name)
+        if self.index is not None:
+            if self.index >= len(value):
+                return float('nan')
+            value = value[self.index]
+        return float(value)
+
+    def column(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
+        """This field's values as float64, from the columns ``Bag.columns`` returns."""
+        column = columns[self.field]
+        if self.index is None:
+            return np.asarray(column, dtype=np.float64)
+        if column.dtype != object:
+            return np.asarray(column[:, self.index], dtype=np.float64)
+        index = self.index
+        return np.array([row[index] if index < len(row) else np.nan for row in column], np.float64)
+
+
+def _parse_type(text: str) -> tuple[str, int | None]:
+    """``float64[9]`` -> (``float64``, 9); a sequence has size -1, a single value None."""
+    match = _TYPE.match(text)
+    if match is None:
+        return text, None
+    if not match['array']:
+        return match['base'], None
+    size = match['size']
+    return match['base'], (int(size) if size and not match['bound'] else -1)
+
+
+def _fields(instance: Any) -> dict[str, str]:
+    found: dict[str, str] = instance.get_fields_and_field_types()
+    return found
+
+
+def _attribute(name: str) -> str:
+    return name + '_' if keyword.iskeyword(name) else name
+
+
+def _leaves(instance: Any, prefix: str, skip_header: bool) -> list[str]:
+    """The numeric scalar fields under a message instance, as dotted ROS paths."""
+    found = []
+    for name, type_text in _fields(instance).items():
+        if skip_header and name == 'header':
+            continue
+        base, size = _parse_type(type_text)
+        path = f'{prefix}{name}'
+        if size is None and base in NUMERIC:
+            found.append(path)
+        elif size is None and '/' in base:
+            found += _leaves(getattr(instance, _attribute(name)), path + '.', False)
+    return found
+
+
+def _split_parts(field: str) -> list[str]:
+    """``a/b[2]/c`` -> ``['a', 'b', '2', 'c']`` (indices become parts of their own)."""
+    parts: list[str] = []
+    for part in field.replace('.', '/').split('/'):
+        if not part:
+            continue
+        match = _INDEXED.match(part)
+        if match is not None and match['name']:
+            parts += [match['name'], match['index']]
+        else:
+            parts.append(part)
+    return parts
+
+
+def field_series(
+    address: str, topic: str, type_name: str, field: str, cls: Callable[[], Any]
+) -> list[Series]:
+    """The series ``field`` names in messages of ``cls`` (``/``- or ``.``-separated).
+
+    Raises :class:`PlotError` saying why when the field is absent or not numeric.
+    """
+    instance = cls()
+    parts = _split_parts(field)
+    path: list[str] = []
+    for position, part in enumerate(parts):
+        types = _fields(instance)
+        if part not in types:
+            where = '.'.join(path) or type_name
+            known = ', '.join(types) or 'no fields'
+            raise PlotError(f'{address}: {where} has no field {part!r} (it has: {known})')
+        base, size = _parse_type(types[part])
+        path.append(part)
+        rest = parts[position + 1 :]
+        dotted = '.'.join(path)
+        if size is not None:
+            if base not in NUMERIC:
+                raise PlotError(
+                    f'{address}: {dotted} is an array of {base}; only numeric fields and '
+                    'elements of numeric arrays plot'
+                )
+            if not rest or not rest[0].isdigit():
+                example = f'{topic}/{"/".join(path)}[0]'
+                raise PlotError(f'{address}: {dotted} is an array: plot an element, e.g. {example}')
+            index = int(rest[0])
+            if size >= 0 and index >= size:
+                raise PlotError(f'{address}: {dotted} has {size} elements, not {index + 1}')
+            if rest[1:]:
+                raise PlotError(f'{address}: {dotted}[{index}] is a number, it has no fields')
+            return [Series(address, topic, type_name, dotted, index)]
+        if base in NUMERIC:
+            if rest:
+                raise PlotError(f'{address}: {dotted} is a number, it has no field {rest[0]!r}')
+            return [Series(address, topic, type_name, dotted)]
+        if '/' not in base:
+            raise PlotError(f'{address}: {dotted} is a {base}, not a number')
+        instance = getattr(instance, _attribute(part))
+    leaves = _leaves(instance, '.'.join(path) + '.' if path else '', skip_header=not path)
+    if not leaves:
+        raise PlotError(f'{address}: {".".join(path) or type_name} has no numeric fields')
+    return [Series(f'{topic}/{leaf.replace(".", "/")}', topic, type_name, leaf) for leaf in leaves]
+
+
+def split_address(address: str, topics: Sequence[str]) -> list[tuple[str, str]]:
+    """The ways to read ``address`` as (known topic, field path), longest topic first."""
+    if not address.startswith('/'):
+        raise PlotError(
+            f'{address}: an address starts with the topic, e.g. /imu/angular_velocity/z'
+        )
+    address = address.rstrip('/')
+    known = set(topics)
+    found = []
+    end = len(address)
+    while end > 0:
+        prefix = address[:end]
+        if prefix in known:
+            found.append((prefix, address[end + 1 :]))
+        end = address.rfind('/', 0, end)
+    return found
+
+
+def resolve(
+    address: str,
+    topic_types: Mapping[str, str],
+    message_class: Callable[[str, str], Callable[[], Any]],
+) -> list[Series]:
+    """The series an address names, given the topics known (name -> type).
+
+    ``message_class(topic, type_name)`` gives the class of a topic's messages. Tries every known
+    topic that prefixes the address, longest first; the first whose type has the rest as a
+    numeric field wins. Raises :class:`PlotError` naming the problem otherwise.
+    """
+    candidates = split_address(address, list(topic_types))
+    if not candidates:
+        raise PlotError(f'{address}: no known topic starts this address')
+    first_error: PlotError | None = None
+    for topic, field in candidates:
+        type_name = topic_types[topic]
+        try:
+            return field_series(address, topic, type_name, field, message_class(topic, type_name))
+        except PlotError as exc:
+            first_error = first_error or exc
+    assert first_error is not None
+    raise first_error
+
+
+def moving_average(values: np.ndarray, length: int) -> np.ndarray:
+    """The mean of each value and the ``length - 1`` before it (fewer at the start).
+
+    The filter of the rosR tutorial: causal, so a live line never changes behind its head.
+    NaNs (missing elements) are left out of the means.
+    """
+    if length < 1:
+        raise ValueError(f'a moving average needs a length of 1 or more, not {length}')
+    values = np.asarray(values, dtype=np.float64)
+    present = ~np.isnan(values)
+    sums = np.cumsum(np.insert(np.where(present, values, 0.0), 0, 0.0))
+    counts = np.cumsum(np.insert(present.astype(np.int64), 0, 0))
+    ends = np.arange(1, len(values) + 1)
+    starts = np.maximum(ends - length, 0)
+    taken = counts[ends] - counts[starts]
+    with np.errstate(invalid='ignore', divide='ignore'):
+        return np.where(taken > 0, (sums[ends] - sums[starts]) / np.maximum(taken, 1), np.nan)
