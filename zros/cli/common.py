@@ -32,6 +32,11 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument('--mode', choices=('client', 'peer'), help='Zenoh mode (default client)')
     group.add_argument(
+        '--wire',
+        choices=('bridge', 'rmw_zenoh'),
+        help='zenoh-bridge-ros2dds keys, or rmw_zenoh natively (default: $ZROS_WIRE, else bridge)',
+    )
+    group.add_argument(
         '--bridge-namespace',
         metavar='NS',
         help="the bridge's namespace setting (default: what the bridges report)",
@@ -45,6 +50,8 @@ def open_node(args: argparse.Namespace, name: str = 'zros_cli', **options: Any) 
     settings: dict[str, Any] = {}
     if getattr(args, 'mode', None):
         settings['mode'] = args.mode
+    if getattr(args, 'wire', None):
+        settings['wire'] = args.wire
     options.setdefault('enable_rosout', False)
     options.setdefault('start_parameter_services', False)
     return zros.Node(

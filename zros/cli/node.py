@@ -51,8 +51,6 @@ def _endpoints_of(node: Node, name: str) -> list[Endpoint]:
 
 
 def info(args: argparse.Namespace) -> int:
-    from zros.keyexpr.bridge import ros_name
-
     with open_node(args) as node:
         node.graph.refresh(DISCOVERY)
         name = node.resolve_name(args.node)
@@ -63,7 +61,7 @@ def info(args: argparse.Namespace) -> int:
         for title, code in _SECTIONS:
             out(f'  {title}:')
             lines = {
-                f'    {ros_name(e.key, node.scheme.namespace)}: {e.type_name}'
+                f'    {e.ros_name(node.scheme.namespace)}: {e.type_name}'
                 for e in endpoints
                 if e.kind.value == code
             }

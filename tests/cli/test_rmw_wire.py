@@ -1,0 +1,29 @@
+"""The command line on the rmw_zenoh wire (``--wire rmw_zenoh``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import zros
+from tests.cli.conftest import Cli
+
+
+def test_commands_speak_rmw_zenoh(cli: Cli, zros_node: Callable[..., Any]) -> None:
+    node = zros_node('driver', '/robot', wire='rmw_zenoh', enable_rosout=False)
+    node.create_publisher('std_msgs/msg/String', 'status', 'latched').write(
+        zros.Message('std_msgs/msg/String', data='ready')
+    )
+    node.create_subscription('geometry_msgs/msg/Twist', 'cmd_vel', lambda m: None)
+
+    listing = cli.run('topic', 'list', '-t', '--wire', 'rmw_zenoh')
+    assert listing.returncode == 0, listing.stderr
+    assert '/robot/status [std_msgs/msg/String]' in listing.stdout.splitlines()
+    info = cli.run('node', 'info', '/robot/driver', '--wire', 'rmw_zenoh').stdout.splitlines()
+    assert '    /robot/cmd_vel: geometry_msgs/msg/Twist' in info
+    assert '    /robot/status: std_msgs/msg/String' in info
+    echo = cli.run('topic', 'echo', '/robot/status', '--once', '--wire', 'rmw_zenoh')
+    assert echo.stdout == 'data: ready\n---\n', echo.stderr
+    wrong = cli.run('topic', 'list', '--wire', 'dds')
+    assert wrong.returncode == 2
+    assert "invalid choice: 'dds'" in wrong.stderr
