@@ -9,12 +9,13 @@ from zros.cli.common import (
     CommandError,
     add_connection_options,
     build_message,
+    list_names,
+    names_on_graph,
     open_node,
     out,
     parse_values,
+    print_types,
 )
-
-DISCOVERY = 2.0
 
 
 def _indented(text: str, spaces: int = 4) -> str:
@@ -22,33 +23,20 @@ def _indented(text: str, spaces: int = 4) -> str:
 
 
 def list_actions(args: argparse.Namespace) -> int:
-    with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        for name, types in node.graph.actions(node.scheme.namespace).items():
-            out(f'{name} [{", ".join(types)}]' if args.show_types else name)
-    return 0
+    return list_names(args, 'actions')
 
 
 def action_type(args: argparse.Namespace) -> int:
-    with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        name = node.resolve_name(args.action)
-        types = node.graph.actions(node.scheme.namespace).get(name)
-        if not types:
-            raise CommandError(f'action {name} does not appear on the network')
-        for type_name in types:
-            out(type_name)
-    return 0
+    return print_types(args, 'actions', args.action)
 
 
 def info(args: argparse.Namespace) -> int:
     from zros.keyexpr.bridge import EntityKind
 
     with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
         name = node.resolve_name(args.action)
         key = node.scheme.key(name)
-        if name not in node.graph.actions(node.scheme.namespace):
+        if name not in names_on_graph(node, 'actions'):
             raise CommandError(f'action {name} does not appear on the network')
         out(f'Action: {name}')
         for title, kind in (

@@ -16,6 +16,9 @@ if TYPE_CHECKING:
     from zros.node import Node
 
 
+DISCOVERY = 2.0  #: seconds a one-shot command gives the graph to show itself
+
+
 class CommandError(Exception):
     """A failure to report in one line, exit code 1."""
 
@@ -61,6 +64,43 @@ def open_node(args: argparse.Namespace, name: str = 'zros_cli', **options: Any) 
         **settings,
         **options,
     )
+
+
+def names_on_graph(node: Node, kind: str) -> dict[str, list[str]]:
+    """The ``'topics'``, ``'services'`` or ``'actions'`` on the network and their types, after
+    asking the network for the whole graph."""
+    node.graph.refresh(DISCOVERY)
+    names: dict[str, list[str]] = getattr(node.graph, kind)(node.scheme.namespace)
+    return names
+
+
+def list_names(args: argparse.Namespace, kind: str) -> int:
+    """``zros <kind> list [-t]``."""
+    with open_node(args) as node:
+        for name, types in names_on_graph(node, kind).items():
+            out(f'{name} [{", ".join(types)}]' if args.show_types else name)
+    return 0
+
+
+def print_types(args: argparse.Namespace, kind: str, name: str) -> int:
+    """``zros service|action type NAME``: the types announced for ``name``."""
+    with open_node(args) as node:
+        resolved = node.resolve_name(name)
+        types = names_on_graph(node, kind).get(resolved)
+        if not types:
+            raise CommandError(f'{kind[:-1]} {resolved} does not appear on the network')
+        for type_name in types:
+            out(type_name)
+    return 0
+
+
+def find_names(args: argparse.Namespace, kind: str, type_name: str) -> int:
+    """``zros <kind> find TYPE``: the names announced with that type."""
+    with open_node(args) as node:
+        for name, types in names_on_graph(node, kind).items():
+            if type_name in types:
+                out(name)
+    return 0
 
 
 def parse_values(text: str | None) -> dict[str, Any]:

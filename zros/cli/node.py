@@ -9,13 +9,11 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from zros.cli.common import CommandError, add_connection_options, open_node, out
+from zros.cli.common import DISCOVERY, CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:
     from zros.graph import Endpoint
     from zros.node import Node
-
-DISCOVERY = 2.0
 
 _SECTIONS = (
     ('Subscribers', 'MS'),

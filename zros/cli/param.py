@@ -9,13 +9,11 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
-from zros.cli.common import CommandError, add_connection_options, open_node, out
+from zros.cli.common import DISCOVERY, CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:
     from zros.node import Node
     from zros.params.client import ParameterClient
-
-DISCOVERY = 2.0
 
 _LABELS = {
     'BOOL': 'Boolean value is:',

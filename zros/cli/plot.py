@@ -9,13 +9,11 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from zros.cli.common import CommandError, add_connection_options, open_node, out
+from zros.cli.common import DISCOVERY, CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:
     from zros.plot.figure import SeriesFigure
     from zros.plot.live_plot import LivePlot
-
-DISCOVERY = 2.0
 DEFAULT_PNG = 'zros_plot.png'  #: where a plot goes when there is no display and no --png
 DEFAULT_GRAPH = 'graph.png'
 

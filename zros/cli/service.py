@@ -10,12 +10,13 @@ from zros.cli.common import (
     CommandError,
     add_connection_options,
     build_message,
+    find_names,
+    list_names,
     open_node,
     out,
     parse_values,
+    print_types,
 )
-
-DISCOVERY = 2.0
 
 
 def _service_type(type_name: str) -> Any:
@@ -29,33 +30,15 @@ def _service_type(type_name: str) -> Any:
 
 
 def list_services(args: argparse.Namespace) -> int:
-    with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        for name, types in node.graph.services(node.scheme.namespace).items():
-            out(f'{name} [{", ".join(types)}]' if args.show_types else name)
-    return 0
+    return list_names(args, 'services')
 
 
 def service_type(args: argparse.Namespace) -> int:
-    with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        name = node.resolve_name(args.service)
-        types = node.graph.services(node.scheme.namespace).get(name)
-        if not types:
-            raise CommandError(f'service {name} does not appear on the network')
-        for type_name in types:
-            out(type_name)
-    return 0
+    return print_types(args, 'services', args.service)
 
 
 def find(args: argparse.Namespace) -> int:
-    wanted = _service_type(args.type).__srvtype__
-    with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        for name, types in node.graph.services(node.scheme.namespace).items():
-            if wanted in types:
-                out(name)
-    return 0
+    return find_names(args, 'services', _service_type(args.type).__srvtype__)
 
 
 def call(args: argparse.Namespace) -> int:

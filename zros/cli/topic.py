@@ -11,9 +11,11 @@ from collections import deque
 from typing import TYPE_CHECKING, Any
 
 from zros.cli.common import (
+    DISCOVERY,
     CommandError,
     add_connection_options,
     build_message,
+    find_names,
     message_class,
     open_node,
     out,
@@ -23,8 +25,6 @@ from zros.cli.common import (
 if TYPE_CHECKING:
     from zros.graph import Endpoint
     from zros.node import Node
-
-DISCOVERY = 2.0  #: seconds a one-shot command gives the graph to show itself
 
 
 def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
@@ -110,13 +110,7 @@ def topic_type(args: argparse.Namespace) -> int:
 
 
 def find(args: argparse.Namespace) -> int:
-    wanted = message_class(args.type).__msgtype__
-    with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        for name, types in node.graph.topics(node.scheme.namespace).items():
-            if wanted in types:
-                out(name)
-    return 0
+    return find_names(args, 'topics', message_class(args.type).__msgtype__)
 
 
 # --- echo and pub ----------------------------------------------------------------------------
