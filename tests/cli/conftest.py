@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import fcntl
 import os
 import queue
 import shutil
@@ -100,6 +101,41 @@ class Cli:
         threading.Thread(target=pump, daemon=True).start()
         self.started.append(running)
         return running
+
+    def first_line_then_close(self, *args: str) -> tuple[str, int, str]:
+        """Start a command writing into a small pipe (one page), read its first line, close the
+        pipe as ``| head -1`` does, and wait for the end. Returns the line, the exit code and
+        what the command wrote on stderr."""
+        assert ZROS is not None
+        read_end, write_end = os.pipe()
+        # one page: a command that writes more than that blocks until the reader goes away
+        fcntl.fcntl(write_end, fcntl.F_SETPIPE_SZ, 4096)
+        process = subprocess.Popen(
+            [ZROS, *args],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            # as from a shell: stdout to a pipe is block-buffered (unbuffered, Python drops the
+            # rest of a write the pipe cut short without an error)
+            env={k: v for k, v in self.env().items() if k != 'PYTHONUNBUFFERED'},
+        )
+        os.close(write_end)
+        line = b''
+        try:
+            while not line.endswith(b'\n'):
+                byte = os.read(read_end, 1)  # unbuffered: the rest stays in the pipe
+                if not byte:
+                    break
+                line += byte
+        finally:
+            os.close(read_end)
+        try:
+            _, stderr = process.communicate(timeout=TIMEOUT)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            raise
+        return line.decode(), process.returncode, stderr
 
 
 @pytest.fixture

@@ -1,7 +1,8 @@
 """What the ``zros`` subcommands share: connection options, the command node, values, exits.
 
 Exit codes: 0 success, 1 a failure the message explains, 2 a usage error (argparse), 130
-interrupted before finishing. Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
+interrupted before finishing, 141 the reader of the output went away (``| head``; no traceback).
+Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
 """
 
 from __future__ import annotations
