@@ -62,7 +62,7 @@ def send_goal(args: argparse.Namespace) -> int:
     if not isinstance(action, ActionType):
         raise CommandError(f'{args.type} is not an action type')
     values = parse_values(args.values)
-    with open_node(args, 'zros_send_goal') as node:
+    with open_node(args) as node:
         client = node.create_action_client(action, args.action)
         goal = build_message(client.Goal, values)
 

@@ -47,8 +47,16 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def open_node(args: argparse.Namespace, name: str = 'zros_cli', **options: Any) -> Node:
-    """A node for one command: no /rosout, no parameter services, its own session."""
+def node_name(args: argparse.Namespace) -> str:
+    """The name of a command's own node: ``zros_<command>_<verb>_<pid>``, e.g.
+    ``zros_topic_hz_4242`` (``zros_graph_4242`` for a command without verbs)."""
+    parts = [getattr(args, 'command', None) or 'cli', getattr(args, 'verb', None), os.getpid()]
+    return '_'.join(['zros', *(str(p).replace('-', '_') for p in parts if p)])
+
+
+def open_node(args: argparse.Namespace, **options: Any) -> Node:
+    """The command's node (:func:`node_name`): no /rosout, no parameter services, its own
+    session; its publishers and subscriptions show on the graph as any node's."""
     import zros
 
     settings: dict[str, Any] = {}
@@ -59,7 +67,7 @@ def open_node(args: argparse.Namespace, name: str = 'zros_cli', **options: Any) 
     options.setdefault('enable_rosout', False)
     options.setdefault('start_parameter_services', False)
     return zros.Node(
-        f'{name}_{os.getpid()}',
+        node_name(args),
         connect=getattr(args, 'connect', None),
         bridge_namespace=getattr(args, 'bridge_namespace', None),
         **settings,

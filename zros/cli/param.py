@@ -33,6 +33,11 @@ def _client(node: Node, target: str, timeout: float) -> ParameterClient:
 
     client = ParameterClient(node, node.resolve_name(target), timeout=timeout)
     if not client.wait_for_node(timeout):
+        node.graph.refresh(DISCOVERY)
+        if client.target in node.graph.nodes():  # e.g. the node of another zros command
+            raise CommandError(
+                f'node {client.target} serves no parameters (it has no parameter services)'
+            )
         raise CommandError(f'node {client.target} not found (nothing serves its parameters)')
     return client
 

@@ -99,7 +99,7 @@ def _plot_live(args: argparse.Namespace) -> int:
     show = not (args.png or args.frames) and can_show()
     png = _output(args, show)
     window = 10.0 if args.window is None else (args.window if args.window > 0 else None)
-    with open_node(args, 'zros_plot') as node:
+    with open_node(args) as node:
         plot = LivePlot(
             node, args.paths, window=window, filter=args.filter, wait=args.wait, show=show
         )
@@ -140,7 +140,7 @@ def graph(args: argparse.Namespace) -> int:
     from zros.plot.graph_picture import graph as draw
     from zros.plot.graph_picture import graph_model
 
-    with open_node(args, 'zros_graph') as node:
+    with open_node(args) as node:
         node.graph.refresh(DISCOVERY)
         model = graph_model(node, hide_hidden=args.hide_hidden, hide_debug=args.hide_debug)
     output = args.output

@@ -52,7 +52,7 @@ def record(args: argparse.Namespace) -> int:
     path = args.output or default_bag_name()
     stop = threading.Event()
     progress = Progress()
-    with _stop_on_signals(stop), open_node(args, 'zros_bag_record') as node:
+    with _stop_on_signals(stop), open_node(args) as node:
 
         def subscribed(name: str, type_name: str) -> None:
             progress.close()
@@ -122,7 +122,7 @@ def play(args: argparse.Namespace) -> int:
     clock: bool | float = False if args.clock is None else args.clock
     stop = threading.Event()
     progress = Progress()
-    with _stop_on_signals(stop), open_node(args, 'zros_bag_play') as node:
+    with _stop_on_signals(stop), open_node(args) as node:
         player = Player(
             node,
             args.path,

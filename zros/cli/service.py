@@ -47,7 +47,7 @@ def call(args: argparse.Namespace) -> int:
 
     srv = _service_type(args.type)
     values = parse_values(args.values)
-    with open_node(args, 'zros_service_call') as node:
+    with open_node(args) as node:
         client = node.create_client(srv, args.service, timeout=args.timeout)
         request = build_message(client.Request, values)
         if not client.service_is_ready():

@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 import itertools
 import statistics
+import sys
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from zros.cli.common import (
@@ -163,7 +165,7 @@ def echo(args: argparse.Namespace) -> int:
 def pub(args: argparse.Namespace) -> int:
     cls = message_class(args.type)
     message = build_message(cls, parse_values(args.values))
-    with open_node(args, 'zros_pub') as node:
+    with open_node(args) as node:
         qos = 'latched' if args.latched else 10
         publisher = node.create_publisher(cls, args.topic, qos=qos)
         if args.wait_matching_subscriptions:
@@ -201,7 +203,7 @@ def pub(args: argparse.Namespace) -> int:
 
 
 class _Window:
-    """Arrival times (and sizes) of the last ``size`` messages, filled on Zenoh's thread."""
+    """Arrival times (and sizes) of the last ``size`` messages."""
 
     def __init__(self, size: int) -> None:
         self.times: deque[float] = deque(maxlen=size)
@@ -209,17 +211,54 @@ class _Window:
         self.lock = threading.Lock()
         self.total = 0
 
-    def add(self, sample: Any) -> None:
+    def add(self, size: int) -> None:
+        """Count one message of ``size`` bytes, arrived now."""
         now = time.monotonic()
         with self.lock:
             self.times.append(now)
-            self.sizes.append(len(sample.payload))
+            self.sizes.append(size)
             self.total += 1
 
 
-def _raw_subscription(node: Node, topic: str, window: _Window) -> Any:
-    key = node.scheme.key(node.resolve_name(topic))
-    return node.transport.session.declare_subscriber(key, window.add)
+def _measuring_subscription(
+    node: Node, args: argparse.Namespace, window: _Window
+) -> Callable[[], object]:
+    """A subscription counting the messages of ``args.topic`` into ``window``, announced like any
+    other (node info, topic info -v and zros graph show it): messages stay undecoded bytes, and
+    their time is taken when the node spins, as ros2 topic hz takes it in its callback.
+
+    For a type zros has no definition of, it cannot announce the subscription (rmw_zenoh's keys
+    need the type's hash): it listens on the topic's keys unannounced, and says so.
+    Returns what closes it."""
+    from zros.cdr.errors import UnknownTypeError
+    from zros.keyexpr.rmw_zenoh import RmwZenohScheme
+    from zros.pubsub import Subscriber
+    from zros.qos import QoS, Reliability
+
+    type_name = _topic_type(node, args.topic, args.wait)
+    # as ros2's: best effort (it hears reliable publishers too), with room for bursts
+    qos = QoS(1000, Reliability.BEST_EFFORT)
+    try:
+
+        def count(data: bytes) -> None:
+            window.add(len(data))
+
+        return Subscriber(args.topic, type_name, count, qos, node=node, raw=True).close
+    except UnknownTypeError:
+        pass
+    key = node.scheme.key(node.resolve_name(args.topic))
+    if isinstance(node.scheme, RmwZenohScheme):
+        key += '/*/*'  # any type and hash
+    print(
+        f'zros: note: no definition of {type_name} (ZROS_INTERFACE_PATH adds yours): measuring '
+        'without announcing the subscription',
+        file=sys.stderr,
+    )
+    subscriber: Any = node.transport.session.declare_subscriber(
+        key, lambda sample: window.add(len(sample.payload))
+    )
+    undeclare: Callable[[], object] = subscriber.undeclare
+    return undeclare
 
 
 def _report_loop(node: Node, args: argparse.Namespace, report: Any) -> int:
@@ -237,9 +276,9 @@ def _report_loop(node: Node, args: argparse.Namespace, report: Any) -> int:
 
 
 def hz(args: argparse.Namespace) -> int:
-    with open_node(args, 'zros_hz') as node:
+    with open_node(args) as node:
         window = _Window(args.window)
-        subscription = _raw_subscription(node, args.topic, window)
+        close = _measuring_subscription(node, args, window)
 
         def report() -> bool:
             with window.lock:
@@ -260,7 +299,7 @@ def hz(args: argparse.Namespace) -> int:
         try:
             return _report_loop(node, args, report)
         finally:
-            subscription.undeclare()
+            close()
 
 
 def _size(value: float) -> str:
@@ -272,9 +311,9 @@ def _size(value: float) -> str:
 
 
 def bw(args: argparse.Namespace) -> int:
-    with open_node(args, 'zros_bw') as node:
+    with open_node(args) as node:
         window = _Window(args.window)
-        subscription = _raw_subscription(node, args.topic, window)
+        close = _measuring_subscription(node, args, window)
         out(f'Subscribed to [{node.resolve_name(args.topic)}]')
 
         def report() -> bool:
@@ -294,13 +333,13 @@ def bw(args: argparse.Namespace) -> int:
         try:
             return _report_loop(node, args, report)
         finally:
-            subscription.undeclare()
+            close()
 
 
 def delay(args: argparse.Namespace) -> int:
     from zros.clock import Time
 
-    with open_node(args, 'zros_delay') as node:
+    with open_node(args) as node:
         type_name = args.type or _topic_type(node, args.topic, args.wait)
         if 'header' not in message_class(type_name).__slots__:
             raise CommandError(f'{type_name} has no header: its delay cannot be measured')
@@ -389,7 +428,8 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         parser.add_argument('topic')
         if name == 'delay':
             parser.add_argument('type', nargs='?')
-            parser.add_argument('--wait', type=float, default=10.0, metavar='S')
+        parser.add_argument('--wait', type=float, default=10.0, metavar='S',
+                            help='how long to wait for the topic (default 10)')  # fmt: skip
         parser.add_argument('-w', '--window', type=int, default=10_000 if name == 'hz' else 100)
         parser.add_argument('--period', type=float, default=1.0, help='seconds between reports')
         parser.add_argument('--count', type=int, default=0, help='exit after N reports')
