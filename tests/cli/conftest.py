@@ -11,8 +11,10 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -136,6 +138,26 @@ class Cli:
             process.kill()
             raise
         return line.decode(), process.returncode, stderr
+
+
+@contextmanager
+def publishing(node: Any, publisher: Any, message: Any, hz: float = 50.0) -> Iterator[None]:
+    """``publisher`` (of ``node``) writes ``message`` at ``hz`` on a thread until the block ends."""
+    stop = threading.Event()
+
+    def talk() -> None:
+        rate = node.create_rate(hz)
+        while not stop.is_set():
+            publisher.write(message)
+            rate.sleep()
+
+    thread = threading.Thread(target=talk, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join(5)
 
 
 @pytest.fixture

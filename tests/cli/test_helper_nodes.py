@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import re
-import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -12,7 +11,7 @@ from typing import Any
 import pytest
 
 import zros
-from tests.cli.conftest import Cli
+from tests.cli.conftest import Cli, publishing
 
 Node = Callable[..., Any]
 
@@ -28,20 +27,8 @@ def chatter(zros_node: Node, wire: str) -> Iterator[None]:
     """A node publishing ``/chatter`` at 50 Hz until the test ends."""
     node = zros_node('talker', wire=wire, enable_rosout=False)
     publisher = node.create_publisher('std_msgs/msg/String', '/chatter', 10)
-    message = zros.Message('std_msgs/msg/String', data='hi')
-    stop = threading.Event()
-
-    def talk() -> None:
-        rate = node.create_rate(50)
-        while not stop.is_set():
-            publisher.write(message)
-            rate.sleep()
-
-    thread = threading.Thread(target=talk, daemon=True)
-    thread.start()
-    yield
-    stop.set()
-    thread.join(5)
+    with publishing(node, publisher, zros.Message('std_msgs/msg/String', data='hi')):
+        yield
 
 
 def test_helper_nodes_are_named_alike_and_fully_visible(
@@ -68,8 +55,9 @@ def test_helper_nodes_are_named_alike_and_fully_visible(
 
     verbose = cli.run('topic', 'info', '/chatter', '-v', '--wire', wire).stdout
     assert 'Subscription count: 1' in verbose
-    assert f'Node name: {hz_node}\nTopic type: std_msgs/msg/String\nEndpoint type: SUBSCRIPTION' in (
-        verbose
+    assert (
+        f'Node name: {hz_node}\nTopic type: std_msgs/msg/String\nEndpoint type: SUBSCRIPTION'
+        in (verbose)
     )
 
     picture = cli.run('graph', '-o', str(tmp_path / 'graph.dot'), '--wire', wire)
@@ -85,3 +73,20 @@ def test_helper_nodes_are_named_alike_and_fully_visible(
     nobody = cli.run('param', 'list', '/nobody', '--wire', wire, '--timeout', '1')
     assert nobody.returncode == 1
     assert 'node /nobody not found' in nobody.stderr
+
+
+def test_hz_of_a_type_without_definition_measures_unannounced(
+    cli: Cli, zros_node: Node, wire: str
+) -> None:
+    # a type only this process knows: the command finds its name on the graph, no definition
+    zros.register_type('zros_cli_test_msgs/msg/Probe', 'int32 n')
+    node = zros_node('prober', wire=wire, enable_rosout=False)
+    publisher = node.create_publisher('zros_cli_test_msgs/msg/Probe', '/probe', 10)
+    message = zros.Message('zros_cli_test_msgs/msg/Probe', n=7)
+    with publishing(node, publisher, message):
+        hz = cli.start('topic', 'hz', '/probe', '--period', '0.5', '--count', '1', '--wire', wire)
+        hz.wait_line(lambda line: line.startswith('average rate'))
+        code, _ = hz.finish()
+    assert code == 0
+    assert hz.process.stderr is not None
+    assert 'no definition of zros_cli_test_msgs/msg/Probe' in hz.process.stderr.read()

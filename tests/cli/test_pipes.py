@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import zros
-from tests.cli.conftest import Cli
+from tests.cli.conftest import Cli, publishing
 from zros.bag import BagTopic, BagWriter
 from zros.cdr import default_registry, encode
 
@@ -41,22 +40,8 @@ def test_topic_list(cli: Cli, zros_node: Node) -> None:
 def test_topic_echo_of_a_live_topic(cli: Cli, zros_node: Node) -> None:
     node = zros_node('talker')
     publisher = node.create_publisher('std_msgs/msg/String', '/pipe_chatter', 10)
-    message = zros.Message('std_msgs/msg/String', data='hello')
-    stop = threading.Event()
-
-    def talk() -> None:  # until the test ends: echo prints a message only once it has matched
-        rate = node.create_rate(50)
-        while not stop.is_set():
-            publisher.write(message)
-            rate.sleep()
-
-    talker = threading.Thread(target=talk, daemon=True)
-    talker.start()
-    try:
+    with publishing(node, publisher, zros.Message('std_msgs/msg/String', data='hello')):
         result = cli.first_line_then_close('topic', 'echo', '/pipe_chatter')
-    finally:
-        stop.set()
-        talker.join(5)
     assert_quiet_end(result, 'data: hello')
 
 
