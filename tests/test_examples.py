@@ -122,10 +122,16 @@ def test_example_runs_on_its_own(script: str, tmp_path: Path) -> None:
 
 
 def docs_blocks() -> list[tuple[str, str]]:
-    """``(page:line, code)`` of every Python block in docs/, but those marked ``<!-- not run``."""
+    """``(page:line, code)`` of every Python block in docs/, but those marked ``<!-- not run``
+    and those docs/generate.py wrote (signatures, and the examples' sources run above)."""
     blocks = []
     for page in sorted(DOCS.rglob('*.md')):
-        text = page.read_text()
+        text = re.sub(
+            r'<!-- generate: .*?<!-- end generate -->',
+            lambda generated: '\n' * generated.group(0).count('\n'),  # the same line numbers
+            page.read_text(),
+            flags=re.S,
+        )
         for match in re.finditer(
             r'(?:^(<!-- not run[^\n]*)\n)?^```python\n(.*?)^```', text, re.M | re.S
         ):
