@@ -13,6 +13,7 @@ from zros.bag.info import BagInfo, info
 from zros.bag.player import Player, PlayerError
 from zros.bag.reader import Bag, TopicInfo
 from zros.bag.recorder import Recorder, RecorderError
+from zros.bag.reindexer import FileReport, ReindexReport, reindex
 from zros.bag.rosr import BagRead, bag_read
 from zros.bag.source import Connection, RawMessage, Source, open_source
 
@@ -25,14 +26,17 @@ __all__ = [
     'BagWriteError',
     'BagWriter',
     'Connection',
+    'FileReport',
     'Player',
     'PlayerError',
     'RawMessage',
     'Recorder',
     'RecorderError',
+    'ReindexReport',
     'Source',
     'TopicInfo',
     'bag_read',
     'info',
     'open_source',
+    'reindex',
 ]

@@ -2,9 +2,10 @@
 
 ``record`` runs until Ctrl-C or SIGTERM, then finishes the bag (last chunk, summary,
 metadata.yaml); a SIGKILL leaves files readable up to their last chunk (written at least every
-second). ``play`` plays with the recorded timing; on a terminal, space pauses and resumes, the
-right arrow (or ``s``) publishes the next message while paused, up and down change the rate
-by 10 %, ``q`` quits. A status line shows on stderr when it is a terminal.
+second) and a current metadata.yaml, and ``zros bag reindex`` finishes them. ``play`` plays
+with the recorded timing; on a terminal, space pauses and resumes, the right arrow (or ``s``)
+publishes the next message while paused, up and down change the rate by 10 %, ``q`` quits. A
+status line shows on stderr when it is a terminal.
 """
 
 from __future__ import annotations
