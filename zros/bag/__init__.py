@@ -16,6 +16,7 @@ from zros.bag.recorder import Recorder, RecorderError
 from zros.bag.reindexer import FileReport, ReindexReport, reindex
 from zros.bag.rosr import BagRead, bag_read
 from zros.bag.source import Connection, RawMessage, Source, open_source
+from zros.bag.types import UndecodedMessage
 
 __all__ = [
     'Bag',
@@ -35,6 +36,7 @@ __all__ = [
     'ReindexReport',
     'Source',
     'TopicInfo',
+    'UndecodedMessage',
     'bag_read',
     'info',
     'open_source',

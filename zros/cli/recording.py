@@ -137,8 +137,9 @@ def play(args: argparse.Namespace) -> int:
         )
         with player, Keys() as keys:
             source = player.source
+            count = sum(c.count for c in player.connections)
             out(
-                f'Playing {source.path}: {source.message_count} messages on '
+                f'Playing {source.path}: {count} messages on '
                 f'{len(player.topics)} topics, {source.duration_ns / 1e9:.3f} s'
             )
             if keys.enabled:
