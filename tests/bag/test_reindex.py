@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import shutil
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -13,29 +13,15 @@ import pytest
 
 from tests.bag.reference import raw_messages
 from tests.bag.test_record import bag_yaml
-from tests.bag.test_record_cli import complete_chunks, texts
-from tests.cli.conftest import ZROS, Cli
+from tests.bag.test_record_cli import complete_chunks, texts, zros_cli  # noqa: F401
+from tests.cli.conftest import Cli
 from zros.bag import Bag, BagError, BagTopic, BagWriter, reindex
 from zros.bag.source import storage_files
 from zros.cdr import default_registry, encode
 from zros.testing import wait_for
-from zros.transport import Router
 
 Node = Callable[..., Any]
 STRING = 'std_msgs/msg/String'
-
-
-@pytest.fixture
-def zros_cli(zros_router: Router) -> Iterator[Cli]:
-    """The ``zros`` console script, connected to the test's router."""
-    if ZROS is None:
-        pytest.skip('the zros console script is not installed in this environment')
-    commands = Cli(zros_router.endpoint)
-    yield commands
-    for running in commands.started:
-        if running.process.poll() is None:
-            running.process.kill()
-            running.process.wait(10)
 
 
 # --- what each reader sees ------------------------------------------------------------------
@@ -85,7 +71,9 @@ def zros_info_count(cli: Cli, folder: Path) -> int:
 
 
 def test_a_killed_recording_reads_everywhere_after_reindex(
-    zros_cli: Cli, zros_node: Node, tmp_path: Path
+    zros_cli: Cli,  # noqa: F811
+    zros_node: Node,
+    tmp_path: Path,
 ) -> None:
     folder = tmp_path / 'killed'
     # files of ~64 KiB: the recording splits, so complete files and the unfinished last one mix
