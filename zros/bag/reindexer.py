@@ -163,7 +163,8 @@ def reindex(path: str | os.PathLike[str]) -> ReindexReport:
 
     ``path`` is a bag folder or one ``.mcap`` file (which gets no ``metadata.yaml``). Raises
     :class:`BagError` for a path that is no MCAP bag, or when writing fails (the file being
-    rewritten then keeps its original content).
+    rewritten then keeps its original content). Not for a bag a recorder is still writing: its
+    open file would be replaced under it.
     """
     location = Path(path).expanduser()
     if not location.exists():

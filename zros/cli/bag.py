@@ -36,7 +36,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         'chunk, with summary, indexes and footer, and rewrite metadata.yaml from the files, '
         'as `ros2 bag reindex` does. Finished files are left as they are; an unfinished one is '
         'rewritten into a temporary file renamed over it once complete, so a failure leaves '
-        'the original unchanged.',
+        'the original unchanged. Not for a bag still being recorded.',
     )
     fix.add_argument('path', help='a bag folder or .mcap file')
     fix.set_defaults(run='zros.cli.bag:reindex')
