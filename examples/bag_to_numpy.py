@@ -11,17 +11,18 @@ The rosR paper worked from a bag: voltages and calibration pairs recorded once, 
    times, ``bag.to_numpy(topic)`` one structured array;
 3. it fits the calibration curve and plots the voltage over time into ``bag_to_numpy.png``.
 
-``--bag PATH`` skips the recording and reads an existing bag with those topics (a folder, an
+The bag stays in ``sharp_sensor_bag/`` (``--keep`` to choose), for ``zros bag info``, ``zros
+plot`` or the snippets of docs/bags.md; a second run reads it again instead of recording (delete
+it to record anew). ``--bag PATH`` reads another existing bag with those topics (a folder, an
 ``.mcap``, a ``.db3`` or a ROS 1 ``.bag``). With ``--connect`` (or ``ZROS_CONNECT``) it records
 what is published there (run ``sharp_sensor.py`` against the same router); with neither, a
-router and the simulated sensor run inside it.
+router and the simulated sensor run inside it. Distances are in metres, as in ``zros demo``.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import tempfile
 import time
 from pathlib import Path
 
@@ -63,48 +64,50 @@ def main() -> int:
         '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
     )
     parser.add_argument('--bag', type=Path, help='read this recording instead of making one')
+    parser.add_argument(
+        '--keep',
+        type=Path,
+        default=Path('sharp_sensor_bag'),
+        help='where the recording goes (and stays); read again if it is there already',
+    )
     parser.add_argument('--seconds', type=float, default=20.0, help='record at most this long')
     parser.add_argument('--output', default='bag_to_numpy.png', help='the PNG to write')
     args = parser.parse_args()
 
-    with tempfile.TemporaryDirectory(prefix='zros-bag-') as folder:
-        path = args.bag
-        if path is None:
-            router = None
-            if not (args.connect or os.environ.get('ZROS_CONNECT')):
-                router = zros.start_router()
-                args.connect = router.endpoint
-                print(
-                    f'no robot given: a router at {router.endpoint} and a simulated sensor run here'
-                )
-            path = Path(folder) / 'sharp_sensor'
-            count = record(args.connect, router is not None, path, args.seconds)
-            if router is not None:
-                router.close()
-            print(
-                f'recorded {count} messages into {path.name}/ ({len(list(path.iterdir()))} files)'
-            )
+    path = args.bag
+    if path is None and args.keep.exists():
+        path = args.keep
+        print(f'reading {path}/, recorded before (delete it to record again)')
+    elif path is None:
+        router = None
+        if not (args.connect or os.environ.get('ZROS_CONNECT')):
+            router = zros.start_router()
+            args.connect = router.endpoint
+            print(f'no robot given: a router at {router.endpoint} and a simulated sensor run here')
+        path = args.keep
+        count = record(args.connect, router is not None, path, args.seconds)
+        if router is not None:
+            router.close()
+        print(f'recorded {count} messages into {path}/ ({len(list(path.iterdir()))} files)')
 
-        with Bag(path) as bag:
-            for name, info in bag.topics.items():
-                print(f'  {name}: {info.count} x {info.type_name}')
-            voltage = bag.columns(VOLTAGE_TOPIC, ['data'])  # {'time': int64 ns, 'data': float32}
-            pairs = bag.to_numpy(CALIBRATION_TOPIC)  # a record per message: time, dist, volt
-        print(
-            f'voltage: {voltage["data"].shape[0]} readings as {voltage["data"].dtype}, '
-            f'mean {voltage["data"].mean():.3f} V'
-        )
-        print(
-            f'calibration: a structured array of {len(pairs)} records, fields {pairs.dtype.names}'
-        )
-        curve = np.polynomial.Polynomial.fit(pairs['volt'], pairs['dist'], 8)
-        print(f'fitted from the bag: 0.8 V -> {curve(0.8):.3f} m, 2.0 V -> {curve(2.0):.3f} m')
+    with Bag(path) as bag:
+        for name, info in bag.topics.items():
+            print(f'  {name}: {info.count} x {info.type_name}')
+        voltage = bag.columns(VOLTAGE_TOPIC, ['data'])  # {'time': int64 ns, 'data': float32}
+        pairs = bag.to_numpy(CALIBRATION_TOPIC)  # a record per message: time, dist, volt
+    print(
+        f'voltage: {voltage["data"].shape[0]} readings as {voltage["data"].dtype}, '
+        f'mean {voltage["data"].mean():.3f} V'
+    )
+    print(f'calibration: a structured array of {len(pairs)} records, fields {pairs.dtype.names}')
+    curve = np.polynomial.Polynomial.fit(pairs['volt'], pairs['dist'], 8)
+    print(f'fitted from the bag: 0.8 V -> {curve(0.8):.3f} m, 2.0 V -> {curve(2.0):.3f} m')
 
-        table = bag_read(path, [CALIBRATION_TOPIC])  # rosR's ros.BagRead: four columns
-        print(
-            f'bag_read: {len(table)} rows of topic, data_type, time_stamp, message; the first: '
-            f'{table.data_type[0]} dist={table.message[0].dist:.3f}'
-        )
+    table = bag_read(path, [CALIBRATION_TOPIC])  # rosR's ros.BagRead: four columns
+    print(
+        f'bag_read: {len(table)} rows of topic, data_type, time_stamp, message; the first: '
+        f'{table.data_type[0]} dist={table.message[0].dist:.3f}'
+    )
 
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -113,10 +116,10 @@ def main() -> int:
     figure, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(8, 5))
     top.plot(seconds, voltage['data'], '.', markersize=3)
     top.set(ylabel='voltage [V]', title=f'{VOLTAGE_TOPIC}, from the bag')
-    bottom.plot(seconds, 100 * curve(voltage['data']), '.', markersize=3, color='C1')
-    bottom.set(xlabel='receive time [s]', ylabel='distance [cm] (fitted)')
+    bottom.plot(seconds, curve(voltage['data']), '.', markersize=3, color='C1')
+    bottom.set(xlabel='receive time [s]', ylabel='distance [m] (fitted)')
     figure.savefig(args.output, dpi=100)
-    print(f'plotted voltage and distance over time into {args.output}')
+    print(f'plotted voltage [V] and fitted distance [m] over time into {args.output}')
     return 0
 
 

@@ -75,7 +75,7 @@ def check_report(stdout: str, output: Path) -> None:
     assert rms is not None and 0.5 < float(rms.group(1)) < 10
     assert 'router   in this process, at tcp/127.0.0.1:' in stdout
     assert 'NOT OK' not in stdout
-    sizes = {'voltage.png': (800, 400), 'fit.png': (700, 550), 'distance.png': (800, 400)}
+    sizes = {'voltage.png': (800, 400), 'fit.png': (700, 550), 'distance.png': (800, 440)}
     for name, size in sizes.items():
         assert png_size(output / name) == size
         assert f'{output.name}/{name}' in stdout
@@ -276,16 +276,18 @@ def test_figures_show_what_they_say(tmp_path: Path) -> None:
     from zros.demo.figures import distance_figure, fit_figure, save, voltage_figure
 
     volts = [v for _, v in sensor.readings()]
-    figure = voltage_figure(volts)
+    times = [0.04 * n for n in range(len(volts))]  # the bag's 25 readings a second
+    figure = voltage_figure(times, volts)
     (axes,) = figure.axes
     assert figure.canvas.__class__.__name__ == 'FigureCanvasAgg'
     assert (axes.get_xlabel(), axes.get_ylabel(), axes.get_title()) == (
-        'reading',
+        'time [s]',
         'voltage [V]',
         VOLTAGE_TOPIC,
     )
     raw, filtered = axes.lines
     assert np.array_equal(raw.get_ydata(), volts)
+    assert np.array_equal(raw.get_xdata(), times) and np.array_equal(filtered.get_xdata(), times)
     assert np.allclose(filtered.get_ydata(), moving_average(np.array(volts)))
     assert [t.get_text() for t in axes.get_legend().get_texts()] == [
         'measured',
@@ -310,22 +312,29 @@ def test_figures_show_what_they_say(tmp_path: Path) -> None:
     assert np.allclose(bottom.lines[0].get_ydata(), 1000 * calibration.residuals)
 
     ranges = [calibration.distance(v) for v in moving_average(np.array(volts))]
-    figure = distance_figure(ranges, sensor.sweep())
+    figure = distance_figure(times, ranges, sensor.sweep())
     (axes,) = figure.axes
     truth, received, low, high = axes.lines
     assert np.array_equal(received.get_ydata(), ranges)
+    assert np.array_equal(received.get_xdata(), times) and axes.get_xlabel() == 'time [s]'
+    (caption,) = figure.texts  # why the ranges trail the object
+    assert caption.get_text() == (
+        'Each range comes from the moving average of the last 5 voltages, so it trails the '
+        'object by about 2 readings (0.08 s).'
+    )
     assert received.get_label() == 'sensor_msgs/Range received'
     assert list(low.get_ydata()) == [MIN_RANGE] * 2 and list(high.get_ydata()) == [MAX_RANGE] * 2
     assert np.sqrt(np.mean((np.array(ranges) - truth.get_ydata()) ** 2)) < 0.02
     assert (axes.get_ylabel(), axes.get_title()) == ('range [m]', DISTANCE_TOPIC)
-    assert png_size(Path(save(figure, tmp_path / 'd.png'))) == (800, 400)
+    assert png_size(Path(save(figure, tmp_path / 'd.png'))) == (800, 440)
 
 
 def test_figures_need_no_pyplot() -> None:
     code = (
         'import sys\n'
         'from zros.demo import figures, sensor\n'
-        'figures.voltage_figure([v for _, v in sensor.readings()]).savefig("/dev/null", '
+        'figures.voltage_figure(range(314), [v for _, v in sensor.readings()]).savefig('
+        '"/dev/null", '
         'format="png")\n'
         'assert "matplotlib.pyplot" not in sys.modules, "pyplot was imported"\n'
     )

@@ -70,11 +70,12 @@ EXPECTED: dict[str, list[str]] = {
         r'requires a client certificate \(mutual TLS\)',
     ],
     'bag_to_numpy.py': [
-        r'recorded 554 messages into sharp_sensor/',
+        r'recorded 554 messages into sharp_sensor_bag/',
         r'/sharpGP2D120/Voltage: 314 x std_msgs/msg/Float32',
         r"calibration: a structured array of 240 records, fields \('time', 'dist', 'volt'\)",
         r'fitted from the bag: 0\.8 V -> 0\.1[56]\d m',
         r'bag_read: 240 rows',
+        r'fitted distance \[m\] over time into bag_to_numpy\.png',
     ],
     'real_robot.py': [r'No bridge answered at tcp/127\.0\.0\.1:7447|connected to tcp/127\.0\.0\.1'],
 }
@@ -119,6 +120,21 @@ def test_example_runs_on_its_own(script: str, tmp_path: Path) -> None:
     assert result.returncode == 0, output
     check_output(result.stdout, EXPECTED.get(script, []))
     assert 'Traceback' not in result.stderr, result.stderr
+
+
+def test_bag_to_numpy_keeps_the_bag_it_names(tmp_path: Path) -> None:
+    from zros.bag import Bag
+
+    first = run('bag_to_numpy.py', cwd=tmp_path)
+    assert first.returncode == 0, first.stdout + first.stderr
+    bag = tmp_path / 'sharp_sensor_bag'
+    with Bag(bag) as recording:  # the folder it printed is still there, whole
+        assert recording.message_count == 554
+    again = run('bag_to_numpy.py', cwd=tmp_path)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert 'reading sharp_sensor_bag/, recorded before' in again.stdout
+    assert 'recorded 554' not in again.stdout
+    check_output(again.stdout, [r'fitted from the bag: 0\.8 V -> 0\.1[56]\d m'])
 
 
 def docs_blocks() -> list[tuple[str, str]]:

@@ -91,3 +91,27 @@ def test_keys_steer_the_player() -> None:
     _on_key(fake, 'down')
     assert abs(fake.rate - 1.0) < 1e-9
     assert not _on_key(fake, 'q')
+
+
+def test_a_type_defined_nowhere_does_not_stop_info_or_play(
+    zros_cli: Cli,  # noqa: F811
+    zros_node: Node,
+    tmp_path: Path,
+) -> None:
+    from tests.bag.test_reader import SECRET, secret_bag
+
+    bag, _ = secret_bag(tmp_path / 'secret')
+    info = zros_cli.run('bag', 'info', str(bag))
+    assert info.returncode == 0, info.stderr
+    assert f'Topic: /secret | Type: {SECRET} | Count: 3' in info.stdout
+    listener = Listener(zros_node('listener'), '/chatter')
+    result = zros_cli.run(
+        'bag', 'play', str(bag), '--topics', '/chatter', '/secret', '--wait-for-subscribers', '10'
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[0].startswith(f'Playing {bag}: 3 messages on 1 topics')
+    assert result.stdout.splitlines()[-1] == 'Played 3 messages'
+    assert f'cannot play /secret: the bag has no definition of {SECRET}' in result.stderr
+    assert 'ZROS_INTERFACE_PATH=' in result.stderr and 'playing the other topics' in result.stderr
+    assert wait_for(lambda: len(listener.got) == 3)
+    assert listener.texts() == ['c0', 'c1', 'c2']

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import re
 from pathlib import Path
 
 import numpy as np
@@ -123,19 +122,84 @@ def test_definition_mismatch_without_fallback(tmp_path: Path) -> None:
     assert 'bytes left after the end of the message' in text
 
 
-def test_unknown_type_without_definition(tmp_path: Path) -> None:
-    path = make_db3(
-        tmp_path / 'unknown.db3',
-        [('/thing', 'zros_test/msg/Unknown')],
-        [(0, 5, b'\x00\x01\x00\x00\x01')],
+SECRET = 'secret_pkg/msg/Secret'
+SECRET_TEXT = 'int32 code\nfloat64 level\n'
+
+
+def secret_bag(path: Path) -> tuple[Path, list[bytes]]:
+    """A bag whose /secret topic has a type defined nowhere (no schema, unknown to zros),
+    beside /chatter and /point; returns it and the /secret messages' bytes."""
+    from zros.bag import BagTopic, BagWriter
+    from zros.cdr import TypeRegistry, default_registry
+
+    registry = TypeRegistry(paths=[])
+    registry.register_text(SECRET, SECRET_TEXT)
+    secret = registry.get_class(SECRET)
+    known = default_registry()
+    secrets = [encode(secret(code=n, level=n / 4)) for n in range(3)]
+    with BagWriter(path) as writer:
+        chatter = writer.add_topic(BagTopic.from_registry(known, '/chatter', 'std_msgs/msg/String'))
+        point = writer.add_topic(BagTopic.from_registry(known, '/point', 'geometry_msgs/msg/Point'))
+        hidden = writer.add_topic(BagTopic('/secret', SECRET))  # recorded without a definition
+        for n in range(3):
+            writer.write(
+                chatter, 10 + 3 * n, encode(new_message('std_msgs/msg/String', data=f'c{n}'))
+            )
+            writer.write(point, 11 + 3 * n, encode(new_message('geometry_msgs/msg/Point', x=n)))
+            writer.write(hidden, 12 + 3 * n, secrets[n])
+    return path, secrets
+
+
+def test_a_type_defined_nowhere_reads_as_bytes_and_the_rest_decodes(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    from zros.bag import UndecodedMessage
+
+    path, secrets = secret_bag(tmp_path / 'secret')
+    with caplog.at_level(logging.WARNING, 'zros.bag'):
+        read = bag_read(path)
+    assert read.topic == ['/chatter', '/point', '/secret'] * 3
+    assert read.data_type == ['std_msgs/msg/String', 'geometry_msgs/msg/Point', SECRET] * 3
+    assert [m.data for m in read.message[0::3]] == ['c0', 'c1', 'c2']
+    assert [m.x for m in read.message[1::3]] == [0.0, 1.0, 2.0]
+    raw = read.message[2::3]
+    assert all(isinstance(m, UndecodedMessage) and m.__msgtype__ == SECRET for m in raw)
+    assert [m.data for m in raw] == secrets
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 1, warnings  # one warning, not one per message
+    assert SECRET in warnings[0] and 'UndecodedMessage' in warnings[0]
+    assert f'ZROS_INTERFACE_PATH=<a folder holding {SECRET}.msg>' in warnings[0]
+    assert f"zros.cdr.register_type('{SECRET}'" in warnings[0]
+    with Bag(path) as bag:
+        assert bag.columns('/point', ['x'])['x'].tolist() == [0.0, 1.0, 2.0]
+        with pytest.raises(BagError, match=f'topic /secret has type {SECRET}, which has no def'):
+            bag.columns('/secret')
+        with pytest.raises(BagError, match='ZROS_INTERFACE_PATH'):
+            bag.message_class('/secret')
+    # the message object behaves: equal by content, copied, pickled; no fields to list
+    import copy
+    import pickle
+
+    assert raw[0] == copy.copy(raw[0]) == pickle.loads(pickle.dumps(raw[0]))
+    assert (
+        raw[0] != raw[1] and repr(raw[0]) == f'UndecodedMessage({SECRET}, {len(secrets[0])} bytes)'
     )
-    with Bag(path) as bag, pytest.raises(BagError) as info:
-        list(bag.messages())
-    assert re.search(
-        r'unknown\.db3: cannot decode topic /thing: type zros_test/msg/Unknown has no definition '
-        r'in the recording and none zros knows',
-        str(info.value),
-    )
+    with pytest.raises(TypeError, match='no definition'):
+        raw[0].to_dict()
+
+
+def test_the_warning_says_how_to_decode_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from zros.cdr import TypeRegistry
+
+    path, _ = secret_bag(tmp_path / 'secret')
+    folder = tmp_path / 'msgs'
+    (folder / 'secret_pkg' / 'msg').mkdir(parents=True)
+    (folder / 'secret_pkg' / 'msg' / 'Secret.msg').write_text(SECRET_TEXT)
+    monkeypatch.setenv('ZROS_INTERFACE_PATH', str(folder))  # the line the warning gives
+    with Bag(path, registry=TypeRegistry()) as bag:
+        secrets = [m for t, _, m in bag.messages('/secret')]
+        assert [(m.code, m.level) for m in secrets] == [(0, 0.0), (1, 0.25), (2, 0.5)]
+        assert bag.columns('/secret', ['code'])['code'].tolist() == [0, 1, 2]
 
 
 def test_data_that_fits_no_definition(tmp_path: Path) -> None:

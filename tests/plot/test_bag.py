@@ -94,3 +94,14 @@ def test_an_address_the_bag_does_not_have(tmp_path: Path) -> None:
     )
     with pytest.raises(PlotError, match="/odom/twist/speed: twist has no field 'speed'"):
         plot_bag(bag, ['/odom/twist/speed'])
+
+
+def test_a_type_defined_nowhere_in_the_bag(tmp_path: Path) -> None:
+    from tests.bag.test_reader import SECRET, secret_bag
+    from zros.bag import BagError
+
+    bag, _ = secret_bag(tmp_path / 'secret')
+    figure = plot_bag(bag, ['/point/x'])  # the other topics plot
+    assert figure.axes[0].lines[0].get_ydata().tolist() == [0.0, 1.0, 2.0]
+    with pytest.raises(BagError, match=f'{SECRET}, which has no definition.*register_type'):
+        plot_bag(bag, ['/secret/code'])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import signal as signal_module
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -115,6 +116,40 @@ def test_plot_a_bag(cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
         1,
         'zros: error: --frames is for live plots, not recordings\n',
     )
+
+
+def test_a_missing_bag_is_said_at_once(
+    cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # --wait 60: had any of these been taken for a live topic, the command would wait a minute
+    monkeypatch.chdir(tmp_path)
+    for argument in ('no_such_bag', './run9', '~/no_such_bag', 'run9.mcap', '/no/run9.mcap'):
+        started = time.monotonic()
+        result = cli.run('plot', argument, '/x/data', '--wait', '60', timeout=50)
+        assert time.monotonic() - started < 30
+        assert result.returncode == 2, (argument, result.stderr)
+        assert result.stderr.startswith(f'zros: error: no such file or folder: {argument}')
+        assert result.stdout == ''
+    hint = cli.run('plot', 'no_such_bag', '/x/data', '--wait', '60', timeout=50).stderr
+    assert hint.endswith('(a topic address starts with /)\n')
+    # the other way: a relative bag that exists plots from it, an address waits for its topic
+    make_bag(tmp_path / 'run1')
+    found = cli.run('plot', 'run1', '/odom/twist/twist/linear/x', '--png', 'odom.png')
+    assert found.returncode == 0, found.stderr
+    assert found.stdout.splitlines()[-1] == 'wrote odom.png'
+    live = cli.run('plot', '/run1/x', '--wait', '0.2', '--png', 'x.png')
+    assert live.returncode == 1
+    assert 'no topic on the network starts this address (waited 0.2 s' in live.stderr
+
+
+def test_which_first_arguments_name_files() -> None:
+    from zros.cli.plot import names_a_path
+
+    paths = ['run1', 'run1/', './run1', '../bags/run1', '~/bags/x.mcap', 'x.db3', '/d/x.MCAP',
+             '/data/run.bag']  # fmt: skip
+    addresses = ['/odom/twist/twist/linear/x', '/x/data', '/scan/ranges[0]', '/run1']
+    assert [names_a_path(p) for p in paths] == [True] * len(paths)
+    assert [names_a_path(a) for a in addresses] == [False] * len(addresses)
 
 
 def test_graph_picture_and_dot(

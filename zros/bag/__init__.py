@@ -13,8 +13,10 @@ from zros.bag.info import BagInfo, info
 from zros.bag.player import Player, PlayerError
 from zros.bag.reader import Bag, TopicInfo
 from zros.bag.recorder import Recorder, RecorderError
+from zros.bag.reindexer import FileReport, ReindexReport, reindex
 from zros.bag.rosr import BagRead, bag_read
 from zros.bag.source import Connection, RawMessage, Source, open_source
+from zros.bag.types import UndecodedMessage
 
 __all__ = [
     'Bag',
@@ -25,14 +27,18 @@ __all__ = [
     'BagWriteError',
     'BagWriter',
     'Connection',
+    'FileReport',
     'Player',
     'PlayerError',
     'RawMessage',
     'Recorder',
     'RecorderError',
+    'ReindexReport',
     'Source',
     'TopicInfo',
+    'UndecodedMessage',
     'bag_read',
     'info',
     'open_source',
+    'reindex',
 ]

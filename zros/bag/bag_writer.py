@@ -21,8 +21,8 @@ from zros.bag.rosbag2_yaml import (
     TopicEntry,
     bag_metadata,
     dump,
-    metadata_yaml,
     qos_profiles_text,
+    write_metadata_yaml,
 )
 from zros.errors import ZrosError
 from zros.qos import QoS
@@ -117,6 +117,7 @@ class BagWriter:
         self.message_count = 0
         self.closed = False
         self._open_next()
+        self.write_metadata()
 
     # --- files -------------------------------------------------------------------------------
 
@@ -161,6 +162,7 @@ class BagWriter:
     def _split(self) -> None:
         self._close_file()
         self._open_next()
+        self.write_metadata()
 
     def _metadata(self, files: Sequence[FileEntry]) -> dict[str, object]:
         topics = [
@@ -179,6 +181,7 @@ class BagWriter:
         self.topics.append(topic)
         index = len(self.topics) - 1
         self._add_channel(index)
+        self.write_metadata()
         return index
 
     def write(
@@ -215,6 +218,15 @@ class BagWriter:
         if self._file is not None:
             self._file.flush()
 
+    def write_metadata(self) -> None:
+        """Write ``metadata.yaml`` for what is written so far, the open file included (its
+        counts are those of :attr:`files` as they stand). A killed recording then has a
+        metadata file that names its files and topics; ``zros bag reindex`` makes it exact."""
+        files = list(self._done)
+        if self._file is not None:
+            files.append(self._entry(self._file))
+        write_metadata_yaml(self.path, self._metadata(files))
+
     @property
     def size(self) -> int:
         """Bytes written so far (the open chunk counted uncompressed)."""
@@ -238,8 +250,7 @@ class BagWriter:
             return
         self.closed = True
         self._close_file()
-        text = metadata_yaml(self._metadata(self._done))
-        (self.path / 'metadata.yaml').write_text(text)
+        write_metadata_yaml(self.path, self._metadata(self._done))
 
     def __enter__(self) -> BagWriter:
         return self

@@ -352,6 +352,7 @@ def extract(
     names = {c.type_name for c in connections}
     if len(names) > 1:
         raise BagError(bag.path, f'topic {topic} holds several types: {", ".join(sorted(names))}')
+    bag.types.message_class(connections[0])  # a type with no definition has no columns
     extraction = _Extraction(bag, topic, requested)
     try:
         for blocks in bag.source.blocks(connections, start, end):

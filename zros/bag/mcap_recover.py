@@ -22,6 +22,56 @@ def is_mcap(path: Path) -> bool:
         return stream.read(len(MAGIC)) == MAGIC
 
 
+class LinearScan:
+    """One pass over the complete records of an MCAP file, from its start.
+
+    Chunks are read whole and their CRCs checked before any record inside them is yielded, so
+    a chunk cut short or corrupt yields nothing. After the iteration, ``stopped_at`` says why it
+    stopped before the end ('' when it reached the footer), ``end`` is the byte offset just past
+    the last complete record, and ``compression`` is the first chunk's ('' without chunks).
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.stopped_at = ''
+        self.end = 0
+        self.size = 0  #: the file's size when the scan began
+        self.compression = ''
+        self._chunked = False
+
+    def records(self) -> Iterator[Any]:
+        """Header, schemas, channels, messages, metadata, attachments... in file order."""
+        from mcap.exceptions import EndOfFile
+        from mcap.records import Chunk
+        from mcap.stream_reader import StreamReader, breakup_chunk
+
+        self.size = size = self.path.stat().st_size
+        with self.path.open('rb') as stream:
+            reader = StreamReader(
+                stream, emit_chunks=True, validate_crcs=True, record_size_limit=size
+            )
+            records = reader.records
+            while True:
+                try:
+                    record = next(records)
+                    inner = [record]
+                    if isinstance(record, Chunk):
+                        inner = breakup_chunk(record, validate_crc=True)
+                        if not self._chunked:
+                            self._chunked = True
+                            self.compression = record.compression
+                except StopIteration:
+                    return
+                except EndOfFile:
+                    self.stopped_at = 'the file ends before its footer'
+                    return
+                except Exception as exc:  # a record cut short or corrupt: stop there
+                    self.stopped_at = str(exc) or type(exc).__name__
+                    return
+                self.end = stream.tell()
+                yield from inner
+
+
 class RecoveredMcap:
     """The complete records of an MCAP file without summary, as a rosbags-like storage."""
 
@@ -33,15 +83,9 @@ class RecoveredMcap:
         self.in_order = True
 
     def _records(self) -> Iterator[Any]:
-        from mcap.stream_reader import StreamReader
-
-        size = self.path.stat().st_size
-        with self.path.open('rb') as stream:
-            reader = StreamReader(stream, validate_crcs=True, record_size_limit=size)
-            try:
-                yield from reader.records
-            except Exception as exc:  # a record cut short or corrupt: stop there
-                self.stopped_at = str(exc) or type(exc).__name__
+        scan = LinearScan(self.path)
+        yield from scan.records()
+        self.stopped_at = scan.stopped_at
 
     def open(self) -> None:
         """Scan the file once for its schemas, channels, counts and times."""

@@ -73,6 +73,7 @@ class McapFile:
             self._stream, chunk_size=2**62, compression=kind, enable_crcs=True
         )
         self._writer.start(profile='ros2', library=library)
+        self._stream.flush()  # a file killed before its first chunk still opens as MCAP
         self._chunk_size = chunk_size
         self._pending = 0  #: bytes in the open chunk
         self._schemas: dict[str, int] = {}

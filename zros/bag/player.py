@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 from zros.bag.play_clock import PlayClock
 from zros.bag.rosbag2_yaml import parse_qos_profiles
+from zros.bag.types import how_to_define
 from zros.errors import ZrosError
 from zros.qos import Durability, History, QoS, Reliability
 
@@ -69,8 +70,9 @@ def message_class(node: Node, connection: Connection) -> type[Message]:
     except ZrosError as exc:
         if connection.definition_format != 'ros2msg' or not connection.definition:
             raise PlayerError(
-                f'cannot play {connection.topic}: {exc}; the bag has no definition of it'
-            ) from None
+                f'cannot play {connection.topic}: the bag has no definition of '
+                f'{connection.type_name} and zros knows none; {how_to_define(connection.type_name)}'
+            ) from exc
     registry = TypeRegistry(distro=node.registry.distro)
     registry.register_bundle(connection.type_name, connection.definition, str(connection.topic))
     return registry.get_class(connection.type_name)
@@ -170,13 +172,14 @@ class Player:
                     f'{", ".join(sorted({name(c.topic) for c in connections}))}'
                 )
             connections = [c for c in connections if name(c.topic) in wanted]
-        self.connections = connections
         self.start_ns = source.start_ns + round(start_offset * _NS)
         self.end_ns = source.end_ns
         self._publishers: dict[int, Publisher] = {}
         by_topic: dict[tuple[str, str], Publisher] = {}
         from zros.pubsub import Publisher
 
+        playable: list[Connection] = []
+        unplayable: list[PlayerError] = []
         for connection in connections:
             full = self._full_name(connection.topic)
             target = remap.get(full, full)
@@ -188,10 +191,20 @@ class Player:
                 except ValueError as exc:
                     _log.warning('%s: %s; publishing with the default QoS', connection.topic, exc)
                     offered = []
-                cls = message_class(self.node, connection)
+                try:
+                    cls = message_class(self.node, connection)
+                except PlayerError as exc:
+                    unplayable.append(exc)
+                    continue
                 publisher = Publisher(target, cls, playback_qos(offered), node=self.node)
                 by_topic[key] = publisher
             self._publishers[connection.id] = publisher
+            playable.append(connection)
+        if unplayable and not playable:
+            raise unplayable[0]
+        for problem in unplayable:
+            _log.warning('%s; playing the other topics', problem)
+        self.connections = playable
         self.topics = {p.topic: p.type_name for p in by_topic.values()}
         self._clock_publisher: Publisher | None = None
         if self._clock_hz is not None:

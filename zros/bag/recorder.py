@@ -330,6 +330,7 @@ class Recorder:
         registered = 0
         last_flush = time.monotonic()
         interval = self._flush_interval
+        described = 0  #: messages metadata.yaml counts
 
         def ready() -> bool:
             return bool(self._queue) or self._draining
@@ -353,6 +354,9 @@ class Recorder:
                 self.message_count = bag.message_count
                 if interval is not None and time.monotonic() - last_flush >= interval:
                     bag.flush()
+                    if described != bag.message_count:  # metadata.yaml for a killed recorder
+                        bag.write_metadata()
+                        described = bag.message_count
                     last_flush = time.monotonic()
                 self.size = bag.size
                 if self._draining and not self._queue:

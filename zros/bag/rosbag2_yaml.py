@@ -9,9 +9,11 @@ cannot parse), and what ``rosbags`` reads too.
 from __future__ import annotations
 
 import json
+import os
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from zros.qos import Durability, History, QoS, Reliability
@@ -246,3 +248,18 @@ def dump(value: Mapping[str, Any]) -> str:
 def metadata_yaml(metadata: Mapping[str, Any]) -> str:
     """The text of ``metadata.yaml`` for a ``rosbag2_bagfile_information`` mapping."""
     return dump({'rosbag2_bagfile_information': metadata})
+
+
+def write_metadata_yaml(folder: Path, metadata: Mapping[str, Any]) -> Path:
+    """Write ``folder/metadata.yaml`` through a temporary file renamed over it, so a process
+    killed meanwhile leaves the old file or the new one, never half of one."""
+    path = folder / 'metadata.yaml'
+    temporary = folder / '.metadata.yaml.tmp'
+    try:
+        with temporary.open('w', encoding='utf-8') as stream:
+            stream.write(metadata_yaml(metadata))
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+    return path

@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from zros.bag.errors import BagError
 from zros.bag.source import Connection, RawMessage
@@ -19,14 +20,82 @@ from zros.cdr import CdrError, Message, TypeRegistry, UnknownTypeError, default_
 from zros.cdr.message import decode
 from zros.cdr.model import split_type_name
 
+if TYPE_CHECKING:
+    from typing_extensions import Self
+
 _log = logging.getLogger('zros.bag')
 _EVENT = '_Event'
 _IDL_RULE = '=' * 80 + '\n'
 
 
+class UndecodedMessage(Message):
+    """A message of a type with no definition in the recording nor anywhere zros looks: its
+    CDR bytes as recorded (4-byte header included) in ``data``, its type in ``__msgtype__``.
+
+    Reading a bag gives these for such a topic, and decoded messages for every other one. With
+    the definition at hand, ``zros.cdr.decode(type_name, message.data)`` decodes one.
+    """
+
+    __slots__ = ('data',)
+    __msgtype__ = ''
+    __hash__ = None  # as every message
+
+    def __init__(self, data: bytes) -> None:
+        object.__setattr__(self, 'data', data)
+
+    @classmethod
+    def of_type(cls, type_name: str) -> type[UndecodedMessage]:
+        """The class for undecoded messages of ``type_name`` (one per name)."""
+        known = _UNDECODED.get(type_name)
+        if known is None:
+            known = _UNDECODED[type_name] = type(
+                'UndecodedMessage', (cls,), {'__slots__': (), '__msgtype__': type_name}
+            )
+        return known
+
+    def copy(self) -> Self:
+        """Another message with the same bytes."""
+        return type(self)(self.data)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Refused: without a definition there are no fields."""
+        raise TypeError(
+            f'{self.__msgtype__} has no definition: no fields, only its CDR bytes in .data'
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, UndecodedMessage):
+            return NotImplemented
+        return self.__msgtype__ == other.__msgtype__ and self.data == other.data
+
+    def __repr__(self) -> str:
+        return f'UndecodedMessage({self.__msgtype__}, {len(self.data)} bytes)'
+
+    def __reduce__(self) -> tuple[Any, tuple[str, bytes]]:
+        return (_undecoded, (self.__msgtype__, self.data))
+
+
+_UNDECODED: dict[str, type[UndecodedMessage]] = {}
+
+
+def _undecoded(type_name: str, data: bytes) -> UndecodedMessage:
+    return UndecodedMessage.of_type(type_name)(data)
+
+
+def how_to_define(type_name: str) -> str:
+    """The one thing to do so zros knows a type: where its file goes, or the call."""
+    package, kind, short = split_type_name(type_name)
+    return (
+        f'to decode it, run with ZROS_INTERFACE_PATH=<a folder holding '
+        f'{package}/{kind}/{short}.{kind}>, or call '
+        f"zros.cdr.register_type('{type_name}', <its .{kind} text>) before reading"
+    )
+
+
 @dataclass
 class _Choice:
-    """The classes that may decode one connection's messages, the one that works first."""
+    """The classes that may decode one connection's messages, the one that works first.
+    No class: the type has no definition anywhere, its messages stay undecoded."""
 
     classes: list[tuple[type[Message], str]]  #: (class, where its definition came from)
     current: int = 0
@@ -47,6 +116,7 @@ class BagTypes:
         self.registry = TypeRegistry(self.fallback.distro)
         self._embedded: set[int] = set()
         self._choices: dict[int, _Choice] = {}
+        self._warned: set[str] = set()  #: types whose messages were said to stay undecoded
         for connection in connections:
             if self._register(connection):
                 self._embedded.add(connection.id)
@@ -111,25 +181,39 @@ class BagTypes:
         else:
             if not classes or _definitions_differ(self.registry, self.fallback, name):
                 classes.append((standard, 'the definition of the type registry'))
-        if not classes:
-            reason = '; '.join(failures)
-            raise BagError(
-                self.path,
-                f'cannot decode topic {connection.topic}: type {name} has no definition in the '
-                f'recording and none zros knows ({reason})',
-            )
-        choice = _Choice(classes)
+        choice = _Choice(classes, problems=failures)
         self._choices[connection.id] = choice
         return choice
 
+    def decodable(self, connection: Connection) -> bool:
+        """Whether a connection's type has a definition (embedded or known to zros)."""
+        return bool(self._choice(connection).classes)
+
     def message_class(self, connection: Connection) -> type[Message]:
-        """The class messages of a connection decode to (the embedded one until it fails)."""
+        """The class messages of a connection decode to (the embedded one until it fails).
+
+        Raises :class:`BagError` for a type with no definition anywhere.
+        """
         choice = self._choice(connection)
+        if not choice.classes:
+            name = connection.type_name
+            raise BagError(
+                self.path,
+                f'topic {connection.topic} has type {name}, which has no definition in the '
+                f'recording and none zros knows, so no fields (Bag.messages gives its messages '
+                f'undecoded); {how_to_define(name)}',
+            )
         return choice.classes[choice.current][0]
 
     def decode(self, message: RawMessage) -> Message:
-        """Decode one raw message; raises :class:`BagError` when no definition fits its data."""
+        """Decode one raw message; raises :class:`BagError` when no definition fits its data.
+
+        A type with no definition anywhere gives an :class:`UndecodedMessage` (one warning per
+        type).
+        """
         choice = self._choice(message.connection)
+        if not choice.classes:
+            return self._undecoded(message)
         cls = choice.classes[choice.current][0]
         try:
             return decode(cls, message.data, True)
@@ -158,6 +242,22 @@ class BagTypes:
             f'cannot decode the message of {message.connection.topic} at {message.timestamp} '
             f'as {message.connection.type_name}: ' + '; '.join(problems),
         )
+
+    def _undecoded(self, message: RawMessage) -> Message:
+        name = message.connection.type_name
+        if name not in self._warned:
+            self._warned.add(name)
+            _log.warning(
+                '%s: type %s (topic %s) has no definition in the recording and none zros '
+                'knows: its messages come back undecoded, as zros.bag.UndecodedMessage with the '
+                'CDR bytes in .data; %s',
+                self.path,
+                name,
+                message.connection.topic,
+                how_to_define(name),
+            )
+        data = message.data
+        return UndecodedMessage.of_type(name)(data if isinstance(data, bytes) else bytes(data))
 
 
 def _definitions_differ(bag: TypeRegistry, standard: TypeRegistry, name: str) -> bool:

@@ -1,4 +1,5 @@
-"""``zros bag``: info (as ``ros2 bag info``); record and play are added beside it."""
+"""``zros bag``: info and reindex (as ``ros2 bag info`` and ``ros2 bag reindex``); record and
+play are added beside them."""
 
 from __future__ import annotations
 
@@ -27,6 +28,19 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     show.set_defaults(run='zros.cli.bag:info')
 
+    fix = verbs.add_parser(
+        'reindex',
+        help='make a bag a killed recorder left readable again',
+        description='Finish every MCAP file of a bag that was never finished (a recorder killed '
+        'with SIGKILL, a power loss) into one holding its messages up to the last complete '
+        'chunk, with summary, indexes and footer, and rewrite metadata.yaml from the files, '
+        'as `ros2 bag reindex` does. Finished files are left as they are; an unfinished one is '
+        'rewritten into a temporary file renamed over it once complete, so a failure leaves '
+        'the original unchanged. Not for a bag still being recorded.',
+    )
+    fix.add_argument('path', help='a bag folder or .mcap file')
+    fix.set_defaults(run='zros.cli.bag:reindex')
+
     # --- record and play: verbs of zros.cli.recording go here ---------------------------------
     from zros.cli.recording import add_verbs
 
@@ -37,4 +51,11 @@ def info(args: argparse.Namespace) -> int:
     from zros.bag.info import info as read_info
 
     out(read_info(args.path).format(args.sort))
+    return 0
+
+
+def reindex(args: argparse.Namespace) -> int:
+    from zros.bag.reindexer import reindex as reindex_bag
+
+    out(str(reindex_bag(args.path)))
     return 0

@@ -7,6 +7,7 @@ Both draw in a window when matplotlib has a display, else (or with ``--png``, ``
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import TYPE_CHECKING
 
 from zros.cli.common import DISCOVERY, CommandError, add_connection_options, open_node, out
@@ -125,13 +126,29 @@ def _plot_live(args: argparse.Namespace) -> int:
     return 0
 
 
+#: endings of recordings (a topic address cannot have them: ROS names have no dots)
+BAG_SUFFIXES = ('.mcap', '.db3', '.bag')
+
+
+def names_a_path(argument: str) -> bool:
+    """Whether the first argument of ``zros plot`` can only be a file or folder: it does not
+    start with ``/`` (every topic address does: ``~/bags``, ``./run1``, ``run1``) or it ends
+    like a recording (``/data/run1.mcap``)."""
+    return not argument.startswith('/') or argument.lower().endswith(BAG_SUFFIXES)
+
+
 def plot(args: argparse.Namespace) -> int:
     from zros.plot.bag_plot import is_recording
 
     if args.filter is not None and args.filter < 1:
         raise CommandError(f'--filter is a number of values, 1 or more, not {args.filter}')
-    if is_recording(args.paths[0]):
+    first = args.paths[0]
+    if is_recording(first):
         return _plot_bag(args)
+    if names_a_path(first):  # not a topic address either: say so now, not after --wait
+        hint = '' if first.lower().endswith(BAG_SUFFIXES) else ' (a topic address starts with /)'
+        print(f'zros: error: no such file or folder: {first}{hint}', file=sys.stderr)
+        return 2
     return _plot_live(args)
 
 

@@ -2,9 +2,10 @@
 
 ``record`` runs until Ctrl-C or SIGTERM, then finishes the bag (last chunk, summary,
 metadata.yaml); a SIGKILL leaves files readable up to their last chunk (written at least every
-second). ``play`` plays with the recorded timing; on a terminal, space pauses and resumes, the
-right arrow (or ``s``) publishes the next message while paused, up and down change the rate
-by 10 %, ``q`` quits. A status line shows on stderr when it is a terminal.
+second) and a current metadata.yaml, and ``zros bag reindex`` finishes them. ``play`` plays
+with the recorded timing; on a terminal, space pauses and resumes, the right arrow (or ``s``)
+publishes the next message while paused, up and down change the rate by 10 %, ``q`` quits. A
+status line shows on stderr when it is a terminal.
 """
 
 from __future__ import annotations
@@ -136,8 +137,9 @@ def play(args: argparse.Namespace) -> int:
         )
         with player, Keys() as keys:
             source = player.source
+            count = sum(c.count for c in player.connections)
             out(
-                f'Playing {source.path}: {source.message_count} messages on '
+                f'Playing {source.path}: {count} messages on '
                 f'{len(player.topics)} topics, {source.duration_ns / 1e9:.3f} s'
             )
             if keys.enabled:

@@ -46,30 +46,41 @@ def new_figure(
 
 
 def voltage_figure(
-    volts: Sequence[float] | np.ndarray = (), *, window: int = WINDOW, gui: bool = False
+    times: Sequence[float] | np.ndarray = (),
+    volts: Sequence[float] | np.ndarray = (),
+    *,
+    window: int = WINDOW,
+    gui: bool = False,
 ) -> Figure:
-    """The voltage readings (dots) and their moving average (a line), by reading number."""
+    """The voltage readings (dots) and their moving average (a line) over time: ``times`` in
+    seconds from the first reading (the recording's clock), one per reading."""
     figure = new_figure(gui)
     axes = figure.axes[0]
     axes.plot([], [], '.', color='0.6', markersize=3, label='measured')
     axes.plot([], [], '-', color='C3', label=f'moving average of {window}')
-    axes.set(xlabel='reading', ylabel='voltage [V]', title=VOLTAGE_TOPIC)
+    axes.set(xlabel='time [s]', ylabel='voltage [V]', title=VOLTAGE_TOPIC)
     axes.legend(loc='upper left')
     axes.grid(alpha=0.3)
-    update_voltage_figure(figure, volts, window=window)
+    update_voltage_figure(figure, times, volts, window=window)
     return figure
 
 
 def update_voltage_figure(
-    figure: Figure, volts: Sequence[float] | np.ndarray, *, window: int = WINDOW
+    figure: Figure,
+    times: Sequence[float] | np.ndarray,
+    volts: Sequence[float] | np.ndarray,
+    *,
+    window: int = WINDOW,
 ) -> None:
-    """Show ``volts`` (all readings so far) in a figure from :func:`voltage_figure`."""
+    """Show ``volts`` (all readings so far) at ``times`` in a figure from :func:`voltage_figure`
+    (the shorter of the two sets how many are shown)."""
     axes = figure.axes[0]
     raw, filtered = axes.lines[:2]
-    data = np.asarray(volts, dtype=float)
-    index = np.arange(1, len(data) + 1)
-    raw.set_data(index, data)
-    filtered.set_data(index, moving_average(data, window))
+    count = min(len(times), len(volts))
+    data = np.asarray(volts[:count], dtype=float)
+    seconds = np.asarray(times[:count], dtype=float)
+    raw.set_data(seconds, data)
+    filtered.set_data(seconds, moving_average(data, window))
     axes.relim()
     axes.autoscale_view()
 
@@ -105,27 +116,40 @@ def fit_figure(calibration: Calibration, *, gui: bool = False) -> Figure:
 
 
 def distance_figure(
+    times: Sequence[float] | np.ndarray,
     distances: Sequence[float] | np.ndarray,
     truth: Sequence[float] | np.ndarray | None = None,
     *,
+    window: int = WINDOW,
     gui: bool = False,
 ) -> Figure:
-    """The ranges received on ``/sharpGP2D120/Distance`` by reading number, the sensor's range
-    limits, and (if given) the distance the simulated object really was at."""
-    figure = new_figure(gui)
+    """The ranges received on ``/sharpGP2D120/Distance`` over time (``times`` in seconds, one
+    per range), the sensor's range limits, and (if given) where the simulated object really
+    was at those times. A caption says why the ranges trail the object: each one comes from the
+    moving average of the last ``window`` readings."""
+    figure = new_figure(gui, figsize=(8, 4.4))
     axes = figure.axes[0]
-    values = np.asarray(distances, dtype=float)
-    index = np.arange(1, len(values) + 1)
+    count = min(len(times), len(distances))
+    seconds = np.asarray(times[:count], dtype=float)
+    values = np.asarray(distances[:count], dtype=float)
     if truth is not None:
-        real = np.asarray(truth, dtype=float)
-        axes.plot(np.arange(1, len(real) + 1), real, '-', color='0.7', linewidth=3,
+        real = np.asarray(truth, dtype=float)[:count]
+        axes.plot(seconds[: len(real)], real, '-', color='0.7', linewidth=3,
                   label='the simulated object')  # fmt: skip
-    axes.plot(index, values, '-', color='C2', label='sensor_msgs/Range received')
+    axes.plot(seconds, values, '-', color='C2', label='sensor_msgs/Range received')
     axes.axhline(MIN_RANGE, color='C3', linestyle='--', linewidth=1, label='min_range, max_range')
     axes.axhline(MAX_RANGE, color='C3', linestyle='--', linewidth=1)
-    axes.set(xlabel='reading', ylabel='range [m]', title=DISTANCE_TOPIC, ylim=(0.0, 0.37))
+    axes.set(xlabel='time [s]', ylabel='range [m]', title=DISTANCE_TOPIC, ylim=(0.0, 0.37))
     axes.legend(loc='upper center', ncols=3, fontsize='small')
     axes.grid(alpha=0.3)
+    period = float(np.median(np.diff(seconds))) if count > 1 else 0.0
+    figure.text(
+        0.5, 0.01,
+        f'Each range comes from the moving average of the last {window} voltages, so it trails '
+        f'the object by about {(window - 1) / 2:g} readings ({(window - 1) / 2 * period:.2f} s).',
+        ha='center', va='bottom', fontsize='small', color='0.3',
+    )  # fmt: skip
+    figure.subplots_adjust(bottom=0.2)
     return figure
 
 
@@ -158,13 +182,15 @@ class LiveVoltagePlot:
             plt.ion()
             plt.show(block=False)
 
-    def update(self, volts: Sequence[float], force: bool = False) -> None:
-        """Show ``volts`` if there are new ones and it is time to redraw (or ``force``)."""
+    def update(self, times: Sequence[float], volts: Sequence[float], force: bool = False) -> None:
+        """Show ``volts`` at ``times`` (seconds) if there are new ones and it is time to redraw
+        (or ``force``)."""
         now = time.monotonic()
-        if len(volts) == self._shown or not (force or now >= self._next):
+        count = min(len(times), len(volts))
+        if count == self._shown or not (force or now >= self._next):
             return
-        update_voltage_figure(self.figure, volts)
-        self._shown = len(volts)
+        update_voltage_figure(self.figure, times, volts)
+        self._shown = count
         self._next = now + self.interval
         if self.gui:
             import matplotlib.pyplot as plt
@@ -173,10 +199,10 @@ class LiveVoltagePlot:
         else:
             save(self.figure, self.path)
 
-    def finish(self, volts: Sequence[float]) -> str:
+    def finish(self, times: Sequence[float], volts: Sequence[float]) -> str:
         """Draw every reading and write the PNG; returns its path."""
-        update_voltage_figure(self.figure, volts)
-        self._shown = len(volts)
+        update_voltage_figure(self.figure, times, volts)
+        self._shown = min(len(times), len(volts))
         return save(self.figure, self.path)
 
 

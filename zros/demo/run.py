@@ -198,9 +198,12 @@ def run_demo(
             pairs = echo.create_subscription(LINEARIZATION, CALIBRATION_TOPIC, qos='keep_all')
             node.publisher.wait_for_subscribers(5)
             played = {VOLTAGE_TOPIC: 0, CALIBRATION_TOPIC: 0}
+            stamps: list[int] = []  #: recorded times of the voltages played, in order
 
             def count(message: Any) -> None:
                 played[message.connection.topic] += 1
+                if message.connection.topic == VOLTAGE_TOPIC:
+                    stamps.append(message.timestamp)
 
             player = Player(player_node, bag, rate=rate, wait_for_subscribers=5, on_message=count)
             out(f'  playing  at {rate:g}x the recorded speed ({_seconds(player)} s of data)')
@@ -213,7 +216,7 @@ def run_demo(
                 node.handle()
                 received.extend(message.range for message in ranges.take())
                 seen_pairs += len(pairs.take())
-                live.update(node.readings)
+                live.update(_seconds_of(stamps), node.readings)
                 if player.done:
                     settle = settle or time.monotonic() + SETTLE
                     complete = (
@@ -243,10 +246,12 @@ def run_demo(
         truth = sweep(len(received))
         errors = [(r - t) ** 2 for r, t in zip(received, truth, strict=True)]
         result.tracking_error = (sum(errors) / len(errors)) ** 0.5
-    result.pngs['voltage'] = Path(live.finish(node.readings))
+    # a reliable keep-all stream: the n-th reading received is the n-th voltage played
+    seconds = _seconds_of(stamps)
+    result.pngs['voltage'] = Path(live.finish(seconds, node.readings))
     figures = [live.figure, fit_figure(calibration, gui=gui)]
     result.pngs['fit'] = Path(save(figures[-1], folder / PNG_NAMES['fit']))
-    figures.append(distance_figure(received, sweep(READINGS), gui=gui))
+    figures.append(distance_figure(seconds, received, sweep(READINGS), gui=gui))
     result.pngs['distance'] = Path(save(figures[-1], folder / PNG_NAMES['distance']))
     result.seconds = time.monotonic() - started
     out(report(result))
@@ -254,6 +259,11 @@ def run_demo(
         out('close the windows to end')
         show()
     return result
+
+
+def _seconds_of(stamps: list[int]) -> list[float]:
+    """Recorded times in nanoseconds as seconds from the first."""
+    return [(stamp - stamps[0]) / 1e9 for stamp in stamps] if stamps else []
 
 
 def _seconds(player: Any) -> str:
