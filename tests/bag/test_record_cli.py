@@ -3,7 +3,10 @@ it leaves files readable up to their last chunk."""
 
 from __future__ import annotations
 
+import os
 import signal
+import subprocess
+import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -89,6 +92,42 @@ def test_record_until_stopped_by_a_signal(
     assert [m.data for t, _, m in got if t == '/chatter'] == [f'c{n}' for n in range(100)]
     assert [m.data for t, _, m in got if t == '/numbers'] == list(range(100))
     assert bag_yaml(folder)['message_count'] == 200
+
+
+@pytest.fixture
+def busy_cpus() -> Iterator[None]:
+    """Every core of the machine kept busy by a spinning process while the test runs."""
+    hogs = [
+        subprocess.Popen([sys.executable, '-c', 'while True: pass'])
+        for _ in range(os.cpu_count() or 2)
+    ]
+    yield
+    for hog in hogs:
+        hog.kill()
+        hog.wait(10)
+
+
+def test_record_stops_cleanly_while_every_cpu_is_busy(
+    zros_cli: Cli, zros_node: Node, tmp_path: Path, busy_cpus: None
+) -> None:
+    """A recorder's subscriptions come from its discovery thread, a daemon: their Zenoh
+    callback threads were daemons too, and one still waiting for the CPU when the interpreter
+    finalized aborted the process (exit -6, 'FATAL: exception not rethrown') after the bag was
+    written. The exit now waits for them."""
+    for attempt in range(5):  # the abort took one stop in a few
+        folder = tmp_path / f'busy_{attempt}'
+        running = zros_cli.start('bag', 'record', '-o', str(folder), '/chatter')
+        chatter = zros_node(f'talker_{attempt}').create_publisher(STRING, '/chatter')
+        running.wait_line(lambda line: line.startswith('Subscribed to topic /'))
+        assert chatter.wait_for_subscribers(60)
+        for n in range(20):
+            chatter.write(chatter.msg_type(data=f'c{n}'))
+        file = folder / f'busy_{attempt}_0.mcap'
+        assert wait_for(lambda file=file: len(complete_chunks(file)) == 20, 60)
+        running.process.send_signal(signal.SIGINT)
+        code, rest = running.finish(60)
+        assert code == 0, rest
+        chatter.close()
 
 
 def test_a_killed_recorder_leaves_every_complete_chunk_readable(

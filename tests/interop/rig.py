@@ -40,6 +40,10 @@ ENV_WORKER = 'ZROS_INTEROP_ROS_WORKER'
 
 #: how long a rig waits for a process to come up
 START_TIMEOUT = 30.0
+#: how long a test waits for the ROS side (discovery, matching, a message, a reply) before it
+#: fails: generous, because a green run never waits it out and a loaded machine (two busy
+#: cores, DDS discovery in another process) can take seconds where an idle one takes ms
+DEADLINE = 60.0
 
 
 class RigError(RuntimeError):
@@ -127,7 +131,7 @@ class RosWorker:
         hello = channel.receive(START_TIMEOUT)
         self.node_name = hello.get('ready', '')
 
-    def call(self, cmd: str, timeout: float = 10.0, **args: Any) -> dict[str, Any]:
+    def call(self, cmd: str, timeout: float = DEADLINE, **args: Any) -> dict[str, Any]:
         self._channel.send({'cmd': cmd, 'timeout': timeout, **args})
         reply = self._channel.receive(timeout + 20.0)
         if not reply.get('ok'):
@@ -151,14 +155,19 @@ class RosWorker:
     def publish(self, name: str, messages: list[bytes], interval: float = 0.0) -> None:
         self.call('publish', name=name, data=[m.hex() for m in messages], interval=interval)
 
-    def wait_subscribers(self, name: str, count: int = 1, timeout: float = 10.0) -> int:
+    def wait_subscribers(self, name: str, count: int = 1, timeout: float = DEADLINE) -> int:
         return int(self.call('wait_subscribers', timeout, name=name, count=count)['count'])
 
-    def wait_messages(self, name: str, count: int = 1, timeout: float = 10.0) -> list[bytes]:
+    def wait_publishers(self, name: str, count: int = 1, timeout: float = DEADLINE) -> int:
+        """Wait until the subscription ``name`` is matched with ``count`` DDS writers (a bridge's
+        route to it): messages published before that are lost to a volatile reader."""
+        return int(self.call('wait_publishers', timeout, name=name, count=count)['count'])
+
+    def wait_messages(self, name: str, count: int = 1, timeout: float = DEADLINE) -> list[bytes]:
         reply = self.call('wait_messages', timeout, name=name, count=count)
         return [bytes.fromhex(item) for item in reply['messages']]
 
-    def wait_readers(self, topic: str, count: int = 1, timeout: float = 10.0) -> int:
+    def wait_readers(self, topic: str, count: int = 1, timeout: float = DEADLINE) -> int:
         """Wait until the ROS graph shows ``count`` DDS readers of ``topic`` (hidden ones too,
         say an action's ``_action/feedback``); returns how many it shows."""
         return int(self.call('wait_readers', timeout, topic=topic, count=count)['count'])
@@ -167,7 +176,7 @@ class RosWorker:
         return {name: types for name, types in self.call('topics')['topics']}
 
     def wait_topic(
-        self, topic: str, type_name: str, present: bool = True, timeout: float = 10.0
+        self, topic: str, type_name: str, present: bool = True, timeout: float = DEADLINE
     ) -> dict[str, list[str]]:
         reply = self.call('wait_topic', timeout, topic=topic, type=type_name, present=present)
         return {name: types for name, types in reply['topics']}
@@ -179,7 +188,7 @@ class RosWorker:
         return name
 
     def call_service(
-        self, service: str, type_name: str, request: bytes, timeout: float = 10.0
+        self, service: str, type_name: str, request: bytes, timeout: float = DEADLINE
     ) -> bytes:
         reply = self.call('call', timeout, service=service, type=type_name, data=request.hex())
         return bytes.fromhex(reply['response'])
@@ -210,7 +219,7 @@ class RosWorker:
         self,
         action: str,
         order: int,
-        timeout: float = 10.0,
+        timeout: float = DEADLINE,
         *,
         cancel_after_feedback: bool = False,
         record: bool = False,
@@ -260,14 +269,16 @@ class RosWorker:
             self.call('param_node_op', name=name, op=op, parameters=parameters).get('results', [])
         )
 
-    def param_client(self, node: str, timeout: float = 10.0) -> tuple[str, bool]:
+    def param_client(self, node: str, timeout: float = DEADLINE) -> tuple[str, bool]:
         """An rclpy ``AsyncParameterClient`` of ``node``; its handle and whether all six
         services became ready within ``timeout``."""
         name = self._name('pclient')
         reply = self.call('param_client', timeout, name=name, node=node)
         return name, bool(reply['ready'])
 
-    def param_call(self, name: str, op: str, timeout: float = 10.0, **args: Any) -> dict[str, Any]:
+    def param_call(
+        self, name: str, op: str, timeout: float = DEADLINE, **args: Any
+    ) -> dict[str, Any]:
         """One call of a parameter client (``list``, ``get``, ``types``, ``describe``, ``set``,
         ``set_atomically``, ``delete``)."""
         reply = self.call('param_call', timeout, name=name, op=op, **args)
@@ -281,7 +292,7 @@ class RosWorker:
         return name
 
     def wait_param_events(
-        self, name: str, node: str, count: int = 1, timeout: float = 10.0
+        self, name: str, node: str, count: int = 1, timeout: float = DEADLINE
     ) -> list[dict[str, Any]]:
         """The recorded events of ``node`` (once there are ``count``, or after ``timeout``)."""
         reply = self.call('wait_param_events', timeout, name=name, node=node, count=count)

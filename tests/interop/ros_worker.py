@@ -16,6 +16,7 @@ included, exactly what rclpy publishes and receives with ``raw=True``).
 ``publisher``          ``name, topic, type, qos`` -> create a publisher
 ``publish``            ``name, data: [hex...], interval`` -> publish the serialized messages
 ``wait_subscribers``   ``name, count, timeout`` -> ``count`` (matched DDS readers of the publisher)
+``wait_publishers``    ``name, count, timeout`` -> ``count`` (matched DDS writers of the subscription)
 ``wait_readers``       ``topic, count, timeout`` -> ``count`` (DDS readers of any topic, hidden ones
                        too, in the ROS graph: rclpy ``count_subscribers``)
 ``subscription``       ``name, topic, type, qos`` -> create a raw subscription that records
@@ -306,6 +307,14 @@ class Worker:
                 float(command.get('timeout', 10)),
             )
             return {'count': publisher.get_subscription_count()}
+        if op == 'wait_publishers':
+            subscription = self.subscriptions[name]
+            count = int(command.get('count', 1))
+            self.spin_until(
+                lambda: subscription.get_publisher_count() >= count,
+                float(command.get('timeout', 10)),
+            )
+            return {'count': subscription.get_publisher_count()}
         if op == 'wait_readers':
             topic = command['topic']
             count = int(command.get('count', 1))

@@ -26,6 +26,7 @@ pytest.importorskip(
     reason='rclpy (ROS 2 Jazzy from PyPI, the "interop" extra) is not importable',
 )
 
+from tests.interop import rig
 from tests.interop.conftest import Interop
 from zros.params import (
     Descriptor,
@@ -40,7 +41,7 @@ from zros.params.server import SERVICE_TYPES
 from zros.params.values import infer_type
 from zros.testing import spinning, wait_for
 
-TIMEOUT = 10.0
+TIMEOUT = rig.DEADLINE
 T = ParameterType
 
 #: name -> (value, descriptor fields): every type, a read-only one, ranges, nested names

@@ -33,7 +33,7 @@ from tests.interop.bridge_standin import protocol as p
 from tests.interop.conftest import Interop
 from zros.testing import wait_for
 
-TIMEOUT = 10.0
+TIMEOUT = rig.DEADLINE
 SRV = 'test_msgs/srv/BasicTypes'
 ACTION = 'test_msgs/action/Fibonacci'
 HEADER_LE = b'\x00\x01\x00\x00'

@@ -42,7 +42,7 @@ REGISTRY = make_registry()
 EXAMPLES = int(os.environ.get('ZROS_INTEROP_EXAMPLES', '2'))
 #: messages per example (each zros subscriber below keeps 10)
 BATCH = 3
-TIMEOUT = 10.0
+TIMEOUT = rig.DEADLINE
 
 TYPES = [
     'std_msgs/msg/String',
@@ -149,6 +149,8 @@ def zros_to_ros(ix: Interop, topic: str, name: str, messages: list[Any]) -> None
         publisher = node.create_publisher(name, topic, 10)
         subscription = ros.subscription(topic, name)
         assert publisher.wait_for_subscribers(TIMEOUT)
+        # the bridge's route exists; its DDS writer must also have matched the ROS reader
+        assert ros.wait_publishers(subscription) >= 1
         for message in messages:
             publisher.write(message)
         received = ros.wait_messages(subscription, len(messages), timeout=TIMEOUT)
@@ -246,7 +248,8 @@ def test_sensor_data_qos_both_ways(interop: Interop) -> None:
     # best effort may drop: repeat until one arrives
     data = rclpy_bytes(name, imu)
     assert wait_for(
-        lambda: interop.ros.publish(publisher, [data]) or subscription.has_new_message()
+        lambda: interop.ros.publish(publisher, [data]) or subscription.has_new_message(),
+        TIMEOUT,
     )
     assert subscription.read_message() == imu
 
@@ -258,7 +261,8 @@ def test_sensor_data_qos_both_ways(interop: Interop) -> None:
         lambda: (
             zros_publisher.write(imu)
             or interop.ros.wait_messages(ros_subscription, 1, timeout=0.05)
-        )
+        ),
+        TIMEOUT,
     )
     assert deserialize_message(
         interop.ros.wait_messages(ros_subscription)[0], rclpy_class(name)
@@ -389,6 +393,7 @@ def test_namespaced_bridge(
         assert f'/bot1{topic}' not in topics
         subscription = worker.subscription(topic, name)
         assert publisher.wait_for_subscribers(TIMEOUT)
+        assert worker.wait_publishers(subscription) >= 1
         publisher.write(message)
         assert_received_by_ros(name, [message], worker.wait_messages(subscription))
 
@@ -404,7 +409,7 @@ def test_namespaced_bridge(
         assert worker.wait_subscribers(ros_publisher) >= 1
         worker.publish(ros_publisher, [rclpy_bytes(name, message)])
         assert zros_subscription.wait_for_message(TIMEOUT) == message
-        assert wait_for(lambda: len(raw) == 1)
+        assert wait_for(lambda: len(raw) == 1, TIMEOUT)
         assert_same_cdr(rclpy_bytes(name, message), raw[0])
         plain.undeclare()
     finally:
@@ -609,6 +614,7 @@ def test_two_publishers_in_one_session_share_the_route(interop: Interop) -> None
     second = node.create_publisher(name, topic, 10)
     subscription = interop.ros.subscription(topic, name)
     assert second.wait_for_subscribers(TIMEOUT)
+    assert interop.ros.wait_publishers(subscription) >= 1
     first.close()
     message = zros.Message(name, data='still routed')
     second.write(message)
@@ -634,7 +640,9 @@ def test_mixed_publishers_deliver_each_message_once(interop: Interop) -> None:
     assert ros.wait_subscribers(ros_publisher, 2) == 2  # its own node's reader and the bridge's
     # the listener's subscription may reach the router after a put: probe until it did
     probe = zros.Message(name, data='probe')
-    assert wait_for(lambda: zros_publisher.write(probe) or zros_subscription.has_new_message())
+    assert wait_for(
+        lambda: zros_publisher.write(probe) or zros_subscription.has_new_message(), TIMEOUT
+    )
     ros.wait_messages(ros_subscription)
 
     def without_probes(texts: list[str]) -> list[str]:

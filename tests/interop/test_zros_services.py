@@ -34,7 +34,7 @@ from zros.cdr import decode
 from zros.services import ServiceUnavailableError
 from zros.testing import spinning, wait_for
 
-TIMEOUT = 10.0
+TIMEOUT = rig.DEADLINE
 SRV = 'test_msgs/srv/BasicTypes'
 REQUEST = SRV + '_Request'
 RESPONSE = SRV + '_Response'

@@ -10,6 +10,7 @@ import asyncio
 import contextlib
 import threading
 import time
+from collections.abc import Coroutine
 from types import TracebackType
 
 
@@ -49,34 +50,45 @@ class DelayProxy:
             writer.close()
             return
         for task in (self._pump(reader, up_writer), self._pump(up_reader, writer)):
-            running = asyncio.ensure_future(task)
-            self._tasks.add(running)
-            running.add_done_callback(self._tasks.discard)
+            self._track(task)
+
+    def _track(self, coroutine: Coroutine[None, None, None]) -> asyncio.Task[None]:
+        # every task is kept until it ends, so that close() can cancel and await all of them
+        # (a task left pending when the loop stops is reported at exit as destroyed)
+        task = asyncio.ensure_future(coroutine)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+        return task
 
     async def _pump(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        """Copy ``reader`` to ``writer``, each chunk ``delay`` seconds after it arrived; the
+        writer (this direction's socket) is closed however the pump ends."""
         queue: asyncio.Queue[tuple[float, bytes]] = asyncio.Queue()
 
         async def deliver() -> None:
             while True:
                 due, chunk = await queue.get()
                 if not chunk:
-                    break
+                    return
                 wait = due - time.monotonic()
                 if wait > 0:
                     await asyncio.sleep(wait)
                 writer.write(chunk)
                 await writer.drain()
-            writer.close()
 
-        sender = asyncio.ensure_future(deliver())
+        sender = self._track(deliver())
         try:
-            while chunk := await reader.read(65536):
-                queue.put_nowait((time.monotonic() + self.delay, chunk))
-        except (ConnectionError, OSError):
-            pass
-        queue.put_nowait((0.0, b''))
-        with contextlib.suppress(ConnectionError, OSError):
-            await sender
+            with contextlib.suppress(ConnectionError, OSError):
+                while chunk := await reader.read(65536):
+                    queue.put_nowait((time.monotonic() + self.delay, chunk))
+            queue.put_nowait((0.0, b''))
+            with contextlib.suppress(ConnectionError, OSError):
+                await sender
+        finally:
+            sender.cancel()
+            writer.close()
+            with contextlib.suppress(ConnectionError, OSError, asyncio.CancelledError):
+                await writer.wait_closed()
 
     def close(self) -> None:
         """Stop accepting and cut every relayed connection."""
@@ -84,13 +96,18 @@ class DelayProxy:
         async def stop() -> None:
             if self._server is not None:
                 self._server.close()
-            for task in list(self._tasks):
+                await self._server.wait_closed()
+            tasks = list(self._tasks)
+            for task in tasks:
                 task.cancel()
+            await asyncio.gather(*tasks, return_exceptions=True)
 
         if self._loop.is_running():
             asyncio.run_coroutine_threadsafe(stop(), self._loop).result(5)
             self._loop.call_soon_threadsafe(self._loop.stop)
             self._thread.join(5)
+        if not self._thread.is_alive() and not self._loop.is_closed():
+            self._loop.close()
 
     def __enter__(self) -> DelayProxy:
         return self

@@ -95,7 +95,9 @@ class SeriesFigure:
         ylabel = self.series[0].label if len(self.series) == 1 else 'value'
         self.axes.set(xlabel=xlabel, ylabel=ylabel, title=title)
         self.axes.grid(True, color='0.9')
-        self.axes.legend(loc='upper left', fontsize='small')
+        # placed at each draw where it covers the fewest points: a fixed corner hid the
+        # line of a counter that started high (a topic's stamp, a sequence number)
+        self.axes.legend(loc='best', fontsize='small')
 
     def set_data(self, number: int, times: np.ndarray, values: np.ndarray) -> None:
         """The points of series ``number`` (its moving average follows)."""

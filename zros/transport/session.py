@@ -1,8 +1,12 @@
 """Zenoh sessions of the process: opened on demand, shared by nodes, always closed at exit.
 
-Zenoh runs each callback subscriber on its own non-daemon thread, which Python joins at exit
+Zenoh runs each callback subscriber on a Python thread of its own, which Python joins at exit
 before ``atexit`` handlers run: a script that forgets ``shutdown()`` would hang. Sessions are
-therefore closed from a ``threading`` exit hook, which runs before those joins.
+therefore closed from a ``threading`` exit hook, which runs before those joins. That thread is a
+daemon when the thread that declared the subscriber was one (a recorder's discovery thread, say),
+and Python does not join daemons: one still on its way out when the interpreter finalizes is
+stopped inside Zenoh's Rust code, which aborts the process (``FATAL: exception not rethrown``).
+The hook therefore also waits for those threads, which end once their sessions are closed.
 """
 
 from __future__ import annotations
@@ -28,9 +32,18 @@ _lock = threading.Lock()
 _hook_installed = False
 
 
+#: how Python names the thread Zenoh starts for a callback (its target is a PyO3 closure)
+_CALLBACK_THREAD = '(pyo3-closure)'
+#: how long the exit hook waits for one such thread (a callback still running user code)
+_CALLBACK_JOIN_TIMEOUT = 5.0
+
+
 def _close_all() -> None:
     for transport in list(_open):
         transport.close()
+    for thread in threading.enumerate():
+        if thread.daemon and thread.name.endswith(_CALLBACK_THREAD):
+            thread.join(_CALLBACK_JOIN_TIMEOUT)
 
 
 def _install_exit_hook() -> None:
