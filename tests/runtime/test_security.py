@@ -169,7 +169,7 @@ def test_tls_settings_from_the_environment(
     assert config.tls == pki.client_tls('laptop')
     exchange(config, config)
     monkeypatch.setenv('ZROS_TLS_KEY', str(pki.folder / 'missing.key'))
-    with pytest.raises(FileNotFoundError, match=r'missing\.key'):
+    with pytest.raises(TransportError, match=r'the private key .*missing\.key does not exist'):
         TransportConfig.create()
 
 
