@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from zros.errors import SettingError
 from zros.transport.credentials import HIDDEN, check_user, key_file_secrets, redact, secret_values
 from zros.transport.endpoints import normalize, parse_endpoint
 from zros.transport.errors import TransportError, zenoh_reason
@@ -47,7 +48,7 @@ def _wire(value: str | None) -> str | None:
     if value in (None, '', 'bridge'):
         return None
     if value != 'rmw_zenoh':
-        raise ValueError(f'wire must be "bridge" or "rmw_zenoh", got {value!r}')
+        raise SettingError(f'wire must be "bridge" or "rmw_zenoh", got {value!r}')
     return value
 
 
@@ -73,7 +74,7 @@ def parse_override(text: str) -> list[tuple[str, str]]:
     for item in filter(str.strip, items):
         key, equals, value = item.partition('=')
         if not equals or not key.strip() or not value.strip():
-            raise ValueError(f'ZENOH_CONFIG_OVERRIDE item {item!r} is not path=json5')
+            raise SettingError(f'ZENOH_CONFIG_OVERRIDE item {item!r} is not path=json5')
         pairs.append((key.strip(), value.strip()))
     return pairs
 
@@ -113,7 +114,7 @@ class Tls:
 
     def __post_init__(self) -> None:
         if (self.certificate is None) != (self.private_key is None):
-            raise ValueError('mutual TLS needs both a certificate and a private key')
+            raise SettingError('mutual TLS needs both a certificate and a private key')
         require_file(self.root_ca_certificate, 'CA certificate')
         require_file(self.certificate, 'certificate')
         require_file(self.private_key, 'private key')
@@ -195,7 +196,7 @@ class TransportConfig:
             **options,
         )
         if config.mode is not None and config.mode not in MODES:
-            raise ValueError(f'mode must be "client" or "peer", got {config.mode!r}')
+            raise SettingError(f'mode must be "client" or "peer", got {config.mode!r}')
         return config
 
     def to_zenoh(self) -> Any:

@@ -17,6 +17,8 @@ from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+from zros.errors import SettingError
+
 HIDDEN = '***'
 DICTIONARY = 'transport/auth/usrpwd/dictionary_file'
 
@@ -72,13 +74,13 @@ def scrub(text: str, secrets: Iterable[str | None]) -> str:
 
 
 def check_user(user: str, password: str | None) -> None:
-    """A user name and password that a Zenoh dictionary line can carry (ValueError if not)."""
+    """A user name and password that a Zenoh dictionary line can carry (SettingError if not)."""
     if password is None:
-        raise ValueError('a user needs a password')
+        raise SettingError('a user needs a password')
     if not user or ':' in user or any(c in user for c in '\r\n'):
-        raise ValueError(f'user name {user!r}: give a non-empty name without ":" or line breaks')
+        raise SettingError(f'user name {user!r}: give a non-empty name without ":" or line breaks')
     if not password or any(c in password for c in '\r\n'):
-        raise ValueError('the password must be non-empty, on one line')
+        raise SettingError('the password must be non-empty, on one line')
 
 
 @contextlib.contextmanager

@@ -12,7 +12,7 @@ import ipaddress
 import re
 from dataclasses import dataclass
 
-from zros.errors import ZrosError
+from zros.errors import SettingError
 
 #: protocols whose address is ``host:port``
 IP_PROTOCOLS = ('tcp', 'tls', 'udp', 'quic', 'ws')
@@ -27,7 +27,7 @@ FORMS = (
 _HOST_NAME = re.compile(r'[A-Za-z0-9_]([A-Za-z0-9_.-]*[A-Za-z0-9_])?')
 
 
-class EndpointError(ZrosError, ValueError):
+class EndpointError(SettingError):
     """An endpoint zros cannot make sense of (a usage error: ``zros`` exits with 2)."""
 
 

@@ -83,6 +83,8 @@ class Router:
                 self.session: Any = z.open(config)
         except z.ZError as exc:
             reason = zenoh_reason(exc, secrets)
+            if 'Address already in use' in reason:
+                reason = 'the port is taken (another router or bridge? `zros doctor --connect` it)'
             where = ', '.join(listen)
             raise TransportError(f'cannot start a router on {where}: {reason}') from None
         self.zid = str(self.session.zid())

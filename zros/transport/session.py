@@ -53,9 +53,9 @@ def _explain(error: Exception, config: TransportConfig) -> TransportError:
         cause = explain_unreachable(config) or text
         return TransportError(
             f'cannot reach a Zenoh router or bridge at {config.describe()}: {cause}. '
-            'Start zenoh-bridge-ros2dds (or zenohd) there, or `zros router` for a router of '
-            'your own, or point zros elsewhere with ZROS_CONNECT=tcp/<host>:7447 or '
-            'connect=...; zros.transport.start_router() runs one inside this process.'
+            'Start zenoh-bridge-ros2dds (or zenohd, or `zros router`) there, or point zros '
+            'elsewhere with ZROS_CONNECT=tcp/<host>:7447 or connect=...; '
+            'zros.transport.start_router() runs one inside this process.'
         )
     return TransportError(f'cannot open a Zenoh session to {config.describe()}: {text}')
 
