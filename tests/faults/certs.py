@@ -11,7 +11,13 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
+from zros.transport import Router
 from zros.transport.pki import Certificates
+
+
+def by_name(router: Router) -> str:
+    """The router's TLS endpoint by the name its certificate carries (``localhost``)."""
+    return router.endpoint.replace('127.0.0.1', 'localhost')
 
 
 def leaf(

@@ -24,6 +24,7 @@ if not sys.platform.startswith('linux'):
 import zenoh
 
 import zros
+from tests.faults.certs import by_name
 from tests.faults.listening import is_loopback, listening
 from zros.testing import wait_for
 from zros.transport import Router, Tls, Transport, TransportConfig, TransportError, start_router
@@ -152,7 +153,7 @@ def test_mutual_tls_peers_refuse_what_their_router_refuses(
     opened: Callable[[TransportConfig], Transport],
     wire: str,
 ) -> None:
-    connect = mtls_router.endpoint.replace('127.0.0.1', 'localhost')
+    connect = by_name(mtls_router)
     config = TransportConfig.create(
         connect=connect, mode='peer', wire=wire, tls=pki.client_tls('laptop')
     )
@@ -217,7 +218,7 @@ def test_tls_peers_link_to_each_other_over_tls(
     opened: Callable[[TransportConfig], Transport],
     wire: str,
 ) -> None:
-    connect = mtls_router.endpoint.replace('127.0.0.1', 'localhost')
+    connect = by_name(mtls_router)
     first, second = (
         opened(
             TransportConfig.create(
@@ -252,7 +253,7 @@ def test_password_peers_link_to_each_other(
 def test_a_tls_peer_without_its_own_certificate_does_not_listen_by_surprise(
     mtls_router: Router, pki: Certificates
 ) -> None:
-    connect = mtls_router.endpoint.replace('127.0.0.1', 'localhost')
+    connect = by_name(mtls_router)
     config = TransportConfig.create(connect=connect, mode='peer', tls=Tls(str(pki.ca)))
     with pytest.raises(TransportError, match='needs a certificate and key of its own'):
         Transport(config)
@@ -267,7 +268,7 @@ def test_a_tls_peer_listens_nowhere_when_told(
     pki: Certificates, opened: Callable[[TransportConfig], Transport]
 ) -> None:
     with start_router('tls/127.0.0.1:0', zenoh=pki.router_settings(mutual=False)) as server_only:
-        connect = server_only.endpoint.replace('127.0.0.1', 'localhost')
+        connect = by_name(server_only)
         config = TransportConfig.create(
             connect=connect, mode='peer', tls=Tls(str(pki.ca)), listen=[]
         )

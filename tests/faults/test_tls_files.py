@@ -18,7 +18,7 @@ pytest.importorskip('cryptography', reason='the test extra (cryptography) is not
 from cryptography.hazmat.primitives import serialization
 
 from tests.cli.conftest import ZROS
-from tests.faults.certs import leaf
+from tests.faults.certs import by_name, leaf
 from zros.transport import Router, Tls, Transport, TransportConfig, TransportError, start_router
 from zros.transport.pki import Certificates, make_certificates
 
@@ -43,7 +43,7 @@ def router(pki: Certificates) -> Iterator[Router]:
 
 def refusal(router: Router, files: tuple[str, str, str], mode: str = 'client') -> str:
     """The error of a node dialing ``router`` with TLS files (CA, certificate, key)."""
-    connect = router.endpoint.replace('127.0.0.1', 'localhost')
+    connect = by_name(router)
     with pytest.raises(TransportError) as info:
         # a missing file is refused when the settings are made, the others when used
         Transport(TransportConfig.create(connect=connect, tls=Tls(*files), mode=mode))
@@ -143,7 +143,7 @@ def test_a_peer_with_a_client_only_certificate_is_told(
     message = refusal(router, (str(pki.ca), str(certificate), str(key)), mode='peer')
     assert str(certificate) in message and 'is for clients only' in message
     # as a client it is still fine: clients do not listen
-    connect = router.endpoint.replace('127.0.0.1', 'localhost')
+    connect = by_name(router)
     config = TransportConfig.create(
         connect=connect, tls=Tls(str(pki.ca), str(certificate), str(key))
     )
