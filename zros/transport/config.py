@@ -105,7 +105,10 @@ def _zenoh_default(config: Any, key: str) -> bool:
 
 @dataclass(frozen=True)
 class Tls:
-    """TLS files: the CA that signed the router's certificate, and for mutual TLS our own pair."""
+    """TLS files: the CA that signed the router's certificate, and for mutual TLS our own pair.
+
+    A peer also listens with its own pair, verifying who connects against the CA.
+    """
 
     root_ca_certificate: str
     certificate: str | None = None  #: our certificate, for mutual TLS

@@ -15,6 +15,7 @@ from typing import Any
 from zros.keyexpr.rmw_zenoh import IdCounter
 from zros.transport.config import TransportConfig, listen_endpoints
 from zros.transport.credentials import password_dictionary
+from zros.transport.endpoints import parse_endpoint
 from zros.transport.errors import TransportError, zenoh_reason
 from zros.transport.tlsfiles import check_tls_files
 
@@ -61,15 +62,14 @@ def _explain(error: Exception, config: TransportConfig) -> TransportError:
 
 
 def _listen_hosts(config: TransportConfig, listening: list[str]) -> list[str] | None:
-    """The hosts other peers dial to reach ``listening`` (None: nothing listens)."""
-    from zros.transport.endpoints import parse_endpoint
-
+    """The hosts other peers dial to reach ``listening``, which the certificate must name
+    (None: nothing listens; wildcard addresses stand for addresses not known here)."""
     if not listening:
         return None
     if config.tls is not None and not config.tls.verify_name:
         return []
-    hosts = [parse_endpoint(endpoint).host for endpoint in listening]
-    return [host for host in hosts if host not in ('0.0.0.0', '::')]
+    parsed = [parse_endpoint(endpoint) for endpoint in listening]
+    return [e.host for e in parsed if e.port is not None and e.host not in ('0.0.0.0', '::')]
 
 
 class Transport:
