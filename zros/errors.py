@@ -5,3 +5,7 @@ from __future__ import annotations
 
 class ZrosError(Exception):
     """Base class of all zros errors."""
+
+
+class SettingError(ZrosError, ValueError):
+    """A setting that cannot work as given (a usage error: the ``zros`` command exits with 2)."""

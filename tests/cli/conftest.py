@@ -66,23 +66,28 @@ class Cli:
     endpoint: str
     started: list[Running] = field(default_factory=list)
 
-    def env(self) -> dict[str, str]:
+    def env(self, extra: dict[str, str] | None = None) -> dict[str, str]:
         env = dict(os.environ, ZROS_CONNECT=self.endpoint, PYTHONUNBUFFERED='1')
         env.pop('ZENOH_CONFIG', None)
-        return env
+        return {**env, **(extra or {})}
 
-    def run(self, *args: str, timeout: float = TIMEOUT) -> subprocess.CompletedProcess[str]:
+    def run(
+        self, *args: str, timeout: float = TIMEOUT, env: dict[str, str] | None = None
+    ) -> subprocess.CompletedProcess[str]:
+        """Run ``zros ARGS`` to its end (``env``: variables to add or override)."""
         assert ZROS is not None
         return subprocess.run(
             [ZROS, *args],
             capture_output=True,
+            stdin=subprocess.DEVNULL,
             text=True,
             timeout=timeout,
-            env=self.env(),
+            env=self.env(env),
             check=False,
         )
 
-    def start(self, *args: str) -> Running:
+    def start(self, *args: str, env: dict[str, str] | None = None) -> Running:
+        """Start ``zros ARGS`` in the background (``env``: variables to add or override)."""
         assert ZROS is not None
         process = subprocess.Popen(
             [ZROS, *args],
@@ -90,7 +95,7 @@ class Cli:
             stderr=subprocess.PIPE,
             stdin=subprocess.DEVNULL,
             text=True,
-            env=self.env(),
+            env=self.env(env),
         )
         running = Running(process)
 

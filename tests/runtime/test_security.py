@@ -14,6 +14,7 @@ import pytest
 pytest.importorskip('cryptography', reason='the test extra (cryptography) is not installed')
 
 import zros
+from tests.faults.certs import by_name
 from zros.cli.main import main as zros_command
 from zros.testing import wait_for
 from zros.transport import Router, Tls, Transport, TransportConfig, TransportError, start_router
@@ -34,11 +35,6 @@ def other_ca(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def tls_router(pki: Certificates, mutual: bool) -> Router:
     return start_router('tls/127.0.0.1:0', zenoh=pki.router_settings(mutual))
-
-
-def localhost(router: Router) -> str:
-    """The router's TLS endpoint by the name its certificate carries."""
-    return router.endpoint.replace('127.0.0.1', 'localhost')
 
 
 def exchange(config_a: TransportConfig, config_b: TransportConfig) -> None:
@@ -79,26 +75,26 @@ def mutual_tls(pki: Certificates) -> Iterator[Router]:
 
 
 def test_tls_with_a_server_certificate(server_tls: Router, pki: Certificates) -> None:
-    config = TransportConfig.create(connect=localhost(server_tls), tls=Tls(str(pki.ca)))
+    config = TransportConfig.create(connect=by_name(server_tls), tls=Tls(str(pki.ca)))
     exchange(config, config)
 
 
 def test_tls_with_the_wrong_ca_names_the_cause(server_tls: Router, other_ca: Path) -> None:
-    message = refused(TransportConfig.create(connect=localhost(server_tls), tls=Tls(str(other_ca))))
+    message = refused(TransportConfig.create(connect=by_name(server_tls), tls=Tls(str(other_ca))))
     assert 'does not verify against' in message and str(other_ca) in message
-    message = refused(TransportConfig.create(connect=localhost(server_tls)))
+    message = refused(TransportConfig.create(connect=by_name(server_tls)))
     assert 'is a TLS endpoint but no CA certificate is configured' in message
 
 
 def test_mutual_tls(mutual_tls: Router, pki: Certificates) -> None:
-    config = TransportConfig.create(connect=localhost(mutual_tls), tls=pki.client_tls('laptop'))
+    config = TransportConfig.create(connect=by_name(mutual_tls), tls=pki.client_tls('laptop'))
     exchange(config, config)
 
 
 def test_mutual_tls_without_a_client_certificate_names_the_cause(
     mutual_tls: Router, pki: Certificates
 ) -> None:
-    message = refused(TransportConfig.create(connect=localhost(mutual_tls), tls=Tls(str(pki.ca))))
+    message = refused(TransportConfig.create(connect=by_name(mutual_tls), tls=Tls(str(pki.ca))))
     assert 'requires a client certificate (mutual TLS)' in message
 
 
@@ -154,14 +150,14 @@ def test_a_client_certificate_from_another_ca_is_refused(
         str(stranger.client_certificate('stranger')),
         str(stranger.client_key('stranger')),
     )
-    message = refused(TransportConfig.create(connect=localhost(mutual_tls), tls=tls))
+    message = refused(TransportConfig.create(connect=by_name(mutual_tls), tls=tls))
     assert 'rejected the client certificate' in message
 
 
 def test_tls_settings_from_the_environment(
     mutual_tls: Router, pki: Certificates, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setenv('ZROS_CONNECT', localhost(mutual_tls))
+    monkeypatch.setenv('ZROS_CONNECT', by_name(mutual_tls))
     monkeypatch.setenv('ZROS_TLS_CA', str(pki.ca))
     monkeypatch.setenv('ZROS_TLS_CERTIFICATE', str(pki.client_certificate('laptop')))
     monkeypatch.setenv('ZROS_TLS_KEY', str(pki.client_key('laptop')))
@@ -169,7 +165,7 @@ def test_tls_settings_from_the_environment(
     assert config.tls == pki.client_tls('laptop')
     exchange(config, config)
     monkeypatch.setenv('ZROS_TLS_KEY', str(pki.folder / 'missing.key'))
-    with pytest.raises(FileNotFoundError, match=r'missing\.key'):
+    with pytest.raises(TransportError, match=r'the private key .*missing\.key does not exist'):
         TransportConfig.create()
 
 
@@ -210,7 +206,7 @@ def test_zros_tls_init_end_to_end(
     with router_from_config_file(folder / 'router.json5', 'tls/127.0.0.1:0') as router:
         for name, value in exports.items():
             monkeypatch.setenv(name, value)
-        monkeypatch.setenv('ZROS_CONNECT', localhost(router))
+        monkeypatch.setenv('ZROS_CONNECT', by_name(router))
         config = TransportConfig.create()
         exchange(config, config)
     # a second run keeps the CA that signed the robot's certificate

@@ -1,7 +1,8 @@
 """What the ``zros`` subcommands share: connection options, the command node, values, exits.
 
-Exit codes: 0 success, 1 a failure the message explains, 2 a usage error (argparse), 130
-interrupted before finishing, 141 the reader of the output went away (``| head``; no traceback).
+Exit codes: 0 success, 1 a failure the message explains, 2 a usage error (argparse, or a
+setting that cannot work, such as a malformed endpoint), 130 interrupted before finishing, 141
+the reader of the output went away (``| head``; no traceback).
 Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
 """
 
@@ -9,8 +10,11 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -31,8 +35,8 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
         '--connect',
         action='append',
         metavar='ENDPOINT',
-        help='router or bridge to reach, e.g. tcp/robot:7447 (default: $ZROS_CONNECT, '
-        'else tcp/127.0.0.1:7447)',
+        help='router or bridge to reach, e.g. tcp/robot:7447 or robot:7447 (default: '
+        '$ZROS_CONNECT, else tcp/127.0.0.1:7447)',
     )
     group.add_argument('--mode', choices=('client', 'peer'), help='Zenoh mode (default client)')
     group.add_argument(
@@ -147,6 +151,21 @@ def build_message(cls: Any, values: dict[str, Any]) -> Any:
         return cls(**values)
     except (TypeError, ValueError, AttributeError) as exc:
         raise CommandError(f'cannot make a {cls.__msgtype__} from {values}: {exc}') from None
+
+
+@contextmanager
+def stop_on_signals(stop: threading.Event) -> Iterator[None]:
+    """SIGINT and SIGTERM set ``stop`` instead of killing the process (restored after)."""
+
+    def handler(signum: int, frame: Any) -> None:
+        stop.set()
+
+    saved = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, previous in saved.items():
+            signal.signal(sig, previous)
 
 
 def run_until_interrupted(step: Callable[[], bool]) -> int:

@@ -132,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
     from importlib.metadata import version
 
     import zros
-    from zros.errors import ZrosError
+    from zros.errors import SettingError, ZrosError
     from zros.graph import Graph
     from zros.transport import Transport, TransportConfig
 
@@ -143,6 +143,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         config = TransportConfig.create(connect=args.connect, mode=args.mode)
         transport = Transport(config)
+    except SettingError:
+        raise  # a usage error: one line, exit 2
     except ZrosError as exc:
         report.fail(str(exc))
         return 1

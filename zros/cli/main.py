@@ -28,6 +28,7 @@ def _parser() -> argparse.ArgumentParser:
         node,
         param,
         plot,
+        router,
         service,
         tls,
         topic,
@@ -44,6 +45,7 @@ def _parser() -> argparse.ArgumentParser:
         bag,
         plot,
         doctor,
+        router,
         tls,
         completion,
     ):
@@ -82,11 +84,14 @@ def _run(argv: Sequence[str] | None) -> int:
     import importlib
 
     from zros.cli.common import CommandError
-    from zros.errors import ZrosError
+    from zros.errors import SettingError, ZrosError
 
     function = getattr(importlib.import_module(module_name), function_name)
     try:
         return int(function(args))
+    except SettingError as exc:  # a setting that cannot work, as argparse's usage errors
+        print(f'zros: error: {exc}', file=sys.stderr)
+        return 2
     except (ZrosError, CommandError) as exc:
         print(f'zros: error: {exc}', file=sys.stderr)
         return 1

@@ -12,28 +12,10 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import signal
 import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
-from zros.cli.common import CommandError, add_connection_options, open_node, out
-
-
-@contextmanager
-def _stop_on_signals(stop: threading.Event) -> Iterator[None]:
-    """SIGINT and SIGTERM set ``stop`` instead of killing the process (restored after)."""
-
-    def handler(signum: int, frame: Any) -> None:
-        stop.set()
-
-    saved = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, previous in saved.items():
-            signal.signal(sig, previous)
+from zros.cli.common import CommandError, add_connection_options, open_node, out, stop_on_signals
 
 
 def default_bag_name() -> str:
@@ -53,7 +35,7 @@ def record(args: argparse.Namespace) -> int:
     path = args.output or default_bag_name()
     stop = threading.Event()
     progress = Progress()
-    with _stop_on_signals(stop), open_node(args) as node:
+    with stop_on_signals(stop), open_node(args) as node:
 
         def subscribed(name: str, type_name: str) -> None:
             progress.close()
@@ -123,7 +105,7 @@ def play(args: argparse.Namespace) -> int:
     clock: bool | float = False if args.clock is None else args.clock
     stop = threading.Event()
     progress = Progress()
-    with _stop_on_signals(stop), open_node(args) as node:
+    with stop_on_signals(stop), open_node(args) as node:
         player = Player(
             node,
             args.path,

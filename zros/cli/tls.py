@@ -25,6 +25,11 @@ def init(args: argparse.Namespace) -> int:
     print('  ca.pem, ca.key        the CA; keep ca.key off the robot, it signs certificates')
     print('  router.json5          the robot side, certificates inlined: copy it to the robot')
     print('                        and run  zenoh-bridge-ros2dds -c router.json5  (or zenohd -c)')
+    mutual_option = '' if args.server_only else ' --tls-ca ca.pem'
+    print(f'                        or  zros router --listen tls/[::]:{args.port} \\')
+    print(
+        f'                              --tls-cert router.pem --tls-key router.key{mutual_option}'
+    )
     for name in clients:
         print(f'  {name}.pem, {name}.key  the client {name!r}')
     print()

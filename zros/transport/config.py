@@ -4,12 +4,18 @@ Precedence, highest first: arguments, environment (``ZROS_CONNECT``, ``ZROS_LIST
 ``ZROS_MODE``, ``ZROS_TLS_CA``/``_CERTIFICATE``/``_KEY``, ``ZROS_USER``/``ZROS_PASSWORD``), the
 json5 file named by ``config`` or ``ZENOH_CONFIG``, then zros's defaults: client mode connecting
 to the local bridge at ``tcp/127.0.0.1:7447``, multicast scouting off, timestamping on
-(transient-local publishers need it).
+(transient-local publishers need it). Endpoints may omit ``tcp/`` (``robot:7447``).
+
+A peer listens on loopback (``tcp/127.0.0.1:0``) unless ``listen`` (``ZROS_LISTEN``, the file)
+names other endpoints. What listens is held to the node's own settings: with ``tls`` only on
+``tls/`` endpoints, with the node's certificate, clients verified against its CA; with a user,
+only connections that present the same user and password are accepted.
 
 With ``wire='rmw_zenoh'`` (or ``ZROS_WIRE=rmw_zenoh``) the defaults are rmw_zenoh's own session
 settings: a peer that connects to the ``rmw_zenohd`` router at ``tcp/localhost:7447`` and listens on
-``tcp/localhost:0``, and rmw_zenoh's variables apply: ``ZENOH_SESSION_CONFIG_URI`` names the file,
-``ZENOH_CONFIG_OVERRIDE="path=json5;path=json5"`` overrides single settings.
+``tcp/localhost:0`` (``tls/localhost:0`` with TLS), and rmw_zenoh's variables apply:
+``ZENOH_SESSION_CONFIG_URI`` names the file, ``ZENOH_CONFIG_OVERRIDE="path=json5;path=json5"``
+overrides single settings.
 """
 
 from __future__ import annotations
@@ -21,11 +27,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from zros.errors import SettingError
+from zros.transport.credentials import HIDDEN, check_user, key_file_secrets, redact, secret_values
+from zros.transport.endpoints import normalize, parse_endpoint
+from zros.transport.errors import TransportError, zenoh_reason
+from zros.transport.tlsfiles import require_file
+
 #: zenoh-bridge-ros2dds and zenohd listen here by default
 DEFAULT_ENDPOINT = 'tcp/127.0.0.1:7447'
 #: where rmw_zenoh sessions find the rmw_zenohd router, and where they listen for peers
 RMW_ZENOH_ENDPOINT = 'tcp/localhost:7447'
 RMW_ZENOH_LISTEN = 'tcp/localhost:0'
+#: where a peer listens unless told otherwise: this machine only
+PEER_LISTEN = 'tcp/127.0.0.1:0'
 MODES = ('client', 'peer')
 
 
@@ -34,7 +48,7 @@ def _wire(value: str | None) -> str | None:
     if value in (None, '', 'bridge'):
         return None
     if value != 'rmw_zenoh':
-        raise ValueError(f'wire must be "bridge" or "rmw_zenoh", got {value!r}')
+        raise SettingError(f'wire must be "bridge" or "rmw_zenoh", got {value!r}')
     return value
 
 
@@ -60,21 +74,41 @@ def parse_override(text: str) -> list[tuple[str, str]]:
     for item in filter(str.strip, items):
         key, equals, value = item.partition('=')
         if not equals or not key.strip() or not value.strip():
-            raise ValueError(f'ZENOH_CONFIG_OVERRIDE item {item!r} is not path=json5')
+            raise SettingError(f'ZENOH_CONFIG_OVERRIDE item {item!r} is not path=json5')
         pairs.append((key.strip(), value.strip()))
     return pairs
 
 
 def _endpoints(value: str | Sequence[str] | None) -> tuple[str, ...] | None:
+    """Endpoints from a list or comma-separated text, checked (``host:port`` gets ``tcp/``)."""
     if value is None:
         return None
     items = value.split(',') if isinstance(value, str) else list(value)
-    return tuple(item.strip() for item in items if item.strip())
+    return tuple(normalize(item) for item in items if item.strip())
+
+
+def listen_endpoints(config: Any) -> list[str]:
+    """The endpoints a ``zenoh.Config`` listens on in its mode (per-mode lists resolved)."""
+    mode = json.loads(config.get_json('mode')) or 'peer'
+    endpoints = json.loads(config.get_json('listen/endpoints')) or []
+    if isinstance(endpoints, dict):
+        endpoints = endpoints.get(mode) or []
+    return [str(endpoint) for endpoint in endpoints]
+
+
+def _zenoh_default(config: Any, key: str) -> bool:
+    """Whether ``config`` has Zenoh's default value for ``key`` (nobody set it)."""
+    import zenoh
+
+    return bool(config.get_json(key) == zenoh.Config().get_json(key))
 
 
 @dataclass(frozen=True)
 class Tls:
-    """TLS files: the CA that signed the router's certificate, and for mutual TLS our own pair."""
+    """TLS files: the CA that signed the router's certificate, and for mutual TLS our own pair.
+
+    A peer also listens with its own pair, verifying who connects against the CA.
+    """
 
     root_ca_certificate: str
     certificate: str | None = None  #: our certificate, for mutual TLS
@@ -83,17 +117,18 @@ class Tls:
 
     def __post_init__(self) -> None:
         if (self.certificate is None) != (self.private_key is None):
-            raise ValueError('mutual TLS needs both a certificate and a private key')
-        for path in (self.root_ca_certificate, self.certificate, self.private_key):
-            if path is not None and not Path(path).is_file():
-                raise FileNotFoundError(f'TLS file {path} does not exist')
+            raise SettingError('mutual TLS needs both a certificate and a private key')
+        require_file(self.root_ca_certificate, 'CA certificate')
+        require_file(self.certificate, 'certificate')
+        require_file(self.private_key, 'private key')
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class TransportConfig:
     """The Zenoh session settings of a zros process (see the module docstring for defaults).
 
-    ``zenoh`` holds raw Zenoh settings as ``{"path/of/key": value}``, applied last.
+    ``zenoh`` holds raw Zenoh settings as ``{"path/of/key": value}``, applied last. The
+    password and secret ``zenoh`` values never show in its ``repr``.
     """
 
     connect: tuple[str, ...] | None = None
@@ -107,6 +142,33 @@ class TransportConfig:
     password: str | None = None
     zenoh: dict[str, Any] = field(default_factory=dict)
     wire: str | None = None  #: 'rmw_zenoh': rmw_zenoh's session defaults (None: the bridge's)
+
+    def __post_init__(self) -> None:
+        for name in ('connect', 'listen'):
+            endpoints = getattr(self, name)
+            if endpoints is not None:
+                object.__setattr__(self, name, _endpoints(endpoints))
+        if self.user is not None:
+            check_user(self.user, self.password)
+
+    def __repr__(self) -> str:
+        shown = []
+        for name in self.__dataclass_fields__:
+            value = getattr(self, name)
+            if name == 'password' and value is not None:
+                value = HIDDEN
+            elif name == 'zenoh':
+                value = redact(value)
+            shown.append(f'{name}={value!r}')
+        return f'TransportConfig({", ".join(shown)})'
+
+    def secrets(self) -> list[str]:
+        """What must never be shown: the password, secret raw settings, private key content."""
+        found = [self.password] if self.password else []
+        found += secret_values(self.zenoh)
+        if self.tls is not None:
+            found += key_file_secrets(self.tls.private_key)
+        return found
 
     @classmethod
     def create(
@@ -137,28 +199,24 @@ class TransportConfig:
             **options,
         )
         if config.mode is not None and config.mode not in MODES:
-            raise ValueError(f'mode must be "client" or "peer", got {config.mode!r}')
-        if config.user is not None and config.password is None:
-            raise ValueError('a user needs a password')
+            raise SettingError(f'mode must be "client" or "peer", got {config.mode!r}')
         return config
 
     def to_zenoh(self) -> Any:
-        """The ``zenoh.Config`` these settings describe."""
+        """The ``zenoh.Config`` these settings describe (TransportError if Zenoh refuses one)."""
         import zenoh
 
-        if self.config_file:
-            path = Path(self.config_file)
-            if not path.is_file():
-                raise FileNotFoundError(f'Zenoh configuration file {path} does not exist')
-            config = zenoh.Config.from_file(str(path))
-        else:
-            config = zenoh.Config()
+        config = self._base()
 
         def unset(key: str) -> bool:
             return json.loads(config.get_json(key)) in (None, [], '')
 
-        def put(key: str, value: Any) -> None:
-            config.insert_json5(key, json.dumps(value))
+        def put(key: str, value: Any, text: str | None = None) -> None:
+            try:
+                config.insert_json5(key, json.dumps(value) if text is None else text)
+            except zenoh.ZError as exc:
+                reason = zenoh_reason(exc, self.secrets())
+                raise TransportError(f'Zenoh refuses the setting {key}: {reason}') from None
 
         rmw = self.wire == 'rmw_zenoh'
         if self.mode is not None or unset('mode'):
@@ -170,8 +228,9 @@ class TransportConfig:
             put('connect/endpoints', [RMW_ZENOH_ENDPOINT if rmw else DEFAULT_ENDPOINT])
         if self.listen is not None:
             put('listen/endpoints', list(self.listen))
-        elif rmw and mode == 'peer' and not self.config_file:
-            put('listen/endpoints', [RMW_ZENOH_LISTEN])
+        elif mode == 'peer' and _zenoh_default(config, 'listen/endpoints'):
+            loopback = RMW_ZENOH_LISTEN if rmw else PEER_LISTEN
+            put('listen/endpoints', [loopback.replace('tcp/', 'tls/') if self.tls else loopback])
         if not self.config_file or self.multicast_scouting:
             put('scouting/multicast/enabled', self.multicast_scouting)
         if self.shared_memory is not None:
@@ -194,10 +253,54 @@ class TransportConfig:
             put('transport/auth/usrpwd/password', self.password)
         if rmw:
             for key, text in parse_override(os.environ.get('ZENOH_CONFIG_OVERRIDE', '')):
-                config.insert_json5(key, text)
+                put(key, None, text)
         for key, value in self.zenoh.items():
             put(key, value)
+        if self.tls is not None:
+            for key, value in self._tls_listener(listen_endpoints(config)).items():
+                if unset(key):
+                    put(key, value)
         return config
+
+    def _base(self) -> Any:
+        """The configuration file's settings, or Zenoh's defaults."""
+        import zenoh
+
+        if not self.config_file:
+            return zenoh.Config()
+        path = Path(self.config_file)
+        if not path.is_file():
+            raise TransportError(f'the Zenoh configuration file {path} does not exist')
+        try:
+            return zenoh.Config.from_file(str(path))
+        except zenoh.ZError as exc:
+            reason = zenoh_reason(exc, self.secrets())
+            message = f'the Zenoh configuration file {path} is invalid: {reason}'
+            raise TransportError(message) from None
+
+    def _tls_listener(self, listening: list[str]) -> dict[str, Any]:
+        """What a node with TLS needs to listen on ``listening``: TLS endpoints only, and its
+        own certificate for them (the CA and ``enable_mtls`` verify the clients)."""
+        if not listening or self.tls is None:
+            return {}
+        for endpoint in listening:
+            if parse_endpoint(endpoint).protocol not in ('tls', 'quic'):
+                raise TransportError(
+                    f'this node has TLS settings but would listen on {endpoint}, where anyone '
+                    'connects without them: listen on tls/ endpoints only '
+                    '(e.g. tls/127.0.0.1:0), or on none (listen=[])'
+                )
+        if self.tls.certificate is None:
+            raise TransportError(
+                'a peer with TLS listens on TLS, and needs a certificate and key of its own for '
+                'that; this one has only a CA certificate. Pass Tls(ca, certificate, '
+                "private_key) (zros tls init makes them), connect as a client (mode='client'), "
+                'or listen nowhere (listen=[]: it can then reach only peers that listen)'
+            )
+        return {
+            'transport/link/tls/listen_certificate': self.tls.certificate,
+            'transport/link/tls/listen_private_key': self.tls.private_key,
+        }
 
     def describe(self) -> str:
         """Where this configuration connects, for messages."""

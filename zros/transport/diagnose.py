@@ -12,17 +12,10 @@ import socket
 import ssl
 
 from zros.transport.config import DEFAULT_ENDPOINT, TransportConfig
+from zros.transport.endpoints import EndpointError, parse_endpoint
+from zros.transport.tlsfiles import check_tls_files
 
 PROBE_TIMEOUT = 2.0
-
-
-def _split(endpoint: str) -> tuple[str, str, int] | None:
-    protocol, _, address = endpoint.partition('/')
-    address = address.split('#')[0].split('?')[0]
-    host, _, port = address.rpartition(':')
-    if not host or not port.isdigit():
-        return None
-    return protocol, host.strip('[]'), int(port)
 
 
 def _tls_problem(config: TransportConfig, host: str, port: int) -> str | None:
@@ -32,6 +25,7 @@ def _tls_problem(config: TransportConfig, host: str, port: int) -> str | None:
             f'tls/{host}:{port} is a TLS endpoint but no CA certificate is configured: '
             'pass tls=zros.transport.Tls("ca.pem")'
         )
+    check_tls_files(tls.root_ca_certificate, tls.certificate, tls.private_key)
     context = ssl.create_default_context(cafile=tls.root_ca_certificate)
     context.check_hostname = tls.verify_name
     if not tls.verify_name:
@@ -75,10 +69,13 @@ def explain_unreachable(config: TransportConfig) -> str:
     endpoints = list(config.connect or ([] if config.config_file else [DEFAULT_ENDPOINT]))
     reasons = []
     for endpoint in endpoints:
-        parts = _split(endpoint)
-        if parts is None:
+        try:
+            parsed = parse_endpoint(endpoint)
+        except EndpointError:
             continue
-        protocol, host, port = parts
+        protocol, host, port = parsed.protocol, parsed.host, parsed.port
+        if port is None:
+            continue
         try:
             with socket.create_connection((host, port), timeout=PROBE_TIMEOUT):
                 pass
@@ -86,7 +83,8 @@ def explain_unreachable(config: TransportConfig) -> str:
             reasons.append(f'cannot resolve the host {host!r} of {endpoint}')
             continue
         except ConnectionRefusedError:
-            reasons.append(f'nothing listens at {endpoint}')
+            here = ' (on this machine, `zros router` runs one)' if parsed.loopback else ''
+            reasons.append(f'nothing listens at {endpoint}{here}')
             continue
         except OSError:
             reasons.append(f'no answer from {endpoint} within {PROBE_TIMEOUT:g} s (a firewall?)')

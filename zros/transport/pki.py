@@ -1,7 +1,9 @@
 """Certificates for TLS between a robot's router and the machines that reach it, in one call.
 
 A private CA signs one router certificate (naming every host or address clients dial) and one
-client certificate per machine, for mutual TLS. Needs the ``cryptography`` package
+client certificate per machine, for mutual TLS. A client certificate serves both ways and names
+``localhost``, ``127.0.0.1`` and ``::1``, so that zros peers on one machine (which listen on
+loopback, on TLS) accept each other's. Needs the ``cryptography`` package
 (``pip install 'zros[tls]'``).
 """
 
@@ -22,6 +24,8 @@ from zros.errors import ZrosError
 from zros.transport.config import Tls
 
 ROUTER = 'router'
+#: the names a client's certificate carries for peers on its own machine
+PEER_HOSTS = ('localhost', '127.0.0.1', '::1')
 
 
 class CertificateError(ZrosError):
@@ -214,19 +218,22 @@ def make_certificates(
     write_certificate(result.ca, ca)
     write_key(result.folder / 'ca.key', ca_key)
 
-    def leaf(file_stem: str, subject: str, usage: Any, extra: Any = None) -> None:
+    def leaf(file_stem: str, subject: str, usages: list[Any], names: Any) -> None:
         key = ec.generate_private_key(ec.SECP256R1())
-        certificate = builder(subject, key, ca.subject).add_extension(
-            x509.ExtendedKeyUsage([usage]), critical=False
+        certificate = (
+            builder(subject, key, ca.subject)
+            .add_extension(x509.ExtendedKeyUsage(usages), critical=False)
+            .add_extension(names, critical=False)
         )
-        if extra is not None:
-            certificate = certificate.add_extension(extra, critical=False)
         write_certificate(
             result.folder / f'{file_stem}.pem', certificate.sign(ca_key, hashes.SHA256())
         )
         write_key(result.folder / f'{file_stem}.key', key)
 
-    leaf(ROUTER, hosts[0], ExtendedKeyUsageOID.SERVER_AUTH, alternative_names)
+    leaf(ROUTER, hosts[0], [ExtendedKeyUsageOID.SERVER_AUTH], alternative_names)
+    # a client in peer mode also listens, on loopback (its peers on this machine dial it there)
+    both = [ExtendedKeyUsageOID.CLIENT_AUTH, ExtendedKeyUsageOID.SERVER_AUTH]
     for client in clients:
-        leaf(client, client, ExtendedKeyUsageOID.CLIENT_AUTH)
+        names = x509.SubjectAlternativeName(_subject_names([client, *PEER_HOSTS]))
+        leaf(client, client, both, names)
     return result

@@ -6,14 +6,46 @@ import json
 from collections.abc import Sequence
 from typing import Any
 
-from zros.transport.session import TransportError, _install_exit_hook, _open
+from zros.transport.credentials import check_user, password_dictionary, secret_values
+from zros.transport.endpoints import normalize, parse_endpoint
+from zros.transport.errors import TransportError, zenoh_reason
+from zros.transport.session import _install_exit_hook, _open
+from zros.transport.tlsfiles import check_tls_files
+
+
+def _tls_settings(
+    listen: Sequence[str], certificate: str | None, private_key: str | None, client_ca: str | None
+) -> dict[str, Any]:
+    """Zenoh settings for TLS listeners with ``certificate``; clients verified by ``client_ca``."""
+    if certificate is None and private_key is None and client_ca is None:
+        return {}  # plain, or TLS by raw Zenoh settings
+    tls = [e for e in listen if parse_endpoint(e).protocol in ('tls', 'quic')]
+    if certificate is None or private_key is None:
+        raise TransportError('a TLS router needs both its certificate and its private key')
+    if len(tls) != len(listen):
+        plain = next(e for e in listen if e not in tls)
+        raise TransportError(
+            f'a router with TLS files listens on tls/ endpoints only, not {plain}: anyone '
+            'could connect there without them'
+        )
+    check_tls_files(client_ca, certificate, private_key)
+    settings: dict[str, Any] = {
+        'transport/link/tls/listen_certificate': certificate,
+        'transport/link/tls/listen_private_key': private_key,
+    }
+    if client_ca is not None:
+        settings['transport/link/tls/root_ca_certificate'] = client_ca
+        settings['transport/link/tls/enable_mtls'] = True
+    return settings
 
 
 class Router:
     """A Zenoh router listening on ``listen`` (port 0 picks a free port; read ``endpoint``).
 
     Multicast scouting is off; shared memory is off unless asked, so clients behave as across
-    a network.
+    a network. With ``certificate`` and ``private_key`` it listens on TLS (``tls/`` endpoints
+    only); with ``client_ca`` too, clients must present a certificate that CA signed (mutual
+    TLS); with ``user`` and ``password``, they must present those.
     """
 
     def __init__(
@@ -22,9 +54,17 @@ class Router:
         *,
         shared_memory: bool = False,
         zenoh: dict[str, Any] | None = None,
+        certificate: str | None = None,
+        private_key: str | None = None,
+        client_ca: str | None = None,
+        user: str | None = None,
+        password: str | None = None,
     ) -> None:
         import zenoh as z
 
+        listen = [normalize(endpoint) for endpoint in listen]
+        if user is not None:
+            check_user(user, password)
         settings: dict[str, Any] = {
             'mode': 'router',
             'listen': {'endpoints': list(listen)},
@@ -34,12 +74,19 @@ class Router:
             'transport': {'shared_memory': {'enabled': shared_memory}},
         }
         config = z.Config.from_json5(json.dumps(settings))
-        for key, value in (zenoh or {}).items():
-            config.insert_json5(key, json.dumps(value))
+        extra = {**_tls_settings(listen, certificate, private_key, client_ca), **(zenoh or {})}
+        secrets = [password, *secret_values(extra)]
         try:
-            self.session: Any = z.open(config)
+            for key, value in extra.items():
+                config.insert_json5(key, json.dumps(value))
+            with password_dictionary(config, user, password):
+                self.session: Any = z.open(config)
         except z.ZError as exc:
-            raise TransportError(f'cannot start a router on {", ".join(listen)}: {exc}') from None
+            reason = zenoh_reason(exc, secrets)
+            if 'Address already in use' in reason:
+                reason = 'the port is taken (another router or bridge? `zros doctor --connect` it)'
+            where = ', '.join(listen)
+            raise TransportError(f'cannot start a router on {where}: {reason}') from None
         self.zid = str(self.session.zid())
         self.endpoints = self._locators()
         self._closed = False
@@ -80,5 +127,8 @@ class Router:
 
 
 def start_router(listen: str | Sequence[str] = 'tcp/127.0.0.1:0', **options: Any) -> Router:
-    """Start a router inside this process; ``router.endpoint`` is where clients connect."""
+    """Start a router inside this process; ``router.endpoint`` is where clients connect.
+
+    ``options``: those of :class:`Router` (TLS files, user and password, raw Zenoh settings).
+    """
     return Router([listen] if isinstance(listen, str) else listen, **options)

@@ -16,15 +16,14 @@ import threading
 import weakref
 from typing import Any
 
-from zros.errors import ZrosError
 from zros.keyexpr.rmw_zenoh import IdCounter
-from zros.transport.config import TransportConfig
+from zros.transport.config import TransportConfig, listen_endpoints
+from zros.transport.credentials import password_dictionary
+from zros.transport.endpoints import parse_endpoint
+from zros.transport.errors import TransportError, zenoh_reason
+from zros.transport.tlsfiles import check_tls_files
 
 _log = logging.getLogger('zros.transport')
-
-
-class TransportError(ZrosError, ConnectionError):
-    """The Zenoh network could not be reached or the session failed."""
 
 
 _open: weakref.WeakSet[Transport] = weakref.WeakSet()
@@ -63,16 +62,27 @@ def _install_exit_hook() -> None:
 def _explain(error: Exception, config: TransportConfig) -> TransportError:
     from zros.transport.diagnose import explain_unreachable
 
-    text = str(error).split('  at ')[0].strip()
+    text = zenoh_reason(error, config.secrets())
     if 'Unable to connect' in text or 'connect' in text.lower():
         cause = explain_unreachable(config) or text
         return TransportError(
             f'cannot reach a Zenoh router or bridge at {config.describe()}: {cause}. '
-            'Start zenoh-bridge-ros2dds (or zenohd) there, or point zros elsewhere with '
-            'ZROS_CONNECT=tcp/<host>:7447 or connect=...; zros.transport.start_router() runs '
-            'one inside this process.'
+            'Start zenoh-bridge-ros2dds (or zenohd, or `zros router`) there, or point zros '
+            'elsewhere with ZROS_CONNECT=tcp/<host>:7447 or connect=...; '
+            'zros.transport.start_router() runs one inside this process.'
         )
     return TransportError(f'cannot open a Zenoh session to {config.describe()}: {text}')
+
+
+def _listen_hosts(config: TransportConfig, listening: list[str]) -> list[str] | None:
+    """The hosts other peers dial to reach ``listening``, which the certificate must name
+    (None: nothing listens; wildcard addresses stand for addresses not known here)."""
+    if not listening:
+        return None
+    if config.tls is not None and not config.tls.verify_name:
+        return []
+    parsed = [parse_endpoint(endpoint) for endpoint in listening]
+    return [e.host for e in parsed if e.port is not None and e.host not in ('0.0.0.0', '::')]
 
 
 class Transport:
@@ -83,8 +93,15 @@ class Transport:
 
         self.config = config or TransportConfig.create()
         zenoh_config = self.config.to_zenoh()
+        listening = listen_endpoints(zenoh_config)
+        tls = self.config.tls
+        if tls is not None:
+            hosts = _listen_hosts(self.config, listening)
+            check_tls_files(tls.root_ca_certificate, tls.certificate, tls.private_key, hosts)
+        user = self.config.user if listening else None
         try:
-            self.session: Any = zenoh.open(zenoh_config)
+            with password_dictionary(zenoh_config, user, self.config.password):
+                self.session: Any = zenoh.open(zenoh_config)
         except zenoh.ZError as exc:
             raise _explain(exc, self.config) from None
         self.zid = str(self.session.zid())

@@ -1,0 +1,115 @@
+"""``zros router`` through the console script: a router from the shell that other commands reach."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+from pathlib import Path
+
+import pytest
+
+import zros
+from tests.cli.conftest import Cli, Running
+from zros.transport import start_router
+
+LISTENING = 'zros router listening on '
+
+
+def endpoint_of(router: Running) -> str:
+    """Where the router says it listens (its first line of the kind)."""
+    return router.wait_line(lambda line: line.startswith(LISTENING))[len(LISTENING) :]
+
+
+def stopped(router: Running, how: signal.Signals = signal.SIGINT) -> tuple[int, str]:
+    """Stop the router; its exit code and what it wrote on stderr."""
+    router.process.send_signal(how)
+    code, _ = router.finish()
+    assert router.process.stderr is not None
+    return code, router.process.stderr.read()
+
+
+def one_line_error(result: subprocess.CompletedProcess[str], code: int, *words: str) -> None:
+    assert result.returncode == code, result
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith('zros: error: '), result.stderr
+    assert all(word in lines[0] for word in words), lines[0]
+
+
+@pytest.mark.parametrize('how', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
+def test_a_router_from_the_shell_serves_the_other_commands(cli: Cli, how: signal.Signals) -> None:
+    router = cli.start('router', '--listen', 'tcp/127.0.0.1:0')
+    endpoint = endpoint_of(router)
+    assert endpoint.startswith('tcp/127.0.0.1:')
+    node = zros.Node('talker', connect=endpoint, mode='client')
+    try:
+        node.create_publisher('std_msgs/msg/String', 'chatter')
+        listed = cli.run('topic', 'list', '--connect', endpoint)
+        assert listed.returncode == 0, listed.stderr
+        assert '/chatter' in listed.stdout.split()
+    finally:
+        node.destroy()
+        node.transport.close()
+    assert stopped(router, how) == (0, '')
+
+
+def test_a_busy_port_is_one_line(cli: Cli) -> None:
+    with start_router() as taken:
+        busy = cli.run('router', '--listen', taken.endpoint)
+    one_line_error(busy, 1, f'cannot start a router on {taken.endpoint}', 'port is taken')
+
+
+def test_listening_beyond_this_machine_warns(cli: Cli) -> None:
+    # 198.51.100.7 (a documentation range) is no address of this machine: the bind fails after
+    # the warning, and nothing ever listens beyond loopback
+    result = cli.run('router', '--listen', 'tcp/198.51.100.7:0')
+    warning, error = result.stderr.splitlines()
+    assert warning.startswith('zros router: warning: tcp/198.51.100.7:0 accepts connections')
+    assert 'anyone who reaches it joins the graph' in warning
+    assert result.returncode == 1 and error.startswith('zros: error: cannot start a router')
+    loopback = cli.start('router', '--listen', '[::1]:0')
+    assert endpoint_of(loopback).startswith('tcp/[::1]:')
+    assert stopped(loopback) == (0, '')
+
+
+def test_a_mutual_tls_router_from_the_shell(cli: Cli, tmp_path: Path) -> None:
+    pytest.importorskip('cryptography', reason='the test extra (cryptography) is not installed')
+    from zros.transport.pki import make_certificates
+
+    pki = make_certificates(tmp_path / 'certs')
+    files = ['--tls-cert', str(pki.router_certificate), '--tls-key', str(pki.router_key)]
+    router = cli.start('router', *files, '--tls-ca', str(pki.ca), '--listen', 'tls/127.0.0.1:0')
+    endpoint = endpoint_of(router).replace('127.0.0.1', 'localhost')
+    laptop = {
+        'ZROS_TLS_CA': str(pki.ca),
+        'ZROS_TLS_CERTIFICATE': str(pki.client_certificate('laptop')),
+        'ZROS_TLS_KEY': str(pki.client_key('laptop')),
+    }
+    listed = cli.run('topic', 'list', '--connect', endpoint, env=laptop)
+    assert listed.returncode == 0, listed.stderr
+    refused = cli.run('topic', 'list', '--connect', endpoint, env={'ZROS_TLS_CA': str(pki.ca)})
+    one_line_error(refused, 1, 'requires a client certificate')
+    assert stopped(router) == (0, '')
+    plain = cli.run('router', *files, '--listen', 'tcp/127.0.0.1:0')
+    one_line_error(plain, 1, 'tls/ endpoints only, not tcp/127.0.0.1:0')
+    swapped = cli.run('router', '--tls-cert', str(pki.router_key), '--tls-key', files[1])
+    one_line_error(swapped, 1, str(pki.router_key), 'holds a private key, not a certificate')
+
+
+def test_a_password_router_from_the_shell(cli: Cli) -> None:
+    secret = 'correct-horse-7'
+    router = cli.start(
+        'router', '--listen', 'tcp/127.0.0.1:0', '--user', 'laptop', env={'ZROS_PASSWORD': secret}
+    )
+    endpoint = endpoint_of(router)
+    right = cli.run(
+        'topic', 'list', '--connect', endpoint, env={'ZROS_USER': 'laptop', 'ZROS_PASSWORD': secret}
+    )
+    assert right.returncode == 0, right.stderr
+    wrong = cli.run(
+        'topic', 'list', '--connect', endpoint, env={'ZROS_USER': 'laptop', 'ZROS_PASSWORD': 'x'}
+    )
+    one_line_error(wrong, 1, "is the user 'laptop' and its password right?")
+    assert secret not in ' '.join(router.seen) + str(router.process.args)
+    assert stopped(router) == (0, '')
+    no_password = cli.run('router', '--user', 'laptop', env={'ZROS_PASSWORD': ''})
+    one_line_error(no_password, 1, 'set ZROS_PASSWORD')

@@ -1,0 +1,163 @@
+"""Check TLS files before Zenoh or Python's ``ssl`` reads them, so that a bad one is named.
+
+Left to themselves, Zenoh says "Unable to connect" and ``ssl`` says
+``[X509: KEY_VALUES_MISMATCH]`` about files they do not name. Each check here raises a
+:class:`TlsFileError` that names the file, its role, what is wrong and how to fix it. Expiry
+and a certificate's usages are checked when the ``cryptography`` package (the ``tls`` extra) is
+installed; the rest needs only the standard library.
+"""
+
+from __future__ import annotations
+
+import datetime
+import ipaddress
+import re
+import ssl
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from zros.transport.errors import TlsFileError
+
+FIX = 'make a matching set with `zros tls init FOLDER`'
+_BLOCK = re.compile(rb'-----BEGIN ([A-Z0-9 ]+)-----')
+
+
+def require_file(path: str | None, role: str) -> None:
+    """``path`` names an existing file (TlsFileError otherwise)."""
+    if path is not None and not Path(path).is_file():
+        what = 'is a folder' if Path(path).is_dir() else 'does not exist'
+        raise TlsFileError(f'the {role} {path} {what}; {FIX}')
+
+
+def _pem(path: str, role: str, wanted: str) -> bytes:
+    """The file's bytes, if it holds a PEM block of the ``wanted`` kind."""
+    require_file(path, role)
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise TlsFileError(f'cannot read the {role} {path}: {exc.strerror}') from None
+    if not data.strip():
+        raise TlsFileError(f'the {role} {path} is empty; {FIX}')
+    kinds = [kind.decode() for kind in _BLOCK.findall(data)]
+    if any(wanted in kind for kind in kinds):
+        if 'ENCRYPTED' in ' '.join(kinds):
+            raise TlsFileError(
+                f'the {role} {path} is encrypted with a passphrase, which Zenoh cannot read: '
+                f'decrypt it (openssl pkey -in {path} -out plain.key), or {FIX}'
+            )
+        return data
+    if kinds:
+        found = ', '.join(sorted(set(kinds))).lower()
+        raise TlsFileError(
+            f'the {role} {path} holds a {found}, not a {wanted.lower()} (the wrong file?); {FIX}'
+        )
+    if data[:1] == b'\x30':
+        raise TlsFileError(
+            f'the {role} {path} is DER (binary), Zenoh reads PEM: convert it with openssl '
+            f'(x509 -inform der -in {path} -out {Path(path).stem}.pem)'
+        )
+    raise TlsFileError(f'the {role} {path} is not a PEM file (no BEGIN {wanted} line); {FIX}')
+
+
+def _certificate(path: str, role: str) -> Any:
+    """Check a certificate file; its first certificate (a cryptography object) or None."""
+    data = _pem(path, role, 'CERTIFICATE')
+    try:
+        ssl.create_default_context(cafile=path)
+    except ssl.SSLError as exc:
+        raise TlsFileError(
+            f'the {role} {path} cannot be read as a certificate ({exc.reason or exc}); {FIX}'
+        ) from None
+    try:
+        from cryptography import x509
+    except ImportError:  # expiry and usages are checked with the tls extra only
+        return None
+    try:
+        certificate = x509.load_pem_x509_certificate(data)
+    except ValueError:
+        return None  # ssl read it: leave the finer points to the handshake
+    now = datetime.datetime.now(datetime.timezone.utc)
+    if certificate.not_valid_after_utc < now:
+        raise TlsFileError(
+            f'the {role} {path} expired on {certificate.not_valid_after_utc:%Y-%m-%d}; {FIX}'
+        )
+    if certificate.not_valid_before_utc > now:
+        raise TlsFileError(
+            f'the {role} {path} is not valid before '
+            f'{certificate.not_valid_before_utc:%Y-%m-%d %H:%M} UTC: is the clock of this '
+            'machine right?'
+        )
+    return certificate
+
+
+def _check_pair(certificate: str, key: str) -> None:
+    _pem(key, 'private key', 'PRIVATE KEY')
+    context = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+    try:
+        context.load_cert_chain(certificate, key)
+    except ssl.SSLError as exc:
+        if 'KEY_VALUES_MISMATCH' in str(exc):
+            raise TlsFileError(
+                f'the private key {key} does not belong to the certificate {certificate}: '
+                f'use the .key file made with that .pem; {FIX}'
+            ) from None
+        raise TlsFileError(
+            f'the private key {key} cannot be used with the certificate {certificate} '
+            f'({exc.reason or exc}); {FIX}'
+        ) from None
+
+
+def _can_serve(certificate: Any, path: str, hosts: Sequence[str]) -> None:
+    """A peer's certificate must be a server certificate for the hosts other peers dial."""
+    from cryptography import x509
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+
+    try:
+        usages = certificate.extensions.get_extension_for_class(x509.ExtendedKeyUsage).value
+    except x509.ExtensionNotFound:
+        usages = None
+    if usages is not None and ExtendedKeyUsageOID.SERVER_AUTH not in usages:
+        raise TlsFileError(
+            f'the certificate {path} is for clients only, so other peers cannot accept it from '
+            'a peer listening on TLS: make certificates with a current `zros tls init FOLDER` '
+            "(its client certificates serve both ways), or connect with mode='client'"
+        )
+    if not hosts:
+        return
+    try:
+        names = certificate.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    except x509.ExtensionNotFound:
+        names = None
+    named = {str(n).lower() for n in names.get_values_for_type(x509.DNSName)} if names else set()
+    addresses = set(names.get_values_for_type(x509.IPAddress)) if names else set()
+    for host in hosts:
+        try:
+            found = ipaddress.ip_address(host) in addresses
+        except ValueError:
+            found = host.lower() in named
+        if not found:
+            raise TlsFileError(
+                f'the certificate {path} does not name {host}, where this peer listens, so '
+                'other peers will refuse it: make certificates with a current '
+                '`zros tls init FOLDER` (client certificates name localhost, 127.0.0.1 and ::1), '
+                'or set verify_name=False on every peer'
+            )
+
+
+def check_tls_files(
+    ca: str | None,
+    certificate: str | None,
+    private_key: str | None,
+    listen_hosts: Sequence[str] | None = None,
+) -> None:
+    """Check a CA, a certificate and its key (any may be None); ``listen_hosts``: the hosts a
+    peer listens on with this certificate, each of which it must name (None: not listening)."""
+    if ca is not None:
+        _certificate(ca, 'CA certificate')
+    if certificate is None or private_key is None:
+        return
+    parsed = _certificate(certificate, 'certificate')
+    _check_pair(certificate, private_key)
+    if listen_hosts is not None and parsed is not None:
+        _can_serve(parsed, certificate, listen_hosts)
