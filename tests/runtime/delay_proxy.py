@@ -1,7 +1,9 @@
 """A TCP proxy on loopback that delays every chunk by a fixed time each way (a WAN in a box).
 
 ``tc netem`` is not available on our machines; this delivers each chunk at arrival + delay,
-in order, which is what a long link does to a TCP stream.
+in order, which is what a long link does to a TCP stream. It counts the bytes it relays each
+way (``relayed['up']`` towards the target, ``relayed['down']`` back), so with no delay it is
+also a meter of what a link carries.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ class DelayProxy:
         self._ready = threading.Event()
         self._server: asyncio.Server | None = None
         self._tasks: set[asyncio.Task[None]] = set()
+        self.relayed = {'up': 0, 'down': 0}  #: bytes received to relay, each way
         self._thread = threading.Thread(target=self._run, name='delay-proxy', daemon=True)
         self._thread.start()
         if not self._ready.wait(5):
@@ -48,12 +51,14 @@ class DelayProxy:
         except OSError:
             writer.close()
             return
-        for task in (self._pump(reader, up_writer), self._pump(up_reader, writer)):
+        for task in (self._pump(reader, up_writer, 'up'), self._pump(up_reader, writer, 'down')):
             running = asyncio.ensure_future(task)
             self._tasks.add(running)
             running.add_done_callback(self._tasks.discard)
 
-    async def _pump(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    async def _pump(
+        self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, way: str
+    ) -> None:
         queue: asyncio.Queue[tuple[float, bytes]] = asyncio.Queue()
 
         async def deliver() -> None:
@@ -71,6 +76,7 @@ class DelayProxy:
         sender = asyncio.ensure_future(deliver())
         try:
             while chunk := await reader.read(65536):
+                self.relayed[way] += len(chunk)
                 queue.put_nowait((time.monotonic() + self.delay, chunk))
         except (ConnectionError, OSError):
             pass
