@@ -68,6 +68,7 @@ class FoxgloveClient:
         self._ids = itertools.count(1)
         self._pump = threading.Thread(target=self._read, daemon=True)
         self._pump.start()
+        self.wait(lambda e: e['ev'] in ('open', 'error', 'close'))  # commands need an open socket
 
     def _read(self) -> None:
         assert self.process.stdout is not None

@@ -125,7 +125,7 @@ def test_without_the_sdk_the_error_says_what_to_install(
     from zros.gateway.foxglove import serve
 
     monkeypatch.setitem(sys.modules, 'foxglove', None)
-    with pytest.raises(GatewayError, match=r"zros\[foxglove\]"):
+    with pytest.raises(GatewayError, match=r'zros\[foxglove\]'):
         serve(node=zros_node('zros_foxglove'), port=0)
 
 

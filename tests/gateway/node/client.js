@@ -44,7 +44,12 @@ function nowNs() {
 const quiet = new Map(); // subscription id -> {count, bytes, latencies}
 
 client.on('open', () => emit({ ev: 'open' }));
-client.on('error', (error) => emit({ ev: 'error', message: String(error && error.message) }));
+client.on('error', (error) => {
+  const message = String(error && error.message);
+  if (!message.includes('opcode in binary message: 5')) { // the playback state, read below
+    emit({ ev: 'error', message });
+  }
+});
 client.on('close', (event) => emit({ ev: 'close', code: event && event.code }));
 client.on('serverInfo', (info) => emit({ ev: 'serverInfo', info }));
 client.on('status', (status) => emit({ ev: 'status', status }));
@@ -96,7 +101,8 @@ client.on('message', (message) => {
 });
 
 // The playback state (binary opcode 5) is newer than this version of the library.
-ws.on('message', (data, isBinary) => {
+ws.on('message', (raw, isBinary) => {
+  const data = Buffer.from(raw); // an ArrayBuffer: the library set binaryType
   if (!isBinary || data.length < 19 || data[0] !== 5) {
     return;
   }
