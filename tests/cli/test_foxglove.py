@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import re
 import signal
 from collections.abc import Iterator
@@ -13,7 +12,7 @@ import pytest
 
 import zros
 from tests.cli.conftest import Cli
-from tests.gateway.foxglove_client import REQUIRED, FoxgloveClient, install
+from tests.gateway.foxglove_client import FoxgloveClient, require
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
 
@@ -22,11 +21,7 @@ TIMEOUT = 60.0
 
 @pytest.fixture
 def node_client() -> Iterator[list[FoxgloveClient]]:
-    reason = install()
-    if reason is not None:
-        if os.environ.get(REQUIRED):
-            pytest.fail(reason)
-        pytest.skip(reason)
+    require()
     made: list[FoxgloveClient] = []
     yield made
     for client in made:

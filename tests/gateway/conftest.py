@@ -8,26 +8,17 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
 
-from tests.gateway.foxglove_client import REQUIRED, FoxgloveClient, install
-
-
-@pytest.fixture(scope='session')
-def _node_client() -> None:
-    reason = install()
-    if reason is not None:
-        if os.environ.get(REQUIRED):
-            pytest.fail(reason)
-        pytest.skip(reason)
+from tests.gateway.foxglove_client import FoxgloveClient, require
 
 
 @pytest.fixture
-def foxglove_client(_node_client: None) -> Iterator[Callable[..., FoxgloveClient]]:
+def foxglove_client() -> Iterator[Callable[..., FoxgloveClient]]:
+    require()
     made: list[FoxgloveClient] = []
 
     def make(url: str, ca: str | None = None) -> FoxgloveClient:

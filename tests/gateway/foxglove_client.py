@@ -50,6 +50,18 @@ def install() -> str | None:
     return None
 
 
+def require() -> None:
+    """Skip the calling test where the client cannot run (fail instead when ``REQUIRED`` is
+    set, as in CI)."""
+    import pytest
+
+    reason = install()
+    if reason is not None:
+        if os.environ.get(REQUIRED):
+            pytest.fail(reason)
+        pytest.skip(reason)
+
+
 class FoxgloveClient:
     """One client connected to ``url``; events are kept in order and waited for by predicate."""
 
