@@ -44,6 +44,7 @@ _OUTBOX_FULL = re.compile(r'outbox for client (\S+) full')
 
 
 def import_sdk() -> Any:
+    """The ``foxglove`` module of the SDK; GatewayError says how to install it."""
     try:
         import foxglove
     except ImportError:

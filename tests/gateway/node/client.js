@@ -6,8 +6,9 @@
 //
 //   node client.js URL [CA_FILE]
 //
-// Commands: subscribe {channelId}, unsubscribe {subscriptionId}, quiet {subscriptionId}
-// (count its messages and their latency instead of reporting each), stats, advertise
+// Commands: subscribe {channelId}, unsubscribe {subscriptionId}, quiet {subscriptionId, latency}
+// (count its messages, the seconds from the first to the last and, with latency, how long
+// after the stamp at bytes 4-12 each arrived, instead of reporting each), stats, advertise
 // {topic, encoding, schemaName, schema?, schemaEncoding?}, publish {channelId, data},
 // callService {serviceId, callId, encoding, data}, getParameters {names, id},
 // setParameters {parameters, id}, subscribeParameterUpdates {names},
@@ -83,6 +84,11 @@ client.on('fetchAssetResponse', (message) => {
 client.on('message', (message) => {
   const counted = quiet.get(message.subscriptionId);
   if (counted !== undefined) {
+    const now = performance.now();
+    if (counted.count === 0) {
+      counted.first = now;
+    }
+    counted.last = now;
     counted.count += 1;
     counted.bytes += message.data.byteLength;
     if (counted.latency && message.data.byteLength >= 12) {
@@ -134,11 +140,12 @@ function playback(command) {
 const commands = {
   subscribe: (c) => emit({ ev: 'subscribed', channelId: c.channelId, subscriptionId: client.subscribe(c.channelId) }),
   unsubscribe: (c) => client.unsubscribe(c.subscriptionId),
-  quiet: (c) => quiet.set(c.subscriptionId, { count: 0, bytes: 0, latency: !!c.latency, latencies: [] }),
+  quiet: (c) => quiet.set(c.subscriptionId, { count: 0, bytes: 0, first: 0, last: 0, latency: !!c.latency, latencies: [] }),
   stats: () => {
     const counts = {};
     for (const [id, counted] of quiet) {
-      counts[id] = { count: counted.count, bytes: counted.bytes, latencies: counted.latencies };
+      const { count, bytes, first, last, latencies } = counted;
+      counts[id] = { count, bytes, seconds: (last - first) / 1000, latencies };
     }
     emit({ ev: 'stats', counts });
   },
