@@ -20,6 +20,7 @@ from zros.gateway.core import (
     message_from_json,
     offered_services,
     parameter_nodes,
+    service_providers,
 )
 from zros.taps import graph_topics
 from zros.testing import wait_for
@@ -141,7 +142,7 @@ def test_a_failing_delivery_is_logged_and_the_tap_goes_on(
         for text in ('one', 'two'):
             pub.write(zros.Message('std_msgs/msg/String', data=text))
         assert wait_for(lambda: len(calls) == 2, TIMEOUT)
-        assert 'delivering a message failed' in caplog.text
+        assert caplog.text.count('delivering a message of /chatter failed (logged once)') == 1
     finally:
         taps.close()
 
@@ -188,6 +189,9 @@ def test_graph_views(zros_node: Make) -> None:
         if e.ros_name(observer.scheme.namespace) == '/add_two_ints'
     ]
     assert endpoint_owner(endpoint, observer.graph) == '/adder'
+    assert service_providers(observer, ['/add_two_ints', '/nothing']) == {
+        '/add_two_ints': ['/adder']
+    }
 
 
 def test_messages_from_json() -> None:

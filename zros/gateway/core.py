@@ -139,11 +139,13 @@ def _changed_since(graph: Graph, version: int) -> Callable[[], bool]:
 
 @dataclass
 class _Tapped:
+    name: str
     watchers: set[Hashable]
     latched: collections.deque[tuple[bytes, int]] | None
     tap: RawTap | None = None
     samples: int = 0
     bytes: int = 0
+    failures: int = 0
 
     def close(self) -> None:
         if self.tap is not None:
@@ -178,7 +180,9 @@ class Taps:
                 return list(tapped.latched or ())
             qos = matched_qos(topic.offered)
             tapped = _Tapped(
-                {watcher}, collections.deque(maxlen=qos.depth) if qos.transient_local else None
+                topic.name,
+                {watcher},
+                collections.deque(maxlen=qos.depth) if qos.transient_local else None,
             )
             tapped.tap = RawTap(
                 self._node,
@@ -208,7 +212,9 @@ class Taps:
             try:
                 deliver(data, stamp)
             except Exception:
-                _log.exception('delivering a message failed')
+                tapped.failures += 1
+                if tapped.failures == 1:  # a broken client must not flood the log
+                    _log.exception('delivering a message of %s failed (logged once)', tapped.name)
 
         return on_sample
 
@@ -370,6 +376,23 @@ def parameter_nodes(services: dict[str, str]) -> list[str]:
             if services.get(f'{node}/list_parameters') == PARAMETER_SERVICES['list_parameters']:
                 nodes.append(node)
     return sorted(nodes)
+
+
+def owners(endpoints: Iterable[Endpoint], graph: Graph) -> list[str]:
+    """The nodes owning ``endpoints`` (see :func:`endpoint_owner`), sorted, once each."""
+    return sorted({endpoint_owner(endpoint, graph) for endpoint in endpoints})
+
+
+def service_providers(node: Node, names: Iterable[str]) -> dict[str, list[str]]:
+    """The nodes serving each of the services ``names`` (those with a server)."""
+    wanted = set(names)
+    servers: dict[str, list[Endpoint]] = {}
+    namespace = node.scheme.namespace
+    for endpoint in node.graph.endpoints((EntityKind.SERVICE_SERVER,)):
+        name = endpoint.ros_name(namespace)
+        if name in wanted:
+            servers.setdefault(name, []).append(endpoint)
+    return {name: owners(found, node.graph) for name, found in sorted(servers.items())}
 
 
 def endpoint_owner(endpoint: Endpoint, graph: Graph) -> str:

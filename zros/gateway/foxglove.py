@@ -28,9 +28,10 @@ from zros.gateway.core import (
     GraphWatcher,
     NameFilter,
     Taps,
-    endpoint_owner,
     offered_services,
+    owners,
     parameter_nodes,
+    service_providers,
 )
 from zros.gateway.foxglove_calls import ENCODINGS, ClientChannels, ServiceOffer
 from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk, ros2msg_schema
@@ -193,7 +194,7 @@ class FoxgloveGateway:
         self.services.update(
             {n: t for n, t in services.items() if self._include_hidden or not is_hidden(n)}
         )
-        self._publish_connection_graph(topics, services)
+        self._publish_connection_graph(topics)
 
     def _update_channels(self, topics: dict[str, GraphTopic]) -> None:
         import foxglove
@@ -213,13 +214,11 @@ class FoxgloveGateway:
             self._taps.drop(item.topic.name)
             _log.info('channel %s closed', item.topic.name)
         for topic in new:
-            channel = foxglove.Channel(
-                topic.name,
-                schema=ros2msg_schema(self.node.registry, topic.type_name),
-                message_encoding='cdr',
-                context=self._context,
-            )
-            with self._lock:
+            schema = ros2msg_schema(self.node.registry, topic.type_name)
+            with self._lock:  # a client may subscribe as soon as the channel is advertised
+                channel = foxglove.Channel(
+                    topic.name, schema=schema, message_encoding='cdr', context=self._context
+                )
                 self._channels[topic.name] = _Channel(channel, topic)
                 self._names[channel.id()] = topic.name
             _log.info('channel %s [%s]', topic.name, topic.type_name)
@@ -229,28 +228,14 @@ class FoxgloveGateway:
             known = self._channels.get(self.node.resolve_name(topic))
             return known.topic.offered if known is not None else []
 
-    def _publish_connection_graph(
-        self, topics: dict[str, GraphTopic], services: dict[str, str]
-    ) -> None:
+    def _publish_connection_graph(self, topics: dict[str, GraphTopic]) -> None:
         import foxglove
 
-        from zros.keyexpr.bridge import EntityKind
-
         graph = self.node.graph
-        published = {
-            n: sorted({endpoint_owner(e, graph) for e in t.publishers}) for n, t in topics.items()
-        }
-        subscribed = {
-            n: sorted({endpoint_owner(e, graph) for e in t.subscribers}) for n, t in topics.items()
-        }
-        providers: dict[str, set[str]] = {}
-        namespace = self.node.scheme.namespace
-        offered = self.services.offered
-        for endpoint in graph.endpoints((EntityKind.SERVICE_SERVER,)):
-            name = endpoint.ros_name(namespace)
-            if name in services and name in offered:
-                providers.setdefault(name, set()).add(endpoint_owner(endpoint, graph))
-        view = (published, subscribed, {n: sorted(p) for n, p in providers.items()})
+        published = {name: owners(t.publishers, graph) for name, t in topics.items()}
+        subscribed = {name: owners(t.subscribers, graph) for name, t in topics.items()}
+        providers = service_providers(self.node, self.services.offered)
+        view = (published, subscribed, providers)
         if view == self._graph_published:
             return
         connection_graph = foxglove.ConnectionGraph()
@@ -258,7 +243,7 @@ class FoxgloveGateway:
             connection_graph.set_published_topic(name, ids)
         for name, ids in subscribed.items():
             connection_graph.set_subscribed_topic(name, ids)
-        for name, ids in view[2].items():
+        for name, ids in providers.items():
             connection_graph.set_advertised_service(name, ids)
         self._server.publish_connection_graph(connection_graph)
         self._graph_published = view

@@ -4,10 +4,10 @@ safely, telling clients that fall behind, and the schemas of ROS types.
 The Foxglove SDK (``foxglove-sdk`` on PyPI, the ``foxglove`` extra) owns the WebSocket side:
 the protocol, a bounded outbox per client (``message_backlog_size`` messages; when it is full
 the oldest data messages go), TLS. It does not tell a client that its messages were dropped;
-it only logs ``outbox for client <address> full`` at each drop. :class:`SlowClients` watches
-that log line and sends every client a warning status naming the slow one (at most once per
-``REPORT_PERIOD`` for one client: statuses go through the control queue, which the SDK bounds
-too, and disconnects a client when it overflows).
+it only logs ``outbox for client <address> full`` (at most every 30 s, for all its clients).
+:class:`SlowClients` watches that log line and sends every client a warning status naming the
+slow one (at most once per ``REPORT_PERIOD`` for one client: statuses go through the control
+queue, which the SDK bounds too, and disconnects a client when it overflows).
 """
 
 from __future__ import annotations
@@ -158,15 +158,15 @@ class _OutboxLog(logging.Handler):
 class SlowClients:
     """Tells every client, with a warning status, when a client's outbox overflowed (its
     oldest messages are being dropped). Statuses are sent from a thread of its own, never from
-    inside the SDK. ``dropped`` counts the messages dropped (one log line each), ``reported``
-    the statuses sent."""
+    inside the SDK. ``overflows`` counts the overflows the SDK logged, ``reported`` the statuses
+    sent."""
 
     def __init__(self, backlog: int) -> None:
         self._backlog = backlog
         self._server: Any = None
         self._found: queue.SimpleQueue[str | None] = queue.SimpleQueue()
         self._last: dict[str, float] = {}  # client address -> when last reported
-        self.dropped = 0
+        self.overflows = 0
         self.reported = 0
         self._handler = _OutboxLog(self._found.put)
         logger = logging.getLogger(_SDK_SEND_LOGGER)
@@ -184,7 +184,7 @@ class SlowClients:
         import foxglove
 
         while (address := self._found.get()) is not None:
-            self.dropped += 1
+            self.overflows += 1
             now = time.monotonic()
             if now - self._last.get(address, -REPORT_PERIOD) < REPORT_PERIOD:
                 continue
