@@ -107,10 +107,7 @@ class Gateway:
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             channel = client.channel(TOPIC, 60)['id']
-            start = client.mark()
-            client.send('subscribe', channelId=channel)
-            event = client.wait(lambda e: e['ev'] == 'subscribed', start=start)
-            subscription = int(event['subscriptionId'])
+            subscription = client.subscribe(TOPIC, 60)
             client.send('quiet', subscriptionId=subscription, latency=latency)
             while time.monotonic() < deadline:
                 if any(channel in e['channelIds'] for e in client.of('unadvertise')):

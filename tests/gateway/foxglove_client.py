@@ -153,11 +153,31 @@ class FoxgloveClient:
         return self.channels()[topic]
 
     def subscribe(self, topic: str, timeout: float = TIMEOUT) -> int:
-        channel = self.channel(topic, timeout)
-        start = self.mark()
-        self.send('subscribe', channelId=channel['id'])
-        event = self.wait(lambda e: e['ev'] == 'subscribed', start=start)
-        return int(event['subscriptionId'])
+        """Subscribe to the channel of ``topic``; its subscription id.
+
+        The SDK records a channel as advertised to a client just after sending the
+        advertisement, so a client that subscribes at once can be refused ("Unknown channel
+        ID"). A subscription to a channel that cannot exist is refused too, in order: once
+        that refusal arrived, the real subscription's answer (if any) is in, and a refused
+        one is sent again.
+        """
+        for fence in range(2**31, 2**31 + 10):
+            channel = self.channel(topic, timeout)
+            start = self.mark()
+            self.send('subscribe', channelId=channel['id'])
+            event = self.wait(lambda e: e['ev'] == 'subscribed', start=start)
+            self.send('subscribe', channelId=fence)
+            self.wait(lambda e, f=fence: self._refused(e, f), start=start)
+            if not any(self._refused(e, channel['id']) for e in self.events[start:]):
+                return int(event['subscriptionId'])
+        raise AssertionError(f'the server kept refusing the channel of {topic}')
+
+    @staticmethod
+    def _refused(event: dict[str, Any], channel: int) -> bool:
+        return (
+            event['ev'] == 'status'
+            and event['status']['message'] == f'Unknown channel ID: {channel}'
+        )
 
     def messages(self, subscription: int) -> list[bytes]:
         return [
