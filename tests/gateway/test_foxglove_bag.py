@@ -13,6 +13,8 @@ import zros
 from tests.gateway.foxglove_client import FoxgloveClient
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.cdr import default_registry
+from zros.cdr.message import decode
+from zros.cdr.render import render_bundle
 from zros.gateway.core import GatewayError
 from zros.qos import LATCHED, QoS
 
@@ -129,6 +131,44 @@ def test_a_rosbag2_recording_keeps_its_schemas_and_bytes(
     received = client.wait_messages(subscription, len(recorded))
     assert received == recorded and len(recorded) == 10
     assert base64.b64encode(received[0]).decode() == client.of('message')[0]['data']
+
+
+SQLITE_AND_ROS1 = {
+    # talker_sqlite3 embeds a wrong Log (``uint8 level`` only): the registry's fits the data
+    'sqlite': ('ros2/talker_sqlite3', '/rosout', 'rcl_interfaces/msg/Log', True),
+    # a ROS 1 bag's definitions, as converted to ROS 2, fit
+    'ros1': (
+        'ros1/fake_sensors_sample.bag',
+        '/my_temperature',
+        'sensor_msgs/msg/Temperature',
+        False,
+    ),
+}
+
+
+@pytest.mark.parametrize('case', SQLITE_AND_ROS1.values(), ids=SQLITE_AND_ROS1)
+def test_sqlite_and_ros1_bags_play_with_schemas_that_fit_their_data(
+    testdata: Path, bag_server: Make, foxglove_client: Make, case: tuple[str, str, str, bool]
+) -> None:
+    from zros.bag.source import open_source
+
+    recording, topic, type_name, from_registry = case
+    path = testdata / recording
+    with open_source(path) as source:
+        (connection,) = [c for c in source.connections if c.topic == topic]
+        recorded = [bytes(m.data) for m in source.messages([connection])]
+    server = bag_server(path)
+    client: FoxgloveClient = foxglove_client(server.url)
+    channel = client.channel(topic)
+    assert channel['schemaName'] == type_name
+    registry_text = render_bundle(default_registry(), type_name)
+    assert channel['schema'] == (registry_text if from_registry else connection.definition)
+    cls = default_registry().get_class(type_name)
+    subscription = client.subscribe(topic)
+    _request(client, PLAY, 100.0, None)
+    received = client.wait_messages(subscription, len(recorded))
+    assert received == recorded
+    assert [type(decode(cls, data, strict=True)) for data in received] == [cls] * len(recorded)
 
 
 def test_a_bag_without_selected_topics_is_refused(

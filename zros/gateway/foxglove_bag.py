@@ -1,8 +1,8 @@
 """``zros foxglove --bag PATH``: a recording served to Foxglove with play, pause, speed and seek.
 
 Any bag zros reads (rosbag2 MCAP or SQLite, split or not, ROS 1) becomes one channel per topic
-with the recording's own definitions as schemas (the ones zros knows when a recording carries
-none). The Foxglove SDK's playback control drives a :class:`~zros.bag.play_clock.PlayClock`:
+with the recording's own definitions as schemas (zros's when a recording carries none, or one
+its first message shows wrong). The Foxglove SDK's playback control drives a :class:`~zros.bag.play_clock.PlayClock`:
 messages go out with their recorded spacing, the server's time follows the bag, and a seek
 restarts reading at the new time after sending again the latched messages (``/tf_static``,
 ``/robot_description``) recorded before it. No Zenoh session is needed.
@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 from zros.bag.play_clock import PlayClock
 from zros.bag.rosbag2_yaml import parse_qos_profiles
+from zros.bag.types import BagTypes
+from zros.errors import ZrosError
 from zros.gateway.assets import Assets
 from zros.gateway.core import GatewayError, NameFilter
 from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk, ros2msg_schema
@@ -69,6 +71,7 @@ class BagGateway:
         self._channels: dict[int, Any] = {}  # connection id -> foxglove.Channel
         by_topic: dict[str, Any] = {}
         latched: list[Connection] = []
+        types = BagTypes(self.source.path, self.source.connections)
         for connection in self.source.connections:
             name = _full_name(connection.topic)
             if not selected(name):
@@ -76,7 +79,7 @@ class BagGateway:
             if name not in by_topic:
                 by_topic[name] = foxglove.Channel(
                     name,
-                    schema=self._schema(connection),
+                    schema=self._schema(connection, types),
                     message_encoding='cdr',
                     context=self._context,
                 )
@@ -116,18 +119,30 @@ class BagGateway:
         self._thread.start()
         _log.info('Foxglove server on %s playing %s', self.url, self.source.path)
 
-    @staticmethod
-    def _schema(connection: Connection) -> Any:
+    def _schema(self, connection: Connection, types: BagTypes) -> Any:
+        """The recording's own definition, unless its first message shows it wrong (as some
+        recorders wrote them) and zros's registry has one that fits: then that one."""
         import foxglove
 
+        from zros.cdr import default_registry
+
         if connection.definition and connection.definition_format in ('ros2msg', 'ros2idl'):
-            return foxglove.Schema(
+            recorded = foxglove.Schema(
                 name=connection.type_name,
                 encoding=connection.definition_format,
                 data=connection.definition.encode(),
             )
-        from zros.cdr import default_registry
-
+            first = next(iter(self.source.messages([connection])), None)
+            if first is None:
+                return recorded
+            try:
+                types.decode(first)
+            except ZrosError:
+                return recorded  # nothing fits: the recording's definition is the best guess
+            if types.message_class(connection) is not types.fallback.get_class(
+                connection.type_name
+            ):
+                return recorded  # the recording's definition decodes its data
         return ros2msg_schema(default_registry(), connection.type_name)
 
     def _read_latched(self, connections: list[Connection]) -> list[RawMessage]:
