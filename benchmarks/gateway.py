@@ -45,7 +45,7 @@ TOPIC = '/bench/data'
 
 def role_stamps(args: argparse.Namespace) -> None:
     """Publish ``count`` std_msgs/Header stamped with the wall clock, LATENCY_HZ a second."""
-    node = bench._zros_node('bench_stamps', args.endpoint, False)
+    node = bench.zros_node('bench_stamps', args.endpoint, False)
     publisher = node.create_publisher('std_msgs/msg/Header', TOPIC, qos=100)
     publisher.wait_for_subscribers(30)
     time.sleep(0.5)  # the receiver finishes subscribing
@@ -63,7 +63,7 @@ def role_stamps(args: argparse.Namespace) -> None:
 
 def role_latency(args: argparse.Namespace) -> None:
     """Receive stamped headers with a zros subscriber; print the latencies (ns)."""
-    node = bench._zros_node('bench_latency', args.endpoint, False)
+    node = bench.zros_node('bench_latency', args.endpoint, False)
     latencies: list[int] = []
 
     def on_message(message: Any) -> None:
@@ -138,7 +138,7 @@ def gateway_throughput(kind: str, count: int, endpoint: str) -> dict[str, Any]:
     gateway = Gateway(endpoint)
     try:
         extra = ['--kind', kind, '--count', str(count)]
-        publisher = bench._spawn('publish', 'zros', endpoint, extra, False)  # waits for us
+        publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False)  # waits for us
         subscription = gateway.subscribe()
         found = gateway.counted(subscription, count, 20)
         publisher.communicate(timeout=120)
@@ -167,9 +167,9 @@ def gateway_latency(count: int, endpoint: str) -> list[float]:
 
 def zros_latency(count: int, endpoint: str) -> list[float]:
     receiver = _spawn_here('latency', endpoint, count)
-    bench._wait_ready(receiver)
+    bench.wait_ready(receiver)
     publisher = _spawn_here('stamps', endpoint, count)
-    result = bench._result(receiver, 120)
+    result = bench.read_result(receiver, 120)
     publisher.communicate(timeout=120)
     return [float(x) for x in result['latencies']]
 
