@@ -176,3 +176,16 @@ def test_a_bag_without_selected_topics_is_refused(
 ) -> None:
     with pytest.raises(GatewayError, match='no topic of'):
         bag_server(recording[0], topics=['/nothing'])
+
+
+def test_latched_messages_beyond_the_bound_are_not_kept(
+    recording: tuple[Path, list[bytes], bytes],
+    bag_server: Make,
+    monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    from zros.gateway import foxglove_bag
+
+    monkeypatch.setattr(foxglove_bag, 'LATCHED_BYTES', 8)
+    bag_server(recording[0])
+    assert 'latched topics hold more than 8 bytes: not all kept' in caplog.text

@@ -88,6 +88,11 @@ def test_a_client_publishes_a_type_known_only_from_its_schema(
     assert (received.level, received.unit) == (0.75, 'm')
 
 
+def _told(client: FoxgloveClient, text: str, start: int) -> None:
+    """Wait for a status whose message holds ``text``."""
+    client.wait(lambda e: e['ev'] == 'status' and text in e['status']['message'], start=start)
+
+
 def test_bad_client_data_never_reaches_the_graph(
     gateway: Make, foxglove_client: Make, zros_node: Make
 ) -> None:
@@ -97,28 +102,26 @@ def test_bad_client_data_never_reaches_the_graph(
     client: FoxgloveClient = foxglove_client(server.url)
     client.server_info()
     start = client.mark()
-    client.advertise('/x', 'cdr', 'no_such_pkg/msg/Thing')
-    client.wait(
-        lambda e: e['ev'] == 'status' and 'unknown type no_such_pkg' in e['status']['message'],
-        start=start,
-    )
-    client.advertise('/y', 'protobuf', TWIST)
-    client.wait(
-        lambda e: e['ev'] == 'status' and "'protobuf' is not one of" in e['status']['message'],
-        start=start,
-    )
+    refused = [
+        (('/x', 'cdr', 'no_such_pkg/msg/Thing'), {}, 'unknown type no_such_pkg'),
+        (('/y', 'protobuf', TWIST), {}, "'protobuf' is not one of"),
+        (
+            ('/z', 'cdr', 'no_such_pkg/msg/Thing'),
+            {'schema': 'float64 x y z', 'schemaEncoding': 'ros2msg'},
+            'the schema of no_such_pkg/msg/Thing is unusable',
+        ),
+        (('/bad topic!', 'cdr', TWIST), {}, 'cannot publish on /bad topic!'),
+    ]
+    for args, extra, reason in refused:
+        client.advertise(*args, **extra)
+        _told(client, reason, start)
     cdr = client.advertise('/cmd_vel', 'cdr', TWIST)
     assert wait_for(lambda: listener.count_publishers('/cmd_vel') == 1, TIMEOUT)
     client.publish(cdr, b'\x00\x01\x00\x00\x01')  # a Twist is 48 bytes of doubles
-    client.wait(
-        lambda e: e['ev'] == 'status' and 'on /cmd_vel was not published' in e['status']['message'],
-        start=start,
-    )
+    _told(client, 'on /cmd_vel was not published', start)
     text = client.advertise('/cmd_vel', 'json', TWIST)
     client.publish(text, b'{"linear": {"w": 1}}')
-    client.wait(
-        lambda e: e['ev'] == 'status' and "has no field 'w'" in e['status']['message'], start=start
-    )
+    _told(client, "has no field 'w'", start)
     client.publish(text, b'not json')
     good = zros.Message(TWIST, linear={'x': 2.0})
     assert _publish_until_received(client, cdr, good.serialize(), sub) == good
@@ -247,3 +250,54 @@ def test_the_connection_graph(gateway: Make, foxglove_client: Make, zros_node: M
         )
 
     client.wait(complete)
+
+
+def test_services_and_parameters_are_selected_by_regex(
+    gateway: Make, foxglove_client: Make, zros_node: Make
+) -> None:
+    node = zros_node('pnode', start_parameter_services=True, enable_rosout=False)
+    node.declare_parameter('gain', 0.5)
+    node.declare_parameter('count', 4)
+    node.create_service('example_interfaces/srv/AddTwoInts', '/add_two_ints')
+    node.create_service('std_srvs/srv/Trigger', '/reset')
+    server = gateway(services=['/add_.*'], params=[r'/pnode\.gain'])
+    client: FoxgloveClient = foxglove_client(server.url)
+    client.wait(lambda e: '/add_two_ints' in client.services())
+    assert set(client.services()) == {'/add_two_ints'}  # not /reset, nor the parameter services
+    found: list[dict[str, Any]] = []
+
+    def listed() -> bool:
+        found[:] = client.get_parameters([])
+        return bool(found)
+
+    assert wait_for(listed, TIMEOUT)
+    assert [p['name'] for p in found] == ['/pnode.gain']
+    assert client.get_parameters(['/pnode.count']) == []
+    start = client.mark()
+    assert client.set_parameters([{'name': '/pnode.count', 'value': 5}]) == []
+    _told(client, 'the parameter /pnode.count may not be set through this server', start)
+    assert node.get_parameter('count') == 4
+
+
+def test_unknown_nodes_and_service_types(
+    gateway: Make, foxglove_client: Make, zros_node: Make, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A service whose type the gateway does not know is not offered (zros could not call it);
+    parameters of a node that is not there are told, not waited for."""
+    from zros.cdr import TypeRegistry
+
+    own_types = TypeRegistry()
+    own_types.register_text('tank_msgs/srv/Fill', 'float64 litres\n---\nbool done\n')
+    custom = zros_node('tank', registry=own_types)
+    custom.create_service('tank_msgs/srv/Fill', '/fill')
+    custom.create_service('std_srvs/srv/Trigger', '/drain')
+    server = gateway()
+    client: FoxgloveClient = foxglove_client(server.url)
+    client.wait(lambda e: '/drain' in client.services())
+    assert '/fill' not in client.services()
+    assert 'no definition of tank_msgs/srv/Fill_Request' in caplog.text
+    start = client.mark()
+    assert client.set_parameters([{'name': '/ghost.speed', 'value': 1}]) == []
+    _told(client, 'cannot set parameters of /ghost', start)
+    assert client.get_parameters(['/ghost.speed']) == []
+    assert 'no parameters from /ghost' in caplog.text

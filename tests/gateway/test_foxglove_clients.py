@@ -104,6 +104,7 @@ def test_an_address_beyond_loopback_warns(caplog: pytest.LogCaptureFixture) -> N
         ({'tls_cert': '/nonexistent/cert.pem'}, 'both a certificate and its private key'),
         ({'asset_paths': ['/nonexistent/meshes']}, 'does not exist'),
         ({'message_backlog': 0}, 'at least 1'),
+        ({'port': 70000}, 'the port must be 0 to 65535'),
     ],
 )
 def test_bad_settings_are_refused(gateway: Make, options: dict[str, Any], error: str) -> None:
@@ -178,6 +179,17 @@ def test_assets_are_served_from_the_named_folders_only(
         response = client.fetch_asset(uri)
         assert response['status'] == 1, response
         assert reason in response['error'], (uri, response['error'])
+
+
+def test_an_asset_beyond_the_size_bound_is_refused(
+    asset_folders: dict[str, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.gateway import assets
+
+    monkeypatch.setattr(assets, 'MAX_ASSET_BYTES', 4)
+    served = assets.Assets([asset_folders['own']])
+    with pytest.raises(GatewayError, match='more than the 4 served'):
+        served.fetch('package://gripper/finger.obj')
 
 
 def test_no_asset_folders_no_assets_capability(gateway: Make, foxglove_client: Make) -> None:

@@ -8,6 +8,7 @@ stamps follow sim time; topics are selected by regex. Both wires.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from typing import Any
@@ -168,8 +169,9 @@ def test_a_late_client_gets_latched_messages(
 
 
 def test_stamps_follow_sim_time_when_clock_is_published(
-    gateway: Make, foxglove_client: Make, zros_node: Make
+    gateway: Make, foxglove_client: Make, zros_node: Make, caplog: pytest.LogCaptureFixture
 ) -> None:
+    caplog.set_level(logging.DEBUG, 'zros.gateway')
     sim = zros_node('sim')
     clock = sim.create_publisher('rosgraph_msgs/msg/Clock', '/clock', 'sensor_data')
     pub = sim.create_publisher('std_msgs/msg/String', '/chatter')
@@ -181,6 +183,13 @@ def test_stamps_follow_sim_time_when_clock_is_published(
     subscription = client.subscribe('/chatter')
     assert pub.wait_for_subscribers(TIMEOUT)
     tick = zros.Message('rosgraph_msgs/msg/Clock', clock={'sec': 42, 'nanosec': 5})
+
+    def refused() -> bool:  # a /clock message that does not decode is dropped
+        clock.write_raw(b'\x00\x01\x00\x00\x01')
+        return 'a /clock message does not decode' in caplog.text
+
+    assert wait_for(refused, TIMEOUT)
+    assert server.now() == 0
 
     def ticked() -> bool:
         clock.write(tick)

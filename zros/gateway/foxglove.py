@@ -23,6 +23,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from zros.errors import ZrosError
 from zros.gateway.assets import Assets
 from zros.gateway.core import (
     GraphWatcher,
@@ -224,8 +225,12 @@ class FoxgloveGateway:
             _log.info('channel %s [%s]', topic.name, topic.type_name)
 
     def _offered_qos(self, topic: str) -> list[QoS]:
+        try:
+            name = self.node.resolve_name(topic)
+        except ZrosError:  # an invalid name: the publisher refuses it, with the reason
+            return []
         with self._lock:
-            known = self._channels.get(self.node.resolve_name(topic))
+            known = self._channels.get(name)
             return known.topic.offered if known is not None else []
 
     def _publish_connection_graph(self, topics: dict[str, GraphTopic]) -> None:

@@ -2,8 +2,9 @@
 
 Any bag zros reads (rosbag2 MCAP or SQLite, split or not, ROS 1) becomes one channel per topic
 with the recording's own definitions as schemas (zros's when a recording carries none, or one
-its first message shows wrong). The Foxglove SDK's playback control drives a :class:`~zros.bag.play_clock.PlayClock`:
-messages go out with their recorded spacing, the server's time follows the bag, and a seek
+its first message shows wrong). The Foxglove SDK's playback control drives a
+:class:`~zros.bag.play_clock.PlayClock`: messages go out with their recorded spacing, the
+server's time follows the bag, and a seek
 restarts reading at the new time after sending again the latched messages (``/tf_static``,
 ``/robot_description``) recorded before it. No Zenoh session is needed.
 """
