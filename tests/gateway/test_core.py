@@ -208,3 +208,36 @@ def test_messages_from_json() -> None:
     ):
         with pytest.raises(GatewayError, match=error):
             message_from_json(Twist, text)
+
+
+def test_only_shallow_latched_topics_are_replayed_to_later_watchers(zros_node: Make) -> None:
+    """State (/tf_static, depth 1) is kept for a later watcher; history (/rosout's 1000 logs)
+    is not: it would be repeated to every watcher."""
+    from zros.qos import LATCHED, ROSOUT
+
+    talker, watcher = zros_node('talker'), zros_node('watcher')
+    static = talker.create_publisher('std_msgs/msg/String', '/state', LATCHED)
+    history = talker.create_publisher('std_msgs/msg/String', '/history', ROSOUT)
+    message = zros.Message('std_msgs/msg/String', data='latched')
+    static.write(message)
+    history.write(message)
+
+    def both() -> bool:
+        topics = graph_topics(watcher)
+        return {'/state', '/history'} <= set(topics) and all(
+            topics[name].offered for name in ('/state', '/history')
+        )
+
+    assert watcher.graph.wait_until(both, TIMEOUT)
+    taps = Taps(watcher, now=lambda: 7)
+    got: dict[str, list[bytes]] = {'/state': [], '/history': []}
+    try:
+        for name in got:
+            topic = graph_topics(watcher)[name]
+            assert taps.watch(topic, 'first', lambda data, _, n=name: got[n].append(data)) == []
+        assert wait_for(lambda: all(got.values()), TIMEOUT)  # both arrive to the first watcher
+        state, history_topic = (graph_topics(watcher)[name] for name in got)
+        assert taps.watch(state, 'second', print) == [(message.serialize(), 7)]
+        assert taps.watch(history_topic, 'second', print) == []
+    finally:
+        taps.close()

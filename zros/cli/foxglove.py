@@ -40,14 +40,19 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
+def _until_interrupted() -> int:
+    """Serve until Ctrl-C (the server runs on threads of its own)."""
+    idle = threading.Event()  # never set: a sleep Ctrl-C interrupts
+    return run_until_interrupted(lambda: not idle.wait(0.5))
+
+
 def run(args: argparse.Namespace) -> int:
     from zros.gateway.foxglove import serve
 
-    stop = threading.Event()
     if args.bag is not None:
         with serve(bag=args.bag, **_settings(args)) as server:
             out(f'Foxglove: {server.url} serves {args.bag} (paused; play it from Foxglove)')
-            return run_until_interrupted(lambda: not stop.wait(0.5))
+            return _until_interrupted()
     with open_node(args, 'zros_foxglove') as node:
         gateway = serve(
             node=node,
@@ -60,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         with gateway:
             sim = ', sim time from /clock' if gateway.sim_time else ''
             out(f'Foxglove: {gateway.url} ({node.wire} wire{sim})')
-            return run_until_interrupted(lambda: not stop.wait(0.5))
+            return _until_interrupted()
 
 
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

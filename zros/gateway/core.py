@@ -6,7 +6,7 @@
   together are handled once).
 * :class:`Taps`: a raw Zenoh subscription per watched topic, declared when the first watcher
   comes and released when the last leaves, with the QoS of the topic's publishers; the last
-  messages of latched (transient local) topics are kept for watchers that come later.
+  messages of shallow latched (transient local) topics are kept for watchers that come later.
 * :class:`SendQueue`: a client's bounded outbox that drops its oldest items and counts them.
 * Graph views both protocols show: the services offered, the nodes serving parameters, the
   node owning an endpoint.
@@ -43,6 +43,8 @@ T = TypeVar('T')
 SETTLE = 0.05
 #: seconds between a graph watcher's checks that it should stop
 _POLL = 0.25
+#: latched topics this deep or less keep their last messages for later watchers
+REPLAY_DEPTH = 10
 
 
 class GatewayError(ZrosError):
@@ -160,11 +162,19 @@ class Taps:
     latched messages arrive); ``deliver(data, time_ns)`` then gets every message's CDR bytes on
     Zenoh's thread. :meth:`unwatch` releases the subscription when the last watcher leaves, so
     unwatched topics carry no traffic. ``now()`` stamps the messages (ns).
+
+    Latched topics of at most ``replay_depth`` messages (state: ``/tf_static``, a map, a robot
+    description) keep their last messages for later watchers; deeper ones (history, such as
+    ``/rosout``'s 1000) do not, since a gateway that cannot address one client would repeat
+    them to every watcher.
     """
 
-    def __init__(self, node: Node, now: Callable[[], int] = time.time_ns) -> None:
+    def __init__(
+        self, node: Node, now: Callable[[], int] = time.time_ns, replay_depth: int = REPLAY_DEPTH
+    ) -> None:
         self._node = node
         self._now = now
+        self._replay_depth = replay_depth
         self._lock = threading.Lock()
         self._tapped: dict[str, _Tapped] = {}
 
@@ -179,10 +189,9 @@ class Taps:
                 tapped.watchers.add(watcher)
                 return list(tapped.latched or ())
             qos = matched_qos(topic.offered)
+            kept = qos.transient_local and qos.depth <= self._replay_depth
             tapped = _Tapped(
-                topic.name,
-                {watcher},
-                collections.deque(maxlen=qos.depth) if qos.transient_local else None,
+                topic.name, {watcher}, collections.deque(maxlen=qos.depth) if kept else None
             )
             tapped.tap = RawTap(
                 self._node,

@@ -10,7 +10,8 @@ assets and, with ``/clock`` on the graph, follow sim time.
 
 One SDK limit shapes latched topics: the Python SDK cannot send to one client only, so a
 client that starts watching a latched topic others already watch gets the kept latched
-messages sent to every watcher of that topic (again, for those already watching).
+messages sent to every watcher of that topic (again, for those already watching); only
+shallow latched topics (state such as ``/tf_static``) are kept for that.
 """
 
 from __future__ import annotations
