@@ -13,7 +13,7 @@ import pytest
 
 import zros
 from tests.gateway.foxglove_client import FoxgloveClient
-from zros.cdr import default_registry
+from zros.cdr import TypeRegistry, default_registry
 from zros.cdr.message import decode, encode
 from zros.cdr.render import render_bundle
 from zros.testing import spinning, wait_for
@@ -41,13 +41,18 @@ def _publish_until_received(client: FoxgloveClient, channel: int, data: bytes, s
     raise AssertionError('nothing arrived')
 
 
+def _teleop(gateway: Make, foxglove_client: Make, zros_node: Make) -> tuple[Any, Any, Any]:
+    """A zros node subscribed to /cmd_vel, its subscriber, and a Foxglove client."""
+    listener = zros_node('listener')
+    sub = listener.create_subscription(TWIST, '/cmd_vel', qos=100)
+    client: FoxgloveClient = foxglove_client(gateway().url)
+    return listener, sub, client
+
+
 def test_a_client_publishes_cdr_into_the_graph(
     gateway: Make, foxglove_client: Make, zros_node: Make
 ) -> None:
-    listener = zros_node('listener')
-    sub = listener.create_subscription(TWIST, '/cmd_vel', qos=100)
-    server = gateway()
-    client: FoxgloveClient = foxglove_client(server.url)
+    listener, sub, client = _teleop(gateway, foxglove_client, zros_node)
     channel = client.advertise('/cmd_vel', 'cdr', TWIST)
     twist = zros.Message(TWIST, linear={'x': 0.5}, angular={'z': -1.25})
     assert _publish_until_received(client, channel, twist.serialize(), sub) == twist
@@ -60,10 +65,7 @@ def test_a_client_publishes_json_into_the_graph(
     gateway: Make, foxglove_client: Make, zros_node: Make
 ) -> None:
     """What Foxglove's Teleop panel sends: a Twist as JSON."""
-    listener = zros_node('listener')
-    sub = listener.create_subscription(TWIST, '/cmd_vel')
-    server = gateway()
-    client: FoxgloveClient = foxglove_client(server.url)
+    _, sub, client = _teleop(gateway, foxglove_client, zros_node)
     channel = client.advertise('/cmd_vel', 'json', TWIST)
     text = json.dumps(
         {'linear': {'x': 1.5, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': 0.25}}
@@ -81,7 +83,8 @@ def test_a_client_publishes_a_type_known_only_from_its_schema(
     channel = client.advertise(
         '/tank', 'json', 'tank_msgs/msg/Level', schema=schema, schemaEncoding='ros2msg'
     )
-    listener = zros_node('listener')
+    assert default_registry().find('tank_msgs/msg/Level') is None  # the process's: untouched
+    listener = zros_node('listener', registry=TypeRegistry())
     listener.registry.register_text('tank_msgs/msg/Level', schema)
     sub = listener.create_subscription('tank_msgs/msg/Level', '/tank')
     received = _publish_until_received(client, channel, b'{"level": 0.75, "unit": "m"}', sub)
@@ -96,10 +99,7 @@ def _told(client: FoxgloveClient, text: str, start: int) -> None:
 def test_bad_client_data_never_reaches_the_graph(
     gateway: Make, foxglove_client: Make, zros_node: Make
 ) -> None:
-    listener = zros_node('listener')
-    sub = listener.create_subscription(TWIST, '/cmd_vel')
-    server = gateway()
-    client: FoxgloveClient = foxglove_client(server.url)
+    listener, sub, client = _teleop(gateway, foxglove_client, zros_node)
     client.server_info()
     start = client.mark()
     refused = [

@@ -71,21 +71,14 @@ class ClientChannels:
         schema_encoding, schema = channel.schema_encoding, channel.schema
         if encoding not in ENCODINGS:
             raise GatewayError(f'{topic}: the encoding {encoding!r} is not one of {ENCODINGS}')
-        registry = self._node.registry
         try:
-            cls = registry.get_class(type_name)
+            cls = self._node.registry.get_class(type_name)
         except ZrosError as exc:
             if schema_encoding != 'ros2msg' or not schema:
                 raise GatewayError(
                     f'{topic}: unknown type {type_name} and no ros2msg schema'
                 ) from exc
-            try:
-                registry.register_bundle(type_name, schema.decode(), f'a Foxglove client ({topic})')
-                cls = registry.get_class(type_name)
-            except (ZrosError, UnicodeDecodeError) as exc2:
-                raise GatewayError(
-                    f'{topic}: the schema of {type_name} is unusable: {exc2}'
-                ) from None
+            cls = self._client_type(topic, type_name, schema)
         offered = self._offered_qos(topic)
         qos = matched_qos(offered) if offered else QoS()
         try:
@@ -100,6 +93,18 @@ class ClientChannels:
         if previous is not None:
             previous.publisher.close()
         _log.info('client %d publishes %s [%s] in %s', client, publisher.topic, type_name, encoding)
+
+    def _client_type(self, topic: str, type_name: str, schema: bytes) -> type[Message]:
+        """The class of a type only a client's schema defines, in a registry of the clients'
+        own (never the node's, which the process shares)."""
+        from zros.cdr import TypeRegistry
+
+        registry = TypeRegistry(self._node.registry.distro)
+        try:
+            registry.register_bundle(type_name, schema.decode(), f'a Foxglove client ({topic})')
+            return registry.get_class(type_name)
+        except (ZrosError, UnicodeDecodeError) as exc:
+            raise GatewayError(f'{topic}: the schema of {type_name} is unusable: {exc}') from None
 
     def unadvertise(self, client: int, channel: int) -> None:
         """A client withdrew a channel (or left)."""
