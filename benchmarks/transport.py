@@ -52,7 +52,8 @@ def _session(endpoint: str, shm: bool, peer: bool = False) -> Any:
     return zenoh.open(zenoh.Config.from_json5(json.dumps(settings)))
 
 
-def _zros_node(name: str, endpoint: str, shm: bool, peer: bool = False, impl: str = 'zros') -> Any:
+def zros_node(name: str, endpoint: str, shm: bool, peer: bool = False, impl: str = 'zros') -> Any:
+    """A zros node on a session of its own (``impl`` 'zros_rmw': on the rmw_zenoh wire)."""
     import zros
     from zros.transport import Transport, TransportConfig
 
@@ -101,7 +102,7 @@ def role_publish(args: argparse.Namespace) -> None:
         time.sleep(1)
         session.close()
     else:
-        node = _zros_node('bench_pub', args.endpoint, args.shm, impl=args.impl)
+        node = zros_node('bench_pub', args.endpoint, args.shm, impl=args.impl)
         publisher = node.create_publisher(message.__msgtype__, '/bench/data', qos='keep_all')
         publisher.wait_for_subscribers(30)
         write = publisher.write
@@ -146,7 +147,7 @@ def role_subscribe(args: argparse.Namespace) -> None:
     else:
         from zros.qos import KEEP_ALL
 
-        node = _zros_node('bench_sub', args.endpoint, args.shm, impl=args.impl)
+        node = zros_node('bench_sub', args.endpoint, args.shm, impl=args.impl)
 
         def on_message(message: Any) -> None:  # the ROS way: callbacks run by spin
             nonlocal received, first, last
@@ -186,7 +187,7 @@ def role_echo(args: argparse.Namespace) -> None:
         subscriber.undeclare()
         session.close()
     else:
-        node = _zros_node('bench_echo', args.endpoint, args.shm, args.peer, args.impl)
+        node = zros_node('bench_echo', args.endpoint, args.shm, args.peer, args.impl)
         pong = node.create_publisher('std_msgs/msg/Float64', '/bench/pong')
         node.create_subscription('std_msgs/msg/Float64', '/bench/ping', pong.write, qos=100)
         print('ready', flush=True)
@@ -218,7 +219,7 @@ def role_ping(args: argparse.Namespace) -> None:
                 times.append(time.perf_counter() - start)
         session.close()
     else:
-        node = _zros_node('bench_ping', args.endpoint, args.shm, args.peer, args.impl)
+        node = zros_node('bench_ping', args.endpoint, args.shm, args.peer, args.impl)
         pongs = node.create_subscription('std_msgs/msg/Float64', '/bench/pong', qos=100)
         ping = node.create_publisher('std_msgs/msg/Float64', '/bench/ping')
         ping.wait_for_subscribers(30)
@@ -244,9 +245,10 @@ def _float(value: float) -> Any:
 # --- the driver ----------------------------------------------------------------------------------
 
 
-def _spawn(
+def spawn_role(
     role: str, impl: str, endpoint: str, extra: list[str], shm: bool, *, peer: bool = False
 ) -> subprocess.Popen[str]:
+    """This script in another process, playing ``role``."""
     command = [sys.executable, HERE, '--role', role, '--impl', impl, '--endpoint', endpoint, *extra]
     if shm:
         command.append('--shm')
@@ -255,7 +257,8 @@ def _spawn(
     return subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
 
 
-def _result(process: subprocess.Popen[str], timeout: float) -> dict[str, Any]:
+def read_result(process: subprocess.Popen[str], timeout: float) -> dict[str, Any]:
+    """The JSON line a role process printed last, once it ended."""
     out, _ = process.communicate(timeout=timeout)
     lines = [line for line in out.splitlines() if line.startswith('{')]
     if process.returncode != 0 or not lines:
@@ -263,7 +266,8 @@ def _result(process: subprocess.Popen[str], timeout: float) -> dict[str, Any]:
     return dict(json.loads(lines[-1]))
 
 
-def _wait_ready(process: subprocess.Popen[str]) -> None:
+def wait_ready(process: subprocess.Popen[str]) -> None:
+    """Wait until a role process printed ``ready``."""
     assert process.stdout is not None
     line = process.stdout.readline()
     if line.strip() != 'ready':
@@ -272,10 +276,10 @@ def _wait_ready(process: subprocess.Popen[str]) -> None:
 
 def throughput(impl: str, kind: str, count: int, endpoint: str, shm: bool) -> dict[str, Any]:
     extra = ['--kind', kind, '--count', str(count)]
-    subscriber = _spawn('subscribe', impl, endpoint, extra, shm)
-    _wait_ready(subscriber)
-    publisher = _spawn('publish', impl, endpoint, extra, shm)
-    result = _result(subscriber, 300)
+    subscriber = spawn_role('subscribe', impl, endpoint, extra, shm)
+    wait_ready(subscriber)
+    publisher = spawn_role('publish', impl, endpoint, extra, shm)
+    result = read_result(subscriber, 300)
     publisher.communicate(timeout=60)
     return result
 
@@ -283,10 +287,10 @@ def throughput(impl: str, kind: str, count: int, endpoint: str, shm: bool) -> di
 def round_trip(
     impl: str, count: int, endpoint: str, shm: bool, peer: bool = False
 ) -> dict[str, Any]:
-    echo = _spawn('echo', impl, endpoint, ['--timeout', '300'], shm, peer=peer)
-    _wait_ready(echo)
-    pinger = _spawn('ping', impl, endpoint, ['--count', str(count)], shm, peer=peer)
-    result = _result(pinger, 300)
+    echo = spawn_role('echo', impl, endpoint, ['--timeout', '300'], shm, peer=peer)
+    wait_ready(echo)
+    pinger = spawn_role('ping', impl, endpoint, ['--count', str(count)], shm, peer=peer)
+    result = read_result(pinger, 300)
     echo.kill()
     echo.communicate()
     return result
@@ -538,13 +542,13 @@ def rclpy_rows(quick: bool) -> dict[str, dict[str, Any]] | None:
             ('image', 50 if quick else 100),
         ):
             subscriber = spawn(f'sub_{kind}', count)
-            _wait_ready(subscriber)
+            wait_ready(subscriber)
             publisher = spawn(f'pub_{kind}', count)
-            rows[kind] = _result(subscriber, 300)
+            rows[kind] = read_result(subscriber, 300)
             publisher.communicate(timeout=120)
         echo = spawn('echo', 0)
-        _wait_ready(echo)
-        rows['rtt'] = _result(spawn('ping', 1000 if quick else 5000), 300)
+        wait_ready(echo)
+        rows['rtt'] = read_result(spawn('ping', 1000 if quick else 5000), 300)
         echo.kill()
         echo.communicate()
         return rows

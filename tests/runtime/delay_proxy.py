@@ -1,7 +1,9 @@
 """A TCP proxy on loopback that delays every chunk by a fixed time each way (a WAN in a box).
 
 ``tc netem`` is not available on our machines; this delivers each chunk at arrival + delay,
-in order, which is what a long link does to a TCP stream.
+in order, which is what a long link does to a TCP stream. It counts the bytes it relays each
+way (``relayed['up']`` towards the target, ``relayed['down']`` back), so with no delay it is
+also a meter of what a link carries.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ class DelayProxy:
         self._ready = threading.Event()
         self._server: asyncio.Server | None = None
         self._tasks: set[asyncio.Task[None]] = set()
+        self.relayed = {'up': 0, 'down': 0}  #: bytes received to relay, each way
         self._thread = threading.Thread(target=self._run, name='delay-proxy', daemon=True)
         self._thread.start()
         if not self._ready.wait(5):
@@ -49,7 +52,7 @@ class DelayProxy:
         except OSError:
             writer.close()
             return
-        for task in (self._pump(reader, up_writer), self._pump(up_reader, writer)):
+        for task in (self._pump(reader, up_writer, 'up'), self._pump(up_reader, writer, 'down')):
             self._track(task)
 
     def _track(self, coroutine: Coroutine[None, None, None]) -> asyncio.Task[None]:
@@ -60,7 +63,9 @@ class DelayProxy:
         task.add_done_callback(self._tasks.discard)
         return task
 
-    async def _pump(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    async def _pump(
+        self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, way: str
+    ) -> None:
         """Copy ``reader`` to ``writer``, each chunk ``delay`` seconds after it arrived; the
         writer (this direction's socket) is closed however the pump ends."""
         queue: asyncio.Queue[tuple[float, bytes]] = asyncio.Queue()
@@ -80,6 +85,7 @@ class DelayProxy:
         try:
             with contextlib.suppress(ConnectionError, OSError):
                 while chunk := await reader.read(65536):
+                    self.relayed[way] += len(chunk)
                     queue.put_nowait((time.monotonic() + self.delay, chunk))
             queue.put_nowait((0.0, b''))
             with contextlib.suppress(ConnectionError, OSError):

@@ -21,14 +21,16 @@ from typing import TYPE_CHECKING, Any
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE
 from zros.errors import ZrosError
-from zros.keyexpr.bridge import EntityKind
-from zros.qos import Durability, History, QoS, Reliability
+from zros.qos import QoS
 from zros.signal import Signal
+from zros.taps import RawTap, graph_topics, is_hidden, matched_qos, publish_time
+
+#: the recording QoS is the one matched to the publishers (kept under its old name)
+recording_qos = matched_qos
 
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from zros.graph import Endpoint
     from zros.node import Node
 
 _log = logging.getLogger('zros.bag')
@@ -42,96 +44,6 @@ FLUSH_INTERVAL = 1.0
 
 class RecorderError(ZrosError):
     """A recording cannot start (nothing selected, a bad regex) or failed while writing."""
-
-
-def is_hidden(name: str) -> bool:
-    """Whether a topic is hidden (a name part starts with ``_``), as ROS 2 tools hide them."""
-    return any(part.startswith('_') for part in name.split('/'))
-
-
-def recording_qos(offered: Iterable[QoS]) -> QoS:
-    """The QoS to record publishers with, adapted as rosbag2 adapts it: reliable and transient
-    local only when every publisher is, deep enough for the deepest one."""
-    offers = list(offered)
-    reliable = all(q.reliable for q in offers)
-    latched = bool(offers) and all(q.transient_local for q in offers)
-    depth = max((q.depth for q in offers), default=10)
-    return QoS(
-        max(depth, 1),
-        Reliability.RELIABLE if reliable else Reliability.BEST_EFFORT,
-        Durability.TRANSIENT_LOCAL if latched else Durability.VOLATILE,
-        History.KEEP_LAST,
-    )
-
-
-def publish_time(sample: Any, fallback: int) -> int:
-    """When a sample was published, in nanoseconds: the time in its rmw_zenoh attachment, else
-    its Zenoh timestamp (set by the publishing session), else ``fallback``."""
-    if sample.attachment is not None:
-        from zros.wire import read_attachment
-
-        attachment = read_attachment(sample)
-        if attachment is not None:
-            return int(attachment.source_timestamp)
-    stamp = sample.timestamp
-    if stamp is None:
-        return fallback
-    try:
-        return int(stamp.get_time_as_ntp64().as_nanos())
-    except Exception:  # a zenoh without the NTP64 helpers
-        return fallback
-
-
-class _Tap:
-    """A raw subscription on one topic, announced in the graph like a zros subscriber.
-
-    ``key`` (matching the publishers' keys) is used when the node cannot make the topic's key
-    and tokens itself (a type it does not know): the topic is then recorded unannounced.
-    """
-
-    def __init__(
-        self,
-        node: Node,
-        topic: str,
-        type_name: str,
-        *,
-        qos: QoS,
-        key: str,
-        callback: Callable[[Any], None],
-    ) -> None:
-        from zros.wire import entity_wire
-
-        self.transport = node.transport
-        tokens: tuple[str, ...] = ()
-        try:
-            wire = entity_wire(
-                node, EntityKind.SUBSCRIBER, topic, type_name, node.registry, qos=qos
-            )
-            key, tokens = wire.key, wire.tokens
-        except ZrosError as exc:
-            _log.debug('not announcing the recording of %s: %s', topic, exc)
-        session = self.transport.session
-        if qos.transient_local:
-            from zenoh import ext
-
-            history = ext.HistoryConfig(detect_late_publishers=True, max_samples=qos.depth)
-            self._subscriber: Any = ext.declare_advanced_subscriber(
-                session, key, callback, history=history
-            )
-        else:
-            self._subscriber = session.declare_subscriber(key, callback)
-        self._tokens = tokens
-        for token in self._tokens:
-            self.transport.declare_token(token)
-
-    def close(self) -> None:
-        for token in reversed(self._tokens):
-            self.transport.release_token(token)
-        if not self.transport.closed:
-            try:
-                self._subscriber.undeclare()
-            except Exception:  # the session is closing
-                _log.debug('undeclaring a recording subscriber failed', exc_info=True)
 
 
 class Recorder:
@@ -203,7 +115,7 @@ class Recorder:
         self._room = Signal()
         self._topic_list: list[BagTopic] = []  #: in recording order (the bag adds them so)
         self._types: dict[str, str] = {}
-        self._taps: list[_Tap] = []
+        self._taps: list[RawTap] = []
         self._started = Signal()  #: a topic started recording
         self._stopping = False  #: no new taps, callbacks drop
         self._draining = False  #: the writer thread finishes the queue and ends
@@ -242,24 +154,12 @@ class Recorder:
         return lambda: graph.version != seen or self._stopping
 
     def _discover(self) -> None:
-        namespace = self.node.scheme.namespace
-        by_name: dict[str, list[Endpoint]] = {}
-        for endpoint in self.node.graph.endpoints((EntityKind.PUBLISHER,)):
-            by_name.setdefault(endpoint.ros_name(namespace), []).append(endpoint)
-        for name, endpoints in sorted(by_name.items()):
+        for name, topic in graph_topics(self.node).items():
             if name in self._types or not self._wanted(name):
                 continue
-            types = sorted({e.type_name for e in endpoints})
-            if len(types) > 1:
-                _log.warning('topic %s has several types %s: recording %s', name, types, types[0])
-            chosen = [e for e in endpoints if e.type_name == types[0]]
-            offered = [e.qos for e in chosen if e.qos is not None]
-            key = chosen[0].key
-            if chosen[0].wire == 'rmw_zenoh':  # <domain>/<name>, then the type and hash chunks
-                key += '/*/*'
-            self._start(name, types[0], offered, key)
+            self._start(name, topic.type_name, topic.offered, topic.key)
 
-    def _start(self, name: str, type_name: str, offered: list[QoS], key: str) -> None:
+    def _start(self, name: str, type_name: str, offered: list[QoS], key: str | None) -> None:
         topic = BagTopic.from_registry(self.node.registry, name, type_name, offered)
         with self._lock:
             if self._stopping:
@@ -267,11 +167,11 @@ class Recorder:
             index = len(self._topic_list)
             self._topic_list.append(topic)
             self._types[name] = type_name
-            tap = _Tap(
+            tap = RawTap(
                 self.node,
                 name,
                 type_name,
-                qos=recording_qos(offered),
+                qos=matched_qos(offered),
                 key=key,
                 callback=self._callback(index),
             )

@@ -1,0 +1,274 @@
+"""Gateway speed: messages through ``zros foxglove`` to a Foxglove client, against zros's own
+subscriber, in the same run.
+
+A publisher process (the one of ``benchmarks/transport.py``) sends as fast as the transport
+takes; the messages go through a router (started here) to
+
+  * a zros subscriber process (callbacks, as ``transport.py`` measures it), or
+  * the ``zros foxglove`` command in a process of its own, to the ``@foxglove/ws-protocol``
+    client run by node (``tests/gateway/node``; needs node and npm), which counts them.
+
+Rows: std_msgs/String messages per second, sensor_msgs/Image 1920x1080 rgb8 in MB/s, and the
+latency of std_msgs/Header messages sent 200 times a second (stamp to arrival, wall clocks of
+one machine), each through the gateway and to the zros subscriber, with their ratios. The
+gateway's per-client outbox is made large enough that nothing is dropped.
+
+    python benchmarks/gateway.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve()
+sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
+
+import transport as bench  # noqa: E402  (the publisher and the zros subscriber roles)
+
+from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
+
+LATENCY_HZ = 200.0
+TOPIC = '/bench/data'
+
+
+# --- roles (run in their own processes) -------------------------------------------------------
+
+
+def role_stamps(args: argparse.Namespace) -> None:
+    """Publish ``count`` std_msgs/Header stamped with the wall clock, LATENCY_HZ a second."""
+    node = bench.zros_node('bench_stamps', args.endpoint, False)
+    publisher = node.create_publisher('std_msgs/msg/Header', TOPIC, qos=100)
+    publisher.wait_for_subscribers(30)
+    time.sleep(0.5)  # the receiver finishes subscribing
+    message = publisher.msg_type()
+    period = 1.0 / LATENCY_HZ
+    due = time.monotonic()
+    for _ in range(args.count):
+        message.stamp.sec, message.stamp.nanosec = divmod(time.time_ns(), 10**9)
+        publisher.write(message)
+        due += period
+        time.sleep(max(0.0, due - time.monotonic()))
+    time.sleep(1)
+    node.transport.close()
+
+
+def role_latency(args: argparse.Namespace) -> None:
+    """Receive stamped headers with a zros subscriber; print the latencies (ns)."""
+    node = bench.zros_node('bench_latency', args.endpoint, False)
+    latencies: list[int] = []
+
+    def on_message(message: Any) -> None:
+        latencies.append(time.time_ns() - (message.stamp.sec * 10**9 + message.stamp.nanosec))
+
+    node.create_subscription('std_msgs/msg/Header', TOPIC, on_message, qos=100)
+    print('ready', flush=True)
+    deadline = time.monotonic() + args.timeout
+    while len(latencies) < args.count and time.monotonic() < deadline:
+        node.spin_once(0.5)
+    node.transport.close()
+    print(json.dumps({'latencies': latencies}))
+
+
+# --- through the gateway ------------------------------------------------------------------------
+
+
+class Gateway:
+    """``zros foxglove`` in a process of its own, and a node client subscribed to TOPIC."""
+
+    def __init__(self, endpoint: str) -> None:
+        zros = shutil.which('zros', path=str(Path(sys.executable).parent))
+        assert zros is not None, 'the zros command is not installed beside this Python'
+        self.process = subprocess.Popen(
+            [zros, 'foxglove', '--connect', endpoint, '--port', '0', '--no-sim-time',
+             '--message-backlog', '1000000'],
+            stdout=subprocess.PIPE,
+            text=True,
+        )  # fmt: skip
+        assert self.process.stdout is not None
+        line = self.process.stdout.readline()
+        if not line.startswith('Foxglove: '):
+            raise RuntimeError(f'zros foxglove did not start: {line!r}')
+        self.client = FoxgloveClient(line.split()[1])
+
+    def subscribe(self, latency: bool = False) -> int:
+        """Subscribe to TOPIC once a publisher made it appear, and return once its first
+        message came (a channel left over from the previous run's publisher may vanish:
+        then the new one is subscribed). Messages are counted, not shown."""
+        client = self.client
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            channel = client.channel(TOPIC, 60)['id']
+            subscription = client.subscribe(TOPIC, 60)
+            client.send('quiet', subscriptionId=subscription, latency=latency)
+            while time.monotonic() < deadline:
+                if any(channel in e['channelIds'] for e in client.of('unadvertise')):
+                    break
+                if client.stats()[str(subscription)]['count'] > 0:
+                    return subscription
+                time.sleep(0.05)
+        raise RuntimeError(f'no message on {TOPIC} through the gateway')
+
+    def counted(self, subscription: int, count: int, timeout: float) -> dict[str, Any]:
+        """The client's counts once ``count`` arrived, or once nothing came for ``timeout``."""
+        progress, last = -1, time.monotonic()
+        while True:
+            found = dict(self.client.stats()[str(subscription)])
+            if found['count'] >= count or time.monotonic() - last > timeout:
+                return found
+            if found['count'] != progress:
+                progress, last = found['count'], time.monotonic()
+            time.sleep(0.2)
+
+    def close(self) -> None:
+        self.client.close()
+        self.process.terminate()
+        self.process.wait(30)
+
+
+def gateway_throughput(kind: str, count: int, endpoint: str) -> dict[str, Any]:
+    gateway = Gateway(endpoint)
+    try:
+        extra = ['--kind', kind, '--count', str(count)]
+        publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False)  # waits for us
+        subscription = gateway.subscribe()
+        found = gateway.counted(subscription, count, 20)
+        publisher.communicate(timeout=120)
+    finally:
+        gateway.close()
+    rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
+    return {'received': found['count'], 'rate': rate, 'size': found['bytes'] / found['count']}
+
+
+def _spawn_here(role: str, endpoint: str, count: int) -> subprocess.Popen[str]:
+    command = [sys.executable, str(HERE), '--role', role, '--endpoint', endpoint]
+    return subprocess.Popen([*command, '--count', str(count)], stdout=subprocess.PIPE, text=True)
+
+
+def gateway_latency(count: int, endpoint: str) -> list[float]:
+    gateway = Gateway(endpoint)
+    try:
+        publisher = _spawn_here('stamps', endpoint, count)  # waits for a subscriber
+        subscription = gateway.subscribe(latency=True)
+        found = gateway.counted(subscription, count, 10)
+        publisher.communicate(timeout=120)
+    finally:
+        gateway.close()
+    return [float(x) for x in found['latencies']]
+
+
+def zros_latency(count: int, endpoint: str) -> list[float]:
+    receiver = _spawn_here('latency', endpoint, count)
+    bench.wait_ready(receiver)
+    publisher = _spawn_here('stamps', endpoint, count)
+    result = bench.read_result(receiver, 120)
+    publisher.communicate(timeout=120)
+    return [float(x) for x in result['latencies']]
+
+
+# --- the driver ----------------------------------------------------------------------------------
+
+
+def _median_run(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    return sorted(runs, key=lambda run: run['rate'])[len(runs) // 2]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--quick', action='store_true')
+    parser.add_argument('--repeats', type=int, default=0, help='runs per row (default 3, 1 quick)')
+    parser.add_argument('--role', help=argparse.SUPPRESS)
+    parser.add_argument('--endpoint', help=argparse.SUPPRESS)
+    parser.add_argument('--count', type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument('--timeout', type=float, default=120, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.role:
+        {'stamps': role_stamps, 'latency': role_latency}[args.role](args)
+        return
+    reason = install()
+    if reason is not None:
+        sys.exit(f'the gateway benchmark needs the node client: {reason}')
+
+    from importlib import metadata
+
+    from zros.transport import start_router
+
+    router = start_router(shared_memory=False)
+    endpoint = router.endpoint
+    strings = 20_000 if args.quick else 100_000
+    images = 30 if args.quick else 150
+    stamps = 400 if args.quick else 2000
+    repeats = args.repeats or (1 if args.quick else 3)
+    print(
+        f'zros gateway benchmark: publisher, router, then zros foxglove and a node '
+        f'@foxglove/ws-protocol client, or a zros subscriber; foxglove-sdk '
+        f'{metadata.version("foxglove-sdk")}, median of {repeats} alternating runs'
+    )
+    runs: dict[str, dict[str, list[dict[str, Any]]]] = {
+        'zros': {'string': [], 'image': []},
+        'gateway': {'string': [], 'image': []},
+    }
+    for _ in range(repeats):
+        for kind, count in (('string', strings), ('image', images)):
+            runs['zros'][kind].append(bench.throughput('zros', kind, count, endpoint, False))
+            runs['gateway'][kind].append(gateway_throughput(kind, count, endpoint))
+    latency = {'zros': zros_latency(stamps, endpoint), 'gateway': gateway_latency(stamps, endpoint)}
+    router.close()
+    report(
+        {name: {k: _median_run(v) for k, v in rows.items()} for name, rows in runs.items()}, latency
+    )
+
+
+def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[float]]) -> None:
+    def mbs(row: dict[str, Any]) -> float:
+        return float(row['rate'] * row['size'] / 1e6)
+
+    z, g = rows['zros'], rows['gateway']
+    print()
+    print(f'{"":36} {"zros sub":>10} {"gateway":>10} {"gw/zros":>8}')
+    lines = [
+        ('String msgs/s', z['string']['rate'], g['string']['rate']),
+        ('String MB/s', mbs(z['string']), mbs(g['string'])),
+        ('Image 1080p msgs/s', z['image']['rate'], g['image']['rate']),
+        ('Image 1080p MB/s', mbs(z['image']), mbs(g['image'])),
+    ]
+    for label, ours, theirs in lines:
+        print(f'{label:36} {ours:>10,.1f} {theirs:>10,.1f} {theirs / ours:>8.2f}')
+    medians = {name: statistics.median(found) / 1e3 for name, found in latency.items()}
+    p99 = {name: sorted(found)[int(len(found) * 0.99)] / 1e3 for name, found in latency.items()}
+    print(
+        f'{"Header latency median us (200 Hz)":36} {medians["zros"]:>10,.0f} {medians["gateway"]:>10,.0f}'
+    )
+    print(f'{"Header latency p99 us":36} {p99["zros"]:>10,.0f} {p99["gateway"]:>10,.0f}')
+    print()
+    added = medians['gateway'] - medians['zros']
+    goals = [
+        (
+            'String rate through the gateway >= 80 % of zros',
+            g['string']['rate'] >= 0.8 * z['string']['rate'],
+        ),
+        (
+            'Image MB/s through the gateway >= 90 % of zros',
+            mbs(g['image']) >= 0.9 * mbs(z['image']),
+        ),
+    ]
+    for text, met in goals:
+        print(f'  {"met   " if met else "MISSED"}  {text}')
+    print(f'  latency the gateway adds (median): {added:,.0f} us')
+    received = {name: {k: v['received'] for k, v in row.items()} for name, row in rows.items()}
+    print(
+        f'  messages received: {received}; latency samples: { {k: len(v) for k, v in latency.items()} }'
+    )
+
+
+if __name__ == '__main__':
+    threading.current_thread().name = 'bench'
+    main()

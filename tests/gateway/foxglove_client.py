@@ -1,0 +1,308 @@
+"""A real Foxglove client for the tests: ``@foxglove/ws-protocol`` from npm, run by node.
+
+``node/client.js`` wraps the library in JSON lines (commands in, events out);
+:class:`FoxgloveClient` is its Python face. :func:`install` puts the npm packages into
+``node/node_modules`` once (``npm ci``, from the committed lock file).
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import itertools
+import json
+import os
+import shutil
+import subprocess
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+NODE_DIR = Path(__file__).with_name('node')
+SCRIPT = NODE_DIR / 'client.js'
+#: set in CI: a missing node or npm fails the tests instead of skipping them
+REQUIRED = 'ZROS_TEST_NODE_REQUIRED'
+TIMEOUT = 20.0
+
+_install_lock = threading.Lock()
+
+
+def install() -> str | None:
+    """Install the npm packages if needed; None when ready, else why the tests cannot run."""
+    node, npm = shutil.which('node'), shutil.which('npm')
+    if node is None or npm is None:
+        return 'node and npm are needed for the Foxglove client tests'
+    with _install_lock:
+        if (NODE_DIR / 'node_modules' / '@foxglove' / 'ws-protocol').is_dir():
+            return None
+        result = subprocess.run(
+            [npm, 'ci', '--no-audit', '--no-fund', '--loglevel=error'],
+            cwd=NODE_DIR,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            check=False,
+        )
+        if result.returncode != 0:
+            return f'npm ci failed in {NODE_DIR}: {result.stderr.strip()[-500:]}'
+    return None
+
+
+def require() -> None:
+    """Skip the calling test where the client cannot run (fail instead when ``REQUIRED`` is
+    set, as in CI)."""
+    import pytest
+
+    reason = install()
+    if reason is not None:
+        if os.environ.get(REQUIRED):
+            pytest.fail(reason)
+        pytest.skip(reason)
+
+
+class FoxgloveClient:
+    """One client connected to ``url``; events are kept in order and waited for by predicate."""
+
+    def __init__(self, url: str, ca: str | os.PathLike[str] | None = None) -> None:
+        args = ['node', str(SCRIPT), url] + ([str(ca)] if ca is not None else [])
+        self.process = subprocess.Popen(
+            args,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            bufsize=1,
+        )
+        self.events: list[dict[str, Any]] = []
+        self._arrived = threading.Condition()
+        self._ids = itertools.count(1)
+        self._pump = threading.Thread(target=self._read, daemon=True)
+        self._pump.start()
+        self.wait(lambda e: e['ev'] in ('open', 'error', 'close'))  # commands need an open socket
+
+    def _read(self) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            event = json.loads(line)
+            with self._arrived:
+                self.events.append(event)
+                self._arrived.notify_all()
+        with self._arrived:
+            self.events.append({'ev': 'exit'})
+            self._arrived.notify_all()
+
+    def send(self, cmd: str, **args: Any) -> None:
+        """Send a command to the client."""
+        assert self.process.stdin is not None
+        self.process.stdin.write(json.dumps({'cmd': cmd, **args}) + '\n')
+        self.process.stdin.flush()
+
+    def wait(
+        self, predicate: Callable[[dict[str, Any]], bool], timeout: float = TIMEOUT, start: int = 0
+    ) -> dict[str, Any]:
+        """The first event from index ``start`` on for which ``predicate`` holds."""
+        deadline = time.monotonic() + timeout
+        with self._arrived:
+            index = start
+            while True:
+                while index < len(self.events):
+                    event = self.events[index]
+                    index += 1
+                    if predicate(event):
+                        return event
+                    if event['ev'] == 'exit':
+                        error = self.process.stderr.read() if self.process.stderr else ''
+                        raise AssertionError(f'the node client ended: {error}')
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    recent = [str(e)[:200] for e in self.events[-5:]]
+                    raise AssertionError(f'no such event within {timeout} s; the last: {recent}')
+                self._arrived.wait(remaining)
+
+    def mark(self) -> int:
+        """The index of the next event (wait for what comes after an action)."""
+        with self._arrived:
+            return len(self.events)
+
+    def of(self, kind: str) -> list[dict[str, Any]]:
+        """Every event of one kind so far."""
+        with self._arrived:
+            return [e for e in self.events if e['ev'] == kind]
+
+    # --- what tests do -----------------------------------------------------------------------
+
+    def server_info(self) -> dict[str, Any]:
+        return self.wait(lambda e: e['ev'] == 'serverInfo')['info']
+
+    def channels(self) -> dict[str, dict[str, Any]]:
+        """Advertised channels by topic (minus those unadvertised)."""
+        found: dict[int, dict[str, Any]] = {}
+        for event in list(self.events):
+            if event['ev'] == 'advertise':
+                found.update({c['id']: c for c in event['channels']})
+            elif event['ev'] == 'unadvertise':
+                for channel_id in event['channelIds']:
+                    found.pop(channel_id, None)
+        return {c['topic']: c for c in found.values()}
+
+    def channel(self, topic: str, timeout: float = TIMEOUT) -> dict[str, Any]:
+        """The channel of ``topic``, once advertised."""
+        self.wait(lambda e: topic in self.channels(), timeout)
+        return self.channels()[topic]
+
+    def subscribe(self, topic: str, timeout: float = TIMEOUT) -> int:
+        """Subscribe to the channel of ``topic``; its subscription id.
+
+        The SDK records a channel as advertised to a client just after sending the
+        advertisement, so a client that subscribes at once can be refused ("Unknown channel
+        ID"). A subscription to a channel that cannot exist is refused too, in order: once
+        that refusal arrived, the real subscription's answer (if any) is in, and a refused
+        one is sent again.
+        """
+        for fence in range(2**31, 2**31 + 10):
+            channel = self.channel(topic, timeout)
+            start = self.mark()
+            self.send('subscribe', channelId=channel['id'])
+            event = self.wait(lambda e: e['ev'] == 'subscribed', start=start)
+            self.send('subscribe', channelId=fence)
+            self.wait(lambda e, f=fence: self._refused(e, f), start=start)
+            if not any(self._refused(e, channel['id']) for e in self.events[start:]):
+                return int(event['subscriptionId'])
+        raise AssertionError(f'the server kept refusing the channel of {topic}')
+
+    @staticmethod
+    def _refused(event: dict[str, Any], channel: int) -> bool:
+        return (
+            event['ev'] == 'status'
+            and event['status']['message'] == f'Unknown channel ID: {channel}'
+        )
+
+    def messages(self, subscription: int) -> list[bytes]:
+        return [
+            base64.b64decode(e['data'])
+            for e in self.of('message')
+            if e['subscriptionId'] == subscription
+        ]
+
+    def last(self, subscription: int) -> bytes | None:
+        """The newest message of a subscription (None before the first)."""
+        with self._arrived:
+            for event in reversed(self.events):
+                if event['ev'] == 'message' and event['subscriptionId'] == subscription:
+                    return base64.b64decode(event['data'])
+        return None
+
+    def count(self, subscription: int) -> int:
+        """How many messages of a subscription arrived (without decoding them)."""
+        with self._arrived:
+            return sum(
+                1
+                for e in self.events
+                if e['ev'] == 'message' and e['subscriptionId'] == subscription
+            )
+
+    def wait_messages(
+        self, subscription: int, count: int = 1, timeout: float = TIMEOUT
+    ) -> list[bytes]:
+        self.wait(lambda e: self.count(subscription) >= count, timeout)
+        return self.messages(subscription)
+
+    def advertise(self, topic: str, encoding: str, schema_name: str, **extra: Any) -> int:
+        start = self.mark()
+        self.send('advertise', topic=topic, encoding=encoding, schemaName=schema_name, **extra)
+        event = self.wait(lambda e: e['ev'] == 'advertised' and e['topic'] == topic, start=start)
+        return int(event['channelId'])
+
+    def publish(self, channel: int, data: bytes) -> None:
+        self.send('publish', channelId=channel, data=base64.b64encode(data).decode())
+
+    def services(self) -> dict[str, dict[str, Any]]:
+        found: dict[str, dict[str, Any]] = {}
+        for event in list(self.events):
+            if event['ev'] == 'advertiseServices':
+                found.update({s['name']: s for s in event['services']})
+            elif event['ev'] == 'unadvertiseServices':
+                found = {n: s for n, s in found.items() if s['id'] not in event['serviceIds']}
+        return found
+
+    def call_service(self, name: str, data: bytes, encoding: str = 'cdr') -> dict[str, Any]:
+        """Call a service; the response or failure event."""
+        self.wait(lambda e: name in self.services())
+        service = self.services()[name]
+        call = next(self._ids)
+        start = self.mark()
+        self.send(
+            'callService',
+            serviceId=service['id'],
+            callId=call,
+            encoding=encoding,
+            data=base64.b64encode(data).decode(),
+        )
+        return self.wait(
+            lambda e: (
+                e['ev'] in ('serviceCallResponse', 'serviceCallFailure') and e['callId'] == call
+            ),
+            start=start,
+        )
+
+    def get_parameters(self, names: list[str], timeout: float = TIMEOUT) -> list[dict[str, Any]]:
+        request = f'get-{next(self._ids)}'
+        start = self.mark()
+        self.send('getParameters', names=names, id=request)
+        event = self.wait(
+            lambda e: e['ev'] == 'parameterValues' and e.get('id') == request, timeout, start
+        )
+        return list(event['parameters'])
+
+    def set_parameters(self, parameters: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        request = f'set-{next(self._ids)}'
+        start = self.mark()
+        self.send('setParameters', parameters=parameters, id=request)
+        event = self.wait(
+            lambda e: e['ev'] == 'parameterValues' and e.get('id') == request, start=start
+        )
+        return list(event['parameters'])
+
+    def fetch_asset(self, uri: str) -> dict[str, Any]:
+        request = next(self._ids)
+        start = self.mark()
+        self.send('fetchAsset', uri=uri, requestId=request)
+        return self.wait(
+            lambda e: e['ev'] == 'fetchAssetResponse' and e['requestId'] == request, start=start
+        )
+
+    def stats(self) -> dict[str, dict[str, Any]]:
+        start = self.mark()
+        self.send('stats')
+        return dict(self.wait(lambda e: e['ev'] == 'stats', start=start)['counts'])
+
+    def close(self) -> None:
+        if self.process.poll() is None:
+            assert self.process.stdin is not None
+            with contextlib.suppress(OSError):
+                self.process.stdin.close()
+            try:
+                self.process.wait(5)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait(5)
+
+
+def image(width: int, height: int, seq: int) -> Any:
+    """An rgb8 ``sensor_msgs/Image`` whose pixels and stamp say ``seq``."""
+    import numpy as np
+
+    import zros
+
+    data = np.full(width * height * 3, seq % 251, dtype=np.uint8)
+    return zros.Message(
+        'sensor_msgs/msg/Image',
+        header={'frame_id': 'camera', 'stamp': {'sec': seq}},
+        height=height,
+        width=width,
+        encoding='rgb8',
+        step=width * 3,
+        data=data,
+    )

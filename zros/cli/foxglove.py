@@ -1,0 +1,104 @@
+"""``zros foxglove``: serve the robot (or a bag) to the Foxglove app, as foxglove_bridge does.
+
+Runs until Ctrl-C. Prints the address to open in Foxglove (Open connection > Foxglove
+WebSocket).
+"""
+
+from __future__ import annotations
+
+import argparse
+import threading
+from typing import Any
+
+from zros.cli.common import add_connection_options, open_node, out, run_until_interrupted
+
+
+def _port(text: str) -> int:
+    value = int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f'a port is 0 to 65535, not {text}')
+    return value
+
+
+def _count(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f'must be at least 1, not {text}')
+    return value
+
+
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    return {
+        'port': args.port,
+        'address': args.address,
+        'topics': args.topics,
+        'exclude': args.exclude,
+        'asset_paths': args.asset_path or (),
+        'tls_cert': args.tls_cert,
+        'tls_key': args.tls_key,
+        'message_backlog': args.message_backlog,
+    }
+
+
+def _until_interrupted() -> int:
+    """Serve until Ctrl-C (the server runs on threads of its own)."""
+    idle = threading.Event()  # never set: a sleep Ctrl-C interrupts
+    return run_until_interrupted(lambda: not idle.wait(0.5))
+
+
+def run(args: argparse.Namespace) -> int:
+    from zros.gateway.foxglove import serve
+
+    if args.bag is not None:
+        with serve(bag=args.bag, **_settings(args)) as server:
+            out(f'Foxglove: {server.url} serves {args.bag} (paused; play it from Foxglove)')
+            return _until_interrupted()
+    with open_node(args, 'zros_foxglove') as node:
+        gateway = serve(
+            node=node,
+            services=args.services,
+            params=args.params,
+            include_hidden=args.include_hidden,
+            sim_time=args.sim_time,
+            **_settings(args),
+        )
+        with gateway:
+            sim = ', sim time from /clock' if gateway.sim_time else ''
+            out(f'Foxglove: {gateway.url} ({node.wire} wire{sim})')
+            return _until_interrupted()
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    help_text = 'serve the robot, or a bag, to the Foxglove app (as foxglove_bridge)'
+    parser = commands.add_parser(
+        'foxglove',
+        help=help_text,
+        description=f'{help_text}. Needs the foxglove extra: pip install "zros[foxglove]".',
+    )
+    parser.set_defaults(run='zros.cli.foxglove:run')
+    parser.add_argument('--port', type=_port, default=8765, help='TCP port (default 8765; 0: any)')
+    parser.add_argument('--address', default='127.0.0.1',
+                        help='address to listen on (default 127.0.0.1; others warn)')  # fmt: skip
+    parser.add_argument('--topics', nargs='+', action='extend', metavar='REGEX',
+                        help='offer only topics matching one of these (whole names)')  # fmt: skip
+    parser.add_argument('--exclude', nargs='+', action='extend', metavar='REGEX',
+                        help='never offer topics matching one of these')  # fmt: skip
+    parser.add_argument('--services', nargs='+', action='extend', metavar='REGEX',
+                        help='offer only services matching one of these')  # fmt: skip
+    parser.add_argument('--params', nargs='+', action='extend', metavar='REGEX',
+                        help='offer only parameters (/node.name) matching these')  # fmt: skip
+    parser.add_argument('--include-hidden', action='store_true',
+                        help='also topics and services with a part starting with _')  # fmt: skip
+    parser.add_argument('--asset-path', action='append', metavar='DIR',
+                        help='serve package:// files (meshes) from DIR (repeatable)')  # fmt: skip
+    parser.add_argument('--bag', metavar='PATH',
+                        help='serve this recording instead of the live graph')  # fmt: skip
+    parser.add_argument('--tls-cert', metavar='PEM', help='certificate: serve wss://')
+    parser.add_argument('--tls-key', metavar='PEM', help='its private key (PKCS#8)')
+    parser.add_argument('--message-backlog', type=_count, default=1024, metavar='N',
+                        help='messages queued per client before its oldest are dropped '
+                        '(default 1024)')  # fmt: skip
+    parser.add_argument('--sim-time', action=argparse.BooleanOptionalAction, default=None,
+                        help='publish /clock as the server time (default: if /clock has a '
+                        'publisher at the start)')  # fmt: skip
+    add_connection_options(parser)

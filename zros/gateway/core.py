@@ -1,0 +1,425 @@
+"""What every gateway (a WebSocket server that shows the ROS graph to browsers) shares.
+
+* :class:`NameFilter`: allow and deny lists of names, as regular expressions (foxglove_bridge's
+  whitelists) or globs (rosbridge's ``topics_glob``).
+* :class:`GraphWatcher`: a thread that calls back when the graph changed (changes that come
+  together are handled once).
+* :class:`Taps`: a raw Zenoh subscription per watched topic, declared when the first watcher
+  comes and released when the last leaves, with the QoS of the topic's publishers; the last
+  messages of shallow latched (transient local) topics are kept for watchers that come later.
+* :class:`SendQueue`: a client's bounded outbox that drops its oldest items and counts them.
+* Graph views both protocols show: the services offered, the nodes serving parameters, the
+  node owning an endpoint.
+"""
+
+from __future__ import annotations
+
+import collections
+import fnmatch
+import json
+import logging
+import re
+import threading
+import time
+from collections.abc import Callable, Hashable, Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
+
+from zros.errors import ZrosError
+from zros.keyexpr.bridge import EntityKind
+from zros.signal import Signal
+from zros.taps import GraphTopic, RawTap, is_hidden, matched_qos
+
+if TYPE_CHECKING:
+    from zros.cdr import Message
+    from zros.graph import Endpoint, Graph
+    from zros.node import Node
+
+_log = logging.getLogger('zros.gateway')
+
+T = TypeVar('T')
+
+#: seconds a graph watcher lets a burst of changes settle before looking
+SETTLE = 0.05
+#: seconds between a graph watcher's checks that it should stop
+_POLL = 0.25
+#: latched topics this deep or less keep their last messages for later watchers
+REPLAY_DEPTH = 10
+
+
+class GatewayError(ZrosError):
+    """A gateway cannot start as asked (a bad pattern, a port in use...) or a client's request
+    cannot be carried out."""
+
+
+class NameFilter:
+    """Which names pass: those matching an ``include`` pattern (every name when there is
+    none) and no ``exclude`` pattern. Patterns match the whole name."""
+
+    def __init__(
+        self, include: Iterable[re.Pattern[str]] = (), exclude: Iterable[re.Pattern[str]] = ()
+    ):
+        self.include = list(include)
+        self.exclude = list(exclude)
+
+    @classmethod
+    def regexes(
+        cls, include: Iterable[str] | None = None, exclude: Iterable[str] | None = None
+    ) -> NameFilter:
+        """Python regular expressions, as foxglove_bridge's ``topic_whitelist`` (full match)."""
+
+        def compile_all(patterns: Iterable[str] | None) -> list[re.Pattern[str]]:
+            compiled = []
+            for pattern in patterns or ():
+                try:
+                    compiled.append(re.compile(pattern))
+                except re.error as exc:
+                    raise GatewayError(
+                        f'the pattern {pattern!r} is not a valid regex: {exc}'
+                    ) from None
+            return compiled
+
+        return cls(compile_all(include), compile_all(exclude))
+
+    @classmethod
+    def globs(
+        cls, include: Iterable[str] | None = None, exclude: Iterable[str] | None = None
+    ) -> NameFilter:
+        """Shell-style globs (``/camera/*``), as rosbridge's ``topics_glob``."""
+
+        def compile_all(patterns: Iterable[str] | None) -> list[re.Pattern[str]]:
+            return [re.compile(fnmatch.translate(p)) for p in patterns or ()]
+
+        return cls(compile_all(include), compile_all(exclude))
+
+    def __call__(self, name: str) -> bool:
+        if self.include and not any(p.fullmatch(name) for p in self.include):
+            return False
+        return not any(p.fullmatch(name) for p in self.exclude)
+
+    def __repr__(self) -> str:
+        include = [p.pattern for p in self.include]
+        return f'<NameFilter include={include} exclude={[p.pattern for p in self.exclude]}>'
+
+
+class GraphWatcher:
+    """Calls ``on_change()`` on a thread of its own once at the start and after every change
+    of the node's graph (a burst of changes settles for ``settle`` seconds first). Exceptions
+    of ``on_change`` are logged and the watcher goes on."""
+
+    def __init__(self, node: Node, on_change: Callable[[], object], settle: float = SETTLE) -> None:
+        self._graph: Graph = node.graph
+        self._on_change = on_change
+        self._settle = settle
+        self._stopping = threading.Event()
+        self._thread = threading.Thread(target=self._run, name='zros gateway graph', daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        graph = self._graph
+        while not self._stopping.is_set():
+            seen = graph.version
+            try:
+                self._on_change()
+            except Exception:
+                _log.exception('the gateway failed to follow the graph')
+            changed = _changed_since(graph, seen)
+            while not self._stopping.is_set() and not graph.wait_until(changed, _POLL):
+                pass
+            self._stopping.wait(self._settle)
+
+    def close(self) -> None:
+        """Stop watching (waits for a running ``on_change`` to finish)."""
+        self._stopping.set()
+        if threading.current_thread() is not self._thread:
+            self._thread.join(5.0)
+
+
+def _changed_since(graph: Graph, version: int) -> Callable[[], bool]:
+    return lambda: graph.version != version
+
+
+@dataclass
+class _Tapped:
+    name: str
+    watchers: set[Hashable]
+    latched: collections.deque[tuple[bytes, int]] | None
+    tap: RawTap | None = None
+    samples: int = 0
+    bytes: int = 0
+    failures: int = 0
+
+    def close(self) -> None:
+        if self.tap is not None:
+            self.tap.close()
+
+
+class Taps:
+    """Raw subscriptions on the topics someone watches, and only on those.
+
+    :meth:`watch` declares the Zenoh subscription on a topic when its first watcher comes,
+    with the QoS matched to the topic's publishers (transient local when they all are: their
+    latched messages arrive); ``deliver(data, time_ns)`` then gets every message's CDR bytes on
+    Zenoh's thread. :meth:`unwatch` releases the subscription when the last watcher leaves, so
+    unwatched topics carry no traffic. ``now()`` stamps the messages (ns).
+
+    Latched topics of at most ``replay_depth`` messages (state: ``/tf_static``, a map, a robot
+    description) keep their last messages for later watchers; deeper ones (history, such as
+    ``/rosout``'s 1000) do not, since a gateway that cannot address one client would repeat
+    them to every watcher.
+    """
+
+    def __init__(
+        self, node: Node, now: Callable[[], int] = time.time_ns, replay_depth: int = REPLAY_DEPTH
+    ) -> None:
+        self._node = node
+        self._now = now
+        self._replay_depth = replay_depth
+        self._lock = threading.Lock()
+        self._tapped: dict[str, _Tapped] = {}
+
+    def watch(
+        self, topic: GraphTopic, watcher: Hashable, deliver: Callable[[bytes, int], object]
+    ) -> list[tuple[bytes, int]]:
+        """Add ``watcher`` to ``topic``; returns the latched messages a new watcher of an
+        already tapped latched topic would otherwise miss (empty otherwise)."""
+        with self._lock:
+            tapped = self._tapped.get(topic.name)
+            if tapped is not None:
+                tapped.watchers.add(watcher)
+                return list(tapped.latched or ())
+            qos = matched_qos(topic.offered)
+            kept = qos.transient_local and qos.depth <= self._replay_depth
+            tapped = _Tapped(
+                topic.name, {watcher}, collections.deque(maxlen=qos.depth) if kept else None
+            )
+            tapped.tap = RawTap(
+                self._node,
+                topic.name,
+                topic.type_name,
+                qos=qos,
+                key=topic.key,
+                callback=self._callback(tapped, deliver),
+            )
+            self._tapped[topic.name] = tapped
+            _log.info('tapping %s [%s] (%s)', topic.name, topic.type_name, qos)
+            return []
+
+    def _callback(
+        self, tapped: _Tapped, deliver: Callable[[bytes, int], object]
+    ) -> Callable[[Any], None]:
+        now = self._now
+        latched = tapped.latched
+
+        def on_sample(sample: Any) -> None:
+            data = sample.payload.to_bytes()
+            stamp = now()
+            if latched is not None:
+                latched.append((data, stamp))
+            tapped.samples += 1
+            tapped.bytes += len(data)
+            try:
+                deliver(data, stamp)
+            except Exception:
+                tapped.failures += 1
+                if tapped.failures == 1:  # a broken client must not flood the log
+                    _log.exception('delivering a message of %s failed (logged once)', tapped.name)
+
+        return on_sample
+
+    def unwatch(self, name: str, watcher: Hashable) -> None:
+        """Remove ``watcher`` from the topic; the last one out releases the subscription."""
+        with self._lock:
+            tapped = self._tapped.get(name)
+            if tapped is None:
+                return
+            tapped.watchers.discard(watcher)
+            if tapped.watchers:
+                return
+            del self._tapped[name]
+        tapped.close()
+        _log.info('released %s', name)
+
+    def drop(self, name: str) -> None:
+        """Release a topic whatever its watchers (it left the graph)."""
+        with self._lock:
+            tapped = self._tapped.pop(name, None)
+        if tapped is not None:
+            tapped.close()
+
+    def watched(self) -> dict[str, int]:
+        """The tapped topics and how many watch each."""
+        with self._lock:
+            return {name: len(t.watchers) for name, t in self._tapped.items()}
+
+    def counts(self, name: str) -> tuple[int, int]:
+        """Messages and bytes received on a tapped topic so far ((0, 0) when not tapped)."""
+        with self._lock:
+            tapped = self._tapped.get(name)
+            return (0, 0) if tapped is None else (tapped.samples, tapped.bytes)
+
+    def close(self) -> None:
+        """Release every subscription."""
+        with self._lock:
+            tapped, self._tapped = list(self._tapped.values()), {}
+        for item in tapped:
+            item.close()
+
+
+class SendQueue(Generic[T]):
+    """A client's outbox bounded in items and in bytes: a put that would pass either bound
+    drops the oldest items first (counted in ``dropped``) and reports the drop once per burst
+    through ``on_drop(dropped_so_far)``, so a slow client loses its stalest messages and is
+    told, and never makes the sender wait."""
+
+    def __init__(
+        self,
+        max_items: int = 1024,
+        max_bytes: int = 10_000_000,
+        on_drop: Callable[[int], object] | None = None,
+    ) -> None:
+        if max_items < 1 or max_bytes < 1:
+            raise ValueError('a send queue holds at least one item and one byte')
+        self.max_items = max_items
+        self.max_bytes = max_bytes
+        self._on_drop = on_drop
+        self._items: collections.deque[tuple[T, int]] = collections.deque()
+        self._bytes = 0
+        self._lock = threading.Lock()
+        self._arrived = Signal()
+        self._dropping = False  #: inside a burst of drops (reported at its start)
+        self._closed = False
+        self.dropped = 0  #: items dropped so far
+
+    def put(self, item: T, size: int) -> None:
+        """Queue ``item`` of ``size`` bytes (an item larger than the byte bound goes alone)."""
+        report = 0
+        with self._lock:
+            if self._closed:
+                return
+            items = self._items
+            while items and (len(items) >= self.max_items or self._bytes + size > self.max_bytes):
+                _, dropped_size = items.popleft()
+                self._bytes -= dropped_size
+                self.dropped += 1
+                if not self._dropping:
+                    self._dropping = True
+                    report = self.dropped
+            if not report and len(items) < self.max_items // 2:
+                self._dropping = False
+            items.append((item, size))
+            self._bytes += size
+        if report and self._on_drop is not None:
+            try:
+                self._on_drop(report)
+            except Exception:
+                _log.exception('the drop callback %r raised', self._on_drop)
+        if self._arrived:
+            self._arrived.notify()
+
+    def get(self, timeout: float | None = None) -> T | None:
+        """The oldest item, waiting up to ``timeout`` seconds; None on timeout or when closed."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            with self._lock:
+                if self._items:
+                    item, size = self._items.popleft()
+                    self._bytes -= size
+                    return item
+                if self._closed:
+                    return None
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if remaining is not None and remaining <= 0:
+                return None
+            self._arrived.wait(lambda: bool(self._items) or self._closed, remaining)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    @property
+    def size(self) -> int:
+        """Bytes queued."""
+        return self._bytes
+
+    def close(self) -> None:
+        """Drop what is queued and wake a waiting :meth:`get`."""
+        with self._lock:
+            self._closed = True
+            self._items.clear()
+            self._bytes = 0
+        self._arrived.notify()
+
+
+# --- graph views both protocols show ----------------------------------------------------------
+
+
+def offered_services(
+    node: Node, *, exclude_node: str | None = None, include_hidden: bool = False
+) -> dict[str, str]:
+    """Service names with a server on the graph, and their type (the first, if several)."""
+    namespace = node.scheme.namespace
+    services: dict[str, set[str]] = {}
+    for endpoint in node.graph.endpoints((EntityKind.SERVICE_SERVER,)):
+        if exclude_node is not None and endpoint.node == exclude_node:
+            continue
+        name = endpoint.ros_name(namespace)
+        if include_hidden or not is_hidden(name):
+            services.setdefault(name, set()).add(endpoint.type_name)
+    return {name: sorted(types)[0] for name, types in sorted(services.items())}
+
+
+PARAMETER_SERVICES = {
+    'get_parameters': 'rcl_interfaces/srv/GetParameters',
+    'list_parameters': 'rcl_interfaces/srv/ListParameters',
+}
+
+
+def parameter_nodes(services: dict[str, str]) -> list[str]:
+    """The nodes serving parameters, found by their ``get_parameters`` and
+    ``list_parameters`` services (ROS nodes behind a bridge show no name otherwise)."""
+    nodes = []
+    suffix = '/get_parameters'
+    for name, type_name in services.items():
+        if name.endswith(suffix) and type_name == PARAMETER_SERVICES['get_parameters']:
+            node = name[: -len(suffix)] or '/'
+            if services.get(f'{node}/list_parameters') == PARAMETER_SERVICES['list_parameters']:
+                nodes.append(node)
+    return sorted(nodes)
+
+
+def owners(endpoints: Iterable[Endpoint], graph: Graph) -> list[str]:
+    """The nodes owning ``endpoints`` (see :func:`endpoint_owner`), sorted, once each."""
+    return sorted({endpoint_owner(endpoint, graph) for endpoint in endpoints})
+
+
+def service_providers(node: Node, names: Iterable[str]) -> dict[str, list[str]]:
+    """The nodes serving each of the services ``names`` (those with a server)."""
+    wanted = set(names)
+    servers: dict[str, list[Endpoint]] = {}
+    namespace = node.scheme.namespace
+    for endpoint in node.graph.endpoints((EntityKind.SERVICE_SERVER,)):
+        name = endpoint.ros_name(namespace)
+        if name in wanted:
+            servers.setdefault(name, []).append(endpoint)
+    return {name: owners(found, node.graph) for name, found in sorted(servers.items())}
+
+
+def endpoint_owner(endpoint: Endpoint, graph: Graph) -> str:
+    """The node an endpoint belongs to: its own (zros, rmw_zenoh), else the bridge's node
+    that shows it (ROS nodes behind a bridge are not named), else its Zenoh session."""
+    if endpoint.node is not None:
+        return endpoint.node
+    for bridge in graph.bridges():
+        if bridge.zid == endpoint.zid:
+            return bridge.node_name
+    return f'/zenoh_{endpoint.zid[:8]}'
+
+
+def message_from_json(cls: type[Message], data: bytes | str) -> Message:
+    """A message from JSON text (objects for nested messages, arrays for sequences; missing
+    fields keep their defaults); GatewayError says what is wrong."""
+    try:
+        fields = json.loads(data)
+        return cls.from_dict(fields)
+    except (ValueError, TypeError, AttributeError, OverflowError) as exc:
+        raise GatewayError(f'cannot make a {cls.__msgtype__} from the JSON given: {exc}') from None

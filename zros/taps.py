@@ -1,0 +1,184 @@
+"""Raw taps: Zenoh subscriptions on a topic that hand over the CDR bytes and never decode.
+
+What the recorder and the gateways share: which topics the graph shows (grouped by name, with
+the publishers' QoS and key), the QoS to subscribe with (adapted to the publishers as rosbag2
+adapts it: transient local only when every publisher is), and :class:`RawTap`, a subscription
+announced in the graph like a zros subscriber whose callback runs on Zenoh's thread with the
+raw sample.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from zros.errors import ZrosError
+from zros.keyexpr.bridge import EntityKind
+from zros.qos import Durability, History, QoS, Reliability
+
+if TYPE_CHECKING:
+    from zros.graph import Endpoint
+    from zros.node import Node
+
+_log = logging.getLogger('zros')
+
+
+def is_hidden(name: str) -> bool:
+    """Whether a topic is hidden (a name part starts with ``_``), as ROS 2 tools hide them."""
+    return any(part.startswith('_') for part in name.split('/'))
+
+
+def matched_qos(offered: Iterable[QoS]) -> QoS:
+    """The QoS to subscribe to publishers with, adapted as rosbag2 adapts it: reliable and
+    transient local only when every publisher is, deep enough for the deepest one."""
+    offers = list(offered)
+    reliable = all(q.reliable for q in offers)
+    latched = bool(offers) and all(q.transient_local for q in offers)
+    depth = max((q.depth for q in offers), default=10)
+    return QoS(
+        max(depth, 1),
+        Reliability.RELIABLE if reliable else Reliability.BEST_EFFORT,
+        Durability.TRANSIENT_LOCAL if latched else Durability.VOLATILE,
+        History.KEEP_LAST,
+    )
+
+
+def publish_time(sample: Any, fallback: int) -> int:
+    """When a sample was published, in nanoseconds: the time in its rmw_zenoh attachment, else
+    its Zenoh timestamp (set by the publishing session), else ``fallback``."""
+    if sample.attachment is not None:
+        from zros.wire import read_attachment
+
+        attachment = read_attachment(sample)
+        if attachment is not None:
+            return int(attachment.source_timestamp)
+    stamp = sample.timestamp
+    if stamp is None:
+        return fallback
+    try:
+        return int(stamp.get_time_as_ntp64().as_nanos())
+    except Exception:  # a zenoh without the NTP64 helpers
+        return fallback
+
+
+@dataclass(frozen=True)
+class GraphTopic:
+    """A topic as the graph shows it: its type, who publishes and subscribes, and the key its
+    publishers put on."""
+
+    name: str
+    type_name: str
+    publishers: list[Endpoint] = field(default_factory=list)
+    subscribers: list[Endpoint] = field(default_factory=list)
+
+    @property
+    def offered(self) -> list[QoS]:
+        """The QoS profiles its publishers offer."""
+        return [e.qos for e in self.publishers if e.qos is not None]
+
+    @property
+    def key(self) -> str | None:
+        """The key to subscribe to when the node cannot make it (an unknown type): the
+        publishers' (under rmw_zenoh with wildcards for the type and hash chunks)."""
+        for endpoint in self.publishers or self.subscribers:
+            return endpoint.key + '/*/*' if endpoint.wire == 'rmw_zenoh' else endpoint.key
+        return None
+
+
+def graph_topics(
+    node: Node, *, publishers_only: bool = True, exclude_node: str | None = None
+) -> dict[str, GraphTopic]:
+    """The topics of the graph by name (with publishers, or with any endpoint), leaving out the
+    endpoints of the node named ``exclude_node``. A name announced with several types keeps the
+    first, with a warning."""
+    kinds = (
+        (EntityKind.PUBLISHER,)
+        if publishers_only
+        else (EntityKind.PUBLISHER, EntityKind.SUBSCRIBER)
+    )
+    namespace = node.scheme.namespace
+    by_name: dict[str, list[Endpoint]] = {}
+    for endpoint in node.graph.endpoints(kinds):
+        if exclude_node is not None and endpoint.node == exclude_node:
+            continue
+        by_name.setdefault(endpoint.ros_name(namespace), []).append(endpoint)
+    topics = {}
+    for name, endpoints in sorted(by_name.items()):
+        types = sorted({e.type_name for e in endpoints})
+        if len(types) > 1:
+            _log.warning('topic %s has several types %s: using %s', name, types, types[0])
+        chosen = [e for e in endpoints if e.type_name == types[0]]
+        topics[name] = GraphTopic(
+            name,
+            types[0],
+            [e for e in chosen if e.kind is EntityKind.PUBLISHER],
+            [e for e in chosen if e.kind is EntityKind.SUBSCRIBER],
+        )
+    return topics
+
+
+class RawTap:
+    """A raw Zenoh subscription on one topic, announced in the graph like a zros subscriber;
+    ``callback(sample)`` runs on Zenoh's thread with each sample, undecoded.
+
+    ``key`` (matching the publishers' keys) is used when the node cannot make the topic's key
+    and tokens itself (a type it does not know): the topic is then tapped unannounced.
+    Transient-local taps fetch what the publishers' caches hold (latched messages).
+    """
+
+    def __init__(
+        self,
+        node: Node,
+        topic: str,
+        type_name: str,
+        *,
+        qos: QoS,
+        key: str | None,
+        callback: Callable[[Any], None],
+    ) -> None:
+        from zros.wire import entity_wire
+
+        self.topic = topic
+        self.qos = qos
+        self.transport = node.transport
+        tokens: tuple[str, ...] = ()
+        try:
+            wire = entity_wire(
+                node, EntityKind.SUBSCRIBER, topic, type_name, node.registry, qos=qos
+            )
+            key, tokens = wire.key, wire.tokens
+        except ZrosError as exc:
+            if key is None:
+                raise
+            _log.debug('not announcing the tap on %s: %s', topic, exc)
+        self.key = key
+        session = self.transport.session
+        if qos.transient_local:
+            from zenoh import ext
+
+            history = ext.HistoryConfig(detect_late_publishers=True, max_samples=qos.depth)
+            self._subscriber: Any = ext.declare_advanced_subscriber(
+                session, key, callback, history=history
+            )
+        else:
+            self._subscriber = session.declare_subscriber(key, callback)
+        self._tokens = tokens
+        for token in self._tokens:
+            self.transport.declare_token(token)
+
+    def close(self) -> None:
+        """Withdraw the subscription (idempotent)."""
+        tokens, self._tokens = self._tokens, ()
+        for token in reversed(tokens):
+            self.transport.release_token(token)
+        subscriber, self._subscriber = self._subscriber, None
+        if subscriber is not None and not self.transport.closed:
+            try:
+                subscriber.undeclare()
+            except Exception:  # the session is closing
+                _log.debug('undeclaring a tap failed', exc_info=True)
+
+    def __repr__(self) -> str:
+        return f'<zros RawTap {self.topic} on {self.key} {self.qos}>'
