@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         with serve(bag=args.bag, **_settings(args)) as server:
             out(f'Foxglove: {server.url} serves {args.bag} (paused; play it from Foxglove)')
             return _until_interrupted()
-    with open_node(args, 'zros_foxglove') as node:
+    with open_node(args) as node:
         gateway = serve(
             node=node,
             services=args.services,
