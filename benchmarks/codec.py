@@ -5,6 +5,9 @@ column (copying the encoded bytes once) and the issue's goals as ratios to rosba
 
     python benchmarks/codec.py            # all messages
     python benchmarks/codec.py --quick    # fewer repeats
+
+A second table times building messages with keyword arguments (and one attribute assignment),
+the loop a node runs before each ``write``: zros checks field names and value types there.
 """
 
 from __future__ import annotations
@@ -222,6 +225,100 @@ def rclpy_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[[]
     return (lambda: serialize_message(converted), lambda: deserialize_message(data, cls))
 
 
+# --- construction -------------------------------------------------------------------------
+
+
+def constructions() -> dict[str, Callable[[], Any]]:
+    """Keyword constructions a node runs per message, and one attribute assignment."""
+    Float32 = C('std_msgs/msg/Float32')
+    String = C('std_msgs/msg/String')
+    Vector3 = C('geometry_msgs/msg/Vector3')
+    Twist = C('geometry_msgs/msg/Twist')
+    Header = C('std_msgs/msg/Header')
+    Time = C('builtin_interfaces/msg/Time')
+    Range = C('sensor_msgs/msg/Range')
+    Pose = C('geometry_msgs/msg/Pose')
+    Point = C('geometry_msgs/msg/Point')
+    Quaternion = C('geometry_msgs/msg/Quaternion')
+    stamp = Time(sec=1740933158, nanosec=226629828)
+    header = Header(stamp=stamp, frame_id='ir')
+    message = Range()
+
+    def assign() -> None:
+        message.range = 0.25
+
+    return {
+        'Float32(data=)': lambda: Float32(data=1.5),
+        'String(data=)': lambda: String(data='hello world'),
+        'Time(sec=, nanosec=)': lambda: Time(sec=1740933158, nanosec=226629828),
+        'Twist(2 x Vector3(...))': lambda: Twist(
+            linear=Vector3(x=0.5, y=0.1, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.3)
+        ),
+        'Pose(Point, Quaternion)': lambda: Pose(
+            position=Point(x=1.0, y=2.0, z=0.0), orientation=Quaternion(w=1.0)
+        ),
+        'Range(header=, 5 scalars)': lambda: Range(
+            header=header,
+            radiation_type=1,
+            field_of_view=0.1,
+            min_range=0.04,
+            max_range=0.3,
+            range=0.1,
+        ),
+        'Range() defaults': Range,
+        'range.range = 0.25': assign,
+    }
+
+
+def rclpy_constructions() -> dict[str, Callable[[], Any]]:
+    """The same constructions with rclpy's classes (their setters check types), if installed."""
+    try:
+        from builtin_interfaces.msg import Time
+        from geometry_msgs.msg import Point, Pose, Quaternion, Twist, Vector3
+        from sensor_msgs.msg import Range
+        from std_msgs.msg import Float32, Header, String
+    except ImportError:
+        return {}
+    header = Header(stamp=Time(sec=1740933158, nanosec=226629828), frame_id='ir')
+    message = Range()
+
+    def assign() -> None:
+        message.range = 0.25
+
+    return {
+        'Float32(data=)': lambda: Float32(data=1.5),
+        'String(data=)': lambda: String(data='hello world'),
+        'Time(sec=, nanosec=)': lambda: Time(sec=1740933158, nanosec=226629828),
+        'Twist(2 x Vector3(...))': lambda: Twist(
+            linear=Vector3(x=0.5, y=0.1, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.3)
+        ),
+        'Pose(Point, Quaternion)': lambda: Pose(
+            position=Point(x=1.0, y=2.0, z=0.0), orientation=Quaternion(w=1.0)
+        ),
+        'Range(header=, 5 scalars)': lambda: Range(
+            header=header,
+            radiation_type=1,
+            field_of_view=0.1,
+            min_range=0.04,
+            max_range=0.3,
+            range=0.1,
+        ),
+        'Range() defaults': Range,
+        'range.range = 0.25': assign,
+    }
+
+
+def print_constructions(repeats: int, budget: float) -> None:
+    """Microseconds per construction, zros and rclpy."""
+    theirs = rclpy_constructions()
+    print(f'\n{"construction with keywords":32} | {"zros":>8} {"rclpy":>8}')
+    print('-' * 52)
+    for name, build in constructions().items():
+        ours = best_time(build, repeats, budget)
+        other = best_time(theirs[name], repeats, budget) if name in theirs else None
+        print(f'{name:32} | {_fmt(ours):>8} {_fmt(other):>8}')
+
+
 # --- timing ------------------------------------------------------------------------------
 
 
@@ -313,6 +410,8 @@ def main() -> None:
             + f'{ratio_enc:>6.2f} {ratio_dec:>6.2f}'
         )
     print_goals(results)
+    if not args.only:
+        print_constructions(repeats, budget)
 
 
 def print_goals(results: dict[str, dict[str, float | None]]) -> None:
