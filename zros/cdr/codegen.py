@@ -994,20 +994,37 @@ def _field_category(ctx: Context, t: FieldType) -> str:
     return 'nested_list'
 
 
+def _scalar_check(t: FieldType, attr: str, type_: str, src: _Source) -> str:
+    """The cheap test a correct scalar argument passes; the slow path explains or converts."""
+    if t.base in ('float32', 'float64'):
+        return f'{type_}({attr}) is not {src.ref(float, "float")}'
+    if t.base == 'bool':
+        return f'{type_}({attr}) is not {src.ref(bool, "bool")}'
+    if t.is_string:
+        check = f'{type_}({attr}) is not {src.ref(str, "str")}'
+        return check + (f' or len({attr}) > {t.string_bound}' if t.string_bound else '')
+    # no range test here: it costs more than the type test, and encoding checks ranges
+    return f'{type_}({attr}) is not {src.ref(int, "int")}'
+
+
 def _gen_init(ctx: Context, msg: MessageDef) -> Callable[..., None]:
-    # parameters are field names, which may shadow builtins: generated code uses only _names
+    # parameters are field names, which may shadow builtins: generated code uses only _names.
+    # Each scalar argument passes one cheap test (its exact type); anything else goes to a
+    # convert helper that converts it (an int for a float...) or raises a FieldError.
     src = _Source()
     missing = src.ref(_MISSING, 'MISSING')
     type_ = src.ref(type, 'type')
-    list_ = src.ref(list, 'list')
-    dict_ = src.ref(dict, 'dict')
     range_ = src.ref(range, 'range')
+    name = src.ref(msg.name, 'name')
+    fields = tuple(attribute_name(f.name) for f in msg.fields)
+    src.add(f'if _extra: raise {src.ref(_unknown_field, "unknown")}({name}, {fields!r}, _extra)')
     params: list[str] = []
     for f in msg.fields:
         t = f.type
         attr = attribute_name(f.name)
         category = _field_category(ctx, t)
         target = f'_self.{attr}'
+        where = src.ref((msg.name, attr), 'w')
         if category in ('prim', 'str'):
             default = (
                 f.default
@@ -1024,13 +1041,19 @@ def _gen_init(ctx: Context, msg: MessageDef) -> Callable[..., None]:
             )
             literal = repr(default) if isinstance(default, (bool, int)) else src.ref(default, 'd')
             params.append(f'{attr}={literal}')
+            scalar = src.ref(convert.scalar, 'scalar')
+            src.add(
+                f'if {_scalar_check(t, attr, type_, src)}: '
+                f'{attr} = {scalar}({attr}, {t.base!r}, {t.string_bound}, {where})'
+            )
             src.add(f'{target} = {attr}')
             continue
         params.append(f'{attr}={missing}')
+        count = t.length if t.kind is Kind.ARRAY else -1
+        bound = t.length if t.kind is Kind.BOUNDED else -1
+        shape = (count, bound)
         if category == 'prim_array':
             dtype = src.ref(_value_dtype(t.base), 'D')
-            count = t.length if t.kind is Kind.ARRAY else -1
-            bound = t.length if t.kind is Kind.BOUNDED else -1
             if f.default is not None:
                 default_expr = f'{src.ref(np.array, "array")}({src.ref(f.default, "d")}, {dtype})'
             elif t.kind is Kind.ARRAY:
@@ -1038,39 +1061,53 @@ def _gen_init(ctx: Context, msg: MessageDef) -> Callable[..., None]:
             else:
                 default_expr = src.ref(convert.empty_array(_value_dtype(t.base)), 'E')
             conv = src.ref(convert.init_array, 'conv')
-            convert_expr = f'{conv}({attr}, {dtype}, {count}, {bound}, {f.name!r})'
+            convert_expr = f'{conv}({attr}, {dtype}, {shape}, {where})'
             src.add(f'{target} = {default_expr} if {attr} is {missing} else {convert_expr}')
         elif category == 'str_list':
             if f.default is not None:
-                default_expr = f'{list_}({src.ref(f.default, "d")})'
+                default_expr = f'{src.ref(list, "list")}({src.ref(f.default, "d")})'
             elif t.kind is Kind.ARRAY:
                 default_expr = f"[''] * {t.length}"
             else:
                 default_expr = '[]'
-            src.add(f'{target} = {default_expr} if {attr} is {missing} else {list_}({attr})')
+            strings = src.ref(convert.string_list, 'strings')
+            convert_expr = f'{strings}({attr}, {t.base!r}, {t.string_bound}, {shape}, {where})'
+            src.add(f'{target} = {default_expr} if {attr} is {missing} else {convert_expr}')
         elif category == 'nested':
             cls = src.ref(ctx.cls(t.base), 'C')
+            nested = src.ref(convert.message, 'message')
             src.add(
                 f'{target} = {cls}() if {attr} is {missing} else '
-                f'({cls}.from_dict({attr}) if {type_}({attr}) is {dict_} else {attr})'
+                f'({attr} if {type_}({attr}) is {cls} else {nested}({cls}, {attr}, {where}))'
             )
         elif category == 'nested_list':
             cls = src.ref(ctx.cls(t.base), 'C')
             default_expr = (
                 f'[{cls}() for _ in {range_}({t.length})]' if t.kind is Kind.ARRAY else '[]'
             )
+            items = src.ref(convert.message_list, 'messages')
             src.add(
                 f'{target} = {default_expr} if {attr} is {missing} else '
-                f'[{cls}.from_dict(_x) if {type_}(_x) is {dict_} else _x for _x in {attr}]'
+                f'{items}({cls}, {attr}, {shape}, {where})'
             )
         else:
             cls = src.ref(ctx.cls(t.base), 'C')
             seq = src.ref(_struct_seq_class(), 'Seq')
-            src.add(f'{target} = {seq}({cls}) if {attr} is {missing} else {seq}({cls}, {attr})')
-    if not msg.fields:
-        src.add('pass')
-    signature = ', '.join(['_self', *params])
-    return src.compile(signature, '__init__')
+            items = src.ref(convert.struct_items, 'items')
+            src.add(
+                f'{target} = {seq}({cls}) if {attr} is {missing} else '
+                f'{seq}({cls}, {items}({cls}, {attr}, {bound}, {where}))'
+            )
+    signature = ', '.join(['_self', *params, '**_extra'])
+    init = src.compile(signature, '__init__')
+    init.__qualname__ = f'{msg.name.rsplit("/", 1)[1]}.__init__'
+    return init
+
+
+def _unknown_field(type_name: str, fields: tuple[str, ...], extra: dict[str, Any]) -> Exception:
+    from zros.cdr.errors import FieldError
+
+    return FieldError.unknown(type_name, next(iter(extra)), fields)
 
 
 _MISSING = object()

@@ -1,9 +1,9 @@
 """What the ``zros`` subcommands share: connection options, the command node, values, exits.
 
-Exit codes: 0 success, 1 a failure the message explains, 2 a usage error (argparse, or a
-setting that cannot work, such as a malformed endpoint), 130 interrupted before finishing, 141
-the reader of the output went away (``| head``; no traceback).
-Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
+Exit codes: 0 success, 1 a failure the message explains, 2 a usage error (argparse, a setting
+that cannot work such as a malformed endpoint, or a field name or value a message type refuses),
+130 interrupted before finishing, 141 the reader of the output went away (``| head``; no
+traceback). Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
 """
 
 from __future__ import annotations
@@ -26,6 +26,14 @@ DISCOVERY = 2.0  #: seconds a one-shot command gives the graph to show itself
 
 class CommandError(Exception):
     """A failure to report in one line, exit code 1."""
+
+    exit_code = 1
+
+
+class UsageError(CommandError):
+    """A mistake in what was typed (a field name, a value), exit code 2 as argparse's own."""
+
+    exit_code = 2
 
 
 def add_connection_options(parser: argparse.ArgumentParser) -> None:
@@ -126,11 +134,16 @@ def parse_values(text: str | None) -> dict[str, Any]:
     try:
         values = YAML(typ='safe', pure=True).load(text)
     except YAMLError as exc:
-        raise CommandError(f'the values are not valid YAML: {exc}') from None
+        problem = getattr(exc, 'problem', None)
+        mark = getattr(exc, 'problem_mark', None)
+        if problem and mark is not None:  # one line: what, and where
+            where = f'column {mark.column + 1}' if '\n' not in text else f'line {mark.line + 1}'
+            raise UsageError(f'the values are not valid YAML: {problem} ({where})') from None
+        raise UsageError(f'the values are not valid YAML: {exc}') from None
     if values is None:
         return {}
     if not isinstance(values, dict):
-        raise CommandError(f'the values must be a YAML mapping like "{{data: 1}}", not {text!r}')
+        raise UsageError(f'the values must be a YAML mapping like "{{data: 1}}", not {text!r}')
     return values
 
 
@@ -146,11 +159,19 @@ def message_class(type_name: str) -> Any:
 
 
 def build_message(cls: Any, values: dict[str, Any]) -> Any:
-    """A message of ``cls`` with ``values`` (nested dicts for nested fields)."""
+    """A message of ``cls`` with ``values`` (nested dicts for nested fields), checked before
+    anything is sent: a wrong field name or value is a usage error naming the field."""
+    from zros.cdr.errors import CdrError, FieldError
+    from zros.cdr.message import encode
+
     try:
-        return cls(**values)
-    except (TypeError, ValueError, AttributeError) as exc:
-        raise CommandError(f'cannot make a {cls.__msgtype__} from {values}: {exc}') from None
+        message = cls.from_dict(values)
+        encode(message)  # what only encoding checks: integer ranges, bounds, float32 overflow
+    except (FieldError, CdrError) as exc:
+        raise UsageError(str(exc)) from None
+    except (TypeError, ValueError) as exc:
+        raise UsageError(f'cannot make a {cls.__msgtype__} from {values}: {exc}') from None
+    return message
 
 
 @contextmanager
