@@ -1,4 +1,5 @@
-"""The services and actions zros itself needs, defined from their field lists.
+"""The services and actions zros itself needs, defined from their field lists, and the
+interface packages whose files ship inside zros (the demo's).
 
 Messages come from the rosbags typestores; these few service and action types are not in them.
 Each entry lists fields as ``"type name [default]"`` and constants as ``"type NAME=value"``.
@@ -6,8 +7,14 @@ Each entry lists fields as ``"type name [default]"`` and constants as ``"type NA
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from zros.cdr.model import ActionDef, Definition, ServiceDef
 from zros.cdr.parser import parse_action, parse_service
+
+#: Interface packages whose files ship inside zros: package name -> its folder (``msg/X.msg``).
+#: The demo's custom type lives with the demo; every zros program and the CLI resolve it.
+SHIPPED_PACKAGES: dict[str, Path] = {'rosR_demos': Path(__file__).parent.parent / 'demo'}
 
 _Fields = tuple[str, ...]
 

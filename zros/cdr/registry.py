@@ -1,8 +1,9 @@
 """Resolve ROS type names to definitions and generated classes.
 
 Sources, first match wins: definitions registered at run time, folders on ``ZROS_INTERFACE_PATH``,
-``share/<pkg>`` folders under ``AMENT_PREFIX_PATH``, the few services and actions zros defines,
-and the rosbags typestore of the selected ROS distro.
+``share/<pkg>`` folders under ``AMENT_PREFIX_PATH``, the interface files zros ships (the demo's
+``rosR_demos``), the few services and actions zros defines, and the rosbags typestore of the
+selected ROS distro.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from zros.cdr.builtin import builtin_definition, builtin_names
+from zros.cdr.builtin import SHIPPED_PACKAGES, builtin_definition, builtin_names
 from zros.cdr.errors import UnknownTypeError
 from zros.cdr.model import (
     ActionDef,
@@ -163,6 +164,8 @@ class TypeRegistry:
             if entry.name == package:
                 files.append(entry / kind / filename)
         files += [prefix / 'share' / package / kind / filename for prefix in self._ament]
+        if package in SHIPPED_PACKAGES:
+            files.append(SHIPPED_PACKAGES[package] / kind / filename)
         return files
 
     def _load(self, name: str) -> Definition | None:
@@ -190,7 +193,9 @@ class TypeRegistry:
             places += [f'AMENT_PREFIX_PATH entry {p}/share' for p in self._ament]
         else:
             places.append('AMENT_PREFIX_PATH (not set or ignored)')
-        places.append('zros built-in services and actions')
+        places.append(
+            f'zros built-in services and actions, and packages {", ".join(SHIPPED_PACKAGES)}'
+        )
         places.append(
             f'rosbags typestore ros2_{self.distro} ({len(self.typestore.fielddefs)} messages)'
         )
@@ -327,6 +332,8 @@ class TypeRegistry:
         roots = [*self._paths, *(entry / 'share' for entry in [*self._paths, *self._ament])]
         for root in roots:
             names.update(_scan(root))
+        for package, folder in SHIPPED_PACKAGES.items():
+            names.update(f'{package}/{name.split("/", 1)[1]}' for name in _scan(folder))
         return sorted(names)
 
     # --- classes ---------------------------------------------------------------------------

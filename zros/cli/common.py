@@ -158,6 +158,36 @@ def message_class(type_name: str) -> Any:
     return found
 
 
+def known_type(node: Node, topic: str, type_name: str) -> str:
+    """``type_name``, after making sure ``node`` can decode it.
+
+    A type zros cannot resolve is asked of the nodes publishing ``topic``, then of the other
+    nodes serving ``~/get_type_description`` (ROS 2 nodes, a zros node playing a bag); the
+    answer is registered. When nobody describes it, the UnknownTypeError says where zros looked
+    and how to add the definition.
+    """
+    from zros.cdr.errors import UnknownTypeError
+    from zros.typeinfo import SERVICE_NAME, learn_type
+
+    try:
+        node.registry.get_class(type_name)
+        return type_name
+    except UnknownTypeError as exc:
+        unknown = exc
+    key = node.scheme.key(node.resolve_name(topic))
+    publishers = [e for e in node.graph.publishers(key) if e.type_name == type_name]
+    owners = {e.node: e.type_hash for e in publishers if e.node}
+    type_hash = next((e.type_hash for e in publishers if e.type_hash), None)
+    suffix = '/' + SERVICE_NAME
+    for service in names_on_graph(node, 'services'):
+        if service.endswith(suffix):
+            owners.setdefault(service[: -len(suffix)], type_hash)
+    if learn_type(node, type_name, owners.items(), timeout=DISCOVERY) is not None:
+        return type_name
+    asked = ', '.join(owners) or 'none serves ~/get_type_description'
+    raise CommandError(f'{unknown}\nThe nodes on the network did not describe it ({asked}).')
+
+
 def build_message(cls: Any, values: dict[str, Any]) -> Any:
     """A message of ``cls`` with ``values`` (nested dicts for nested fields), checked before
     anything is sent: a wrong field name or value is a usage error naming the field."""
