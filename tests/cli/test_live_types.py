@@ -82,6 +82,6 @@ def test_the_demo_type_ships_with_zros(cli: Cli) -> None:
     # no registration and no ZROS_INTERFACE_PATH: the .msg inside the package is found
     shown = cli.run('interface', 'show', 'rosR_demos/msg/Linearization')
     assert shown.returncode == 0, shown.stderr
-    assert 'float32 dist' in shown.stdout
+    assert 'float32 dist   # metres' in shown.stdout.splitlines()  # its comments too
     listed = cli.run('interface', 'list', 'rosR_demos')
     assert listed.stdout.split() == ['rosR_demos/msg/Linearization']

@@ -7,6 +7,7 @@ Each entry lists fields as ``"type name [default]"`` and constants as ``"type NA
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from zros.cdr.model import ActionDef, Definition, ServiceDef
@@ -102,10 +103,11 @@ def builtin_names() -> list[str]:
 
 def builtin_definition(name: str) -> Definition | None:
     """The built-in definition of ``name``, or None when zros does not define it."""
+    # no source text: these field lists stand for files whose text (comments) lies elsewhere
     if name in _SERVICES:
         service: ServiceDef = parse_service(name, _text(*_SERVICES[name]), _ORIGIN)
-        return service
+        return replace(service, source='')
     if name in _ACTIONS:
         action: ActionDef = parse_action(name, _text(*_ACTIONS[name]), _ORIGIN)
-        return action
+        return replace(action, source='')
     return None

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import sys
 import threading
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -167,6 +168,17 @@ class TypeRegistry:
         if package in SHIPPED_PACKAGES:
             files.append(SHIPPED_PACKAGES[package] / kind / filename)
         return files
+
+    def text_files(self, name: str) -> list[Path]:
+        """Existing files that may hold the text of ``name``: this registry's sources, then the
+        ``share`` folder of ROS 2 wheels installed in this Python environment (their files have
+        the comments the typestores drop; ``interface show`` prints them)."""
+        package, kind, short = split_type_name(name)
+        files = self._candidate_files(name)
+        wheels = Path(sys.prefix) / 'share'
+        if (wheels / 'ament_index').is_dir():
+            files.append(wheels / package / kind / (short + _EXTENSIONS[kind]))
+        return [path for path in files if path.is_file()]
 
     def _load(self, name: str) -> Definition | None:
         if name in self._registered:
