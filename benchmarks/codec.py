@@ -5,6 +5,9 @@ column (copying the encoded bytes once) and the issue's goals as ratios to rosba
 
     python benchmarks/codec.py            # all messages
     python benchmarks/codec.py --quick    # fewer repeats
+
+A second table times building messages with keyword arguments (and one attribute assignment),
+the loop a node runs before each ``write``: zros checks field names and value types there.
 """
 
 from __future__ import annotations
@@ -190,17 +193,11 @@ def pycdr2_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[[
 
 def rclpy_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[[], Any]] | None:
     try:
-        import importlib
-
         from rclpy.serialization import deserialize_message, serialize_message
     except ImportError:
         return None
     from zros.cdr.model import Kind
     from zros.cdr.naming import attribute_name
-
-    def rclpy_class(type_name: str) -> Any:
-        package, kind, short = type_name.split('/')
-        return getattr(importlib.import_module(f'{package}.{kind}'), short)
 
     def convert(value: Any) -> Any:
         out = rclpy_class(value.__msgtype__)()
@@ -220,6 +217,73 @@ def rclpy_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[[]
         return None  # a message package not on PyPI (tf2_msgs)
     data = serialize_message(converted)
     return (lambda: serialize_message(converted), lambda: deserialize_message(data, cls))
+
+
+# --- construction -------------------------------------------------------------------------
+
+
+def constructions(C: Callable[[str], Any]) -> dict[str, Callable[[], Any]]:  # noqa: N803
+    """Keyword constructions a node runs per message, and one attribute assignment, with the
+    classes ``C(type_name)`` gives."""
+    Float32 = C('std_msgs/msg/Float32')
+    String = C('std_msgs/msg/String')
+    Vector3 = C('geometry_msgs/msg/Vector3')
+    Twist = C('geometry_msgs/msg/Twist')
+    Header = C('std_msgs/msg/Header')
+    Time = C('builtin_interfaces/msg/Time')
+    Range = C('sensor_msgs/msg/Range')
+    Pose = C('geometry_msgs/msg/Pose')
+    Point = C('geometry_msgs/msg/Point')
+    Quaternion = C('geometry_msgs/msg/Quaternion')
+    header = Header(stamp=Time(sec=1740933158, nanosec=226629828), frame_id='ir')
+    message = Range()
+
+    def assign() -> None:
+        message.range = 0.25
+
+    return {
+        'Float32(data=)': lambda: Float32(data=1.5),
+        'String(data=)': lambda: String(data='hello world'),
+        'Time(sec=, nanosec=)': lambda: Time(sec=1740933158, nanosec=226629828),
+        'Twist(2 x Vector3(...))': lambda: Twist(
+            linear=Vector3(x=0.5, y=0.1, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.3)
+        ),
+        'Pose(Point, Quaternion)': lambda: Pose(
+            position=Point(x=1.0, y=2.0, z=0.0), orientation=Quaternion(w=1.0)
+        ),
+        'Range(header=, 5 scalars)': lambda: Range(
+            header=header,
+            radiation_type=1,
+            field_of_view=0.1,
+            min_range=0.04,
+            max_range=0.3,
+            range=0.1,
+        ),
+        'Range() defaults': Range,
+        'range.range = 0.25': assign,
+    }
+
+
+def rclpy_class(type_name: str) -> Any:
+    """rclpy's class of a message type (ImportError when its package is not installed)."""
+    import importlib
+
+    package, kind, short = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), short)
+
+
+def print_constructions(repeats: int, budget: float) -> None:
+    """Microseconds per construction, zros and rclpy."""
+    try:
+        theirs = constructions(rclpy_class)
+    except ImportError:
+        theirs = {}
+    print(f'\n{"construction with keywords":32} | {"zros":>8} {"rclpy":>8}')
+    print('-' * 52)
+    for name, build in constructions(C).items():
+        ours = best_time(build, repeats, budget)
+        other = best_time(theirs[name], repeats, budget) if name in theirs else None
+        print(f'{name:32} | {_fmt(ours):>8} {_fmt(other):>8}')
 
 
 # --- timing ------------------------------------------------------------------------------
@@ -313,6 +377,8 @@ def main() -> None:
             + f'{ratio_enc:>6.2f} {ratio_dec:>6.2f}'
         )
     print_goals(results)
+    if not args.only:
+        print_constructions(repeats, budget)
 
 
 def print_goals(results: dict[str, dict[str, float | None]]) -> None:

@@ -14,6 +14,7 @@ __version__ = '0.1.0'
 _LAZY = {
     'ZrosError': ('zros.errors', 'ZrosError'),
     'CdrError': ('zros.cdr', 'CdrError'),
+    'FieldError': ('zros.cdr', 'FieldError'),
     'UnknownTypeError': ('zros.cdr', 'UnknownTypeError'),
     'InterfaceSyntaxError': ('zros.cdr', 'InterfaceSyntaxError'),
     'get_type': ('zros.cdr', 'get_type'),
@@ -111,6 +112,7 @@ if TYPE_CHECKING:
     from zros.bag import bag_read
     from zros.cdr import (
         CdrError,
+        FieldError,
         InterfaceSyntaxError,
         UnknownTypeError,
         get_type,
@@ -180,6 +182,7 @@ __all__ = [
     'Descriptor',
     'Durability',
     'Duration',
+    'FieldError',
     'GoalRejectedError',
     'GoalResponse',
     'GoalStatus',

@@ -83,6 +83,7 @@ class Endpoint:
     wire: str = 'bridge'  #: the scheme that announced it: 'bridge' or 'rmw_zenoh'
     name: str | None = None  #: rmw_zenoh: the ROS name as announced
     gid: bytes | None = None  #: rmw_zenoh: the entity's GID (what ``ros2 topic info -v`` shows)
+    type_hash: str | None = None  #: its type's RIHS01 hash, when announced
 
     def ros_name(self, namespace: str = '/') -> str:
         """Its ROS name (through a bridge with ``namespace``, for bridged endpoints)."""
@@ -326,7 +327,18 @@ class Graph:
                 continue
             owner = owners.get((token.zid, token.kind, token.key, token.type_name))
             qos = token.qos.to_qos(token.kind is EntityKind.PUBLISHER) if token.qos else None
-            result.append(Endpoint(token.kind, token.zid, token.key, token.type_name, qos, owner))
+            type_hash = token.qos.type_hash if token.qos else None
+            result.append(
+                Endpoint(
+                    token.kind,
+                    token.zid,
+                    token.key,
+                    token.type_name,
+                    qos,
+                    owner,
+                    type_hash=type_hash,
+                )
+            )
         for key, entity in rmw:
             if kinds is not None and entity.kind not in kinds:
                 continue
@@ -341,6 +353,7 @@ class Graph:
                     'rmw_zenoh',
                     entity.topic,
                     gid(key),
+                    entity.type_hash if entity.type_hash.startswith('RIHS01_') else None,
                 )
             )
         return sorted(result, key=lambda e: (e.key, e.kind.value, e.zid))

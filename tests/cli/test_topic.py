@@ -180,15 +180,38 @@ def test_pub_at_a_rate_and_latched(cli: Cli, zros_node: Node) -> None:
     latched.process.terminate()
 
 
-def test_pub_rejects_bad_values(cli: Cli) -> None:
-    for values, expected in (
-        ('{data: [1, 2', 'not valid YAML'),
-        ('[1, 2]', 'must be a YAML mapping'),
-        ('{nope: 1}', 'cannot make a std_msgs/msg/Int32'),
+def test_pub_rejects_bad_values_before_publishing(cli: Cli) -> None:
+    # mistakes in what was typed are usage errors (exit 2), one line naming the field
+    for type_name, values, expected in (
+        ('std_msgs/msg/Int32', '{data: [1, 2', 'not valid YAML'),
+        ('std_msgs/msg/Int32', '[1, 2]', 'must be a YAML mapping'),
+        (
+            'std_msgs/msg/String',
+            '{dat: hi}',
+            "std_msgs/msg/String has no field 'dat' (did you mean 'data'? fields: data)",
+        ),
+        (
+            'std_msgs/msg/Float32',
+            '{data: abc}',
+            "std_msgs/msg/Float32 field 'data': expected a float for float32, got str 'abc'",
+        ),
+        (
+            'geometry_msgs/msg/PoseStamped',
+            '{pose: {position: {xx: 1}}}',
+            "geometry_msgs/msg/PoseStamped has no field 'pose.position.xx' (did you mean "
+            "'pose.position.x'? fields of geometry_msgs/msg/Point: x, y, z)",
+        ),
+        (
+            'std_msgs/msg/UInt8',
+            '{data: 300}',
+            "std_msgs/msg/UInt8: field 'data': 300 is out of the range of uint8 [0, 255]",
+        ),
     ):
-        result = cli.run('topic', 'pub', '/x', 'std_msgs/msg/Int32', values, '--once')
-        assert result.returncode == 1
+        result = cli.run('topic', 'pub', '/x', type_name, values, '--once')
+        assert result.returncode == 2, result.stderr
         assert expected in result.stderr
+        assert len(result.stderr.splitlines()) == 1, result.stderr
+        assert 'publishing' not in result.stdout
     result = cli.run('topic', 'pub', '/x', 'std_srvs/srv/SetBool', '{}', '--once')
     assert result.returncode == 1
     assert 'is not a message type' in result.stderr

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from zros.cdr import Message
     from zros.node import Node
     from zros.pubsub import Publisher
+    from zros.typeinfo import TypeDescriptionService
 
 _log = logging.getLogger('zros.bag')
 _NS = 1_000_000_000
@@ -206,6 +207,7 @@ class Player:
             _log.warning('%s; playing the other topics', problem)
         self.connections = playable
         self.topics = {p.topic: p.type_name for p in by_topic.values()}
+        self._describe_bag_types(list(by_topic.values()))
         self._clock_publisher: Publisher | None = None
         if self._clock_hz is not None:
             self._clock_publisher = Publisher(
@@ -215,6 +217,18 @@ class Player:
             self._clock_msg = self._clock_publisher.msg_type()
         self.clock = PlayClock(self.start_ns, self.rate)
         self.clock.pause()
+
+    def _describe_bag_types(self, publishers: list[Publisher]) -> None:
+        """Serve ``~/get_type_description`` for the types only the bag defines, as ROS 2 nodes
+        serve their types: ``zros topic echo`` (and ROS tools) learn them from the player."""
+        self._types: TypeDescriptionService | None = None
+        own = [p.msg_type for p in publishers if p.msg_type._registry is not self.node.registry]
+        if own:
+            from zros.typeinfo import TypeDescriptionService
+
+            self._types = TypeDescriptionService(self.node)
+            for cls in own:
+                self._types.add(cls)
 
     def _full_name(self, name: str) -> str:
         try:
@@ -441,6 +455,8 @@ class Player:
         for publisher in {*self._publishers.values(), self._clock_publisher}:
             if publisher is not None:
                 publisher.close()
+        if self._types is not None:
+            self._types.close()
         self.source.close()
 
     def __enter__(self) -> Player:

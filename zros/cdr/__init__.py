@@ -11,7 +11,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from zros.cdr.errors import CdrError, InterfaceSyntaxError, TypeNameError, UnknownTypeError
+from zros.cdr.errors import (
+    CdrError,
+    FieldError,
+    InterfaceSyntaxError,
+    TypeNameError,
+    UnknownTypeError,
+)
 from zros.cdr.interfaces import ActionType, ServiceType
 from zros.cdr.message import Message, StructSeq, encode
 from zros.cdr.message import decode as _decode
@@ -72,6 +78,7 @@ __all__ = [
     'ActionType',
     'CdrError',
     'Definition',
+    'FieldError',
     'InterfaceSyntaxError',
     'Message',
     'MessageDef',

@@ -1,4 +1,5 @@
-"""The services and actions zros itself needs, defined from their field lists.
+"""The services and actions zros itself needs, defined from their field lists, and the
+interface packages whose files ship inside zros (the demo's).
 
 Messages come from the rosbags typestores; these few service and action types are not in them.
 Each entry lists fields as ``"type name [default]"`` and constants as ``"type NAME=value"``.
@@ -6,8 +7,15 @@ Each entry lists fields as ``"type name [default]"`` and constants as ``"type NA
 
 from __future__ import annotations
 
+from dataclasses import replace
+from pathlib import Path
+
 from zros.cdr.model import ActionDef, Definition, ServiceDef
 from zros.cdr.parser import parse_action, parse_service
+
+#: Interface packages whose files ship inside zros: package name -> its folder (``msg/X.msg``).
+#: The demo's custom type lives with the demo; every zros program and the CLI resolve it.
+SHIPPED_PACKAGES: dict[str, Path] = {'rosR_demos': Path(__file__).parent.parent / 'demo'}
 
 _Fields = tuple[str, ...]
 
@@ -95,10 +103,11 @@ def builtin_names() -> list[str]:
 
 def builtin_definition(name: str) -> Definition | None:
     """The built-in definition of ``name``, or None when zros does not define it."""
+    # no source text: these field lists stand for files whose text (comments) lies elsewhere
     if name in _SERVICES:
         service: ServiceDef = parse_service(name, _text(*_SERVICES[name]), _ORIGIN)
-        return service
+        return replace(service, source='')
     if name in _ACTIONS:
         action: ActionDef = parse_action(name, _text(*_ACTIONS[name]), _ORIGIN)
-        return action
+        return replace(action, source='')
     return None

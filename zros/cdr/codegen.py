@@ -967,6 +967,7 @@ def generate_methods(ctx: Context, msg: MessageDef) -> dict[str, Callable[..., A
     """
     result: dict[str, Callable[..., Any]] = {
         '__init__': _gen_init(ctx, msg),
+        '_zros_default': staticmethod(_gen_default(ctx, msg)),
         '__eq__': _gen_eq(ctx, msg),
         '__repr__': _gen_repr(ctx, msg),
         'copy': _gen_copy(ctx, msg),
@@ -994,83 +995,126 @@ def _field_category(ctx: Context, t: FieldType) -> str:
     return 'nested_list'
 
 
+def _scalar_check(t: FieldType, attr: str, type_: str, src: _Source) -> str:
+    """The cheap test a correct scalar argument passes; the slow path explains or converts."""
+    if t.base in ('float32', 'float64'):
+        return f'{type_}({attr}) is not {src.ref(float, "float")}'
+    if t.base == 'bool':
+        return f'{type_}({attr}) is not {src.ref(bool, "bool")}'
+    if t.is_string:
+        check = f'{type_}({attr}) is not {src.ref(str, "str")}'
+        return check + (f' or len({attr}) > {t.string_bound}' if t.string_bound else '')
+    # no range test here: it costs more than the type test, and encoding checks ranges
+    return f'{type_}({attr}) is not {src.ref(int, "int")}'
+
+
+def _default_expr(ctx: Context, src: _Source, f: Any, category: str) -> str:
+    """The expression of a field's default value (a fresh object for mutable ones)."""
+    t = f.type
+    if category in ('prim', 'str'):
+        default = f.default
+        if default is None:
+            zero = 0.0 if t.base.startswith('float') else False if t.base == 'bool' else 0
+            default = '' if t.is_string else zero
+        return repr(default) if isinstance(default, (bool, int)) else src.ref(default, 'd')
+    if category == 'prim_array':
+        dtype = src.ref(_value_dtype(t.base), 'D')
+        if f.default is not None:
+            return f'{src.ref(np.array, "array")}({src.ref(f.default, "d")}, {dtype})'
+        if t.kind is Kind.ARRAY:
+            return f'{src.ref(np.zeros, "zeros")}({t.length}, {dtype})'
+        return src.ref(convert.empty_array(_value_dtype(t.base)), 'E')
+    if category == 'str_list':
+        if f.default is not None:
+            return f'{src.ref(list, "list")}({src.ref(f.default, "d")})'
+        return f"[''] * {t.length}" if t.kind is Kind.ARRAY else '[]'
+    cls = src.ref(ctx.cls(t.base), 'C')
+    if category == 'nested':
+        return f'{cls}._zros_default()'
+    if category == 'nested_list':
+        if t.kind is Kind.ARRAY:
+            return f'[{cls}._zros_default() for _ in {src.ref(range, "range")}({t.length})]'
+        return '[]'
+    return f'{src.ref(_struct_seq_class(), "Seq")}({cls})'
+
+
+def _gen_default(ctx: Context, msg: MessageDef) -> Callable[[], Any]:
+    """A message with every default value, made without the constructor's checks (nested
+    defaults use it: they need no checking, and ``Msg()`` of a nested type costs twice as much)."""
+    src = _Source()
+    src.add(f'o = {src.ref(object.__new__, "new")}({src.ref(ctx.cls(msg.name), "C")})')
+    for f in msg.fields:
+        value = _default_expr(ctx, src, f, _field_category(ctx, f.type))
+        src.add(f'o.{attribute_name(f.name)} = {value}')
+    src.add('return o')
+    return src.compile('', '_zros_default')
+
+
 def _gen_init(ctx: Context, msg: MessageDef) -> Callable[..., None]:
-    # parameters are field names, which may shadow builtins: generated code uses only _names
+    # parameters are field names, which may shadow builtins: generated code uses only _names.
+    # Each scalar argument passes one cheap test (its exact type); anything else goes to a
+    # convert helper that converts it (an int for a float...) or raises a FieldError.
     src = _Source()
     missing = src.ref(_MISSING, 'MISSING')
     type_ = src.ref(type, 'type')
-    list_ = src.ref(list, 'list')
-    dict_ = src.ref(dict, 'dict')
-    range_ = src.ref(range, 'range')
+    name = src.ref(msg.name, 'name')
+    fields = tuple(attribute_name(f.name) for f in msg.fields)
+    src.add(f'if _extra: raise {src.ref(_unknown_field, "unknown")}({name}, {fields!r}, _extra)')
     params: list[str] = []
     for f in msg.fields:
         t = f.type
         attr = attribute_name(f.name)
         category = _field_category(ctx, t)
         target = f'_self.{attr}'
+        where = src.ref((msg.name, attr), 'w')
+        default = _default_expr(ctx, src, f, category)
         if category in ('prim', 'str'):
-            default = (
-                f.default
-                if f.default is not None
-                else (
-                    ''
-                    if t.is_string
-                    else False
-                    if t.base == 'bool'
-                    else 0.0
-                    if t.base.startswith('float')
-                    else 0
-                )
+            params.append(f'{attr}={default}')
+            scalar = src.ref(convert.scalar, 'scalar')
+            src.add(
+                f'if {_scalar_check(t, attr, type_, src)}: '
+                f'{attr} = {scalar}({attr}, {t.base!r}, {t.string_bound}, {where})'
             )
-            literal = repr(default) if isinstance(default, (bool, int)) else src.ref(default, 'd')
-            params.append(f'{attr}={literal}')
             src.add(f'{target} = {attr}')
             continue
         params.append(f'{attr}={missing}')
+        shape = (
+            t.length if t.kind is Kind.ARRAY else -1,
+            t.length if t.kind is Kind.BOUNDED else -1,
+        )
         if category == 'prim_array':
             dtype = src.ref(_value_dtype(t.base), 'D')
-            count = t.length if t.kind is Kind.ARRAY else -1
-            bound = t.length if t.kind is Kind.BOUNDED else -1
-            if f.default is not None:
-                default_expr = f'{src.ref(np.array, "array")}({src.ref(f.default, "d")}, {dtype})'
-            elif t.kind is Kind.ARRAY:
-                default_expr = f'{src.ref(np.zeros, "zeros")}({t.length}, {dtype})'
-            else:
-                default_expr = src.ref(convert.empty_array(_value_dtype(t.base)), 'E')
             conv = src.ref(convert.init_array, 'conv')
-            convert_expr = f'{conv}({attr}, {dtype}, {count}, {bound}, {f.name!r})'
-            src.add(f'{target} = {default_expr} if {attr} is {missing} else {convert_expr}')
+            value = f'{conv}({attr}, {dtype}, {shape}, {where})'
         elif category == 'str_list':
-            if f.default is not None:
-                default_expr = f'{list_}({src.ref(f.default, "d")})'
-            elif t.kind is Kind.ARRAY:
-                default_expr = f"[''] * {t.length}"
-            else:
-                default_expr = '[]'
-            src.add(f'{target} = {default_expr} if {attr} is {missing} else {list_}({attr})')
-        elif category == 'nested':
-            cls = src.ref(ctx.cls(t.base), 'C')
-            src.add(
-                f'{target} = {cls}() if {attr} is {missing} else '
-                f'({cls}.from_dict({attr}) if {type_}({attr}) is {dict_} else {attr})'
-            )
-        elif category == 'nested_list':
-            cls = src.ref(ctx.cls(t.base), 'C')
-            default_expr = (
-                f'[{cls}() for _ in {range_}({t.length})]' if t.kind is Kind.ARRAY else '[]'
-            )
-            src.add(
-                f'{target} = {default_expr} if {attr} is {missing} else '
-                f'[{cls}.from_dict(_x) if {type_}(_x) is {dict_} else _x for _x in {attr}]'
-            )
+            strings = src.ref(convert.string_list, 'strings')
+            value = f'{strings}({attr}, {t.base!r}, {t.string_bound}, {shape}, {where})'
         else:
             cls = src.ref(ctx.cls(t.base), 'C')
-            seq = src.ref(_struct_seq_class(), 'Seq')
-            src.add(f'{target} = {seq}({cls}) if {attr} is {missing} else {seq}({cls}, {attr})')
-    if not msg.fields:
-        src.add('pass')
-    signature = ', '.join(['_self', *params])
-    return src.compile(signature, '__init__')
+            if category == 'nested':
+                nested = src.ref(convert.message, 'message')
+                value = (
+                    f'({attr} if {type_}({attr}) is {cls} else {nested}({cls}, {attr}, {where}))'
+                )
+            elif category == 'nested_list':
+                value = (
+                    f'{src.ref(convert.message_list, "messages")}({cls}, {attr}, {shape}, {where})'
+                )
+            else:
+                items = src.ref(convert.struct_items, 'items')
+                seq = src.ref(_struct_seq_class(), 'Seq')
+                value = f'{seq}({cls}, {items}({cls}, {attr}, {shape[1]}, {where}))'
+        src.add(f'{target} = {default} if {attr} is {missing} else {value}')
+    signature = ', '.join(['_self', *params, '**_extra'])
+    init = src.compile(signature, '__init__')
+    init.__qualname__ = f'{msg.name.rsplit("/", 1)[1]}.__init__'
+    return init
+
+
+def _unknown_field(type_name: str, fields: tuple[str, ...], extra: dict[str, Any]) -> Exception:
+    from zros.cdr.errors import FieldError
+
+    return FieldError.unknown(type_name, next(iter(extra)), fields)
 
 
 _MISSING = object()

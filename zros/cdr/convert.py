@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import numbers
+import operator
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
+
+from zros.cdr.errors import FieldError
+from zros.cdr.model import INTEGER_RANGES
 
 
 class Bad(Exception):
@@ -95,17 +101,126 @@ def fixed_array(value: Any, dtype: np.dtype, count: int) -> np.ndarray:
     return array
 
 
-def init_array(value: Any, dtype: np.dtype, count: int, bound: int, name: str) -> np.ndarray:
+#: (message type, field path): where a constructor argument goes, for errors
+Where = tuple[str, str]
+#: (count of a fixed array or -1, bound of a bounded sequence or -1)
+Shape = tuple[int, int]
+
+
+def init_array(value: Any, dtype: np.dtype, shape: Shape, where: Where) -> np.ndarray:
     """Convert a constructor argument for an array field, with the field name in errors."""
     try:
         array = to_array(value, dtype)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise type(exc)(f'field {name!r}: {exc}') from None
-    if count >= 0 and len(array) != count:
-        raise ValueError(f'field {name!r}: expected exactly {count} elements, got {len(array)}')
-    if bound >= 0 and len(array) > bound:
-        raise ValueError(f'field {name!r}: {len(array)} elements exceed the bound of {bound}')
+        raise FieldError(*where, str(exc)) from None
+    _check_length(len(array), shape, where)
     return array
+
+
+def _check_length(size: int, shape: Shape, where: Where) -> None:
+    count, bound = shape
+    if count >= 0 and size != count:
+        raise FieldError(*where, f'expected exactly {count} elements, got {size}')
+    if bound >= 0 and size > bound:
+        raise FieldError(*where, f'{size} elements exceed the bound of {bound}')
+
+
+# --- constructor checks: called only when the generated fast check fails ------------------------
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + '...'
+
+
+def _wrong(where: Where, expected: str, value: Any) -> FieldError:
+    return FieldError(*where, f'expected {expected}, got {type(value).__name__} {_shown(value)}')
+
+
+def scalar(value: Any, primitive: str, bound: int, where: Where) -> Any:
+    """The value a scalar field keeps for a constructor argument, or a FieldError.
+
+    Floats take any real number but bools; integers take ints, numpy integers and bools, in range
+    (``byte`` also one byte, ``char`` one character); bools take bools and 0 or 1; strings take
+    str (``bound``: at most that many bytes in UTF-8).
+    """
+    if primitive in ('float32', 'float64'):
+        if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
+            return float(value)
+        raise _wrong(where, f'a float for {primitive}', value)
+    if primitive == 'bool':
+        if isinstance(value, (bool, np.bool_)) or (
+            isinstance(value, numbers.Integral) and value in (0, 1)
+        ):
+            return bool(value)
+        raise _wrong(where, 'a bool (true or false)', value)
+    if primitive in ('string', 'wstring'):
+        if not isinstance(value, str):
+            raise _wrong(where, f'a str for {primitive}', value)
+        if bound and len(value.encode()) > bound:
+            raise FieldError(*where, f'{_shown(value)} exceeds the bound of {bound} bytes')
+        return str(value)
+    if primitive in ('byte', 'char') and isinstance(value, (bytes, str)) and len(value) == 1:
+        value = ord(value)
+    elif isinstance(value, (float, np.floating)) or not hasattr(value, '__index__'):
+        raise _wrong(where, f'an int for {primitive}', value)
+    number = operator.index(value)
+    low, high = INTEGER_RANGES[primitive]
+    if not low <= number <= high:
+        raise FieldError(*where, f'{number} is out of the range of {primitive} [{low}, {high}]')
+    return int(number)
+
+
+def message(cls: Any, value: Any, where: Where) -> Any:
+    """A nested message field from a constructor argument: a message of its type or a dict."""
+    if isinstance(value, Mapping):
+        try:
+            return cls.from_dict(value)
+        except FieldError as exc:
+            raise exc.inside(*where) from None
+    if not isinstance(value, type) and getattr(value, '__msgtype__', None) == cls.__msgtype__:
+        return value  # the same type from another registry (a bag's own definitions)
+    raise _wrong(where, f'a {cls.__msgtype__} or a dict', value)
+
+
+def _items(value: Any, what: str, where: Where) -> list[Any]:
+    if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
+        raise _wrong(where, f'a list of {what}', value)
+    return list(value)
+
+
+def message_list(cls: Any, value: Any, shape: Shape, where: Where) -> list[Any]:
+    """A list of nested messages from a constructor argument (messages or dicts)."""
+    items = _items(value, cls.__msgtype__, where)
+    type_name, name = where
+    for index, item in enumerate(items):
+        if type(item) is not cls:
+            items[index] = message(cls, item, (type_name, f'{name}[{index}]'))
+    _check_length(len(items), shape, where)
+    return items
+
+
+def struct_items(cls: Any, value: Any, bound: int, where: Where) -> Any:
+    """The argument of a struct sequence field: arrays and StructSeqs as they are, else a
+    checked list of messages."""
+    from zros.cdr.message import StructSeq
+
+    if isinstance(value, (np.ndarray, StructSeq)):
+        return value
+    return message_list(cls, value, (-1, bound), where)
+
+
+def string_list(
+    value: Any, primitive: str, string_bound: int, shape: Shape, where: Where
+) -> list[str]:
+    """A list of strings from a constructor argument."""
+    items = _items(value, 'str', where)
+    type_name, name = where
+    for index, item in enumerate(items):
+        if type(item) is not str or (string_bound and len(item) > string_bound):
+            items[index] = scalar(item, primitive, string_bound, (type_name, f'{name}[{index}]'))
+    _check_length(len(items), shape, where)
+    return items
 
 
 def empty_array(dtype: np.dtype) -> np.ndarray:

@@ -296,3 +296,48 @@ def type_hash(registry: TypeRegistry, name: str) -> str:
     if entry.hash is None:
         entry.hash = hash_description(entry.description)
     return entry.hash
+
+
+# --- back from descriptions -----------------------------------------------------------------
+
+_IDS_TO_BASE = {type_id: base for base, type_id in _BASE_IDS.items() if base != 'char'}
+_IDS_TO_BASE.update({type_id: base for base, type_id in _BOUNDED_STRING_IDS.items()})
+
+
+def message_text(individual: Description, with_defaults: bool = True) -> str:
+    """The .msg text of one IndividualTypeDescription (a ROS node's answer to
+    ``GetTypeDescription``): its fields, with their defaults; descriptions carry no constants
+    and no comments. ValueError for a field type id that is not a message field."""
+    lines = []
+    fields = individual['fields']
+    if [f['name'] for f in fields] == [PLACEHOLDER_FIELD]:
+        fields = []
+    for f in fields:
+        ftype = f['type']
+        offset = max(o for o in _KIND_OFFSETS.values() if o <= ftype['type_id'])
+        kind = next(k for k, o in _KIND_OFFSETS.items() if o == offset)
+        base_id = ftype['type_id'] - offset
+        if base_id == _NESTED_ID:
+            package, _, short = ftype['nested_type_name'].split('/')
+            text = f'{package}/{short}'
+        elif base_id in _IDS_TO_BASE:
+            text = _IDS_TO_BASE[base_id]
+            if ftype['string_capacity']:
+                text += f'<={ftype["string_capacity"]}'
+        else:
+            raise ValueError(f'field {f["name"]!r} has the unknown type id {ftype["type_id"]}')
+        if kind is Kind.ARRAY:
+            text += f'[{ftype["capacity"]}]'
+        elif kind is Kind.BOUNDED:
+            text += f'[<={ftype["capacity"]}]'
+        elif kind is Kind.SEQUENCE:
+            text += '[]'
+        line = f'{text} {f["name"]}'
+        default = f.get('default_value', '')
+        if with_defaults and default:
+            # rosidl writes Python's str of the value: tuples for arrays, True/False for bools
+            if default.startswith('(') and default.endswith(')'):
+                default = '[' + default[1:-1].rstrip(',') + ']'
+            line += ' ' + {'True': 'true', 'False': 'false'}.get(default, default)
+        lines.append(line)
+    return ''.join(line + '\n' for line in lines)

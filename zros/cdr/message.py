@@ -14,7 +14,7 @@ import numpy as np
 
 from zros.cdr import codegen
 from zros.cdr.convert import Bad
-from zros.cdr.errors import CdrError
+from zros.cdr.errors import CdrError, FieldError
 from zros.cdr.layout import LayoutCache, StructInfo
 from zros.cdr.model import MessageDef
 from zros.cdr.naming import attribute_name
@@ -75,20 +75,19 @@ class Message:
     def from_dict(cls, data: Mapping[str, Any]) -> Self:
         """Build a message from nested dicts, as ``to_dict`` returns them.
 
-        Missing fields keep their defaults; unknown keys raise ValueError.
+        Missing fields keep their defaults. Keys may be ROS names or attribute names (``from`` or
+        ``from_``). An unknown key, or a value its field cannot hold, raises a
+        :class:`~zros.cdr.errors.FieldError` naming the field's path.
         """
         if not isinstance(data, Mapping):
             raise TypeError(
                 f'{cls.__msgtype__}.from_dict needs a mapping, got {type(data).__name__}'
             )
         names = {f.name: attribute_name(f.name) for f in cls._definition.fields}
-        allowed = set(names) | set(names.values())
-        unknown = [key for key in data if key not in allowed]
-        if unknown:
-            raise ValueError(
-                f'{cls.__msgtype__} has no field {unknown[0]!r}; '
-                f'its fields are: {", ".join(names) or "(none)"}'
-            )
+        attributes = set(names.values())
+        for key in data:
+            if key not in names and key not in attributes:
+                raise FieldError.unknown(cls.__msgtype__, str(key), tuple(names))
         return cls(**{names.get(key, key): value for key, value in data.items()})
 
     def serialize(self) -> bytes:

@@ -138,6 +138,8 @@ class MessageDef:
     fields: tuple[Field, ...]
     constants: tuple[Constant, ...] = ()
     origin: str = field(default='', compare=False)
+    #: the text it was parsed from, comments included ('' when it came from a typestore)
+    source: str = field(default='', compare=False, repr=False)
 
     def nested_types(self) -> list[str]:
         """Names of the message types the fields refer to, in field order, without repeats."""
@@ -156,6 +158,8 @@ class ServiceDef:
     request: MessageDef
     response: MessageDef
     origin: str = field(default='', compare=False)
+    #: the .srv text it was parsed from, comments included
+    source: str = field(default='', compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -167,6 +171,8 @@ class ActionDef:
     result: MessageDef
     feedback: MessageDef
     origin: str = field(default='', compare=False)
+    #: the .action text it was parsed from, comments included
+    source: str = field(default='', compare=False, repr=False)
 
 
 Definition = MessageDef | ServiceDef | ActionDef

@@ -8,7 +8,7 @@ the origin, line and column and say what was expected.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from zros.cdr.errors import InterfaceSyntaxError
 from zros.cdr.model import (
@@ -295,7 +295,7 @@ def parse_message(name: str, text: str, origin: str = '<string>') -> MessageDef:
     """Parse .msg text of the message ``pkg/msg/Name``."""
     split_type_name(name)
     src = _Source(origin)
-    return _parse_lines(src, name, _lines(text))
+    return replace(_parse_lines(src, name, _lines(text)), source=text)
 
 
 def parse_service(name: str, text: str, origin: str = '<string>') -> ServiceDef:
@@ -308,6 +308,7 @@ def parse_service(name: str, text: str, origin: str = '<string>') -> ServiceDef:
         _parse_lines(src, name + '_Request', request),
         _parse_lines(src, name + '_Response', response),
         origin,
+        text,
     )
 
 
@@ -322,6 +323,7 @@ def parse_action(name: str, text: str, origin: str = '<string>') -> ActionDef:
         _parse_lines(src, name + '_Result', result),
         _parse_lines(src, name + '_Feedback', feedback),
         origin,
+        text,
     )
 
 
@@ -362,4 +364,7 @@ def parse_message_bundle(name: str, text: str, origin: str = '<string>') -> list
             continue
         sections[-1][1].append(line)
         index += 1
-    return [_parse_lines(src, section_name, body) for section_name, body in sections]
+    return [
+        replace(_parse_lines(src, section_name, body), source=''.join(f'{x.raw}\n' for x in body))
+        for section_name, body in sections
+    ]

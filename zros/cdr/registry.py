@@ -1,20 +1,22 @@
 """Resolve ROS type names to definitions and generated classes.
 
 Sources, first match wins: definitions registered at run time, folders on ``ZROS_INTERFACE_PATH``,
-``share/<pkg>`` folders under ``AMENT_PREFIX_PATH``, the few services and actions zros defines,
-and the rosbags typestore of the selected ROS distro.
+``share/<pkg>`` folders under ``AMENT_PREFIX_PATH``, the interface files zros ships (the demo's
+``rosR_demos``), the few services and actions zros defines, and the rosbags typestore of the
+selected ROS distro.
 """
 
 from __future__ import annotations
 
 import difflib
 import os
+import sys
 import threading
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from zros.cdr.builtin import builtin_definition, builtin_names
+from zros.cdr.builtin import SHIPPED_PACKAGES, builtin_definition, builtin_names
 from zros.cdr.errors import UnknownTypeError
 from zros.cdr.model import (
     ActionDef,
@@ -163,7 +165,20 @@ class TypeRegistry:
             if entry.name == package:
                 files.append(entry / kind / filename)
         files += [prefix / 'share' / package / kind / filename for prefix in self._ament]
+        if package in SHIPPED_PACKAGES:
+            files.append(SHIPPED_PACKAGES[package] / kind / filename)
         return files
+
+    def text_files(self, name: str) -> list[Path]:
+        """Existing files that may hold the text of ``name``: this registry's sources, then the
+        ``share`` folder of ROS 2 wheels installed in this Python environment (their files have
+        the comments the typestores drop; ``interface show`` prints them)."""
+        package, kind, short = split_type_name(name)
+        files = self._candidate_files(name)
+        wheels = Path(sys.prefix) / 'share'
+        if (wheels / 'ament_index').is_dir():
+            files.append(wheels / package / kind / (short + _EXTENSIONS[kind]))
+        return [path for path in files if path.is_file()]
 
     def _load(self, name: str) -> Definition | None:
         if name in self._registered:
@@ -190,7 +205,9 @@ class TypeRegistry:
             places += [f'AMENT_PREFIX_PATH entry {p}/share' for p in self._ament]
         else:
             places.append('AMENT_PREFIX_PATH (not set or ignored)')
-        places.append('zros built-in services and actions')
+        places.append(
+            f'zros built-in services and actions, and packages {", ".join(SHIPPED_PACKAGES)}'
+        )
         places.append(
             f'rosbags typestore ros2_{self.distro} ({len(self.typestore.fielddefs)} messages)'
         )
@@ -327,6 +344,8 @@ class TypeRegistry:
         roots = [*self._paths, *(entry / 'share' for entry in [*self._paths, *self._ament])]
         for root in roots:
             names.update(_scan(root))
+        for package, folder in SHIPPED_PACKAGES.items():
+            names.update(f'{package}/{name.split("/", 1)[1]}' for name in _scan(folder))
         return sorted(names)
 
     # --- classes ---------------------------------------------------------------------------

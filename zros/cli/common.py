@@ -1,9 +1,9 @@
 """What the ``zros`` subcommands share: connection options, the command node, values, exits.
 
-Exit codes: 0 success, 1 a failure the message explains, 2 a usage error (argparse, or a
-setting that cannot work, such as a malformed endpoint), 130 interrupted before finishing, 141
-the reader of the output went away (``| head``; no traceback).
-Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
+Exit codes: 0 success, 1 a failure the message explains, 2 a usage error (argparse, a setting
+that cannot work such as a malformed endpoint, or a field name or value a message type refuses),
+130 interrupted before finishing, 141 the reader of the output went away (``| head``; no
+traceback). Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
 """
 
 from __future__ import annotations
@@ -26,6 +26,14 @@ DISCOVERY = 2.0  #: seconds a one-shot command gives the graph to show itself
 
 class CommandError(Exception):
     """A failure to report in one line, exit code 1."""
+
+    exit_code = 1
+
+
+class UsageError(CommandError):
+    """A mistake in what was typed (a field name, a value), exit code 2 as argparse's own."""
+
+    exit_code = 2
 
 
 def add_connection_options(parser: argparse.ArgumentParser) -> None:
@@ -126,11 +134,16 @@ def parse_values(text: str | None) -> dict[str, Any]:
     try:
         values = YAML(typ='safe', pure=True).load(text)
     except YAMLError as exc:
-        raise CommandError(f'the values are not valid YAML: {exc}') from None
+        problem = getattr(exc, 'problem', None)
+        mark = getattr(exc, 'problem_mark', None)
+        if problem and mark is not None:  # one line: what, and where
+            where = f'column {mark.column + 1}' if '\n' not in text else f'line {mark.line + 1}'
+            raise UsageError(f'the values are not valid YAML: {problem} ({where})') from None
+        raise UsageError(f'the values are not valid YAML: {exc}') from None
     if values is None:
         return {}
     if not isinstance(values, dict):
-        raise CommandError(f'the values must be a YAML mapping like "{{data: 1}}", not {text!r}')
+        raise UsageError(f'the values must be a YAML mapping like "{{data: 1}}", not {text!r}')
     return values
 
 
@@ -145,12 +158,50 @@ def message_class(type_name: str) -> Any:
     return found
 
 
-def build_message(cls: Any, values: dict[str, Any]) -> Any:
-    """A message of ``cls`` with ``values`` (nested dicts for nested fields)."""
+def known_type(node: Node, topic: str, type_name: str) -> str:
+    """``type_name``, after making sure ``node`` can decode it.
+
+    A type zros cannot resolve is asked of the nodes publishing ``topic``, then of the other
+    nodes serving ``~/get_type_description`` (ROS 2 nodes, a zros node playing a bag); the
+    answer is registered. When nobody describes it, the UnknownTypeError says where zros looked
+    and how to add the definition.
+    """
+    from zros.cdr.errors import UnknownTypeError
+    from zros.typeinfo import SERVICE_NAME, learn_type
+
     try:
-        return cls(**values)
-    except (TypeError, ValueError, AttributeError) as exc:
-        raise CommandError(f'cannot make a {cls.__msgtype__} from {values}: {exc}') from None
+        node.registry.get_class(type_name)
+        return type_name
+    except UnknownTypeError as exc:
+        unknown = exc
+    key = node.scheme.key(node.resolve_name(topic))
+    publishers = [e for e in node.graph.publishers(key) if e.type_name == type_name]
+    owners = {e.node: e.type_hash for e in publishers if e.node}
+    type_hash = next((e.type_hash for e in publishers if e.type_hash), None)
+    suffix = '/' + SERVICE_NAME
+    for service in names_on_graph(node, 'services'):
+        if service.endswith(suffix):
+            owners.setdefault(service[: -len(suffix)], type_hash)
+    if learn_type(node, type_name, owners.items(), timeout=DISCOVERY) is not None:
+        return type_name
+    asked = ', '.join(owners) or 'none serves ~/get_type_description'
+    raise CommandError(f'{unknown}\nThe nodes on the network did not describe it ({asked}).')
+
+
+def build_message(cls: Any, values: dict[str, Any]) -> Any:
+    """A message of ``cls`` with ``values`` (nested dicts for nested fields), checked before
+    anything is sent: a wrong field name or value is a usage error naming the field."""
+    from zros.cdr.errors import CdrError, FieldError
+    from zros.cdr.message import encode
+
+    try:
+        message = cls.from_dict(values)
+        encode(message)  # what only encoding checks: integer ranges, bounds, float32 overflow
+    except (FieldError, CdrError) as exc:
+        raise UsageError(str(exc)) from None
+    except (TypeError, ValueError) as exc:
+        raise UsageError(f'cannot make a {cls.__msgtype__} from {values}: {exc}') from None
+    return message
 
 
 @contextmanager

@@ -3,26 +3,39 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
-from zros.cli.common import CommandError, out
+from zros.cli.common import CommandError, UsageError, out
 
 
 def show(args: argparse.Namespace) -> int:
-    """Print the definition of a type (with its dependencies with --all, its hash with --hash)."""
+    """Print a type as ``ros2 interface show`` does: nested types expanded beneath their fields,
+    comments of the type itself (``--all-comments``: of nested types too; ``--no-comments``:
+    none). ``--all`` prints the bag format instead (the definition, then its dependencies);
+    ``--hash`` adds the RIHS01 hash."""
     from zros.cdr import default_registry
+    from zros.cdr.expand import expanded_text
     from zros.cdr.model import MessageDef
-    from zros.cdr.render import render_bundle, render_definition
+    from zros.cdr.render import render_bundle
 
     registry = default_registry()
-    definition = registry.definition(args.type)
+    type_name = args.type
+    if type_name == '-':  # ros2's form: zros topic type /chatter | zros interface show -
+        type_name = sys.stdin.readline().strip()
+        if not type_name:
+            raise UsageError('expected a type name on standard input')
+    definition = registry.definition(type_name)
     if args.all and isinstance(definition, MessageDef):
-        print(render_bundle(registry, definition.name), end='')
+        text = render_bundle(registry, definition.name)
     else:
-        print(render_definition(definition), end='')
+        comments = 'none' if args.no_comments else 'all' if args.all_comments else 'top'
+        text = expanded_text(registry, definition.name, comments)
+    sys.stdout.write(text)
     if args.hash:
         from zros.cdr.hashing import type_hash
 
-        print(f'# {type_hash(registry, definition.name)}')
+        sys.stdout.write(f'# {type_hash(registry, definition.name)}\n')
+    sys.stdout.flush()
     return 0
 
 
@@ -64,10 +77,21 @@ def package(args: argparse.Namespace) -> int:
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     interface = commands.add_parser('interface', help='message, service and action types')
     verbs = interface.add_subparsers(dest='verb', metavar='VERB', required=True)
-    show_parser = verbs.add_parser('show', help='print the definition of a type')
-    show_parser.add_argument('type', help='e.g. geometry_msgs/msg/Twist')
+    show_parser = verbs.add_parser(
+        'show', help='print the definition of a type, nested types expanded (as ros2)'
+    )
+    show_parser.add_argument(
+        'type', help="e.g. geometry_msgs/msg/Twist; '-' reads it from standard input"
+    )
+    comments = show_parser.add_mutually_exclusive_group()
+    comments.add_argument(
+        '--all-comments', action='store_true', help='comments of nested types too'
+    )
+    comments.add_argument('--no-comments', action='store_true', help='no comments, no blank lines')
     show_parser.add_argument('--hash', action='store_true', help='also print the RIHS01 hash')
-    show_parser.add_argument('--all', action='store_true', help='append its dependencies')
+    show_parser.add_argument(
+        '--all', action='store_true', help='the bag format: the text, then each dependency'
+    )
     show_parser.set_defaults(run='zros.cli.interface:show')
     listing = verbs.add_parser('list', help='list the types zros can resolve')
     listing.add_argument('pattern', nargs='?', default='', help='only names containing this')

@@ -96,7 +96,7 @@ def _run(argv: Sequence[str] | None) -> int:
         return 2
     except (ZrosError, CommandError) as exc:
         print(f'zros: error: {exc}', file=sys.stderr)
-        return 1
+        return exc.exit_code if isinstance(exc, CommandError) else 1
     except KeyboardInterrupt:
         return 130
 

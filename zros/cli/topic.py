@@ -18,6 +18,7 @@ from zros.cli.common import (
     add_connection_options,
     build_message,
     find_names,
+    known_type,
     message_class,
     open_node,
     out,
@@ -137,7 +138,9 @@ def echo(args: argparse.Namespace) -> int:
         return value_to_yaml(value, flow_style=args.flow_style, **options)
 
     with open_node(args) as node:
-        type_name = args.type or _topic_type(node, args.topic, args.wait)
+        type_name = known_type(
+            node, args.topic, args.type or _topic_type(node, args.topic, args.wait)
+        )
         publishers = _publishers_and_subscribers(node, args.topic)[0]
         latched = bool(publishers) and all(
             p.qos is not None and p.qos.transient_local for p in publishers
@@ -340,7 +343,9 @@ def delay(args: argparse.Namespace) -> int:
     from zros.clock import Time
 
     with open_node(args) as node:
-        type_name = args.type or _topic_type(node, args.topic, args.wait)
+        type_name = known_type(
+            node, args.topic, args.type or _topic_type(node, args.topic, args.wait)
+        )
         if 'header' not in message_class(type_name).__slots__:
             raise CommandError(f'{type_name} has no header: its delay cannot be measured')
         delays: deque[float] = deque(maxlen=args.window)

@@ -255,7 +255,9 @@ class StandIn:
                 (self.node.get_subscriptions_info_by_topic(name), subscribers),
             ):
                 endpoints = {
-                    bytes(info.endpoint_gid).hex(): endpoint_qos(info.qos_profile)
+                    bytes(info.endpoint_gid).hex(): endpoint_qos(
+                        info.qos_profile, info.topic_type_hash
+                    )
                     for info in infos
                     if not self._is_own(info.node_name, info.node_namespace)
                 }

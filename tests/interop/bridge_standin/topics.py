@@ -82,11 +82,12 @@ def reader_profile(qos: p.TokenQos) -> QoSProfile:
     )
 
 
-def endpoint_qos(profile: QoSProfile) -> p.TokenQos:
+def endpoint_qos(profile: QoSProfile, type_hash: Any = None) -> p.TokenQos:
     """The token QoS of a discovered ROS endpoint.
 
     DDS discovery carries reliability and durability but not history (rclpy reports UNKNOWN,
-    depth 0), so the history field stays unset.
+    depth 0), so the history field stays unset. A Jazzy bridge adds the endpoint's type hash
+    (``typehash=RIHS01_...;``, from the DDS user data; here rclpy's ``TypeHash``).
     """
     reliability = {
         ReliabilityPolicy.RELIABLE: p.RELIABLE,
@@ -101,7 +102,10 @@ def endpoint_qos(profile: QoSProfile) -> p.TokenQos:
         history, depth = p.KEEP_LAST, profile.depth
     elif profile.history == HistoryPolicy.KEEP_ALL:
         history, depth = p.KEEP_ALL, profile.depth
-    return p.TokenQos(False, reliability, durability, history, depth)
+    user_data = None
+    if type_hash is not None and type_hash.version == 1:
+        user_data = f'typehash=RIHS01_{bytes(type_hash.value).hex()};'
+    return p.TokenQos(False, reliability, durability, history, depth, user_data)
 
 
 def interface_class(type_name: str) -> Any:

@@ -1,0 +1,180 @@
+"""Type definitions over the network: ``~/get_type_description``, as ROS 2 nodes serve it.
+
+ROS 2 nodes (Iron and later; rclpy starts the service unless ``start_type_description_service``
+is false) answer ``type_description_interfaces/srv/GetTypeDescription`` on
+``<node>/get_type_description`` for the types their publishers, subscriptions and services use,
+asked by name and RIHS01 hash. The answer holds the type's structure (fields, nested types,
+default values) and, where the server has them, the definition files' text.
+
+zros uses it both ways: :func:`learn_type` asks the nodes publishing a topic for a type zros
+cannot resolve (the CLI does that before it reports an unknown type), and
+:class:`TypeDescriptionService` answers for the types of a zros node's own entities, so that a
+node playing a bag serves the bag's definitions (``zros bag play`` does).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
+
+from zros.cdr.errors import UnknownTypeError
+from zros.errors import ZrosError
+
+if TYPE_CHECKING:
+    from zros.cdr.message import Message
+    from zros.cdr.registry import TypeRegistry
+    from zros.node import Node
+    from zros.services import Service
+
+SERVICE_TYPE = 'type_description_interfaces/srv/GetTypeDescription'
+SERVICE_NAME = 'get_type_description'
+
+_log = logging.getLogger('zros.typeinfo')
+
+
+class TypeDescriptionService:
+    """Serve ``~/get_type_description`` for a node: the types of the classes given to ``add``,
+    then whatever the node's registry resolves.
+
+    Requests are answered on Zenoh's thread (no user code runs), so a node that never spins
+    answers too. The reply carries the full description and, for types parsed from text, that
+    text (comments included) as ``type_sources``.
+    """
+
+    def __init__(self, node: Node) -> None:
+        from zros.services import Service
+
+        self.node = node
+        self._classes: dict[str, type[Message]] = {}
+        self._service: Service = Service(
+            f'~/{SERVICE_NAME}', SERVICE_TYPE, self._answer, node=node, inline=lambda: True
+        )
+
+    def add(self, cls: type[Message]) -> None:
+        """Describe ``cls``'s type from the registry that built it (a bag's, say)."""
+        self._classes[cls.__msgtype__] = cls
+
+    def _registry_for(self, type_name: str) -> TypeRegistry | None:
+        cls = self._classes.get(type_name)
+        if cls is not None:
+            return cls._registry
+        registry = self.node.registry
+        try:
+            registry.definition(type_name)
+        except (UnknownTypeError, ZrosError):
+            return None
+        return registry
+
+    def _answer(self, request: Any) -> Any:
+        from zros.cdr.hashing import type_description, type_hash
+
+        response = self._service.Response
+        name = request.type_name
+        registry = self._registry_for(name)
+        if registry is None:
+            return response(successful=False, failure_reason=f'{name} is unknown to this node')
+        ours = type_hash(registry, name)
+        if request.type_hash and request.type_hash != ours:
+            return response(
+                successful=False,
+                failure_reason=f'{name} has the hash {ours} here, not {request.type_hash}',
+            )
+        description = type_description(registry, name)
+        sources = []
+        if request.include_type_sources:
+            sources = list(_sources(registry, description))
+        return response.from_dict(
+            {
+                'successful': True,
+                'type_description': description,
+                'type_sources': sources,
+            }
+        )
+
+    def close(self) -> None:
+        """Stop serving."""
+        self._service.close()
+
+
+def _sources(registry: TypeRegistry, description: dict[str, Any]) -> Iterable[dict[str, str]]:
+    """TypeSource entries (``msg`` text with comments) for the types parsed from text."""
+    individuals = [description['type_description'], *description['referenced_type_descriptions']]
+    for individual in individuals:
+        name = individual['type_name']
+        try:
+            definition = registry.message_definition(name)
+        except UnknownTypeError:
+            continue
+        if definition.source and name.split('/')[1] == 'msg':
+            yield {'type_name': name, 'encoding': 'msg', 'raw_file_contents': definition.source}
+
+
+def register_description(registry: TypeRegistry, response: Any, origin: str) -> None:
+    """Register the definitions of a successful answer: the sources' text where given (it has
+    the constants and comments), else text rebuilt from the description."""
+    from zros.cdr.hashing import message_text
+
+    texts = {
+        source.type_name: source.raw_file_contents
+        for source in response.type_sources
+        if source.encoding == 'msg' and source.raw_file_contents
+    }
+    description = response.type_description.to_dict()
+    individuals = [description['type_description'], *description['referenced_type_descriptions']]
+    main = individuals[0]['type_name']
+    for individual in reversed(individuals):  # dependencies first
+        name = individual['type_name']
+        if name != main and registry.find(name) is not None:
+            continue  # a known dependency keeps its definition
+        text = texts.get(name) or message_text(individual)
+        try:
+            registry.register_text(name, text, origin)
+        except ZrosError:  # a default value our parser reads otherwise: keep the structure
+            registry.register_text(name, message_text(individual, with_defaults=False), origin)
+
+
+def learn_type(
+    node: Node,
+    type_name: str,
+    owners: Iterable[tuple[str, str | None]],
+    timeout: float = 5.0,
+) -> str | None:
+    """Ask the nodes in ``owners`` (``(node name, type hash or None)``, e.g. a topic's
+    publishers) for ``type_name`` and register the answer in ``node.registry``.
+
+    Returns the node that described it, or None when none could (no such service, a failure).
+    """
+    from zros.services import Client, ServiceError
+
+    for owner, type_hash in owners:
+        client = Client(
+            f'{owner.rstrip("/")}/{SERVICE_NAME}', SERVICE_TYPE, node=node, timeout=timeout
+        )
+        try:
+            if not client.wait_for_service(timeout):
+                continue
+            try:
+                response = client.call(
+                    type_name=type_name, type_hash=type_hash or '', include_type_sources=True
+                )
+            except ServiceError as exc:
+                _log.debug('%s did not describe %s: %s', owner, type_name, exc)
+                continue
+        finally:
+            client.close()
+        if not response.successful:
+            _log.debug('%s did not describe %s: %s', owner, type_name, response.failure_reason)
+            continue
+        register_description(node.registry, response, f'{owner}/{SERVICE_NAME}')
+        return owner
+    return None
+
+
+__all__ = [
+    'SERVICE_NAME',
+    'SERVICE_TYPE',
+    'TypeDescriptionService',
+    'learn_type',
+    'register_description',
+]
