@@ -121,7 +121,7 @@ def test_bad_client_data_never_reaches_the_graph(
     _told(client, 'on /cmd_vel was not published', start)
     text = client.advertise('/cmd_vel', 'json', TWIST)
     client.publish(text, b'{"linear": {"w": 1}}')
-    _told(client, "has no field 'w'", start)
+    _told(client, "has no field 'linear.w'", start)
     client.publish(text, b'not json')
     good = zros.Message(TWIST, linear={'x': 2.0})
     assert _publish_until_received(client, cdr, good.serialize(), sub) == good
