@@ -108,6 +108,7 @@ def shutdown() -> None:
     """Destroy the default node, close the process's Zenoh session, restore Ctrl-C."""
     global _default, _previous_handler  # noqa: PLW0603
     with _lock:
+        _clients.clear()  # parameter clients of the default node
         if _default is not None:
             _default.destroy()
             _default = None

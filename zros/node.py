@@ -732,6 +732,7 @@ class Node:
             self.clock.remove_listener(self._executor.wake)
             self._clock_subscription.close()
         self.transport.release_token(self._node_token)
+        self.transport.remove_on_close(self.destroy)
         self._executor.wake()
 
     close = destroy

@@ -11,6 +11,7 @@ The hook therefore also waits for those threads, which end once their sessions a
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import threading
 import weakref
@@ -199,11 +200,16 @@ class Transport:
         """Call ``callback()`` before the session closes (entities undeclare themselves)."""
         self._close_callbacks.append(callback)
 
+    def remove_on_close(self, callback: Any) -> None:
+        """Forget a callback given to :meth:`on_close` (its owner went first)."""
+        with contextlib.suppress(ValueError):
+            self._close_callbacks.remove(callback)
+
     def close(self) -> None:
         """Undeclare everything and close the session; safe to call twice."""
         if self._closed:
             return
-        for callback in reversed(self._close_callbacks):
+        for callback in reversed(list(self._close_callbacks)):  # they may remove themselves
             try:
                 callback()
             except Exception:  # closing must go on whatever one entity does
