@@ -16,7 +16,8 @@ from typing import Any
 from zros.clock import Time
 from zros.errors import ZrosError
 from zros.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger
-from zros.node import Node, _interrupted, wake_all_nodes
+from zros.node import Node, wake_all_nodes
+from zros.signal import clear_interrupt, interrupt, interrupted, start_listener_thread
 from zros.transport import TransportConfig, close_default_transport
 
 
@@ -30,10 +31,10 @@ _lock = threading.Lock()
 
 
 def _on_sigint(signum: int, frame: Any) -> None:
-    if _interrupted.is_set():  # a second Ctrl-C stops the program the usual way
+    if interrupted():  # a second Ctrl-C stops the program the usual way
         signal.signal(signal.SIGINT, signal.default_int_handler)
         raise KeyboardInterrupt
-    _interrupted.set()
+    interrupt()
     wake_all_nodes()
 
 
@@ -60,7 +61,7 @@ def init(
                 f'zros.init was already called (node {_default.fully_qualified_name}); '
                 'call zros.shutdown() first, or create more nodes with zros.Node(...)'
             )
-        _interrupted.clear()
+        clear_interrupt()
         _default = Node(
             name,
             namespace,
@@ -71,6 +72,7 @@ def init(
             **options,
         )
         if handle_sigint and threading.current_thread() is threading.main_thread():
+            start_listener_thread()
             previous = signal.signal(signal.SIGINT, _on_sigint)
             if previous is not _on_sigint:
                 _previous_handler = previous

@@ -221,14 +221,9 @@ class SimClock(Clock):
                 self._listeners.remove(wake)
 
     def sleep_until(self, due: Time, timeout: float | None = None) -> bool:
-        """Block until the clock reaches ``due`` (False when ``timeout`` wall seconds pass)."""
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while self._now < due.nanoseconds:
-            remaining = None if deadline is None else deadline - time.monotonic()
-            if remaining is not None and remaining <= 0:
-                return False
-            self._updated.wait(lambda: self._now >= due.nanoseconds, remaining)
-        return True
+        """Block until the clock reaches ``due`` (False when ``timeout`` wall seconds pass, and
+        after Ctrl-C)."""
+        return self._updated.wait_for(lambda: self._now >= due.nanoseconds, timeout)
 
 
 def use_sim_time_from_environment() -> bool:

@@ -422,18 +422,18 @@ class Graph:
         """What a zros node announced (its publishers, subscribers, services...)."""
         return [e for e in self.endpoints() if e.node == node_fqn]
 
-    def wait_until(self, predicate: Callable[[], object], timeout: float | None = None) -> bool:
-        """Wait until ``predicate()`` is true, re-checking at every change of the graph."""
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while not predicate():
-            remaining = None if deadline is None else deadline - time.monotonic()
-            if (remaining is not None and remaining <= 0) or self._closed:
-                return bool(predicate())
-            self._changed.wait(self._changed_since(self.version), remaining)
-        return True
-
-    def _changed_since(self, version: int) -> Callable[[], bool]:
-        return lambda: self.version != version or self._closed
+    def wait_until(
+        self,
+        predicate: Callable[[], object],
+        timeout: float | None = None,
+        *,
+        interruptible: bool = True,
+    ) -> bool:
+        """Wait until ``predicate()`` is true, re-checking at every change of the graph;
+        whether it became true (False on timeout, once closed, and after Ctrl-C unless not
+        ``interruptible``)."""
+        self._changed.wait_for(lambda: predicate() or self._closed, timeout, interruptible)
+        return bool(predicate())
 
     def close(self) -> None:
         """Stop following the network's announcements."""

@@ -39,7 +39,7 @@ from zros.logger import (
     parse_level,
 )
 from zros.qos import QoSLike
-from zros.signal import Signal
+from zros.signal import Signal, interrupted
 from zros.timers import Rate, Timer
 from zros.transport import Transport, TransportConfig, default_transport
 
@@ -52,8 +52,6 @@ if TYPE_CHECKING:
     from zros.pubsub import Publisher, Subscriber
     from zros.services import Client, Service
 
-#: set by zros.init's SIGINT handler: every node's ok() turns false
-_interrupted = threading.Event()
 T = TypeVar('T')
 _nodes: weakref.WeakSet[Node] = weakref.WeakSet()
 
@@ -171,7 +169,7 @@ class Executor:
             self._timers.remove(timer)
 
     def _has_work(self) -> bool:
-        return bool(self._ready) or self._woken or self.stopped or _interrupted.is_set()
+        return bool(self._ready) or self._woken or self.stopped or interrupted()
 
     def _run_ready(self) -> int:
         done = 0
@@ -200,13 +198,13 @@ class Executor:
         if done or (timeout is not None and timeout <= 0):
             return done
         deadline = None if timeout is None else time.monotonic() + timeout
-        while not (self.stopped or _interrupted.is_set()):
+        while not (self.stopped or interrupted()):
             wait: float | None = None if deadline is None else deadline - time.monotonic()
             next_timer = self._next_timer()
             if next_timer is not None:
                 wait = next_timer if wait is None else min(wait, next_timer)
             if wait is None or wait > 0:
-                self._signal.wait(self._has_work, wait)
+                self._signal.wait(self._has_work, wait, interruptible=True)
             done = self._run_ready() + self._run_timers()
             woken, self._woken = self._woken, False
             if done or woken or (deadline is not None and time.monotonic() >= deadline):
@@ -626,7 +624,7 @@ class Node:
 
     def ok(self) -> bool:
         """True until the node is destroyed or the process got Ctrl-C (after ``zros.init``)."""
-        return not (self._closed or _interrupted.is_set())
+        return not (self._closed or interrupted())
 
     def spin_once(self, timeout: float | None = 0.0) -> int:
         """Run due callbacks and timers, waiting up to ``timeout`` seconds for one; returns how

@@ -8,7 +8,7 @@ callbacks run when the node spins; ``async for`` works on the same queue.
 from __future__ import annotations
 
 import asyncio
-import collections
+import contextlib
 import logging
 import threading
 import time
@@ -18,20 +18,23 @@ from typing import TYPE_CHECKING, Any
 from zros.cdr import CdrError, encode
 from zros.cdr.message import EncodeBuffer, Message, decode
 from zros.cdr.model import Kind
+from zros.drops import DropCounter, describe_sender, sender_key
 from zros.keyexpr.bridge import EntityKind
 from zros.qos import QoS, QoSLike, as_qos
-from zros.signal import Signal
+from zros.sample_queue import KEEP_ALL_BYTES, SampleQueue
+from zros.signal import (
+    Signal,
+    add_interrupt_listener,
+    interrupted,
+    remove_interrupt_listener,
+    sleep,
+)
 from zros.wire import Sequence, entity_wire, has_attachment
 
 if TYPE_CHECKING:
     from zros.node import Node
 
 _log = logging.getLogger('zros')
-
-#: a keep-all subscriber holds at most this many unread messages, then slows its publishers
-KEEP_ALL_LIMIT = 10_000
-#: how many distinct bad publishers a subscriber remembers (each is reported once)
-_BAD_SOURCES_LIMIT = 256
 
 
 def _node(node: Node | None) -> Node:
@@ -195,15 +198,17 @@ class Publisher(_Entity):
         status = getattr(self._publisher, 'matching_status', None)
         return True if status is None else bool(status.matching)
 
-    def wait_for_subscribers(self, timeout: float = 5.0) -> bool:
+    def wait_for_subscribers(self, timeout: float | None = 5.0) -> bool:
         """Wait until ``has_subscribers`` (a message put right after a subscriber appears may
-        otherwise be lost); returns whether one showed up in time."""
-        deadline = time.monotonic() + timeout
+        otherwise be lost); returns whether one showed up in time (False after Ctrl-C)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
         delay = 0.0005
         while not self.has_subscribers:
-            if time.monotonic() >= deadline:
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if remaining is not None and remaining <= 0:
                 return False
-            time.sleep(delay)
+            if not sleep(delay if remaining is None else min(delay, remaining)):
+                return False
             delay = min(delay * 2, 0.02)
         return True
 
@@ -226,8 +231,14 @@ class Subscriber(_Entity):
 
     Poll it (``has_new_message``, ``read_message``, ``take``), give it a ``callback`` that runs
     when the node spins, or iterate it with ``async for``. It holds up to ``qos.depth`` unread
-    messages (keep-last drops the oldest); a keep-all subscriber holds up to ``max_queue`` and
-    then makes reliable publishers wait.
+    messages (keep-last drops the oldest). A keep-all subscriber holds every unread message up
+    to ``max_queue_bytes`` (256 MiB: payloads plus some 384 bytes each) and, if given,
+    ``max_queue`` messages; past that it drops new ones, counted in ``dropped`` and logged,
+    and never holds up its publishers or the rest of the process.
+
+    Messages that do not decode (or, under rmw_zenoh, come without a valid attachment) are
+    dropped, counted per sender (:meth:`dropped_by_sender`) and logged, at most once per sender
+    every 10 s; they never count as new.
     """
 
     kind = EntityKind.SUBSCRIBER
@@ -241,7 +252,8 @@ class Subscriber(_Entity):
         *,
         node: Node | None = None,
         raw: bool = False,
-        max_queue: int = KEEP_ALL_LIMIT,
+        max_queue: int | None = None,
+        max_queue_bytes: int = KEEP_ALL_BYTES,
         announce: bool = True,
     ) -> None:
         owner = _node(node)
@@ -249,19 +261,19 @@ class Subscriber(_Entity):
         super().__init__(owner, topic, msg_type, qos, announce)
         self._callback = callback
         self.raw = raw
-        self._limit = max_queue if self.qos.keep_all else None
-        self._queue: collections.deque[Any] = collections.deque(
-            maxlen=None if self.qos.keep_all else self.qos.depth
+        self._queue = SampleQueue(
+            None if self.qos.keep_all else self.qos.depth, max_queue, max_queue_bytes
         )
+        self._reading = threading.Lock()  #: one reader at a time
+        self._checked: Any = None  #: the sample has_new_message decoded, and its message
+        self._checked_message: Any = None
         self._scheduled = False
         self._arrived = Signal()  #: threads waiting for a message
-        self._room = Signal()  #: a keep-all publisher thread waiting for room
         self._async_wakers: list[Callable[[], None]] = []
         self._last: Any = None
-        self.received = 0  #: samples received so far
-        self.dropped = 0  #: samples that did not decode
-        self._bad_sources: set[str] = set()
-        self.unattached = 0  #: rmw_zenoh: samples dropped for want of a valid attachment
+        self.undecodable = 0  #: samples that did not decode as the type
+        self._drops = DropCounter(self.topic)
+        self._overflows = DropCounter(self.topic)
         session = owner.transport.session
         on_sample = self._on_sample if self.gid is None else self._on_attached_sample
         if self.qos.transient_local:
@@ -280,27 +292,45 @@ class Subscriber(_Entity):
         self._announce()
         owner._add(self)
 
+    @property
+    def received(self) -> int:
+        """Samples that reached the subscription so far (dropped ones included)."""
+        return self._queue.received
+
+    @property
+    def overflowed(self) -> int:
+        """Keep-all: samples dropped past the queue's bounds."""
+        return self._queue.overflowed
+
+    @property
+    def unattached(self) -> int:
+        """rmw_zenoh: samples dropped for want of a valid attachment."""
+        return self._queue.rejected
+
+    @property
+    def dropped(self) -> int:
+        """Messages lost: past a keep-all queue's bounds, undecodable, or (rmw_zenoh) without
+        a valid attachment. Keep-last replacing unread messages is not counted."""
+        return self.overflowed + self.undecodable + self.unattached
+
+    def dropped_by_sender(self) -> dict[str, int]:
+        """Undecodable and unattached messages by sender (as the warnings name them)."""
+        return self._drops.counts()
+
     # --- on Zenoh's thread -------------------------------------------------------------------
 
     def _on_attached_sample(self, sample: Any) -> None:
-        """rmw_zenoh drops samples without a valid attachment; so does zros (logged once)."""
+        """rmw_zenoh drops samples without a valid attachment; so does zros."""
         if has_attachment(sample):
             self._on_sample(sample)
             return
-        self.unattached += 1
-        if self.unattached == 1:
-            _log.warning(
-                'dropped a message on %s without a valid rmw_zenoh attachment, as rmw_zenoh '
-                'does (reported once per subscriber)',
-                self.topic,
-            )
+        self._queue.reject()
+        self._drop(sample, 'it has no valid rmw_zenoh attachment (rmw_zenoh drops such messages)')
 
     def _on_sample(self, sample: Any) -> None:
-        queue = self._queue
-        if self._limit is not None and len(queue) >= self._limit:
-            self._wait_for_room()
-        queue.append(sample)
-        self.received += 1
+        if not self._queue.put(sample):
+            self._overflows.add('queue', lambda: '', self._queue.describe_full)
+            return
         if self._callback is not None:
             self.node._executor.schedule(self)
         if self._arrived:
@@ -308,86 +338,75 @@ class Subscriber(_Entity):
         for waker in self._async_wakers:
             waker()
 
-    def _has_room(self) -> bool:
-        return len(self._queue) < (self._limit or 0) or self._closed
-
-    def _wait_for_room(self) -> None:
-        started = time.monotonic()
-        warned = False
-        while not self._has_room():
-            self._room.wait(self._has_room, 0.5)
-            if not warned and time.monotonic() - started > 2:
-                warned = True
-                _log.warning(
-                    'subscriber on %s holds %d unread messages: its publishers wait',
-                    self.topic,
-                    len(self._queue),
-                )
+    def _drop(self, sample: Any, reason: str) -> None:
+        key = sender_key(sample)
+        self._drops.add(key, lambda: describe_sender(sample, key, self.node, self.topic), reason)
 
     # --- reading ---------------------------------------------------------------------------
 
     def _convert(self, sample: Any) -> Any:
+        if sample is self._checked:
+            message = self._checked_message
+            self._checked = self._checked_message = None
+            return message
         data = sample.payload.to_bytes()
         if self.raw:
             return data
         try:
             return decode(self.msg_type, data)
         except CdrError as exc:
-            self.dropped += 1
-            timestamp = sample.timestamp
-            source = str(timestamp).rpartition('/')[2] if timestamp is not None else 'unknown'
-            if source not in self._bad_sources and len(self._bad_sources) < _BAD_SOURCES_LIMIT:
-                self._bad_sources.add(source)
-                _log.warning(
-                    'dropped a message on %s from the session %s (reported once per session): %s',
-                    self.topic,
-                    source,
-                    exc,
-                )
+            self.undecodable += 1  # under self._reading
+            self._drop(sample, f'it does not decode as {self.type_name}: {exc}')
             return None
 
-    def _drain(self) -> list[Any]:
-        queue = self._queue
-        samples = []
-        popleft = queue.popleft
-        try:
-            while True:
-                samples.append(popleft())
-        except IndexError:
-            pass
-        if self._room:
-            self._room.notify()
-        return samples
-
     def has_new_message(self) -> bool:
-        """Whether a message arrived since the last ``read_message`` or ``take``."""
-        return bool(self._queue)
+        """Whether a message arrived since the last ``read_message`` or ``take``.
+
+        It decodes the newest unread sample to be sure (``read_message`` then returns it
+        without decoding again): samples that do not decode are dropped here and never make
+        it true.
+        """
+        queue = self._queue
+        if self.raw or not queue:
+            return bool(queue)
+        with self._reading:
+            while (sample := queue.newest()) is not None:
+                if sample is self._checked:
+                    return True
+                message = self._convert(sample)
+                if message is not None:
+                    self._checked, self._checked_message = sample, message
+                    return True
+                queue.discard(sample)
+            return False
 
     def read_message(self) -> Any:
         """The newest message (rosR: ``ros.ReadMessage``); unread older ones are discarded.
 
         Returns the last message read again when nothing new came, and None before the first.
         """
-        for sample in reversed(self._drain()):
-            message = self._convert(sample)
-            if message is not None:
-                self._last = message
-                break
+        with self._reading:
+            for sample in reversed(self._queue.pop()):
+                message = self._convert(sample)
+                if message is not None:
+                    self._last = message
+                    break
+            self._checked = self._checked_message = None
         return self._last
 
     def take(self, max_messages: int | None = None) -> list[Any]:
         """Every unread message, oldest first (up to ``max_messages``)."""
-        if max_messages is None:
-            samples = self._drain()
-        else:
-            samples = []
-            popleft = self._queue.popleft
-            for _ in range(max_messages):
-                try:
-                    samples.append(popleft())
-                except IndexError:
+        messages: list[Any] = []
+        with self._reading:
+            while max_messages is None or len(messages) < max_messages:
+                samples = self._queue.pop(
+                    None if max_messages is None else max_messages - len(messages)
+                )
+                if not samples:
                     break
-        messages = [m for m in map(self._convert, samples) if m is not None]
+                messages.extend(m for m in map(self._convert, samples) if m is not None)
+                if max_messages is None:
+                    break
         if messages:
             self._last = messages[-1]
         return messages
@@ -396,16 +415,17 @@ class Subscriber(_Entity):
         return bool(self._queue) or self._closed
 
     def wait_for_message(self, timeout: float | None = None) -> Any:
-        """Block until a message is unread, then return the oldest one (None on timeout)."""
+        """Block until a message is unread, then return the oldest one (None on timeout, once
+        the subscriber is closed, and after Ctrl-C)."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             messages = self.take(1)
             if messages:
                 return messages[0]
             remaining = None if deadline is None else deadline - time.monotonic()
-            if self._closed or (remaining is not None and remaining <= 0):
+            if self._closed or interrupted() or (remaining is not None and remaining <= 0):
                 return None
-            self._arrived.wait(self._has_message, remaining)
+            self._arrived.wait(self._has_message, remaining, interruptible=True)
 
     def _dispatch(self) -> int:
         callback = self._callback
@@ -421,16 +441,19 @@ class Subscriber(_Entity):
         return done
 
     async def __aiter__(self) -> AsyncIterator[Any]:
-        """Messages as they arrive: ``async for message in subscriber``."""
+        """Messages as they arrive: ``async for message in subscriber`` (ends on close and
+        on Ctrl-C)."""
         loop = asyncio.get_running_loop()
         event = asyncio.Event()
 
         def waker() -> None:
-            loop.call_soon_threadsafe(event.set)
+            with contextlib.suppress(RuntimeError):  # the loop closed
+                loop.call_soon_threadsafe(event.set)
 
         self._async_wakers.append(waker)
+        add_interrupt_listener(waker)
         try:
-            while not self._closed:
+            while not (self._closed or interrupted()):
                 event.clear()
                 messages = self.take()
                 if not messages:
@@ -439,6 +462,7 @@ class Subscriber(_Entity):
                 for message in messages:
                     yield message
         finally:
+            remove_interrupt_listener(waker)
             self._async_wakers.remove(waker)
 
     # --- lifetime --------------------------------------------------------------------------
@@ -452,8 +476,9 @@ class Subscriber(_Entity):
         if not self.node.transport.closed:
             self._subscriber.undeclare()
         self.node._remove(self)
+        self._drops.flush()
+        self._overflows.flush()
         self._arrived.notify()
-        self._room.notify()
         for waker in list(self._async_wakers):
             waker()
 

@@ -11,9 +11,11 @@ from __future__ import annotations
 import asyncio
 import collections
 import concurrent.futures
+import contextlib
 import inspect
 import logging
 import time
+import weakref
 from collections.abc import Callable, Generator
 from typing import TYPE_CHECKING, Any
 
@@ -22,7 +24,7 @@ from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
 from zros.errors import ZrosError
 from zros.keyexpr.bridge import EntityKind
-from zros.signal import Signal
+from zros.signal import Signal, add_interrupt_listener, interrupted
 from zros.wire import Requests, Sequence, attachment_of_reply, entity_wire
 
 if TYPE_CHECKING:
@@ -297,16 +299,20 @@ class Service(_ServiceEntity):
         return None
 
     def wait_for_request(self, timeout: float | None = None) -> Any:
-        """Block until a request comes, then take it (None on timeout)."""
+        """Block until a request comes, then take it (None on timeout, once closed, and after
+        Ctrl-C)."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             request = self.take_request()
             if request is not None or self._closed:
                 return request
             remaining = None if deadline is None else deadline - time.monotonic()
-            if remaining is not None and remaining <= 0:
+            if interrupted() or (remaining is not None and remaining <= 0):
                 return None
-            self._arrived.wait(self.has_request, remaining)
+            self._arrived.wait(self._has_request_or_closed, remaining, interruptible=True)
+
+    def _has_request_or_closed(self) -> bool:
+        return bool(self._pending) or self._closed
 
     def respond(self, response: Message, request: Message | None = None) -> None:
         """Answer ``request`` (by default the oldest one taken and not answered yet)."""
@@ -349,10 +355,45 @@ class Service(_ServiceEntity):
 
 
 class ServiceFuture(concurrent.futures.Future[Any]):
-    """The pending result of ``call_async``: ``result(timeout)``, or ``await`` it."""
+    """The pending result of ``call_async``: ``result(timeout)``, or ``await`` it.
+
+    After Ctrl-C (with ``zros.init``'s handler) every pending one fails with KeyboardInterrupt,
+    so waiting for it ends.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.set_running_or_notify_cancel()
+        _pending.add(self)
+        self.add_done_callback(_forget)
+        if interrupted():
+            self.settle(KeyboardInterrupt())
+
+    def settle(self, outcome: Any) -> None:
+        """Finish with ``outcome`` (a BaseException fails it), unless already finished."""
+        with contextlib.suppress(concurrent.futures.InvalidStateError):
+            if isinstance(outcome, BaseException):
+                self.set_exception(outcome)
+            else:
+                self.set_result(outcome)
 
     def __await__(self) -> Generator[Any, None, Any]:
         return asyncio.wrap_future(self).__await__()
+
+
+_pending: weakref.WeakSet[ServiceFuture] = weakref.WeakSet()
+
+
+def _forget(future: concurrent.futures.Future[Any]) -> None:
+    _pending.discard(future)  # type: ignore[arg-type]  # only ServiceFutures have it
+
+
+def _interrupt_pending() -> None:
+    for future in list(_pending):
+        future.settle(KeyboardInterrupt())
+
+
+add_interrupt_listener(_interrupt_pending)
 
 
 class Client(_ServiceEntity):
@@ -403,14 +444,10 @@ class Client(_ServiceEntity):
         return bool(self._querier.matching_status.matching)
 
     def wait_for_service(self, timeout: float | None = 5.0) -> bool:
-        """Wait until a server is reachable; returns whether one showed up in time."""
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while not self.service_is_ready():
-            remaining = None if deadline is None else deadline - time.monotonic()
-            if self._closed or (remaining is not None and remaining <= 0):
-                return False
-            self._matching.wait(self.service_is_ready, remaining)
-        return True
+        """Wait until a server is reachable; returns whether one showed up in time (False once
+        closed, and after Ctrl-C)."""
+        self._matching.wait_for(lambda: self._closed or self.service_is_ready(), timeout)
+        return not self._closed and self.service_is_ready()
 
     def _request(self, request: Message | None, fields: dict[str, Any]) -> bytes:
         if self._closed:
@@ -466,17 +503,34 @@ class Client(_ServiceEntity):
     def call(
         self, request: Message | None = None, timeout: float | None = None, **fields: Any
     ) -> Any:
-        """Call the service and return its response (see the class docstring for errors)."""
+        """Call the service and return its response (see the class docstring for errors);
+        Ctrl-C raises KeyboardInterrupt."""
         data = self._request(request, fields)
         timeout = self.timeout if timeout is None else timeout
         started = time.monotonic()
         sent = None if self._sequence is None else self._sequence.next()
-        for reply in self._send(data, timeout, None, sent):
-            outcome = self._outcome(reply, started, timeout, sent)
-            if isinstance(outcome, ServiceError):
-                raise outcome
-            return outcome
-        raise self._unavailable()
+        first: list[Any] = []  # the first reply, or None when the query ended without one
+        arrived = Signal()
+
+        def on_reply(reply: Any) -> None:
+            if not first:
+                first.append(reply)
+                arrived.notify()
+
+        def on_end() -> None:
+            on_reply(None)
+
+        # on Zenoh's thread, which only hands the reply over: the caller's thread decodes it
+        handler = self._zenoh.handlers.Callback(on_reply, on_end, indirect=False)
+        self._send(data, timeout, handler, sent)
+        if not arrived.wait_for(lambda: bool(first), None):  # Zenoh ends every query in time
+            raise KeyboardInterrupt
+        if first[0] is None:
+            raise self._unavailable()
+        outcome = self._outcome(first[0], started, timeout, sent)
+        if isinstance(outcome, ServiceError):
+            raise outcome
+        return outcome
 
     __call__ = call
 
@@ -494,23 +548,17 @@ class Client(_ServiceEntity):
         data = self._request(request, fields)
         timeout = self.timeout if timeout is None else timeout
         future = ServiceFuture()
-        future.set_running_or_notify_cancel()
         started = time.monotonic()
         executor = self.node._executor
         sent = None if self._sequence is None else self._sequence.next()
 
         def on_reply(reply: Any) -> None:
-            if future.done():
-                return
-            outcome = self._outcome(reply, started, timeout, sent)
-            if isinstance(outcome, ServiceError):
-                future.set_exception(outcome)
-            else:
-                future.set_result(outcome)
+            if not future.done():
+                future.settle(self._outcome(reply, started, timeout, sent))
 
         def on_end() -> None:
             if not future.done():
-                future.set_exception(self._unavailable())
+                future.settle(self._unavailable())
             if callback is not None:
                 executor.call_soon(lambda: callback(future))
 

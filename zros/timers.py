@@ -10,6 +10,8 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from zros.signal import sleep
+
 if TYPE_CHECKING:
     from zros.clock import Clock
     from zros.node import Node
@@ -97,7 +99,7 @@ class Rate:
         self._next = self.clock.timer_now() + self._period
 
     def sleep(self) -> None:
-        """Wait until the next period starts (at once if the loop is late)."""
+        """Wait until the next period starts (at once if the loop is late, or after Ctrl-C)."""
         now = self.clock.timer_now()
         if now >= self._next + self._period or now < self._next - 2 * self._period:
             self._next = now  # more than a period late, or time jumped back: start afresh
@@ -106,8 +108,6 @@ class Rate:
         if self.node is not None:
             self.node.spin_until_clock(deadline)
             return
-        import time
-
         remaining = self.clock.seconds_until(deadline)
         if remaining is not None and remaining > 0:
-            time.sleep(remaining)
+            sleep(remaining)  # Ctrl-C ends it

@@ -6,25 +6,14 @@ import os
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 
 import zros
+from tests.support.processes import launch
 from zros.node import Node
 from zros.qos import KEEP_ALL
 from zros.testing import wait_for
 from zros.transport import Router
-
-
-def launch(code: str, router: Router, **extra_env: str) -> subprocess.Popen[str]:
-    env = {**os.environ, 'ZROS_CONNECT': router.endpoint, **extra_env}
-    return subprocess.Popen(
-        [sys.executable, '-c', textwrap.dedent(code)],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
 
 
 def test_a_keep_all_burst_of_100000_arrives_complete_and_in_order(

@@ -64,7 +64,6 @@ class ClientGoalHandle:
         self.feedback_count = 0
         self._feedback_callback = feedback_callback
         self._result: ServiceFuture = ServiceFuture()
-        self._result.set_running_or_notify_cancel()
         self._changed = Signal()
         self._lock = threading.Lock()
 
@@ -94,7 +93,8 @@ class ClientGoalHandle:
 
     def result(self, timeout: float | None = None) -> Any:
         """Wait for the goal to end and return its Result message (``status`` says how it
-        ended); raises TimeoutError, or ActionError when the goal was rejected or lost."""
+        ended); raises TimeoutError, ActionError when the goal was rejected or lost, and
+        KeyboardInterrupt after Ctrl-C."""
         try:
             return self._result.result(timeout)
         except concurrent.futures.TimeoutError:
@@ -109,14 +109,9 @@ class ClientGoalHandle:
     def wait_for_status(
         self, predicate: Callable[[GoalStatus], bool], timeout: float | None = None
     ) -> bool:
-        """Wait until ``predicate(status)`` holds; returns whether it did in time."""
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while not predicate(self._status):
-            remaining = None if deadline is None else deadline - time.monotonic()
-            if remaining is not None and remaining <= 0:
-                return False
-            self._changed.wait(lambda: predicate(self._status), remaining)
-        return True
+        """Wait until ``predicate(status)`` holds; returns whether it did in time (False after
+        Ctrl-C)."""
+        return self._changed.wait_for(lambda: predicate(self._status), timeout)
 
     def cancel(self, timeout: float | None = None) -> bool:
         """Ask the server to cancel the goal; returns whether it agreed (the goal then ends
@@ -304,28 +299,30 @@ class ActionClient:
         request = self._send_goal.Request(goal=goal_message)
         request.goal_id.uuid = handle.goal_id
         answered = ServiceFuture()
-        answered.set_running_or_notify_cancel()
 
         def on_answer(future: concurrent.futures.Future[Any]) -> None:
             try:
                 response = future.result()
+            except KeyboardInterrupt as exc:  # Ctrl-C: the handle fails with it too
+                answered.settle(exc)
+                return
             except ServiceError as exc:
-                handle._result.set_exception(
+                handle._result.settle(
                     ActionError(f'the goal of {self.name} was not delivered: {exc}')
                 )
-                answered.set_exception(exc)
+                answered.settle(exc)
                 return
             handle.stamp = Time.from_msg(response.stamp)
             if not response.accepted:
-                handle._result.set_exception(
+                handle._result.settle(
                     GoalRejectedError(f'the server of {self.name} rejected goal {handle.goal_uuid}')
                 )
-                answered.set_result(handle)
+                answered.settle(handle)
                 return
             handle.accepted = True
             handle._set_status(GoalStatus.ACCEPTED)
             self._request_result(handle)
-            answered.set_result(handle)
+            answered.settle(handle)
 
         self._send_goal.call_async(request, timeout).add_done_callback(on_answer)
         return answered
@@ -338,7 +335,8 @@ class ActionClient:
         **fields: Any,
     ) -> ClientGoalHandle:
         """Send a goal and return its handle once the server accepted or rejected it (check
-        ``handle.accepted``); raises ServiceError subclasses when no server answers."""
+        ``handle.accepted``); raises ServiceError subclasses when no server answers, and
+        KeyboardInterrupt after Ctrl-C."""
         future = self.send_goal_async(goal, feedback_callback, timeout, **fields)
         wait = self._send_goal.timeout if timeout is None else timeout
         handle: ClientGoalHandle = future.result(wait + 5.0)
@@ -351,8 +349,12 @@ class ActionClient:
         def on_result(future: concurrent.futures.Future[Any]) -> None:
             try:
                 response = future.result()
+            except KeyboardInterrupt as exc:
+                handle._result.settle(exc)
+                handle._changed.notify()
+                return
             except ServiceError as exc:
-                handle._result.set_exception(
+                handle._result.settle(
                     ActionError(f'no result for goal {handle.goal_uuid} of {self.name}: {exc}')
                 )
                 handle._changed.notify()
@@ -362,7 +364,7 @@ class ActionClient:
             except ValueError:
                 status = GoalStatus.UNKNOWN
             if status is GoalStatus.UNKNOWN or not status.terminal:
-                handle._result.set_exception(
+                handle._result.settle(
                     ActionError(
                         f'the server of {self.name} does not know goal {handle.goal_uuid} '
                         f'(result status {response.status})'
@@ -371,7 +373,7 @@ class ActionClient:
             else:
                 with handle._lock:
                     handle._status = status
-                    handle._result.set_result(response.result)
+                    handle._result.settle(response.result)
             handle._changed.notify()
 
         self._get_result.call_async(request, RESULT_TIMEOUT).add_done_callback(on_result)

@@ -22,6 +22,7 @@ from zros.bag.rosbag2_yaml import parse_qos_profiles
 from zros.bag.types import how_to_define
 from zros.errors import ZrosError
 from zros.qos import Durability, History, QoS, Reliability
+from zros.signal import add_interrupt_listener, remove_interrupt_listener
 
 if TYPE_CHECKING:
     from zros.bag.source import Connection, RawMessage, Source
@@ -327,11 +328,13 @@ class Player:
         return True
 
     def play(self) -> None:
-        """Play the bag (every pass, if looping) in this thread; returns when done or stopped.
+        """Play the bag (every pass, if looping) in this thread; returns when done or stopped
+        (Ctrl-C after ``zros.init`` stops it).
 
         Raises the reading error, if the bag turned out unreadable on the way.
         """
         clock_thread = None
+        add_interrupt_listener(self.stop)
         try:
             if self._wait > 0:
                 self.wait_for_subscribers(self._wait)
@@ -346,6 +349,7 @@ class Player:
                 self.clock.resume()
             self._run()
         finally:
+            remove_interrupt_listener(self.stop)
             self._done.set()
             if clock_thread is not None:
                 clock_thread.join()
@@ -403,7 +407,7 @@ class Player:
         self._thread.start()
 
     def wait(self, timeout: float | None = None) -> bool:
-        """Wait until the playback ends; whether it did."""
+        """Wait until the playback ends (Ctrl-C ends it); whether it did."""
         return self._done.wait(timeout)
 
     @property

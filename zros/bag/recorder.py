@@ -3,8 +3,10 @@
 Topics are found in the graph as publishers announce them, also after recording started (with
 ``all`` or a ``regex``). Each one gets a raw Zenoh subscription (announced like a zros
 subscriber) whose callback only stamps the receive time and queues the sample; one writer thread
-appends the CDR bytes to the bag as they came, never decoding them. A full queue makes the
-callbacks wait, which slows reliable publishers down instead of losing their messages.
+appends the CDR bytes to the bag as they came, never decoding them. The callbacks never wait: a
+waiting callback would stall every subscription and query of the session (the recorder's node
+answers parameter queries too). Past its bounds the queue drops new messages, counted in
+``Recorder.dropped`` and logged, as rosbag2 drops when its cache is full.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE
+from zros.drops import DropCounter
 from zros.errors import ZrosError
 from zros.qos import QoS
 from zros.signal import Signal
@@ -35,7 +38,7 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros.bag')
 
-#: unwritten messages (and bytes) the recorder holds before its callbacks make publishers wait
+#: unwritten messages (and bytes) the recorder holds; past either it drops new messages
 MAX_QUEUE = 100_000
 MAX_QUEUE_BYTES = 512 * 1024 * 1024
 #: seconds between forced chunk flushes: at most this much is lost to a SIGKILL
@@ -58,7 +61,9 @@ class Recorder:
     as its recording starts. ``node`` None uses the default node of ``zros.init``.
 
     Chunks are written when full (``chunk_size``) and at least every ``flush_interval``
-    seconds, so a killed recorder leaves files readable up to their last chunk.
+    seconds, so a killed recorder leaves files readable up to their last chunk. When writing
+    falls behind by ``max_queue`` messages or 512 MiB, new messages are dropped (``dropped``
+    counts them, a warning names the topic) rather than stalling the node's session.
     """
 
     def __init__(
@@ -112,7 +117,6 @@ class Recorder:
         self._queue: collections.deque[tuple[int, int, Any, int]] = collections.deque()
         self._queued_bytes = 0
         self._arrived = Signal()
-        self._room = Signal()
         self._topic_list: list[BagTopic] = []  #: in recording order (the bag adds them so)
         self._types: dict[str, str] = {}
         self._taps: list[RawTap] = []
@@ -122,6 +126,7 @@ class Recorder:
         self._closed = False
         self.error: BaseException | None = None  #: what stopped the writer thread, if anything
         self.message_count = 0  #: messages written so far
+        self.dropped = 0  #: messages lost because the queue was full (the disk fell behind)
         self.size = 0  #: bytes written so far (the open chunk counted uncompressed)
         self._writer = threading.Thread(target=self._write_loop, name='zros recorder', daemon=True)
         self._writer.start()
@@ -147,7 +152,7 @@ class Recorder:
                 self._discover()
             except Exception:
                 _log.exception('the recorder failed to look at the graph')
-            graph.wait_until(self._graph_changed(seen), 0.1)
+            graph.wait_until(self._graph_changed(seen), 0.1, interruptible=False)
 
     def _graph_changed(self, seen: int) -> Callable[[], bool]:
         graph = self.node.graph
@@ -173,7 +178,7 @@ class Recorder:
                 type_name,
                 qos=matched_qos(offered),
                 key=key,
-                callback=self._callback(index),
+                callback=self._callback(index, name),
             )
             self._taps.append(tap)
         _log.info('recording %s [%s]', name, type_name)
@@ -186,35 +191,38 @@ class Recorder:
 
     # --- on Zenoh's threads ---------------------------------------------------------------------
 
-    def _callback(self, index: int) -> Callable[[Any], None]:
+    def _callback(self, index: int, topic: str) -> Callable[[Any], None]:
         clock = self.node.clock
         now: Callable[[], int] = (lambda: clock.now().nanoseconds) if self._sim else time.time_ns
         queue = self._queue
         lock = self._lock
         arrived = self._arrived
+        drops = DropCounter(topic)
 
         def on_sample(sample: Any) -> None:
             if self._stopping:
                 return
             size = len(sample.payload)
-            if len(queue) >= self._max_queue or self._queued_bytes >= MAX_QUEUE_BYTES:
-                self._wait_for_room()
             with lock:
-                queue.append((index, now(), sample, size))
-                self._queued_bytes += size
-            if arrived:
+                full = len(queue) >= self._max_queue or self._queued_bytes >= MAX_QUEUE_BYTES
+                if full:
+                    self.dropped += 1
+                else:
+                    queue.append((index, now(), sample, size))
+                    self._queued_bytes += size
+            if full:
+                drops.add('queue', lambda: '', self._describe_full)
+            elif arrived:
                 arrived.notify()
 
         return on_sample
 
-    def _has_room(self) -> bool:
-        return self._stopping or (
-            len(self._queue) < self._max_queue and self._queued_bytes < MAX_QUEUE_BYTES
+    def _describe_full(self) -> str:
+        return (
+            f'the recorder holds {len(self._queue)} unwritten messages, {self._queued_bytes} '
+            f'bytes (at most {self._max_queue} and {MAX_QUEUE_BYTES}): {self.path} is not '
+            'written fast enough'
         )
-
-    def _wait_for_room(self) -> None:
-        while not self._has_room():
-            self._room.wait(self._has_room, 0.5)
 
     # --- the writer thread ---------------------------------------------------------------------
 
@@ -245,8 +253,6 @@ class Recorder:
                     batch = list(self._queue)
                     self._queue.clear()
                     self._queued_bytes = 0
-                if self._room:
-                    self._room.notify()
                 registered = self._register_topics(registered)
                 for index, log_time, sample, _ in batch:
                     stamp = log_time if self._sim else publish_time(sample, log_time)
@@ -266,7 +272,6 @@ class Recorder:
             _log.exception('the recording to %s failed', self.path)
             self.error = exc
             self._stopping = True
-            self._room.notify()
             self._started.notify()
 
     # --- the user's side -----------------------------------------------------------------------
@@ -296,13 +301,7 @@ class Recorder:
             def ready() -> bool:
                 return wanted <= self._types.keys()
 
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while not ready():
-            remaining = None if deadline is None else deadline - time.monotonic()
-            if self._stopping or (remaining is not None and remaining <= 0):
-                return False
-            self._started.wait(lambda: ready() or self._stopping, remaining)
-        return True
+        return self._started.wait_for(lambda: ready() or self._stopping, timeout) and ready()
 
     def close(self) -> None:
         """Stop recording, write what is queued, close the last file and write metadata.yaml.
@@ -317,7 +316,6 @@ class Recorder:
             taps, self._taps = self._taps, []
         for tap in taps:
             tap.close()
-        self._room.notify()
         self._draining = True
         self._arrived.notify()
         self._writer.join()

@@ -59,6 +59,7 @@ def record(args: argparse.Namespace) -> int:
                 progress.update(
                     f'[RECORDING] {recorder.message_count} messages, '
                     f'{human_size(recorder.size)}, {len(recorder.files)} file(s)'
+                    + (f', {recorder.dropped} dropped' if recorder.dropped else '')
                 )
         finally:
             progress.close()
@@ -66,6 +67,7 @@ def record(args: argparse.Namespace) -> int:
         out(
             f'Recorded {recorder.message_count} messages on {len(recorder.topics)} topics '
             f'into {len(recorder.files)} file(s) of {recorder.path}'
+            + (f'; {recorder.dropped} dropped: writing fell behind' if recorder.dropped else '')
         )
     return 0
 
