@@ -17,7 +17,13 @@ from zros.clock import Time
 from zros.errors import ZrosError
 from zros.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger
 from zros.node import Node, wake_all_nodes
-from zros.signal import clear_interrupt, interrupt, interrupted, start_listener_thread
+from zros.signal import (
+    clear_interrupt,
+    interrupt,
+    interrupted,
+    main_thread_raises,
+    start_listener_thread,
+)
 from zros.transport import TransportConfig, close_default_transport
 
 
@@ -36,6 +42,8 @@ def _on_sigint(signum: int, frame: Any) -> None:
         raise KeyboardInterrupt
     interrupt()
     wake_all_nodes()
+    if main_thread_raises():  # inside a service call waiting in Zenoh's code
+        raise KeyboardInterrupt
 
 
 def init(

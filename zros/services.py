@@ -11,20 +11,20 @@ from __future__ import annotations
 import asyncio
 import collections
 import concurrent.futures
-import contextlib
 import inspect
 import logging
+import threading
 import time
-import weakref
-from collections.abc import Callable, Generator
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
 from zros.errors import ZrosError
+from zros.futures import ServiceFuture
 from zros.keyexpr.bridge import EntityKind
-from zros.signal import Signal, add_interrupt_listener, interrupted
+from zros.signal import Signal, interrupted, raises_on_interrupt
 from zros.wire import Requests, Sequence, attachment_of_reply, entity_wire
 
 if TYPE_CHECKING:
@@ -354,48 +354,6 @@ class Service(_ServiceEntity):
         return f'<zros Service {self.name} [{self.type_name}]>'
 
 
-class ServiceFuture(concurrent.futures.Future[Any]):
-    """The pending result of ``call_async``: ``result(timeout)``, or ``await`` it.
-
-    After Ctrl-C (with ``zros.init``'s handler) every pending one fails with KeyboardInterrupt,
-    so waiting for it ends.
-    """
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.set_running_or_notify_cancel()
-        _pending.add(self)
-        self.add_done_callback(_forget)
-        if interrupted():
-            self.settle(KeyboardInterrupt())
-
-    def settle(self, outcome: Any) -> None:
-        """Finish with ``outcome`` (a BaseException fails it), unless already finished."""
-        with contextlib.suppress(concurrent.futures.InvalidStateError):
-            if isinstance(outcome, BaseException):
-                self.set_exception(outcome)
-            else:
-                self.set_result(outcome)
-
-    def __await__(self) -> Generator[Any, None, Any]:
-        return asyncio.wrap_future(self).__await__()
-
-
-_pending: weakref.WeakSet[ServiceFuture] = weakref.WeakSet()
-
-
-def _forget(future: concurrent.futures.Future[Any]) -> None:
-    _pending.discard(future)  # type: ignore[arg-type]  # only ServiceFutures have it
-
-
-def _interrupt_pending() -> None:
-    for future in list(_pending):
-        future.settle(KeyboardInterrupt())
-
-
-add_interrupt_listener(_interrupt_pending)
-
-
 class Client(_ServiceEntity):
     """A service client (rclpy: ``node.create_client``).
 
@@ -509,7 +467,23 @@ class Client(_ServiceEntity):
         timeout = self.timeout if timeout is None else timeout
         started = time.monotonic()
         sent = None if self._sequence is None else self._sequence.next()
-        first: list[Any] = []  # the first reply, or None when the query ended without one
+        if threading.current_thread() is threading.main_thread():
+            # Zenoh's reply channel runs the signal handler, which raises in this block
+            with raises_on_interrupt():
+                reply = next(iter(self._send(data, timeout, None, sent)), None)
+        else:
+            reply = self._first_reply(data, timeout, sent)
+        if reply is None:
+            raise self._unavailable()
+        outcome = self._outcome(reply, started, timeout, sent)
+        if isinstance(outcome, ServiceError):
+            raise outcome
+        return outcome
+
+    def _first_reply(self, data: bytes, timeout: float, sent: bytes | None) -> Any:
+        """The first reply (None if none came) waited for where Ctrl-C can end the wait: a
+        Rust channel cannot be interrupted from another thread, a Signal can."""
+        first: list[Any] = []
         arrived = Signal()
 
         def on_reply(reply: Any) -> None:
@@ -517,20 +491,12 @@ class Client(_ServiceEntity):
                 first.append(reply)
                 arrived.notify()
 
-        def on_end() -> None:
-            on_reply(None)
-
-        # on Zenoh's thread, which only hands the reply over: the caller's thread decodes it
-        handler = self._zenoh.handlers.Callback(on_reply, on_end, indirect=False)
+        # on Zenoh's thread, which only hands the reply over
+        handler = self._zenoh.handlers.Callback(on_reply, lambda: on_reply(None), indirect=False)
         self._send(data, timeout, handler, sent)
         if not arrived.wait_for(lambda: bool(first), None):  # Zenoh ends every query in time
             raise KeyboardInterrupt
-        if first[0] is None:
-            raise self._unavailable()
-        outcome = self._outcome(first[0], started, timeout, sent)
-        if isinstance(outcome, ServiceError):
-            raise outcome
-        return outcome
+        return first[0]
 
     __call__ = call
 

@@ -17,7 +17,7 @@ import contextlib
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 _interrupted = threading.Event()
 #: the locks of the interruptible waits sleeping now
@@ -79,6 +79,32 @@ def start_listener_thread() -> None:
                 target=_listener_loop, name='zros interrupt', daemon=True
             )
             _listener_thread.start()
+
+
+_main_raising = 0  #: depth of raises_on_interrupt blocks of the main thread
+
+
+@contextlib.contextmanager
+def raises_on_interrupt() -> Iterator[None]:
+    """A block of the main thread that Ctrl-C ends with KeyboardInterrupt (when zros handles
+    SIGINT): for waits in Zenoh's Rust code, which runs Python's signal handlers but can only
+    be left by an exception. Other threads do not get signals: the block does nothing there."""
+    global _main_raising  # noqa: PLW0603
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _main_raising += 1
+    try:
+        if _interrupted.is_set():
+            raise KeyboardInterrupt
+        yield
+    finally:
+        _main_raising -= 1
+
+
+def main_thread_raises() -> bool:
+    """Whether the main thread is inside :func:`raises_on_interrupt` (asked by the handler)."""
+    return _main_raising > 0
 
 
 def clear_interrupt() -> None:

@@ -132,6 +132,18 @@ CASES: dict[str, tuple[str, str, str]] = {
         'False',
     ),
     'service call': (STUCK_SERVER, 'client.call(timeout=3600)', 'KeyboardInterrupt'),
+    'service call on a thread': (
+        STUCK_SERVER + 'got = []\n'
+        'def work():\n'
+        '    try:\n'
+        '        got.append(client.call(timeout=3600))\n'
+        '    except KeyboardInterrupt:\n'
+        "        got.append('KeyboardInterrupt')\n"
+        'worker = threading.Thread(target=work)\n'
+        'worker.start()',
+        '(zros.spin(), worker.join(5), got)[2]',
+        "['KeyboardInterrupt']",
+    ),
     'call_async result': (
         STUCK_SERVER,
         'client.call_async(timeout=3600).result()',

@@ -29,9 +29,10 @@ from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode
 from zros.clock import Time
+from zros.futures import ServiceFuture
 from zros.keyexpr.bridge import EntityKind
 from zros.qos import Durability, QoS
-from zros.services import Client, ServiceError, ServiceFuture
+from zros.services import Client, ServiceError
 from zros.signal import Signal
 from zros.wire import entity_wire, has_attachment
 

@@ -164,6 +164,7 @@ class ActionServer:
         self._GoalStatus = registry.get_class('action_msgs/msg/GoalStatus')
         self._GoalInfo = registry.get_class('action_msgs/msg/GoalInfo')
         self._lock = threading.RLock()
+        self._status_lock = threading.Lock()
         self._goals: collections.OrderedDict[bytes, ServerGoalHandle] = collections.OrderedDict()
         self._warned_bad = False
         self._closed = False
@@ -242,13 +243,16 @@ class ActionServer:
         return info
 
     def _publish_status(self) -> None:
-        with self._lock:
-            statuses = [
-                self._GoalStatus(goal_info=self._goal_info(goal), status=int(goal.status))
-                for goal in self._goals.values()
-            ]
-            if self._closed:
-                return
+        # arrays go out one at a time, in order, but without the goals' lock: get_result
+        # queries take it on Zenoh's thread and must not wait for a congested network
+        with self._status_lock:
+            with self._lock:
+                if self._closed:
+                    return
+                statuses = [
+                    self._GoalStatus(goal_info=self._goal_info(goal), status=int(goal.status))
+                    for goal in self._goals.values()
+                ]
             try:
                 self._status.write(self._StatusArray(status_list=statuses))
             except Exception:

@@ -86,9 +86,9 @@ class PlayClock:
         """
         check = stopped if callable(stopped) else (lambda: False)
         while True:
+            self._changed.clear()  # before the check: a change after it still wakes the wait
             if check():
                 return False
-            self._changed.clear()
             with self._lock:
                 if self._paused:
                     remaining = None
