@@ -50,6 +50,9 @@ try:
 except KeyboardInterrupt:
     outcome = 'KeyboardInterrupt'
 print('outcome', outcome, flush=True)
+for name in ('recorder', 'player'):  # what a with block would close
+    if name in globals():
+        globals()[name].close()
 zros.shutdown()
 print('closed', flush=True)
 """
