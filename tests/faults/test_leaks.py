@@ -79,9 +79,16 @@ def busy_node(
     return weakref.ref(node)
 
 
-def referrers(obj: object) -> str:
-    """What still refers to ``obj`` (for the failure message)."""
-    return '\n'.join(repr(r)[:200] for r in gc.get_referrers(obj) if not isinstance(r, list))
+def referrers(obj: object, depth: int = 2) -> str:
+    """What still refers to ``obj``, and to those (for the failure message)."""
+    lines = []
+    for referrer in gc.get_referrers(obj):
+        if type(referrer).__name__ == 'frame':
+            continue
+        lines.append(f'{type(referrer).__name__} {repr(referrer)[:200]}')
+        if depth > 1:
+            lines += ['    ' + line for line in referrers(referrer, depth - 1).splitlines()]
+    return '\n'.join(lines)
 
 
 def test_a_destroyed_node_is_freed(
@@ -113,6 +120,38 @@ def test_the_default_node_is_freed_after_shutdown(
     finally:
         zros.shutdown()
     assert wait_for(lambda: gc.collect() >= 0 and ref() is None, 10), referrers(ref())
+
+
+def test_entities_closed_on_a_live_node_are_freed(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('owner')
+    got: list[Any] = []
+    entities: list[Any] = [
+        node.create_subscription('std_msgs/msg/String', 'chatter', got.append),
+        node.create_subscription('std_msgs/msg/String', 'latched', qos='latched'),
+        node.create_publisher('std_msgs/msg/String', 'chatter'),
+        node.create_publisher('std_msgs/msg/String', 'latched', qos='latched'),
+        node.create_service(Trigger, 'trigger', lambda request, response: response),
+        node.create_client(Trigger, 'trigger'),
+        node.create_action_server(Fibonacci, 'fibonacci', fibonacci),
+        node.create_action_client(Fibonacci, 'fibonacci'),
+    ]
+    timer = node.create_timer(0.01, lambda: got.append('tick'))
+    with spinning(node):
+        assert entities[2].wait_for_subscribers(10)
+        entities[2].write(zros.Message('std_msgs/msg/String', data='hi'))
+        assert entities[5].wait_for_service(10) and entities[5].call(timeout=10)
+        assert entities[7].wait_for_server(10)
+        assert entities[7].send_goal(order=2, timeout=10).result(10)
+        assert wait_for(lambda: 'tick' in got and len(got) > 1, 10)
+    timer.cancel()
+    refs = [weakref.ref(entity) for entity in [*entities, timer]]
+    for entity in entities:
+        entity.close()
+    del entities, entity, timer  # the loop variable holds the last one
+    assert wait_for(lambda: gc.collect() >= 0 and all(r() is None for r in refs), 10), [
+        referrers(r()) for r in refs if r() is not None
+    ]
+    assert node.ok()
 
 
 def rss() -> int:
