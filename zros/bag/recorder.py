@@ -126,6 +126,7 @@ class Recorder:
         self._closed = False
         self.error: BaseException | None = None  #: what stopped the writer thread, if anything
         self.message_count = 0  #: messages written so far
+        self.received = 0  #: messages that reached the recorder (written, queued or dropped)
         self.dropped = 0  #: messages lost because the queue was full (the disk fell behind)
         self.size = 0  #: bytes written so far (the open chunk counted uncompressed)
         self._writer = threading.Thread(target=self._write_loop, name='zros recorder', daemon=True)
@@ -204,6 +205,7 @@ class Recorder:
                 return
             size = len(sample.payload)
             with lock:
+                self.received += 1
                 full = len(queue) >= self._max_queue or self._queued_bytes >= MAX_QUEUE_BYTES
                 if full:
                     self.dropped += 1
