@@ -236,7 +236,7 @@ class ClockSubscription:
 
     def __init__(self, node: Node, clock: SimClock) -> None:
         from zros.cdr import decode
-        from zros.keyexpr.bridge import EntityKind
+        from zros.keyexpr.kinds import EntityKind
         from zros.qos import QoS, Reliability
         from zros.wire import entity_wire
 

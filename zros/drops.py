@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.wire import read_attachment
 
 if TYPE_CHECKING:

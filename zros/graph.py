@@ -31,15 +31,13 @@ from typing import TYPE_CHECKING, Any
 from zros.keyexpr.bridge import (
     BRIDGE_TOKENS,
     ENTITY_TOKENS,
-    EntityKind,
     EntityToken,
-    TokenError,
     admin_key,
     bridge_zid,
-    escape,
     ros_name,
-    unescape,
 )
+from zros.keyexpr.kinds import EntityKind, TokenError
+from zros.keyexpr.owners import ZROS_TOKENS, OwnedEntity, OwnedNode, parse_owner_token
 from zros.keyexpr.rmw_zenoh import ALL_TOKENS as RMW_TOKENS
 from zros.keyexpr.rmw_zenoh import EndpointToken as RmwEndpoint
 from zros.keyexpr.rmw_zenoh import NodeToken, gid, name_key, parse_token
@@ -51,23 +49,8 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros.graph')
 
-ZROS_PREFIX = '@zros_lv'
 #: replies one graph refresh can hold per selector (tokens of a very large graph)
 REFRESH_CAPACITY = 1_000_000
-ZROS_TOKENS = f'@/*/{ZROS_PREFIX}/**'
-
-
-def node_token(zid: str, node_fqn: str) -> str:
-    """The liveliness key announcing a zros node."""
-    return f'@/{zid}/{ZROS_PREFIX}/NN/{escape(node_fqn)}'
-
-
-def entity_token(zid: str, node_fqn: str, kind: EntityKind, key: str, type_name: str) -> str:
-    """The liveliness key telling which zros node owns an entity."""
-    return (
-        f'@/{zid}/{ZROS_PREFIX}/EN/{escape(node_fqn)}/{kind.value}/'
-        f'{escape(key)}/{escape(type_name)}'
-    )
 
 
 @dataclass(frozen=True)
@@ -217,24 +200,19 @@ class Graph:
 
         key = str(sample.key_expr)
         alive = sample.kind == zenoh.SampleKind.PUT
-        parts = key.split('/')
+        token = parse_owner_token(key)
         with self._lock:
-            if len(parts) == 5 and parts[3] == 'NN':
+            if isinstance(token, OwnedNode):
                 if alive:
-                    self._nodes[key] = (parts[1], unescape(parts[4]))
+                    self._nodes[key] = (token.zid, token.node)
                 else:
                     self._nodes.pop(key, None)
-            elif len(parts) == 8 and parts[3] == 'EN':
-                try:
-                    kind = EntityKind(parts[5])
-                except ValueError:
-                    return
-                owner = (parts[1], kind, unescape(parts[6]), unescape(parts[7]))
+            elif isinstance(token, OwnedEntity):
                 if alive:
-                    self._owners[owner] = unescape(parts[4])
-                    self._owner_tokens[key] = (*owner, unescape(parts[4]))
+                    self._owners[token.entity] = token.node
+                    self._owner_tokens[key] = (*token.entity, token.node)
                 else:
-                    self._owners.pop(owner, None)
+                    self._owners.pop(token.entity, None)
                     self._owner_tokens.pop(key, None)
             else:
                 return

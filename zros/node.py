@@ -20,7 +20,7 @@ from collections.abc import Callable, Coroutine, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from zros.clock import Clock, ClockSubscription, SimClock, Time, use_sim_time_from_environment
-from zros.graph import Graph, node_token
+from zros.graph import Graph
 from zros.keyexpr.bridge import BridgeScheme
 from zros.keyexpr.names import (
     Remapping,
@@ -29,6 +29,7 @@ from zros.keyexpr.names import (
     validate_namespace,
     validate_node_name,
 )
+from zros.keyexpr.owners import node_token
 from zros.keyexpr.rmw_zenoh import NodeToken, RmwZenohScheme
 from zros.logger import (
     INFO,

@@ -19,7 +19,7 @@ from zros.cdr import CdrError, encode
 from zros.cdr.message import EncodeBuffer, Message, decode
 from zros.cdr.model import Kind
 from zros.drops import DropCounter, describe_sender, sender_key
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS, QoSLike, as_qos
 from zros.sample_queue import KEEP_ALL_BYTES, SampleQueue
 from zros.signal import (

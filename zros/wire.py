@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from zros.keyexpr.attachment import GID_SIZE, SIZE, Attachment, AttachmentError
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.rmw_zenoh import RmwZenohScheme, gid
 from zros.qos import QoS
 
@@ -74,7 +74,7 @@ def entity_wire(
         return EntityWire(key, (token,) if announce else (), gid(token))
     if not announce:
         return EntityWire(key, (), None)
-    from zros.graph import entity_token
+    from zros.keyexpr.owners import entity_token
 
     owner = entity_token(transport.zid, node.fully_qualified_name, kind, key, type_name)
     token = scheme.token(

@@ -19,7 +19,7 @@ from zros.bag.play_clock import PlayClock
 from zros.bag.player import Player, PlayerError, parse_remap, playback_qos
 from zros.bag.recorder import Recorder
 from zros.cdr import default_registry, encode
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, History, QoS, Reliability
 from zros.testing import wait_for
 

@@ -15,7 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.interop.bridge_standin import protocol as p
-from zros.keyexpr.bridge import BridgeScheme, EntityKind
+from zros.keyexpr.bridge import BridgeScheme
+from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, History, QoS, Reliability
 
 HERE = Path(__file__).resolve().parent

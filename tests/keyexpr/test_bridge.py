@@ -5,9 +5,7 @@ from __future__ import annotations
 import pytest
 
 from zros.keyexpr.bridge import (
-    EntityKind,
     EntityToken,
-    TokenError,
     TokenQoS,
     action_key,
     admin_key,
@@ -18,6 +16,7 @@ from zros.keyexpr.bridge import (
     topic_key,
     unescape,
 )
+from zros.keyexpr.kinds import EntityKind, TokenError
 from zros.keyexpr.names import InvalidNameError
 from zros.qos import LATCHED, ROSOUT, SENSOR_DATA, Durability, History, QoS, Reliability
 

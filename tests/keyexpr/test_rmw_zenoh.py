@@ -9,7 +9,8 @@ import pytest
 from zros.cdr import default_registry
 from zros.cdr.hashing import type_hash
 from zros.keyexpr.attachment import Attachment, AttachmentError
-from zros.keyexpr.bridge import BridgeScheme, EntityKind, TokenError
+from zros.keyexpr.bridge import BridgeScheme
+from zros.keyexpr.kinds import EntityKind, TokenError
 from zros.keyexpr.names import InvalidNameError
 from zros.keyexpr.rmw_zenoh import (
     ALL_TOKENS,

@@ -6,7 +6,8 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from zros.keyexpr.bridge import EntityKind, EntityToken, TokenQoS
+from zros.keyexpr.bridge import EntityToken, TokenQoS
+from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
 from zros.transport import Transport
 

@@ -17,7 +17,7 @@ from tests.plot.conftest import Cli
 from tests.plot.fake_bridge import FakeBridge
 from tests.plot.test_bag import COUNT, make_bag, speed
 from tests.plot.test_live import signal
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.testing import wait_for
 
 Node = Callable[..., Any]

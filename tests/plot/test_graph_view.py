@@ -6,7 +6,7 @@ from collections.abc import Callable
 from typing import Any
 
 from tests.plot.fake_bridge import FakeBridge
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.plot import GraphModel, Vertex, graph_model
 
 Node = Callable[..., Any]

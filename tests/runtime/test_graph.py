@@ -10,7 +10,7 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from zros.graph import Graph
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.node import Node
 from zros.qos import QoS, Reliability
 from zros.transport import Router, Transport

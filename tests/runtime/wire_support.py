@@ -10,7 +10,7 @@ from typing import Any
 import zenoh
 
 from zros.keyexpr.attachment import Attachment
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.node import Node
 from zros.wire import entity_wire, read_attachment
 

@@ -30,7 +30,7 @@ from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode
 from zros.clock import Time
 from zros.futures import ServiceFuture
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
 from zros.services import Client, ServiceError
 from zros.signal import Signal

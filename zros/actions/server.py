@@ -32,7 +32,7 @@ from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode
 from zros.clock import Time
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
 from zros.services import ERROR_PREFIX
 from zros.signal import Signal

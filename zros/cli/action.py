@@ -31,7 +31,7 @@ def action_type(args: argparse.Namespace) -> int:
 
 
 def info(args: argparse.Namespace) -> int:
-    from zros.keyexpr.bridge import EntityKind
+    from zros.keyexpr.kinds import EntityKind
 
     with open_node(args) as node:
         name = node.resolve_name(args.action)

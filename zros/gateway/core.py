@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from zros.errors import ZrosError
-from zros.keyexpr.bridge import EntityKind
+from zros.keyexpr.kinds import EntityKind
 from zros.signal import Signal
 from zros.taps import GraphTopic, RawTap, is_hidden, matched_qos
 

@@ -7,11 +7,10 @@ on out-of-range QoS numbers and on tokens it cannot slice (§3.3).
 
 from __future__ import annotations
 
-import enum
 import re
 from dataclasses import dataclass
 
-from zros.errors import ZrosError
+from zros.keyexpr.kinds import EntityKind, TokenError
 from zros.keyexpr.names import validate_full_name, validate_namespace
 from zros.qos import Durability, History, QoS, Reliability
 
@@ -28,25 +27,6 @@ CONFIG_SELECTOR = '@/*/ros2/config'
 _TYPE_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*/(msg|srv|action)/[A-Za-z][A-Za-z0-9_]*$')
 _TYPE_HASH = re.compile(r'^RIHS01_[0-9a-f]{64}$')
 _I32_MAX = 2**31 - 1
-
-
-class TokenError(ZrosError, ValueError):
-    """A liveliness token is not in the bridge's format (or zros refuses to write it)."""
-
-
-class EntityKind(str, enum.Enum):
-    """The entity kinds of the bridge's tokens, by their two-letter code."""
-
-    PUBLISHER = 'MP'
-    SUBSCRIBER = 'MS'
-    SERVICE_SERVER = 'SS'
-    SERVICE_CLIENT = 'SC'
-    ACTION_SERVER = 'AS'
-    ACTION_CLIENT = 'AC'
-
-    @property
-    def has_qos(self) -> bool:
-        return self in (EntityKind.PUBLISHER, EntityKind.SUBSCRIBER)
 
 
 def escape(text: str) -> str:

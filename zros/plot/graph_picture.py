@@ -53,7 +53,7 @@ def graph_model(
     Bridged endpoints appear under their bridge's node, with the bridge's namespace.
     """
     from zros.graph import Graph
-    from zros.keyexpr.bridge import EntityKind
+    from zros.keyexpr.kinds import EntityKind
 
     if isinstance(source, Graph):
         graph = source
