@@ -36,10 +36,10 @@ _LAZY = {
     'error': ('zros.api', 'error'),
     'fatal': ('zros.api', 'fatal'),
     'time_now': ('zros.api', 'time_now'),
-    'Time': ('zros.clock', 'Time'),
-    'Duration': ('zros.clock', 'Duration'),
-    'Logger': ('zros.logger', 'Logger'),
-    'RosoutHandler': ('zros.logger', 'RosoutHandler'),
+    'Time': ('zros.runtime.clock', 'Time'),
+    'Duration': ('zros.runtime.clock', 'Duration'),
+    'Logger': ('zros.runtime.logger', 'Logger'),
+    'RosoutHandler': ('zros.runtime.logger', 'RosoutHandler'),
     'Node': ('zros.node', 'Node'),
     'Publisher': ('zros.pubsub', 'Publisher'),
     'Subscriber': ('zros.pubsub', 'Subscriber'),
@@ -66,8 +66,8 @@ _LAZY = {
     'ServiceUnavailableError': ('zros.services', 'ServiceUnavailableError'),
     'ServiceTimeoutError': ('zros.services', 'ServiceTimeoutError'),
     'ServiceCallError': ('zros.services', 'ServiceCallError'),
-    'Timer': ('zros.timers', 'Timer'),
-    'Rate': ('zros.timers', 'Rate'),
+    'Timer': ('zros.runtime.timers', 'Timer'),
+    'Rate': ('zros.runtime.timers', 'Rate'),
     'QoS': ('zros.qos', 'QoS'),
     'Reliability': ('zros.qos', 'Reliability'),
     'Durability': ('zros.qos', 'Durability'),
@@ -120,10 +120,8 @@ if TYPE_CHECKING:
         type_hash,
     )
     from zros.cdr.message import Message as _MessageBase
-    from zros.clock import Duration, Time
     from zros.errors import ZrosError
     from zros.keyexpr.names import InvalidNameError
-    from zros.logger import Logger, RosoutHandler
     from zros.node import Node
     from zros.params import (
         Descriptor,
@@ -135,6 +133,9 @@ if TYPE_CHECKING:
     )
     from zros.pubsub import Publisher, Subscriber
     from zros.qos import Durability, History, QoS, Reliability
+    from zros.runtime.clock import Duration, Time
+    from zros.runtime.logger import Logger, RosoutHandler
+    from zros.runtime.timers import Rate, Timer
     from zros.services import (
         Client,
         Service,
@@ -143,7 +144,6 @@ if TYPE_CHECKING:
         ServiceTimeoutError,
         ServiceUnavailableError,
     )
-    from zros.timers import Rate, Timer
     from zros.transport import TransportConfig, TransportError, start_router
 
 

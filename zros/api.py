@@ -13,11 +13,11 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from zros.clock import Time
 from zros.errors import ZrosError
-from zros.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger
 from zros.node import Node, wake_all_nodes
-from zros.signal import (
+from zros.runtime.clock import Time
+from zros.runtime.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger
+from zros.runtime.signal import (
     clear_interrupt,
     interrupt,
     interrupted,

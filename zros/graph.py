@@ -42,7 +42,7 @@ from zros.keyexpr.rmw_zenoh import ALL_TOKENS as RMW_TOKENS
 from zros.keyexpr.rmw_zenoh import EndpointToken as RmwEndpoint
 from zros.keyexpr.rmw_zenoh import NodeToken, gid, name_key, parse_token
 from zros.qos import QoS
-from zros.signal import Signal
+from zros.runtime.signal import Signal
 
 if TYPE_CHECKING:
     from zros.transport import Transport

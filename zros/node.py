@@ -19,7 +19,6 @@ import weakref
 from collections.abc import Callable, Coroutine, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from zros.clock import Clock, ClockSubscription, SimClock, Time, use_sim_time_from_environment
 from zros.graph import Graph
 from zros.keyexpr.bridge import BridgeScheme
 from zros.keyexpr.names import (
@@ -31,7 +30,15 @@ from zros.keyexpr.names import (
 )
 from zros.keyexpr.owners import node_token
 from zros.keyexpr.rmw_zenoh import NodeToken, RmwZenohScheme
-from zros.logger import (
+from zros.qos import QoSLike
+from zros.runtime.clock import (
+    Clock,
+    ClockSubscription,
+    SimClock,
+    Time,
+    use_sim_time_from_environment,
+)
+from zros.runtime.logger import (
     INFO,
     Logger,
     RosoutRecord,
@@ -39,9 +46,8 @@ from zros.logger import (
     logger_name,
     parse_level,
 )
-from zros.qos import QoSLike
-from zros.signal import Signal, interrupted
-from zros.timers import Rate, Timer
+from zros.runtime.signal import Signal, interrupted
+from zros.runtime.timers import Rate, Timer
 from zros.transport import Transport, TransportConfig, default_transport
 
 if TYPE_CHECKING:

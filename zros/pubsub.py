@@ -18,11 +18,11 @@ from typing import TYPE_CHECKING, Any
 from zros.cdr import CdrError, encode
 from zros.cdr.message import EncodeBuffer, Message, decode
 from zros.cdr.model import Kind
-from zros.drops import DropCounter, describe_sender, sender_key
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS, QoSLike, as_qos
-from zros.sample_queue import KEEP_ALL_BYTES, SampleQueue
-from zros.signal import (
+from zros.runtime.drops import DropCounter, describe_sender, sender_key
+from zros.runtime.sample_queue import KEEP_ALL_BYTES, SampleQueue
+from zros.runtime.signal import (
     Signal,
     add_interrupt_listener,
     interrupted,

@@ -22,9 +22,9 @@ from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
 from zros.errors import ZrosError
-from zros.futures import ServiceFuture
 from zros.keyexpr.kinds import EntityKind
-from zros.signal import Signal, interrupted, raises_on_interrupt
+from zros.runtime.futures import ServiceFuture
+from zros.runtime.signal import Signal, interrupted, raises_on_interrupt
 from zros.wire import Requests, Sequence, attachment_of_reply, entity_wire
 
 if TYPE_CHECKING:

@@ -13,8 +13,8 @@ from collections.abc import Callable
 import pytest
 
 import zros
-from zros.logger import INFO, RosFormatter, level_from_args, parse_level
 from zros.node import Node
+from zros.runtime.logger import INFO, RosFormatter, level_from_args, parse_level
 from zros.testing import wait_for
 
 LOG = 'rcl_interfaces/msg/Log'

@@ -11,8 +11,8 @@ from contextlib import contextmanager
 import pytest
 
 import zros
-from zros.clock import Duration, Time
 from zros.node import Node
+from zros.runtime.clock import Duration, Time
 from zros.testing import wait_for
 
 

@@ -28,12 +28,12 @@ from zros.actions.common import (
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode
-from zros.clock import Time
-from zros.futures import ServiceFuture
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
+from zros.runtime.clock import Time
+from zros.runtime.futures import ServiceFuture
+from zros.runtime.signal import Signal
 from zros.services import Client, ServiceError
-from zros.signal import Signal
 from zros.wire import entity_wire, has_attachment
 
 if TYPE_CHECKING:

@@ -31,11 +31,11 @@ from zros.actions.common import (
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode
-from zros.clock import Time
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
+from zros.runtime.clock import Time
+from zros.runtime.signal import Signal
 from zros.services import ERROR_PREFIX
-from zros.signal import Signal
 from zros.wire import Requests, entity_wire
 
 if TYPE_CHECKING:

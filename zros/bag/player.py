@@ -22,7 +22,7 @@ from zros.bag.rosbag2_yaml import parse_qos_profiles
 from zros.bag.types import how_to_define
 from zros.errors import ZrosError
 from zros.qos import Durability, History, QoS, Reliability
-from zros.signal import add_interrupt_listener, remove_interrupt_listener
+from zros.runtime.signal import add_interrupt_listener, remove_interrupt_listener
 
 if TYPE_CHECKING:
     from zros.bag.source import Connection, RawMessage, Source

@@ -22,10 +22,10 @@ from typing import TYPE_CHECKING, Any
 
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE
-from zros.drops import DropCounter
 from zros.errors import ZrosError
 from zros.qos import QoS
-from zros.signal import Signal
+from zros.runtime.drops import DropCounter
+from zros.runtime.signal import Signal
 from zros.taps import RawTap, graph_topics, is_hidden, matched_qos, publish_time
 
 #: the recording QoS is the one matched to the publishers (kept under its old name)

@@ -340,7 +340,7 @@ def bw(args: argparse.Namespace) -> int:
 
 
 def delay(args: argparse.Namespace) -> int:
-    from zros.clock import Time
+    from zros.runtime.clock import Time
 
     with open_node(args) as node:
         type_name = known_type(

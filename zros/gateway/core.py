@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from zros.errors import ZrosError
 from zros.keyexpr.kinds import EntityKind
-from zros.signal import Signal
+from zros.runtime.signal import Signal
 from zros.taps import GraphTopic, RawTap, is_hidden, matched_qos
 
 if TYPE_CHECKING:

@@ -168,7 +168,7 @@ class ParameterEvent:
     @classmethod
     def from_message(cls, message: Any) -> ParameterEvent:
         """The event of an ``rcl_interfaces/msg/ParameterEvent`` message."""
-        from zros.clock import Time
+        from zros.runtime.clock import Time
 
         def values(items: Any) -> dict[str, Any]:
             return {item.name: from_message(item.value)[0] for item in items}

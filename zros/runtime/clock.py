@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from zros.signal import Signal
+from zros.runtime.signal import Signal
 
 if TYPE_CHECKING:
     from zros.node import Node

@@ -14,7 +14,7 @@ import weakref
 from collections.abc import Generator
 from typing import Any
 
-from zros.signal import add_interrupt_listener, interrupted
+from zros.runtime.signal import add_interrupt_listener, interrupted
 
 
 class ServiceFuture(concurrent.futures.Future[Any]):

@@ -10,11 +10,11 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from zros.signal import sleep
+from zros.runtime.signal import sleep
 
 if TYPE_CHECKING:
-    from zros.clock import Clock
     from zros.node import Node
+    from zros.runtime.clock import Clock
 
 _log = logging.getLogger('zros')
 _NS = 1_000_000_000
@@ -91,7 +91,7 @@ class Rate:
         self._period = _nanoseconds(1.0 / hz)
         self.node = node
         if node is None:
-            from zros.clock import Clock
+            from zros.runtime.clock import Clock
 
             self.clock: Clock = Clock()
         else:
