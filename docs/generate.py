@@ -267,7 +267,7 @@ def _class_page(path: str, cls: type, level: int) -> str:
             '\n'.join(f'* `{name}`: {markdown_of(text)}' for name, text in attributes.items())
             + '\n'
         )
-    for name, value in vars(cls).items():
+    for name, value in _members(cls):
         if name.startswith('_') or (issubclass(cls, enum.Enum) and name in cls.__members__):
             continue
         function = value.__func__ if isinstance(value, (classmethod, staticmethod)) else value
@@ -286,6 +286,18 @@ def _class_page(path: str, cls: type, level: int) -> str:
             parts.append(signature + '\n')
         parts.append(markdown_of(doc) + '\n')
     return '\n'.join(parts)
+
+
+def _members(cls: type) -> Iterator[tuple[str, Any]]:
+    """What a class and its zros base classes define (a mixin's methods, an entity base's
+    ``close``), each name once, the class's own first."""
+    seen: set[str] = set()
+    for base in cls.__mro__:
+        if base is cls or base.__module__.startswith('zros'):
+            for name, value in vars(base).items():
+                if name not in seen:
+                    seen.add(name)
+                    yield name, value
 
 
 def _own_names(cls: type) -> set[str]:

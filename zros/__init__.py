@@ -27,7 +27,7 @@ _LAZY = {
     'spin': ('zros.api', 'spin'),
     'shutdown': ('zros.api', 'shutdown'),
     'default_node': ('zros.api', 'default_node'),
-    'NotInitializedError': ('zros.api', 'NotInitializedError'),
+    'NotInitializedError': ('zros.runtime.defaults', 'NotInitializedError'),
     'get_logger': ('zros.api', 'get_logger'),
     'log': ('zros.api', 'log'),
     'debug': ('zros.api', 'debug'),
@@ -89,7 +89,6 @@ if TYPE_CHECKING:
         GoalStatus,
     )
     from zros.api import (
-        NotInitializedError,
         debug,
         default_node,
         error,
@@ -134,6 +133,7 @@ if TYPE_CHECKING:
     from zros.pubsub import Publisher, Subscriber
     from zros.qos import Durability, History, QoS, Reliability
     from zros.runtime.clock import Duration, Time
+    from zros.runtime.defaults import NotInitializedError
     from zros.runtime.logger import Logger, RosoutHandler
     from zros.runtime.timers import Rate, Timer
     from zros.services import (

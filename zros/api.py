@@ -14,8 +14,11 @@ from collections.abc import Sequence
 from typing import Any
 
 from zros.errors import ZrosError
-from zros.node import Node, wake_all_nodes
+from zros.node import Node
+from zros.params import ParameterClient, ParameterError, ParameterNotDeclaredError, ParameterType
 from zros.runtime.clock import Time
+from zros.runtime.defaults import NotInitializedError, set_default_node
+from zros.runtime.executor import wake_all
 from zros.runtime.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger
 from zros.runtime.signal import (
     clear_interrupt,
@@ -25,11 +28,6 @@ from zros.runtime.signal import (
     start_listener_thread,
 )
 from zros.transport import TransportConfig, close_default_transport
-
-
-class NotInitializedError(ZrosError, RuntimeError):
-    """A module-level call needs ``zros.init(name)`` first."""
-
 
 _default: Node | None = None
 _previous_handler: Any = None
@@ -41,7 +39,7 @@ def _on_sigint(signum: int, frame: Any) -> None:
         signal.signal(signal.SIGINT, signal.default_int_handler)
         raise KeyboardInterrupt
     interrupt()
-    wake_all_nodes()
+    wake_all()
     if main_thread_raises():  # inside a service call waiting in Zenoh's code
         raise KeyboardInterrupt
 
@@ -79,6 +77,7 @@ def init(
             bridge_namespace=bridge_namespace,
             **options,
         )
+        set_default_node(_default)
         if handle_sigint and threading.current_thread() is threading.main_thread():
             start_listener_thread()
             previous = signal.signal(signal.SIGINT, _on_sigint)
@@ -122,6 +121,7 @@ def shutdown() -> None:
         if _default is not None:
             _default.destroy()
             _default = None
+            set_default_node(None)
         close_default_transport()
         if _previous_handler is not None and threading.current_thread() is threading.main_thread():
             if signal.getsignal(signal.SIGINT) is _on_sigint:
@@ -185,7 +185,7 @@ def time_now() -> Time:
 # --- parameters (rosR: ros.ParamSet/Get/Type/Delete) ----------------------------------------
 
 _MISSING: Any = object()
-_clients: dict[tuple[int, str], Any] = {}
+_clients: dict[tuple[int, str], ParameterClient] = {}
 
 
 def _target(name: str, node: str | None) -> tuple[str | None, str]:
@@ -198,7 +198,7 @@ def _target(name: str, node: str | None) -> tuple[str | None, str]:
     return (None if node in (None, own) else node), name
 
 
-def _remote(node_name: str, timeout: float) -> Any:
+def _remote(node_name: str, timeout: float) -> ParameterClient:
     owner = default_node()
     key = (id(owner), node_name)
     client = _clients.get(key)
@@ -211,8 +211,6 @@ def param_set(name: str, value: Any, *, node: str | None = None, timeout: float 
     """Set a parameter (rosR: ``ros.ParamSet``): of the default node, declaring it if new, or of
     another node with ``'/other_node:name'`` or ``node='/other_node'``. Raises ParameterError
     with the reason when refused."""
-    from zros.params import ParameterError
-
     target, parameter = _target(name, node)
     if target is not None:
         _remote(target, timeout).set(parameter, value, timeout)
@@ -231,8 +229,6 @@ def param_get(
 ) -> Any:
     """A parameter's value (rosR: ``ros.ParamGet``); ``default`` when it is not set, else
     ParameterNotDeclaredError."""
-    from zros.params import ParameterNotDeclaredError
-
     target, parameter = _target(name, node)
     if target is not None:
         value = _remote(target, timeout).get(parameter, timeout)
@@ -252,8 +248,6 @@ def param_get(
 def param_type(name: str, *, node: str | None = None, timeout: float = 5.0) -> str | None:
     """The ROS 2 type name of a parameter (``'integer'``, ``'double_array'``...), or None when
     it is not set (rosR: ``ros.ParamType``, which gave NULL)."""
-    from zros.params import ParameterType
-
     target, parameter = _target(name, node)
     if target is not None:
         kind = _remote(target, timeout).get_parameter_types([parameter], timeout)[parameter]

@@ -71,7 +71,7 @@ def spinning(*nodes: Node) -> Iterator[None]:
     finally:
         stop.set()
         for node in nodes:
-            node._executor.wake()
+            node.context.executor.wake()
         for thread in threads:
             thread.join(5)
 

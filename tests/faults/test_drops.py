@@ -6,7 +6,7 @@ import logging
 
 import pytest
 
-from zros import drops
+from zros.runtime import drops
 
 
 def test_drops_from_one_sender_are_summed_up_once_per_interval(

@@ -22,7 +22,7 @@ from zros.gateway.core import (
     parameter_nodes,
     service_providers,
 )
-from zros.taps import graph_topics
+from zros.pubsub.taps import graph_topics
 from zros.testing import wait_for
 
 Make = Callable[..., Any]

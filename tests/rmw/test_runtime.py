@@ -13,6 +13,7 @@ import zenoh
 
 import zros
 from zros.cdr import TypeRegistry
+from zros.graph import graph_of
 from zros.keyexpr.attachment import Attachment
 from zros.keyexpr.rmw_zenoh import gid
 from zros.node import Node
@@ -81,8 +82,7 @@ def test_nodes_share_the_session_counter(
     shared = zros_transport()
     first = zros_node('a', transport=shared, start_parameter_services=False)
     second = zros_node('b', transport=shared, start_parameter_services=False)
-    assert first._wire_node is not None and second._wire_node is not None
-    assert (first._wire_node.node_id, second._wire_node.node_id) == (0, 1)
+    assert (first.context.wire.node.node_id, second.context.wire.node.node_id) == (0, 1)
     pub = second.create_publisher(String, 'x')
     assert pub._tokens[0].split('/')[3:5] == ['1', '2']  # node 1, entity 2
 
@@ -228,7 +228,7 @@ def test_requests_and_replies_carry_attachments(zros_node: Callable[..., Node]) 
     assert reply.ok.payload.to_bytes() == bytes.fromhex('000100000500000000000000')
     assert echoed.sequence_number == 41 and echoed.gid == OTHER_GID
     assert echoed.source_timestamp >= before
-    assert client._sequence is not None and client._sequence.gid == client.gid
+    assert Attachment.decode(client._wire.request_attachment()).gid == client.gid
 
 
 def test_client_requests_are_numbered_from_one(zros_node: Callable[..., Node]) -> None:
@@ -377,7 +377,7 @@ def test_actions_are_three_services_and_two_topics(
         ('SC', 'send_goal'), ('SC', 'cancel_goal'), ('SC', 'get_result'),
         ('MS', 'feedback'), ('MS', 'status'),
     }  # fmt: skip
-    graph = observer.graph
+    graph = graph_of(observer)
     assert graph.wait_until(lambda: graph.actions() == {'/robot/fib': [FIB]}, timeout=5)
     assert client.wait_for_server()
     handle = client.send_goal(order=2)
@@ -390,7 +390,7 @@ def test_the_graph_by_name_and_scheme(
 ) -> None:
     talker = zros_node('talker', '/robot')
     pub = talker.create_publisher(String, 'chatter', qos=7)
-    graph = zros_transport().graph
+    graph = graph_of(zros_transport())
     assert graph.wait_until(lambda: '/robot/talker' in graph.nodes(), timeout=5)
     assert graph.wires() == ['rmw_zenoh']
     bridged = zros_node('old', wire='bridge')
@@ -416,7 +416,7 @@ def test_the_graph_by_name_and_scheme(
 def test_the_graph_ignores_malformed_tokens(
     zros_transport: Callable[..., Transport], caplog: pytest.LogCaptureFixture
 ) -> None:
-    graph = zros_transport().graph
+    graph = graph_of(zros_transport())
     other = zros_transport().session
     with caplog.at_level(logging.DEBUG, logger='zros.graph'):
         bad = other.liveliness().declare_token('@ros2_lv/0/abc/0/0/XX/%/%/n')
@@ -431,18 +431,18 @@ def test_the_graph_ignores_malformed_tokens(
 
 def test_attachment_helpers() -> None:
     from zros.keyexpr.attachment import AttachmentError
-    from zros.wire import Sequence, has_attachment, read_attachment
+    from zros.wire.rmw_zenoh_wire import SequenceNumbers, has_attachment, read_attachment
 
     class Carrier:
         def __init__(self, data: bytes | None) -> None:
             self.attachment = None if data is None else zenoh.ZBytes(data)
 
-    sequence = Sequence(OTHER_GID)
+    sequence = SequenceNumbers(OTHER_GID)
     first, second = Attachment.decode(sequence.next()), Attachment.decode(sequence.next())
     assert (first.sequence_number, second.sequence_number) == (1, 2)
     assert first.gid == OTHER_GID
     with pytest.raises(AttachmentError, match='16 bytes'):
-        Sequence(b'short')
+        SequenceNumbers(b'short')
     good = Attachment(3, 4, OTHER_GID)
     for data, valid in (
         (None, False),
@@ -455,3 +455,13 @@ def test_attachment_helpers() -> None:
         carrier = Carrier(data)
         assert has_attachment(carrier) is valid, data
         assert (read_attachment(carrier) is not None) is valid, data
+
+
+def test_an_unannounced_entity_has_no_gid_to_send_with(zros_node: Callable[..., Node]) -> None:
+    from zros.keyexpr.attachment import AttachmentError
+
+    wire = zros_node('tap').context.wire
+    place = wire.unannounced(wire.any_type_key(wire.key('/x')))
+    assert place.key == '0/x/*/*' and place.tokens == () and place.gid is None
+    with pytest.raises(AttachmentError, match='has no GID to send with'):
+        place.request_attachment()

@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from zros.graph import Graph
+from zros.graph import Graph, graph_of
 from zros.keyexpr.kinds import EntityKind
 from zros.node import Node
 from zros.qos import QoS, Reliability
@@ -53,7 +53,7 @@ def announcer(zros_router: Router) -> Iterator[subprocess.Popen[str]]:
 def test_entities_of_another_process_appear_and_go_within_100_ms(
     zros_transport: Callable[..., Transport], announcer: subprocess.Popen[str]
 ) -> None:
-    graph: Graph = zros_transport().graph
+    graph: Graph = graph_of(zros_transport())
     assert announcer.stdout is not None and announcer.stdin is not None
     zid = announcer.stdout.readline().strip()
     announced = time.perf_counter()
@@ -85,7 +85,7 @@ def test_entities_of_another_process_appear_and_go_within_100_ms(
 def test_a_killed_process_leaves_the_graph(
     zros_transport: Callable[..., Transport], announcer: subprocess.Popen[str]
 ) -> None:
-    graph: Graph = zros_transport().graph
+    graph: Graph = graph_of(zros_transport())
     assert announcer.stdout is not None and announcer.stdin is not None
     announcer.stdout.readline()
     assert graph.wait_until(lambda: len(graph.endpoints()) == 4, timeout=5)
@@ -120,7 +120,7 @@ session.close()
 def wait_for_bridge(transport: Transport, version: str) -> None:
     """Until the fake bridge answers its admin queries through the router (declarations travel
     on their own: the printed zid only says they were made)."""
-    graph = transport.graph
+    graph = graph_of(transport)
     assert graph.wait_until(
         lambda: [b for b in graph.bridges() if b.version == version], timeout=30
     ), graph.bridges()

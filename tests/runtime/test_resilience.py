@@ -12,6 +12,7 @@ from collections.abc import Iterator
 import pytest
 
 import zros
+from zros.graph import graph_of
 from zros.testing import wait_for
 from zros.transport import Transport, TransportConfig
 
@@ -101,7 +102,8 @@ def test_traffic_resumes_after_the_router_restarts(
         assert 'is up again' in caplog.text
         # tokens were declared again: a session that joins now sees the publisher
         with Transport(TransportConfig.create(connect=router_process.endpoint)) as late:
-            assert late.graph.wait_until(lambda: late.graph.publishers('count'), timeout=5)
+            graph = graph_of(late)
+            assert graph.wait_until(lambda: graph.publishers('count'), timeout=5)
     finally:
         for transport in transports:
             transport.close()

@@ -13,7 +13,6 @@ import pytest
 
 import zros
 from tests.runtime.wire_support import reply_options, request_options
-from zros import services
 from zros.node import Node
 from zros.services import (
     ServiceCallError,
@@ -21,6 +20,8 @@ from zros.services import (
     ServiceTimeoutError,
     ServiceUnavailableError,
 )
+from zros.services import errors as service_errors
+from zros.services import service as service_module
 from zros.testing import spinning, wait_for
 
 
@@ -201,7 +202,7 @@ def test_a_request_that_does_not_decode(
         )
         assert len(replies) == 1 and replies[0].err is not None
         text = replies[0].err.payload.to_string()
-        assert text.startswith(services.ERROR_PREFIX)
+        assert text.startswith(service_errors.ERROR_PREFIX)
         assert 'does not decode as example_interfaces/srv/AddTwoInts_Request' in text
         assert 'does not decode' in caplog.text
         # still serving
@@ -334,7 +335,7 @@ def test_closing_a_server_answers_what_it_holds(zros_node: Callable[..., Node]) 
 def test_a_flooded_server_refuses_beyond_its_limit(
     zros_node: Callable[..., Node], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(services, 'MAX_PENDING', 3)
+    monkeypatch.setattr(service_module, 'MAX_PENDING', 3)
     server, caller = zros_node('server'), zros_node('caller')
     service = server.create_service(ADD, 'add')
     client = caller.create_client(ADD, 'add')
@@ -352,7 +353,7 @@ def test_a_late_reply_warns_about_the_bridge_timeout(
     monkeypatch: pytest.MonkeyPatch,
     caplog: pytest.LogCaptureFixture,
 ) -> None:
-    monkeypatch.setattr(services, 'BRIDGE_TIMEOUT', -1.0)  # every reply counts as late
+    monkeypatch.setattr(service_module, 'BRIDGE_TIMEOUT', -1.0)  # every reply counts as late
     server, caller = zros_node('server'), zros_node('caller')
     service = server.create_service(ADD, 'slow')
     client = caller.create_client(ADD, 'slow')

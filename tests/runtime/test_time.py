@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime
+import logging
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -14,6 +15,7 @@ import zros
 from zros.node import Node
 from zros.runtime.clock import Duration, Time
 from zros.testing import wait_for
+from zros.transport import Transport
 
 
 def test_time_and_duration_arithmetic() -> None:
@@ -141,3 +143,32 @@ def test_a_timer_made_before_the_clock_starts_counts_from_its_first_message(
     assert ticks == []
     move_to(1001.0)
     assert ticks == [Time.from_seconds(1001.0)]
+
+
+@pytest.mark.parametrize('wire', ['bridge', 'rmw_zenoh'])
+def test_the_sim_clock_takes_the_samples_its_wire_admits(
+    zros_node: Callable[..., Node],
+    zros_transport: Callable[..., Transport],
+    caplog: pytest.LogCaptureFixture,
+    wire: str,
+) -> None:
+    """A /clock sample without an rmw_zenoh attachment moves the clock through a bridge (no
+    attachments there), and under rmw_zenoh is dropped as a subscriber drops it."""
+    sim = zros_node('sim', wire=wire, use_sim_time=True, start_parameter_services=False)
+    player = zros_node('player', wire=wire, start_parameter_services=False)
+    clock = player.create_publisher('rosgraph_msgs/msg/Clock', '/clock')
+    assert clock.wait_for_subscribers()
+    raw = zros_transport().session.declare_publisher(clock.key)
+    assert wait_for(lambda: raw.matching_status.matching)
+    message = zros.Message('rosgraph_msgs/msg/Clock', clock=Time.from_seconds(5).to_msg())
+    with caplog.at_level(logging.DEBUG, logger='zros'):
+        raw.put(zros.cdr.encode(message))  # no attachment
+        if wire == 'bridge':
+            assert wait_for(lambda: sim.now() == Time.from_seconds(5))
+        else:
+            assert wait_for(lambda: 'no valid rmw_zenoh attachment' in caplog.text)
+            assert sim.now() == Time(0)
+    message.clock = Time.from_seconds(7).to_msg()
+    clock.write(message)
+    assert wait_for(lambda: sim.now() == Time.from_seconds(7))
+    raw.undeclare()

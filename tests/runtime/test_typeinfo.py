@@ -9,7 +9,7 @@ import pytest
 from zros.cdr.hashing import type_hash
 from zros.cdr.registry import TypeRegistry
 from zros.node import Node
-from zros.typeinfo import (
+from zros.services.typeinfo import (
     SERVICE_TYPE,
     TypeDescriptionService,
     learn_type,

@@ -12,7 +12,7 @@ import zenoh
 from zros.keyexpr.attachment import Attachment
 from zros.keyexpr.kinds import EntityKind
 from zros.node import Node
-from zros.wire import entity_wire, read_attachment
+from zros.wire import read_attachment
 
 #: the GID raw test requests claim (any 16 bytes do)
 RAW_GID = bytes(range(16))
@@ -48,7 +48,5 @@ def put_options(node: Node) -> dict[str, Any]:
 
 def service_key(node: Node, name: str, srv_type: str) -> str:
     """The Zenoh key of a service (or action part) as ``node`` would declare it."""
-    registry = node.registry
-    return entity_wire(
-        node, EntityKind.SERVICE_SERVER, name, srv_type, registry, announce=False
-    ).key
+    wire = node.context.wire
+    return wire.entity(EntityKind.SERVICE_SERVER, name, srv_type, node.registry, announce=False).key

@@ -11,14 +11,14 @@ import concurrent.futures
 import logging
 import threading
 import time
-import uuid
 import weakref
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from zros.actions.common import (
     ActionError,
     CancelReturn,
+    GoalHandle,
     GoalRejectedError,
     GoalStatus,
     action_type,
@@ -31,13 +31,11 @@ from zros.cdr.message import Message, decode
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
 from zros.runtime.clock import Time
+from zros.runtime.defaults import NodeLike
+from zros.runtime.entity import Entity, Sample
 from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal
 from zros.services import Client, ServiceError
-from zros.wire import entity_wire, has_attachment
-
-if TYPE_CHECKING:
-    from zros.node import Node
 
 _log = logging.getLogger('zros')
 
@@ -45,7 +43,7 @@ _log = logging.getLogger('zros')
 RESULT_TIMEOUT = 30 * 24 * 3600.0
 
 
-class ClientGoalHandle:
+class ClientGoalHandle(GoalHandle):
     """A goal sent by an :class:`ActionClient`: its state, latest feedback and result."""
 
     def __init__(
@@ -55,28 +53,16 @@ class ClientGoalHandle:
         goal: Message,
         feedback_callback: Callable[[Any], object] | None,
     ) -> None:
+        super().__init__(goal_id, None, GoalStatus.UNKNOWN)
         self.client = client
-        self.goal_id = goal_id
         self.goal = goal
         self.accepted = False
-        self.stamp: Time | None = None  #: when the server accepted it
-        self._status = GoalStatus.UNKNOWN
         self.feedback: Any = None  #: the latest Feedback message
         self.feedback_count = 0
         self._feedback_callback = feedback_callback
         self._result: ServiceFuture = ServiceFuture()
         self._changed = Signal()
         self._lock = threading.Lock()
-
-    @property
-    def goal_uuid(self) -> uuid.UUID:
-        """The goal's id as a UUID."""
-        return uuid.UUID(bytes=self.goal_id)
-
-    @property
-    def status(self) -> GoalStatus:
-        """The goal's state, from the server's status messages and finally its result."""
-        return self._status
 
     @property
     def done(self) -> bool:
@@ -126,7 +112,7 @@ class ClientGoalHandle:
         return f'<zros goal {self.goal_uuid} of {self.client.name}: {self._status.name}>'
 
 
-class ActionClient:
+class ActionClient(Entity):
     """An action client (rclpy: ``ActionClient``).
 
     ``send_goal(goal)`` (or ``send_goal(order=10)``) returns a :class:`ClientGoalHandle` once the
@@ -139,19 +125,17 @@ class ActionClient:
         name: str,
         action: str | ActionType,
         *,
-        node: Node | None = None,
+        node: NodeLike | None = None,
         announce: bool = True,
     ) -> None:
-        from zros.pubsub import _node
-
-        owner = _node(node)
-        owner._check_open()
-        self.node = owner
-        self.action_type = action_type(owner, action)
+        super().__init__(node)
+        context = self.context
+        self.action_type = action_type(context.registry, action)
         self.type_name = self.action_type.__actiontype__
-        self.name = owner.resolve_name(name, 'action name')
-        self.key = owner.scheme.key(self.name)
-        registry = owner.registry
+        self.name = context.resolve_name(name, 'action name')
+        wire = context.wire
+        self.key = wire.key(self.name)
+        registry = context.registry
         self.Goal = self.action_type.Goal
         self.Result = self.action_type.Result
         self.Feedback = self.action_type.Feedback
@@ -162,8 +146,8 @@ class ActionClient:
         )
         self._lock = threading.Lock()
         part = f'{self.name}/_action/'
-        #: through a bridge one AC token announces the action; under rmw_zenoh its parts do
-        parts = announce and not owner.scheme.action_tokens
+        parts = announce and wire.announces_action_parts()
+        owner = self.node
         self._send_goal = Client(part + 'send_goal', self.action_type.SendGoal, node=owner,
                                  announce=parts)  # fmt: skip
         self._get_result = Client(part + 'get_result', self.action_type.GetResult, node=owner,
@@ -171,45 +155,28 @@ class ActionClient:
         self._cancel = Client(part + 'cancel_goal', 'action_msgs/srv/CancelGoal', node=owner,
                               announce=parts)  # fmt: skip
         self._services = (self._send_goal, self._get_result, self._cancel)
-        session = owner.transport.session
+        for service in self._services:
+            self._part(service)
         subscriber = EntityKind.SUBSCRIBER
         status_qos = QoS(1, durability=Durability.TRANSIENT_LOCAL)
-        feedback = entity_wire(
-            owner, subscriber, part + 'feedback', self._FeedbackMessage.__msgtype__,
+        feedback = self._place(
+            subscriber, part + 'feedback', self._FeedbackMessage.__msgtype__,
             self._FeedbackMessage._registry, qos=QoS(10), announce=parts,
         )  # fmt: skip
-        status = entity_wire(
-            owner, subscriber, part + 'status', self._StatusArray.__msgtype__,
+        status = self._place(
+            subscriber, part + 'status', self._StatusArray.__msgtype__,
             self._StatusArray._registry, qos=status_qos, announce=parts,
         )  # fmt: skip
-        attached = feedback.gid is not None  # rmw_zenoh: samples need an attachment
-        self._feedback_subscriber = session.declare_subscriber(
-            feedback.key, self._attached(self._on_feedback) if attached else self._on_feedback
-        )
-        from zenoh import ext
-
+        self._subscribe(feedback, QoS(10), self._on_feedback)
         # the statuses that matter are those of goals sent to servers present then: no late
         # publisher detection, which in zenoh-ext 1.10 leaks ~100 KiB per matched advanced
         # publisher on undeclaration (tests/faults/test_leaks.py)
-        self._status_subscriber: Any = ext.declare_advanced_subscriber(
-            session,
-            status.key,
-            self._attached(self._on_status) if attached else self._on_status,
-            history=ext.HistoryConfig(detect_late_publishers=False, max_samples=1),
-            recovery=ext.RecoveryConfig(periodic_queries=None, heartbeat=True)
-            if attached
-            else None,
-            subscriber_detection=True if attached else None,
-        )
-        self._tokens: list[str] = [*feedback.tokens, *status.tokens]
-        if announce and owner.scheme.action_tokens:
-            self._tokens += entity_wire(
-                owner, EntityKind.ACTION_CLIENT, self.name, self.type_name, registry
-            ).tokens
-        for token in self._tokens:
-            owner.transport.declare_token(token)
-        self._closed = False
-        owner._add(self)
+        self._subscribe(status, status_qos, self._on_status, late_publishers=False)
+        if announce and not parts:
+            self._add_tokens(
+                wire.action_tokens(EntityKind.ACTION_CLIENT, self.name, self.type_name, registry)
+            )
+        self._announce()
 
     # --- the server ----------------------------------------------------------------------------
 
@@ -228,18 +195,7 @@ class ActionClient:
 
     # --- on Zenoh's threads --------------------------------------------------------------------
 
-    def _attached(self, handler: Callable[[Any], None]) -> Callable[[Any], None]:
-        """``handler`` for samples with a valid rmw_zenoh attachment (others are dropped)."""
-
-        def on_sample(sample: Any) -> None:
-            if has_attachment(sample):
-                handler(sample)
-            else:
-                _log.debug('dropped a sample of %s without an rmw_zenoh attachment', self.name)
-
-        return on_sample
-
-    def _on_feedback(self, sample: Any) -> None:
+    def _on_feedback(self, sample: Sample) -> None:
         try:
             message = decode(self._FeedbackMessage, sample.payload.to_bytes())
         except CdrError as exc:
@@ -253,9 +209,9 @@ class ActionClient:
         callback = handle._feedback_callback
         if callback is not None:
             feedback = message.feedback
-            self.node._executor.call_soon(lambda: callback(feedback))
+            self.context.executor.call_soon(lambda: callback(feedback))
 
-    def _on_status(self, sample: Any) -> None:
+    def _on_status(self, sample: Sample) -> None:
         try:
             message = decode(self._StatusArray, sample.payload.to_bytes())
         except CdrError as exc:
@@ -391,24 +347,9 @@ class ActionClient:
 
     # --- lifetime ------------------------------------------------------------------------------
 
-    @property
-    def closed(self) -> bool:
-        """Whether :meth:`close` was called."""
-        return self._closed
-
     def close(self) -> None:
         """Withdraw the client; goals already sent keep running on the server."""
-        if self._closed:
-            return
-        self._closed = True
-        for token in reversed(self._tokens):
-            self.node.transport.release_token(token)
-        if not self.node.transport.closed:
-            self._feedback_subscriber.undeclare()
-            self._status_subscriber.undeclare()
-        for service in self._services:
-            service.close()
-        self.node._remove(self)
+        super().close()
 
     def __repr__(self) -> str:
         return f'<zros ActionClient {self.name} [{self.type_name}]>'

@@ -10,13 +10,12 @@ from __future__ import annotations
 import enum
 import os
 import uuid
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from zros.cdr import TypeRegistry
 from zros.cdr.interfaces import ActionType
 from zros.errors import ZrosError
-
-if TYPE_CHECKING:
-    from zros.node import Node
+from zros.runtime.clock import Time
 
 PARTS = ('send_goal', 'cancel_goal', 'get_result', 'feedback', 'status')
 
@@ -74,11 +73,11 @@ class GoalRejectedError(ActionError):
     """The server rejected the goal."""
 
 
-def action_type(node: Node, name: str | ActionType) -> ActionType:
+def action_type(registry: TypeRegistry, name: str | ActionType) -> ActionType:
     """The action type of a name (``pkg/action/Name`` or ``pkg/Name``) or an ActionType."""
     if isinstance(name, ActionType):
         return name
-    found = node.registry.get_type(name)
+    found = registry.get_type(name)
     if not isinstance(found, ActionType):
         raise TypeError(f'{name} is not an action type')
     return found
@@ -101,3 +100,22 @@ def accepted(answer: object) -> bool:
     if isinstance(answer, bool):
         return answer
     raise TypeError(f'expected GoalResponse/CancelResponse or a bool, got {answer!r}')
+
+
+class GoalHandle:
+    """What both sides know of a goal: its id, when the server accepted it, its state."""
+
+    def __init__(self, goal_id: bytes, stamp: Time | None, status: GoalStatus) -> None:
+        self.goal_id = goal_id
+        self.stamp = stamp  #: when the server accepted it (None until known)
+        self._status = status
+
+    @property
+    def goal_uuid(self) -> uuid.UUID:
+        """The goal's id as a UUID."""
+        return uuid.UUID(bytes=self.goal_id)
+
+    @property
+    def status(self) -> GoalStatus:
+        """The goal's current state."""
+        return self._status

@@ -12,35 +12,35 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures
-import inspect
 import logging
 import threading
 import time
-import uuid
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from zros.actions.common import (
     ActionError,
     CancelReturn,
+    GoalHandle,
     GoalStatus,
     accepted,
     action_type,
     goal_id_of,
 )
+from zros.actions.goals import cancel_candidates, run_goal
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode
 from zros.keyexpr.kinds import EntityKind
+from zros.pubsub import Publisher
 from zros.qos import Durability, QoS
 from zros.runtime.clock import Time
+from zros.runtime.defaults import NodeLike
+from zros.runtime.entity import Entity
 from zros.runtime.signal import Signal
 from zros.services import ERROR_PREFIX
-from zros.wire import Requests, entity_wire
 
-if TYPE_CHECKING:
-    from zros.node import Node
-    from zros.pubsub import Publisher
+Query = Any  #: a Zenoh query, on Zenoh's thread
 
 _log = logging.getLogger('zros')
 
@@ -48,7 +48,7 @@ _log = logging.getLogger('zros')
 MAX_FINISHED = 1000
 
 
-class ServerGoalHandle:
+class ServerGoalHandle(GoalHandle):
     """One goal on the server side, handed to the execute callback.
 
     Report progress with ``publish_feedback``; end with ``succeed()``, ``abort()`` or (after a
@@ -57,25 +57,14 @@ class ServerGoalHandle:
     """
 
     def __init__(self, server: ActionServer, goal_id: bytes, request: Message, stamp: Time):
+        super().__init__(goal_id, stamp, GoalStatus.ACCEPTED)
         self.server = server
-        self.goal_id = goal_id
         self.request = request  #: the Goal message
-        self.stamp = stamp  #: when the server accepted it
-        self._status = GoalStatus.ACCEPTED
+        self.stamp: Time = stamp  #: when the server accepted it
         self._result: Message | None = None
         self._done = False  #: the result is known
         self._finished_at = 0.0
         self._waiters: list[Any] = []  #: get_result queries held until the result is known
-
-    @property
-    def goal_uuid(self) -> uuid.UUID:
-        """The goal's id as a UUID."""
-        return uuid.UUID(bytes=self.goal_id)
-
-    @property
-    def status(self) -> GoalStatus:
-        """The goal's current state."""
-        return self._status
 
     @property
     def is_active(self) -> bool:
@@ -116,7 +105,7 @@ class ServerGoalHandle:
         return f'<zros goal {self.goal_uuid} {self._status.name}>'
 
 
-class ActionServer:
+class ActionServer(Entity):
     """An action server (rclpy: ``ActionServer``).
 
     ``execute_callback(goal_handle)`` runs each accepted goal and returns its Result.
@@ -134,21 +123,19 @@ class ActionServer:
         *,
         goal_callback: Callable[[Any], object] | None = None,
         cancel_callback: Callable[[ServerGoalHandle], object] | None = None,
-        node: Node | None = None,
+        node: NodeLike | None = None,
         result_timeout: float = 900.0,
         announce: bool = True,
     ) -> None:
-        from zros.pubsub import Publisher, _node
-
-        owner = _node(node)
-        owner._check_open()
-        self.node = owner
-        self.action_type = action_type(owner, action)
+        super().__init__(node)
+        context = self.context
+        wire = context.wire
+        self.action_type = action_type(context.registry, action)
         self.type_name = self.action_type.__actiontype__
-        self.name = owner.resolve_name(name, 'action name')
-        self.key = owner.scheme.key(self.name)
+        self.name = context.resolve_name(name, 'action name')
+        self.key = wire.key(self.name)
         #: through a bridge one AS token announces the action; under rmw_zenoh its parts do
-        parts_announced = announce and not owner.scheme.action_tokens
+        parts_announced = announce and wire.announces_action_parts()
         self.execute_callback = execute_callback
         self.goal_callback = goal_callback
         self.cancel_callback = cancel_callback
@@ -156,7 +143,7 @@ class ActionServer:
         self.Goal = self.action_type.Goal
         self.Result = self.action_type.Result
         self.Feedback = self.action_type.Feedback
-        registry = owner.registry
+        registry = context.registry
         self._SendGoal = self.action_type.SendGoal
         self._GetResult = self.action_type.GetResult
         self._CancelGoal = registry.get_service('action_msgs/srv/CancelGoal')
@@ -167,49 +154,41 @@ class ActionServer:
         self._status_lock = threading.Lock()
         self._goals: collections.OrderedDict[bytes, ServerGoalHandle] = collections.OrderedDict()
         self._warned_bad = False
-        self._closed = False
         self._expiry_thread: threading.Thread | None = None
         self._expiry_signal = Signal()
         part = f'{self.name}/_action/'
-        self._feedback: Publisher = Publisher(
+        owner = self.node
+        self._feedback = Publisher(
             part + 'feedback', self.action_type.FeedbackMessage, QoS(10), node=owner,
             announce=parts_announced,
         )  # fmt: skip
-        self._status: Publisher = Publisher(
-            part + 'status',
-            self._StatusArray,
-            QoS(1, durability=Durability.TRANSIENT_LOCAL),
-            node=owner,
-            announce=parts_announced,
-        )
-        session = owner.transport.session
-        self._requests = Requests(owner.scheme.attachments, self.name, ERROR_PREFIX)
-        self._tokens: list[str] = []
-        self._queryables = []
+        self._status = Publisher(
+            part + 'status', self._StatusArray, QoS(1, durability=Durability.TRANSIENT_LOCAL),
+            node=owner, announce=parts_announced,
+        )  # fmt: skip
+        self._part(self._feedback)
+        self._part(self._status)
         for service, srv, handler in (
             ('send_goal', self._SendGoal, self._on_send_goal),
             ('cancel_goal', self._CancelGoal, self._on_cancel_goal),
             ('get_result', self._GetResult, self._on_get_result),
         ):
-            wire = entity_wire(
-                owner, EntityKind.SERVICE_SERVER, part + service, srv.__srvtype__,
+            place = self._place(
+                EntityKind.SERVICE_SERVER, part + service, srv.__srvtype__,
                 srv.Request._registry, announce=parts_announced,
             )  # fmt: skip
-            self._tokens += wire.tokens
-            self._queryables.append(
-                session.declare_queryable(wire.key, self._admitted(handler), complete=True)
+            if service == 'send_goal':  # one admission for the three (shared pending requests)
+                self._requests = place.requests(self.name, ERROR_PREFIX)
+            self._serve(place, self._admitted(handler))
+        if announce and not parts_announced:
+            self._add_tokens(
+                wire.action_tokens(EntityKind.ACTION_SERVER, self.name, self.type_name, registry)
             )
-        if announce and owner.scheme.action_tokens:
-            self._tokens += entity_wire(
-                owner, EntityKind.ACTION_SERVER, self.name, self.type_name, registry
-            ).tokens
-        for token in self._tokens:
-            owner.transport.declare_token(token)
-        owner._add(self)
+        self._announce()
 
     # --- helpers -------------------------------------------------------------------------------
 
-    def _decode(self, query: Any, cls: type[Message]) -> Message | None:
+    def _decode(self, query: Query, cls: type[Message]) -> Message | None:
         payload = query.payload
         try:
             return decode(cls, payload.to_bytes() if payload is not None else b'')
@@ -289,7 +268,7 @@ class ActionServer:
         self._expiry_signal.notify()
 
     def _in_spin(self, function: Callable[[], object]) -> None:
-        self.node._executor.call_soon(function)
+        self.context.executor.call_soon(function)
 
     # --- send_goal -----------------------------------------------------------------------------
 
@@ -311,7 +290,7 @@ class ActionServer:
             except Exception:
                 _log.exception('the goal callback of action %s raised: goal rejected', self.name)
                 answer = False
-        stamp = self.node.now()
+        stamp = self.context.clock.now()
         with self._lock:
             if self._closed:
                 answer = False
@@ -332,25 +311,7 @@ class ActionServer:
         with self._lock:
             handle._status = GoalStatus.EXECUTING
         self._publish_status()
-        if inspect.iscoroutinefunction(self.execute_callback):
-            future = self.node.run_coroutine(self.execute_callback(handle))
-            future.add_done_callback(lambda f: self._finish_from(handle, f))
-            return
-        thread = threading.Thread(
-            target=self._run, args=(handle,), name=f'zros goal {handle.goal_uuid}', daemon=True
-        )
-        thread.start()
-
-    def _run(self, handle: ServerGoalHandle) -> None:
-        future: concurrent.futures.Future[Any] = concurrent.futures.Future()
-        try:
-            result = self.execute_callback(handle)
-            if inspect.iscoroutine(result):
-                result = self.node.run_coroutine(result).result()
-            future.set_result(result)
-        except BaseException as exc:
-            future.set_exception(exc)
-        self._finish_from(handle, future)
+        run_goal(handle, self.execute_callback, self.context.executor, self._finish_from)
 
     def _finish_from(
         self, handle: ServerGoalHandle, future: concurrent.futures.Future[Any]
@@ -451,30 +412,8 @@ class ActionServer:
         else:
             self._in_spin(lambda: self._cancel(query, request))
 
-    def _candidates(self, request: Any) -> tuple[list[ServerGoalHandle], int | None]:
-        """The goals a cancel request names (ROS 2 rules), or the error code when none."""
-        info = request.goal_info
-        goal_id = goal_id_of(info.goal_id)
-        by_id = any(goal_id)
-        before = Time.from_msg(info.stamp)
-        with self._lock:
-            goals = list(self._goals.values())
-        named = [g for g in goals if by_id and g.goal_id == goal_id]
-        if before.nanoseconds:
-            named += [g for g in goals if g.stamp <= before and g not in named]
-        elif not by_id:
-            named = goals
-        active = [g for g in named if g.status.active]
-        if active:
-            return active, None
-        if by_id and not any(g.goal_id == goal_id for g in goals):
-            return [], int(CancelReturn.UNKNOWN_GOAL_ID)
-        if named:
-            return [], int(CancelReturn.GOAL_TERMINATED)
-        return [], int(CancelReturn.NONE)
-
     def _cancel(self, query: Any, request: Any) -> None:
-        candidates, error = self._candidates(request)
+        candidates, error = cancel_candidates(self.goals, request)
         canceling = []
         for handle in candidates:
             answer = True
@@ -508,32 +447,19 @@ class ActionServer:
         with self._lock:
             return list(self._goals.values())
 
-    @property
-    def closed(self) -> bool:
-        """Whether :meth:`close` was called."""
-        return self._closed
-
     def close(self) -> None:
         """Withdraw the server; held get_result calls get an error, running goals are left to
         end on their own (their feedback goes nowhere)."""
+        super().close()
+
+    def _on_close(self) -> None:
         with self._lock:
-            if self._closed:
-                return
-            self._closed = True
             waiters = [q for goal in self._goals.values() for q in goal._waiters]
             for goal in self._goals.values():
                 goal._waiters = []
-        for token in reversed(self._tokens):
-            self.node.transport.release_token(token)
-        if not self.node.transport.closed:
-            for queryable in self._queryables:
-                queryable.undeclare()
         self._expiry_signal.notify()
         for query in waiters:
             self._fail(query, f'the action server {self.name} closed')
-        self._feedback.close()
-        self._status.close()
-        self.node._remove(self)
 
     def __repr__(self) -> str:
         return f'<zros ActionServer {self.name} [{self.type_name}]>'

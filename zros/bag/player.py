@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from zros.cdr import Message
     from zros.node import Node
     from zros.pubsub import Publisher
-    from zros.typeinfo import TypeDescriptionService
+    from zros.services.typeinfo import TypeDescriptionService
 
 _log = logging.getLogger('zros.bag')
 _NS = 1_000_000_000
@@ -129,7 +129,7 @@ class Player:
             from zros.api import default_node
 
             node = default_node()
-        node._check_open()
+        node.context.check_open()
         if not rate > 0:
             raise PlayerError(f'the rate must be positive, got {rate}')
         if not start_offset >= 0:
@@ -225,7 +225,7 @@ class Player:
         self._types: TypeDescriptionService | None = None
         own = [p.msg_type for p in publishers if p.msg_type._registry is not self.node.registry]
         if own:
-            from zros.typeinfo import TypeDescriptionService
+            from zros.services.typeinfo import TypeDescriptionService
 
             self._types = TypeDescriptionService(self.node)
             for cls in own:

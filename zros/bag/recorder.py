@@ -23,10 +23,10 @@ from typing import TYPE_CHECKING, Any
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE
 from zros.errors import ZrosError
+from zros.pubsub.taps import RawTap, graph_topics, is_hidden, matched_qos, publish_time
 from zros.qos import QoS
 from zros.runtime.drops import DropCounter
 from zros.runtime.signal import Signal
-from zros.taps import RawTap, graph_topics, is_hidden, matched_qos, publish_time
 
 #: the recording QoS is the one matched to the publishers (kept under its old name)
 recording_qos = matched_qos
@@ -87,7 +87,7 @@ class Recorder:
             from zros.api import default_node
 
             node = default_node()
-        node._check_open()
+        node.context.check_open()
         self.node = node
         self._names = {node.resolve_name(name) for name in topics or ()}
         try:

@@ -167,7 +167,7 @@ def known_type(node: Node, topic: str, type_name: str) -> str:
     and how to add the definition.
     """
     from zros.cdr.errors import UnknownTypeError
-    from zros.typeinfo import SERVICE_NAME, learn_type
+    from zros.services.typeinfo import SERVICE_NAME, learn_type
 
     try:
         node.registry.get_class(type_name)

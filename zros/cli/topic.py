@@ -234,7 +234,6 @@ def _measuring_subscription(
     need the type's hash): it listens on the topic's keys unannounced, and says so.
     Returns what closes it."""
     from zros.cdr.errors import UnknownTypeError
-    from zros.keyexpr.rmw_zenoh import RmwZenohScheme
     from zros.pubsub import Subscriber
     from zros.qos import QoS, Reliability
 
@@ -249,9 +248,8 @@ def _measuring_subscription(
         return Subscriber(args.topic, type_name, count, qos, node=node, raw=True).close
     except UnknownTypeError:
         pass
-    key = node.scheme.key(node.resolve_name(args.topic))
-    if isinstance(node.scheme, RmwZenohScheme):
-        key += '/*/*'  # any type and hash
+    wire = node.context.wire
+    key = wire.any_type_key(wire.key(node.resolve_name(args.topic)))  # any type and hash
     print(
         f'zros: note: no definition of {type_name} (ZROS_INTERFACE_PATH adds yours): measuring '
         'without announcing the subscription',

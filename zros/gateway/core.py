@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from zros.errors import ZrosError
 from zros.keyexpr.kinds import EntityKind
+from zros.pubsub.taps import GraphTopic, RawTap, is_hidden, matched_qos
 from zros.runtime.signal import Signal
-from zros.taps import GraphTopic, RawTap, is_hidden, matched_qos
 
 if TYPE_CHECKING:
     from zros.cdr import Message

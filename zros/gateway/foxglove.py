@@ -38,8 +38,8 @@ from zros.gateway.core import (
 from zros.gateway.foxglove_calls import ENCODINGS, ClientChannels, ServiceOffer
 from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk, ros2msg_schema
 from zros.gateway.foxglove_params import Parameters
+from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
 from zros.qos import QoS, Reliability
-from zros.taps import GraphTopic, RawTap, graph_topics, is_hidden
 
 if TYPE_CHECKING:
     from zros.node import Node

@@ -26,7 +26,7 @@ from zros.errors import ZrosError
 from zros.gateway.assets import Assets
 from zros.gateway.core import GatewayError, NameFilter
 from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk, ros2msg_schema
-from zros.taps import matched_qos
+from zros.pubsub.taps import matched_qos
 
 if TYPE_CHECKING:
     from zros.bag.source import Connection, RawMessage

@@ -20,8 +20,8 @@ from zros.cdr.message import decode, encode
 from zros.errors import ZrosError
 from zros.gateway.core import GatewayError, NameFilter, message_from_json
 from zros.gateway.foxglove_common import ros2msg_schema
+from zros.pubsub.taps import matched_qos
 from zros.qos import QoS
-from zros.taps import matched_qos
 
 if TYPE_CHECKING:
     from zros.cdr import Message

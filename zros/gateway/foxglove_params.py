@@ -23,7 +23,7 @@ from zros.qos import PARAMETER_EVENTS
 if TYPE_CHECKING:
     from zros.node import Node
     from zros.params.client import ParameterClient
-    from zros.taps import RawTap
+    from zros.pubsub.taps import RawTap
 
 _log = logging.getLogger('zros.gateway')
 
@@ -144,7 +144,7 @@ class Parameters:
     def set(self, parameters: Iterable[Any]) -> list[Any]:
         """Set parameters, node by node; returns their values afterwards (a refused value
         stays as it was, and the clients are told why)."""
-        from zros.params.store import Parameter
+        from zros.params.descriptor import Parameter
 
         by_node: dict[str, list[Parameter]] = {}
         for parameter in parameters:
@@ -177,7 +177,7 @@ class Parameters:
             self._subscribed.update(names)
             if self._events is not None or not self._subscribed:
                 return
-            from zros.taps import RawTap
+            from zros.pubsub.taps import RawTap
 
             cls = self._node.registry.get_class('rcl_interfaces/msg/ParameterEvent')
             self._events = RawTap(

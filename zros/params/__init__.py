@@ -7,14 +7,9 @@ from zros.params.client import (
     ParameterTimeoutError,
     subscribe_parameter_events,
 )
+from zros.params.descriptor import Descriptor, Parameter, ParameterNotDeclaredError, SetResult
 from zros.params.files import dump, load_file, parse_file_text, parse_override, values_for
-from zros.params.store import (
-    Descriptor,
-    Parameter,
-    ParameterNotDeclaredError,
-    ParameterStore,
-    SetResult,
-)
+from zros.params.store import ParameterStore
 from zros.params.values import ParameterError, ParameterType
 
 __all__ = [

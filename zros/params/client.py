@@ -4,18 +4,17 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Iterable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from zros.keyexpr.names import validate_full_name
+from zros.params.descriptor import Descriptor, Parameter, SetResult
 from zros.params.server import SERVICE_TYPES
-from zros.params.store import Descriptor, Parameter, SetResult
 from zros.params.values import ParameterError, ParameterType, from_message, infer_type, to_message
-from zros.services import ServiceTimeoutError, ServiceUnavailableError
-
-if TYPE_CHECKING:
-    from zros.node import Node
-    from zros.pubsub import Subscriber
-    from zros.services import Client
+from zros.pubsub import Subscriber
+from zros.qos import PARAMETER_EVENTS
+from zros.runtime.clock import Time
+from zros.runtime.defaults import NodeLike
+from zros.services import Client, ServiceTimeoutError, ServiceUnavailableError
 
 
 class ParameterTimeoutError(ParameterError, TimeoutError):
@@ -30,20 +29,18 @@ class ParameterClient:
     """Reads and sets the parameters of the node ``node_name`` (fully qualified, e.g.
     ``/robot/driver``). Every call waits at most ``timeout`` seconds."""
 
-    def __init__(self, node: Node, node_name: str, timeout: float = 5.0) -> None:
+    def __init__(self, node: NodeLike, node_name: str, timeout: float = 5.0) -> None:
         if not node_name.startswith('/'):
             node_name = '/' + node_name
         validate_full_name(node_name, 'node name')
         self.node = node
         self.target = node_name
         self.timeout = timeout
-        from zros.services import Client
-
         self._clients: dict[str, Client] = {
             name: Client(f'{node_name}/{name}', srv_type, node=node, announce=False)
             for name, srv_type in SERVICE_TYPES.items()
         }
-        registry = node.registry
+        registry = node.context.registry
         self._Value = registry.get_class('rcl_interfaces/msg/ParameterValue')
         self._Parameter = registry.get_class('rcl_interfaces/msg/Parameter')
 
@@ -160,7 +157,7 @@ class ParameterEvent:
     """One ``/parameter_events`` message, with plain values."""
 
     node: str
-    stamp: Any  #: a zros.Time
+    stamp: Time
     new: dict[str, Any]
     changed: dict[str, Any]
     deleted: list[str]
@@ -168,7 +165,6 @@ class ParameterEvent:
     @classmethod
     def from_message(cls, message: Any) -> ParameterEvent:
         """The event of an ``rcl_interfaces/msg/ParameterEvent`` message."""
-        from zros.runtime.clock import Time
 
         def values(items: Any) -> dict[str, Any]:
             return {item.name: from_message(item.value)[0] for item in items}
@@ -183,16 +179,16 @@ class ParameterEvent:
 
 
 def subscribe_parameter_events(
-    node: Node, callback: Callable[[ParameterEvent], object], node_name: str | None = None
+    node: NodeLike, callback: Callable[[ParameterEvent], object], node_name: str | None = None
 ) -> Subscriber:
     """Call ``callback(event)`` (while ``node`` spins) for each parameter change on the network,
     or only those of ``node_name``."""
-    from zros.qos import PARAMETER_EVENTS
 
     def on_message(message: Any) -> None:
         if node_name is None or message.node == node_name:
             callback(ParameterEvent.from_message(message))
 
-    return node.create_subscription(
-        'rcl_interfaces/msg/ParameterEvent', '/parameter_events', on_message, PARAMETER_EVENTS
-    )
+    return Subscriber(
+        '/parameter_events', 'rcl_interfaces/msg/ParameterEvent', on_message, PARAMETER_EVENTS,
+        node=node,
+    )  # fmt: skip

@@ -9,15 +9,15 @@ every user callback.
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from zros.params.store import Parameter, ParameterStore
+from zros.params.descriptor import Parameter
+from zros.params.store import ParameterStore
 from zros.params.values import ParameterError, ParameterType, from_message, to_message
-
-if TYPE_CHECKING:
-    from zros.node import Node
-    from zros.pubsub import Publisher
-    from zros.services import Service
+from zros.pubsub import Publisher
+from zros.qos import PARAMETER_EVENTS
+from zros.runtime.defaults import NodeLike
+from zros.services import Service
 
 _log = logging.getLogger('zros')
 
@@ -43,14 +43,11 @@ EVENTS_TOPIC = '/parameter_events'
 class ParameterServer:
     """Serves one node's :class:`ParameterStore` and publishes its changes."""
 
-    def __init__(self, node: Node, store: ParameterStore) -> None:
-        from zros.pubsub import Publisher
-        from zros.qos import PARAMETER_EVENTS
-        from zros.services import Service
-
+    def __init__(self, node: NodeLike, store: ParameterStore) -> None:
         self.node = node
+        self._context = node.context
         self.store = store
-        registry = node.registry
+        registry = self._context.registry
         self._Value = registry.get_class('rcl_interfaces/msg/ParameterValue')
         self._Parameter = registry.get_class('rcl_interfaces/msg/Parameter')
         self._Result = registry.get_class('rcl_interfaces/msg/SetParametersResult')
@@ -115,7 +112,7 @@ class ParameterServer:
         return response
 
     def _describe(self, request: Any, response: Any) -> Any:
-        registry = self.node.registry
+        registry = self._context.registry
         response.descriptors = [
             self.store.describe(name).to_message(registry) for name in request.names
         ]
@@ -153,8 +150,8 @@ class ParameterServer:
         if self._events.closed:
             return
         event = self._Event(
-            stamp=self.node.now().to_msg(),
-            node=self.node.fully_qualified_name,
+            stamp=self._context.clock.now().to_msg(),
+            node=self._context.fully_qualified_name,
             new_parameters=[self._message(p) for p in new],
             changed_parameters=[self._message(p) for p in changed],
             deleted_parameters=[self._message(p) for p in deleted],
@@ -165,6 +162,7 @@ class ParameterServer:
             _log.debug('cannot publish a parameter event', exc_info=True)
 
     def close(self) -> None:
+        """Stop serving the parameters and publishing their changes."""
         self.store.on_change = None
         for service in self.services:
             service.close()

@@ -5,13 +5,21 @@ The reasons given for refusals are those rclcpp gives, since ROS 2 tools print t
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from zros.params import files
+from zros.params.descriptor import (
+    OK,
+    Descriptor,
+    Parameter,
+    ParameterNotDeclaredError,
+    SetResult,
+    in_float_range,
+    in_integer_range,
+)
+from zros.params.files import dump as dump_file
 from zros.params.values import (
     ParameterError,
     ParameterType,
@@ -19,99 +27,6 @@ from zros.params.values import (
     normalize,
     same,
 )
-
-
-class ParameterNotDeclaredError(ParameterError, KeyError):
-    """The parameter is not declared (and the node does not allow undeclared ones)."""
-
-    def __str__(self) -> str:  # KeyError would repr the message
-        return str(self.args[0])
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """A parameter's name, value and type."""
-
-    name: str
-    value: Any
-    type: ParameterType | None = None  #: None: inferred from the value
-
-
-@dataclass(frozen=True)
-class Descriptor:
-    """What a parameter may hold (``rcl_interfaces/msg/ParameterDescriptor``).
-
-    Ranges are ``(from, to, step)``; a step of 0 means any value in the range.
-    """
-
-    name: str = ''
-    type: ParameterType = ParameterType.NOT_SET
-    description: str = ''
-    additional_constraints: str = ''
-    read_only: bool = False
-    dynamic_typing: bool = False
-    integer_range: tuple[int, int, int] | None = None
-    floating_point_range: tuple[float, float, float] | None = None
-
-    def to_message(self, registry: Any) -> Any:
-        """This descriptor as an ``rcl_interfaces/msg/ParameterDescriptor``."""
-        message = registry.get_class('rcl_interfaces/msg/ParameterDescriptor')(
-            name=self.name,
-            type=int(self.type),
-            description=self.description,
-            additional_constraints=self.additional_constraints,
-            read_only=self.read_only,
-            dynamic_typing=self.dynamic_typing,
-        )
-        if self.integer_range is not None:
-            low, high, step = self.integer_range
-            range_class = registry.get_class('rcl_interfaces/msg/IntegerRange')
-            message.integer_range = [range_class(from_value=low, to_value=high, step=step)]
-        if self.floating_point_range is not None:
-            low_f, high_f, step_f = self.floating_point_range
-            range_class = registry.get_class('rcl_interfaces/msg/FloatingPointRange')
-            message.floating_point_range = [
-                range_class(from_value=low_f, to_value=high_f, step=step_f)
-            ]
-        return message
-
-    @classmethod
-    def from_message(cls, message: Any) -> Descriptor:
-        """A descriptor from an ``rcl_interfaces/msg/ParameterDescriptor``."""
-        integer = message.integer_range[0] if len(message.integer_range) else None
-        floating = message.floating_point_range[0] if len(message.floating_point_range) else None
-        try:
-            kind = ParameterType(message.type)
-        except ValueError:
-            kind = ParameterType.NOT_SET
-        return cls(
-            name=message.name,
-            type=kind,
-            description=message.description,
-            additional_constraints=message.additional_constraints,
-            read_only=message.read_only,
-            dynamic_typing=message.dynamic_typing,
-            integer_range=(
-                (integer.from_value, integer.to_value, integer.step) if integer else None
-            ),
-            floating_point_range=(
-                (floating.from_value, floating.to_value, floating.step) if floating else None
-            ),
-        )
-
-
-@dataclass(frozen=True)
-class SetResult:
-    """The outcome of setting one parameter (or several atomically)."""
-
-    successful: bool
-    reason: str = ''
-
-    def __bool__(self) -> bool:
-        return self.successful
-
-
-OK = SetResult(True)
 
 
 def _items(values: Mapping[str, Any] | Iterable[Parameter]) -> list[Parameter]:
@@ -136,26 +51,6 @@ def _callback_result(answer: object) -> SetResult:
     if isinstance(answer, tuple) and len(answer) == 2:
         return SetResult(bool(answer[0]), str(answer[1]))
     raise TypeError(f'a set callback returns SetResult, a bool or (bool, reason), not {answer!r}')
-
-
-def _in_integer_range(value: int, limits: tuple[int, int, int]) -> bool:
-    low, high, step = limits
-    if not low <= value <= high:
-        return False
-    return step == 0 or value == high or (value - low) % step == 0
-
-
-def _close(a: float, b: float) -> bool:
-    return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
-
-
-def _in_float_range(value: float, limits: tuple[float, float, float]) -> bool:
-    low, high, step = limits
-    if math.isnan(value) or not (low <= value <= high or _close(value, low) or _close(value, high)):
-        return False
-    if step == 0 or _close(value, high):
-        return True
-    return _close(value, low + round((value - low) / step) * step)
 
 
 @dataclass
@@ -326,7 +221,7 @@ class ParameterStore:
 
     def dump(self) -> str:
         """The parameters as a ROS 2 parameter file."""
-        return files.dump(self.node_name, self.values())
+        return dump_file(self.node_name, self.values())
 
     # --- setting -----------------------------------------------------------------------------
 
@@ -365,14 +260,14 @@ class ParameterStore:
             ParameterType.INTEGER_ARRAY,
         ):
             items = value if isinstance(value, list) else [value]
-            if not all(_in_integer_range(item, descriptor.integer_range) for item in items):
+            if not all(in_integer_range(item, descriptor.integer_range) for item in items):
                 return f"Parameter {{{name}}} doesn't comply with integer range."
         if descriptor.floating_point_range is not None and kind in (
             ParameterType.DOUBLE,
             ParameterType.DOUBLE_ARRAY,
         ):
             items = value if isinstance(value, list) else [value]
-            if not all(_in_float_range(item, descriptor.floating_point_range) for item in items):
+            if not all(in_float_range(item, descriptor.floating_point_range) for item in items):
                 return f"Parameter {{{name}}} doesn't comply with floating point range."
         return None
 

@@ -13,12 +13,10 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from zros.cdr import new_message
 from zros.runtime.signal import Signal
-
-if TYPE_CHECKING:
-    from zros.node import Node
 
 _NS = 1_000_000_000
 
@@ -45,8 +43,6 @@ class Duration:
 
     def to_msg(self) -> Any:
         """A ``builtin_interfaces/msg/Duration``."""
-        from zros.cdr import new_message
-
         sec, nanosec = divmod(self.nanoseconds, _NS)
         return new_message('builtin_interfaces/msg/Duration', sec=sec, nanosec=nanosec)
 
@@ -101,8 +97,6 @@ class Time:
 
     def to_msg(self) -> Any:
         """A ``builtin_interfaces/msg/Time``, ready for ``msg.header.stamp``."""
-        from zros.cdr import new_message
-
         sec, nanosec = divmod(self.nanoseconds, _NS)
         return new_message('builtin_interfaces/msg/Time', sec=sec, nanosec=nanosec)
 
@@ -229,45 +223,3 @@ class SimClock(Clock):
 def use_sim_time_from_environment() -> bool:
     """``ZROS_USE_SIM_TIME=1`` (or true/yes/on) asks every node for sim time."""
     return os.environ.get('ZROS_USE_SIM_TIME', '').strip().lower() in ('1', 'true', 'yes', 'on')
-
-
-class ClockSubscription:
-    """Feeds a SimClock from ``/clock``, decoding on Zenoh's thread so time moves without spin."""
-
-    def __init__(self, node: Node, clock: SimClock) -> None:
-        from zros.cdr import decode
-        from zros.keyexpr.kinds import EntityKind
-        from zros.qos import QoS, Reliability
-        from zros.wire import entity_wire
-
-        self.clock = clock
-        self._cls = node.registry.get_class('rosgraph_msgs/msg/Clock')
-        self._decode = decode
-        qos = QoS(1, Reliability.BEST_EFFORT)
-        wire = entity_wire(
-            node, EntityKind.SUBSCRIBER, '/clock', self._cls.__msgtype__, self._cls._registry,
-            qos=qos,
-        )  # fmt: skip
-        self.key = wire.key
-        self._tokens = wire.tokens[-1:]  # the bridge's token only: no zros node owns it
-        self._transport = node.transport
-        self._subscriber = node.transport.session.declare_subscriber(self.key, self._on_sample)
-        for token in self._tokens:
-            node.transport.declare_token(token)
-        self._closed = False
-
-    def _on_sample(self, sample: Any) -> None:
-        try:
-            message = self._decode(self._cls, sample.payload.to_bytes())
-        except Exception:  # a malformed /clock message leaves the clock where it is
-            return
-        self.clock.set(Time.from_msg(message.clock))
-
-    def close(self) -> None:
-        """Stop following ``/clock``."""
-        if not self._closed:
-            self._closed = True
-            for token in self._tokens:
-                self._transport.release_token(token)
-            if not self._transport.closed:
-                self._subscriber.undeclare()

@@ -3,7 +3,7 @@
 A subscription drops a sample that does not decode as its type, one without a valid rmw_zenoh
 attachment (on that wire), and, past the memory bound of a keep-all queue, every new sample.
 Each drop is counted under who sent it, named as precisely as the wire allows
-(:func:`sender_key`, :func:`describe_sender`). The first drop of a kind from a sender is logged
+(:func:`sender_key`, and ``zros.pubsub.senders``). The first drop of a kind from a sender is logged
 at once; later ones are summed up in one line per :data:`SUMMARY_INTERVAL` seconds, and what
 is left unreported when the subscription closes is logged then. A flood of garbage therefore
 costs a few log lines, and a second attacker is reported as well as the first.
@@ -16,13 +16,9 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from zros.keyexpr.kinds import EntityKind
 from zros.wire import read_attachment
-
-if TYPE_CHECKING:
-    from zros.node import Node
 
 _log = logging.getLogger('zros')
 
@@ -48,44 +44,6 @@ def sender_key(sample: Any) -> str:
     if stamp is not None:
         return f'session:{stamp.get_id()}'
     return 'unknown:'
-
-
-def describe_sender(sample: Any, key: str, node: Node, topic: str) -> str:
-    """A log-friendly name for the sender of ``sample`` (``key`` from :func:`sender_key`):
-    with the node that announced it, if any, and its session."""
-    try:
-        return _describe(sample, key, node, topic)
-    except Exception:  # the session is closing: the bare key still names the sender
-        _log.debug('cannot look up the sender %s', key, exc_info=True)
-        return key
-
-
-def _describe(sample: Any, key: str, node: Node, topic: str) -> str:
-    kind, _, ident = key.partition(':')
-    publishers = node.graph.endpoints((EntityKind.PUBLISHER,))
-    if kind == 'gid':
-        owners = {e.node or e.zid for e in publishers if e.gid is not None and e.gid.hex() == ident}
-        owner = f'of {", ".join(sorted(owners))}' if owners else 'announced by no one'
-        stamp = sample.timestamp
-        session = f', via session {stamp.get_id()}' if stamp is not None else ''
-        return f'publisher {ident} ({owner}{session})'
-    if kind == 'source':
-        return f'source {ident}'
-    if kind == 'session':
-        if ident in {str(z) for z in node.transport.session.info.routers_zid()}:
-            return (
-                f'router {ident} (the sender does not timestamp its messages, so the first '
-                'router did: senders behind it cannot be told apart)'
-            )
-        namespace = node.scheme.namespace
-        owners = {
-            e.node or f'a bridged node (bridge {e.zid})'
-            for e in publishers
-            if e.zid == ident and e.ros_name(namespace) == topic
-        }
-        names = ', '.join(sorted(owners)) if owners else f'no publisher of {topic} announced'
-        return f'session {ident} ({names})'
-    return 'an unknown sender (no timestamp, no source information)'
 
 
 def _messages(count: int) -> str:

@@ -19,11 +19,7 @@ import os
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any, NamedTuple
-
-if TYPE_CHECKING:
-    from zros.node import Node
-    from zros.pubsub import Publisher
+from typing import Any, NamedTuple, Protocol
 
 DEBUG, INFO, WARN, ERROR, FATAL = 10, 20, 30, 40, 50
 LEVELS = {'debug': DEBUG, 'info': INFO, 'warn': WARN, 'warning': WARN, 'error': ERROR,
@@ -44,6 +40,28 @@ class RosoutRecord(NamedTuple):
     file: str
     function: str
     line: int
+
+
+class LogSink(Protocol):
+    """Where a node's loggers send records besides the console (its ``/rosout``), and the
+    node's threshold and clock."""
+
+    @property
+    def level(self) -> int:
+        """The node's threshold (``log_level=``, ``--log-level``, ``ZROS_LOG_LEVEL``)."""
+
+    def stamp(self) -> int:
+        """Nanoseconds of the node's clock now."""
+
+    def publish(self, record: RosoutRecord) -> None:
+        """Send one record (on ``/rosout``); never raises."""
+
+
+class HasLogger(Protocol):
+    """A node, as :class:`RosoutHandler` sees it."""
+
+    def get_logger(self) -> Logger:
+        """The node's logger."""
 
 
 def parse_level(level: str | int | None) -> int:
@@ -123,24 +141,23 @@ def logger_name(node_name: str, namespace: str) -> str:
 
 
 class Logger:
-    """A named ROS logger; with a node, its records also go to ``/rosout``."""
+    """A named ROS logger; with a node's ``sink``, its records also go to ``/rosout``."""
 
-    def __init__(self, name: str, node: Node | None = None, level: int | None = None) -> None:
+    def __init__(self, name: str, sink: LogSink | None = None, level: int | None = None) -> None:
         self.name = name
-        self.node = node
+        self.sink = sink  #: the node's /rosout, threshold and clock (None: console only)
         self._level = level
         self._py = _console().getChild(name)
         self._seen: dict[tuple[str, int], float] = {}
         self._counts: dict[tuple[str, int], int] = {}
-        self._rosout: Publisher | None = None
 
     @property
     def level(self) -> int:
         """The threshold: records below it are dropped."""
         if self._level is not None:
             return self._level
-        if self.node is not None:
-            return self.node._log_level
+        if self.sink is not None:
+            return self.sink.level
         return level_from_environment() or INFO
 
     def set_level(self, level: str | int) -> None:
@@ -149,7 +166,7 @@ class Logger:
 
     def get_child(self, suffix: str) -> Logger:
         """A logger named ``<name>.<suffix>`` with the same node and threshold."""
-        return Logger(f'{self.name}.{suffix}', self.node, self._level)
+        return Logger(f'{self.name}.{suffix}', self.sink, self._level)
 
     def is_enabled_for(self, level: int) -> bool:
         """Whether a record at ``level`` would be logged."""
@@ -193,16 +210,14 @@ class Logger:
         return True
 
     def _emit(self, severity: int, text: str, file: str, function: str, line: int) -> None:
-        node = self.node
-        stamp = node.clock.now().nanoseconds if node is not None else time.time_ns()
-        if node is not None:
-            node._publish_rosout(
-                RosoutRecord(stamp, severity, self.name, text, file, function, line)
-            )
+        sink = self.sink
+        stamp = sink.stamp() if sink is not None else time.time_ns()
+        if sink is not None:
+            sink.publish(RosoutRecord(stamp, severity, self.name, text, file, function, line))
         record = logging.LogRecord(self._py.name, severity, file, line, text, None, None, function)
         record.ros_stamp = stamp
         record.ros_name = self.name
-        record.ros_published = node is not None
+        record.ros_published = sink is not None
         self._py.handle(record)
 
     def debug(self, message: object, **options: Any) -> bool:
@@ -238,16 +253,17 @@ class RosoutHandler(logging.Handler):
     tools (rqt_console, Foxglove) show them. Records zros published already are skipped.
     """
 
-    def __init__(self, node: Node, level: int = logging.NOTSET) -> None:
+    def __init__(self, node: HasLogger, level: int = logging.NOTSET) -> None:
         super().__init__(level)
         self.node = node
 
     def emit(self, record: logging.LogRecord) -> None:
         """Publish a Python logging record on the node's ``/rosout``."""
-        if getattr(record, 'ros_published', False):
+        sink = self.node.get_logger().sink
+        if getattr(record, 'ros_published', False) or sink is None:
             return
         try:
-            self.node._publish_rosout(
+            sink.publish(
                 RosoutRecord(
                     int(record.created * 1e9),
                     min(max(record.levelno, DEBUG), FATAL),

@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Protocol
 
+from zros.runtime.clock import Clock
+from zros.runtime.defaults import NodeLike
 from zros.runtime.signal import sleep
-
-if TYPE_CHECKING:
-    from zros.node import Node
-    from zros.runtime.clock import Clock
 
 _log = logging.getLogger('zros')
 _NS = 1_000_000_000
@@ -32,16 +30,20 @@ class Timer:
     A timer that falls behind skips the periods it missed instead of firing in a burst.
     """
 
-    def __init__(self, node: Node, period: float, callback: Callable[[], object]) -> None:
+    def __init__(self, node: NodeLike, period: float, callback: Callable[[], object]) -> None:
+        context = node.context
+        context.check_open()
         self.node = node
-        self.clock: Clock = node.clock
+        self._executor = context.executor
+        self.clock: Clock = context.clock
         self.period = period
         self._period = _nanoseconds(period)
         self.callback = callback
         self._last = self.clock.timer_now()
         self._next = self._last + self._period
         self._cancelled = False
-        node._executor.add_timer(self)
+        self._owner = context.name
+        self._executor.add_timer(self)
 
     @property
     def cancelled(self) -> bool:
@@ -57,15 +59,17 @@ class Timer:
             self._next = now + self._period
         return self.clock.seconds_until(self._next)
 
-    def _fire(self) -> None:
+    def fire(self) -> None:
+        """Run the callback now and count the next period from its due time (the executor
+        calls it when due; missed periods are skipped)."""
         now = self.clock.timer_now()
         missed = (now - self._next) // self._period
         self._next += self._period * (missed + 1)
         self._last = now
         try:
             self.callback()
-        except Exception:
-            _log.exception('timer callback %r of node %s raised', self.callback, self.node.name)
+        except Exception:  # a user callback: logged, the timer goes on
+            _log.exception('timer callback %r of node %s raised', self.callback, self._owner)
 
     def reset(self) -> None:
         """Start counting the period from now."""
@@ -76,7 +80,18 @@ class Timer:
         """Stop the timer for good."""
         if not self._cancelled:
             self._cancelled = True
-            self.node._executor.remove_timer(self)
+            self._executor.remove_timer(self)
+
+
+class Spinnable(Protocol):
+    """A node, as a :class:`Rate` sees it."""
+
+    @property
+    def clock(self) -> Clock:
+        """The node's clock."""
+
+    def spin_until_clock(self, deadline: int) -> None:
+        """Run the node's callbacks until its clock's timer base reaches ``deadline``."""
 
 
 class Rate:
@@ -85,17 +100,12 @@ class Rate:
     Without a node it sleeps on the monotonic clock.
     """
 
-    def __init__(self, hz: float, node: Node | None = None) -> None:
+    def __init__(self, hz: float, node: Spinnable | None = None) -> None:
         if not hz > 0:
             raise ValueError(f'a rate must be positive, got {hz!r}')
         self._period = _nanoseconds(1.0 / hz)
         self.node = node
-        if node is None:
-            from zros.runtime.clock import Clock
-
-            self.clock: Clock = Clock()
-        else:
-            self.clock = node.clock
+        self.clock: Clock = Clock() if node is None else node.clock
         self._next = self.clock.timer_now() + self._period
 
     def sleep(self) -> None:

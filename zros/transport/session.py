@@ -17,7 +17,6 @@ import threading
 import weakref
 from typing import Any
 
-from zros.keyexpr.rmw_zenoh import IdCounter
 from zros.transport.config import TransportConfig, listen_endpoints
 from zros.transport.credentials import password_dictionary
 from zros.transport.endpoints import parse_endpoint
@@ -106,14 +105,10 @@ class Transport:
         except zenoh.ZError as exc:
             raise _explain(exc, self.config) from None
         self.zid = str(self.session.zid())
-        #: node and entity ids of rmw_zenoh tokens: one counter per session, from 0
-        self.next_entity_id = IdCounter()
         self._tokens: dict[str, tuple[Any, int]] = {}
         self._token_lock = threading.Lock()
         self._closed = False
         self._close_callbacks: list[Any] = []
-        self._graph: Any = None
-        self._bridges: dict[str, Any] | None = None
         self.links_lost = 0  #: how often a link to a router or peer went down
         self._links: set[str] = {str(z) for z in self.session.info.routers_zid()}
         self._link_listener = self.session.info.declare_transport_events_listener(
@@ -151,25 +146,6 @@ class Transport:
             self._links.add(zid)
             if restored:
                 _log.warning('link to %s %s is up again', role, zid)
-
-    def bridges_at_start(self) -> dict[str, Any]:
-        """The bridges that answered the first time a node asked (version and namespace)."""
-        with self._token_lock:
-            if self._bridges is None:
-                from zros.graph import query_bridges
-
-                self._bridges = query_bridges(self.session, timeout=1.0)
-            return dict(self._bridges)
-
-    @property
-    def graph(self) -> Any:
-        """The live view of the ROS graph seen from this session (created on first use)."""
-        with self._token_lock:
-            if self._graph is None:
-                from zros.graph import Graph
-
-                self._graph = Graph(self)
-            return self._graph
 
     def declare_token(self, key: str) -> None:
         """Declare a liveliness token, or count one more user of a token already declared.
@@ -217,8 +193,6 @@ class Transport:
         self._closed = True
         _open.discard(self)
         self._tokens.clear()
-        if self._graph is not None:
-            self._graph.close()
         self.session.close()
 
     def __enter__(self) -> Transport:

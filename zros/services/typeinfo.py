@@ -19,13 +19,16 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from zros.cdr.errors import UnknownTypeError
+from zros.cdr.hashing import message_text, type_description, type_hash
 from zros.errors import ZrosError
+from zros.runtime.defaults import NodeLike
+from zros.services.client import Client
+from zros.services.errors import ServiceError
+from zros.services.service import Service
 
 if TYPE_CHECKING:
     from zros.cdr.message import Message
     from zros.cdr.registry import TypeRegistry
-    from zros.node import Node
-    from zros.services import Service
 
 SERVICE_TYPE = 'type_description_interfaces/srv/GetTypeDescription'
 SERVICE_NAME = 'get_type_description'
@@ -42,10 +45,9 @@ class TypeDescriptionService:
     text (comments included) as ``type_sources``.
     """
 
-    def __init__(self, node: Node) -> None:
-        from zros.services import Service
-
+    def __init__(self, node: NodeLike) -> None:
         self.node = node
+        self._registry = node.context.registry
         self._classes: dict[str, type[Message]] = {}
         self._service: Service = Service(
             f'~/{SERVICE_NAME}', SERVICE_TYPE, self._answer, node=node, inline=lambda: True
@@ -59,7 +61,7 @@ class TypeDescriptionService:
         cls = self._classes.get(type_name)
         if cls is not None:
             return cls._registry
-        registry = self.node.registry
+        registry = self._registry
         try:
             registry.definition(type_name)
         except (UnknownTypeError, ZrosError):
@@ -67,8 +69,6 @@ class TypeDescriptionService:
         return registry
 
     def _answer(self, request: Any) -> Any:
-        from zros.cdr.hashing import type_description, type_hash
-
         response = self._service.Response
         name = request.type_name
         registry = self._registry_for(name)
@@ -113,8 +113,6 @@ def _sources(registry: TypeRegistry, description: dict[str, Any]) -> Iterable[di
 def register_description(registry: TypeRegistry, response: Any, origin: str) -> None:
     """Register the definitions of a successful answer: the sources' text where given (it has
     the constants and comments), else text rebuilt from the description."""
-    from zros.cdr.hashing import message_text
-
     texts = {
         source.type_name: source.raw_file_contents
         for source in response.type_sources
@@ -135,19 +133,18 @@ def register_description(registry: TypeRegistry, response: Any, origin: str) -> 
 
 
 def learn_type(
-    node: Node,
+    node: NodeLike,
     type_name: str,
     owners: Iterable[tuple[str, str | None]],
     timeout: float = 5.0,
 ) -> str | None:
     """Ask the nodes in ``owners`` (``(node name, type hash or None)``, e.g. a topic's
-    publishers) for ``type_name`` and register the answer in ``node.registry``.
+    publishers) for ``type_name`` and register the answer in the node's registry.
 
     Returns the node that described it, or None when none could (no such service, a failure).
     """
-    from zros.services import Client, ServiceError
-
-    for owner, type_hash in owners:
+    registry = node.context.registry
+    for owner, owner_hash in owners:
         client = Client(
             f'{owner.rstrip("/")}/{SERVICE_NAME}', SERVICE_TYPE, node=node, timeout=timeout
         )
@@ -156,7 +153,7 @@ def learn_type(
                 continue
             try:
                 response = client.call(
-                    type_name=type_name, type_hash=type_hash or '', include_type_sources=True
+                    type_name=type_name, type_hash=owner_hash or '', include_type_sources=True
                 )
             except ServiceError as exc:
                 _log.debug('%s did not describe %s: %s', owner, type_name, exc)
@@ -166,7 +163,7 @@ def learn_type(
         if not response.successful:
             _log.debug('%s did not describe %s: %s', owner, type_name, response.failure_reason)
             continue
-        register_description(node.registry, response, f'{owner}/{SERVICE_NAME}')
+        register_description(registry, response, f'{owner}/{SERVICE_NAME}')
         return owner
     return None
 

@@ -12,15 +12,14 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
+from zros.graph import Endpoint, graph_of
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, History, QoS, Reliability
-
-if TYPE_CHECKING:
-    from zros.graph import Endpoint
-    from zros.node import Node
+from zros.runtime.defaults import NodeLike
+from zros.runtime.entity import Entity, Sample
+from zros.wire import any_type_key, read_attachment
 
 _log = logging.getLogger('zros')
 
@@ -45,12 +44,10 @@ def matched_qos(offered: Iterable[QoS]) -> QoS:
     )
 
 
-def publish_time(sample: Any, fallback: int) -> int:
+def publish_time(sample: Sample, fallback: int) -> int:
     """When a sample was published, in nanoseconds: the time in its rmw_zenoh attachment, else
     its Zenoh timestamp (set by the publishing session), else ``fallback``."""
     if sample.attachment is not None:
-        from zros.wire import read_attachment
-
         attachment = read_attachment(sample)
         if attachment is not None:
             return int(attachment.source_timestamp)
@@ -59,7 +56,7 @@ def publish_time(sample: Any, fallback: int) -> int:
         return fallback
     try:
         return int(stamp.get_time_as_ntp64().as_nanos())
-    except Exception:  # a zenoh without the NTP64 helpers
+    except (AttributeError, ValueError, OverflowError):  # an old zenoh, or a bad stamp
         return fallback
 
 
@@ -83,12 +80,12 @@ class GraphTopic:
         """The key to subscribe to when the node cannot make it (an unknown type): the
         publishers' (under rmw_zenoh with wildcards for the type and hash chunks)."""
         for endpoint in self.publishers or self.subscribers:
-            return endpoint.key + '/*/*' if endpoint.wire == 'rmw_zenoh' else endpoint.key
+            return any_type_key(endpoint.wire, endpoint.key)
         return None
 
 
 def graph_topics(
-    node: Node, *, publishers_only: bool = True, exclude_node: str | None = None
+    node: NodeLike, *, publishers_only: bool = True, exclude_node: str | None = None
 ) -> dict[str, GraphTopic]:
     """The topics of the graph by name (with publishers, or with any endpoint), leaving out the
     endpoints of the node named ``exclude_node``. A name announced with several types keeps the
@@ -98,9 +95,10 @@ def graph_topics(
         if publishers_only
         else (EntityKind.PUBLISHER, EntityKind.SUBSCRIBER)
     )
-    namespace = node.scheme.namespace
+    context = node.context
+    namespace = context.wire.namespace
     by_name: dict[str, list[Endpoint]] = {}
-    for endpoint in node.graph.endpoints(kinds):
+    for endpoint in graph_of(context.transport).endpoints(kinds):
         if exclude_node is not None and endpoint.node == exclude_node:
             continue
         by_name.setdefault(endpoint.ros_name(namespace), []).append(endpoint)
@@ -119,9 +117,10 @@ def graph_topics(
     return topics
 
 
-class RawTap:
+class RawTap(Entity):
     """A raw Zenoh subscription on one topic, announced in the graph like a zros subscriber;
-    ``callback(sample)`` runs on Zenoh's thread with each sample, undecoded.
+    ``callback(sample)`` runs on Zenoh's thread with each sample the node's wire accepts,
+    undecoded.
 
     ``key`` (matching the publishers' keys) is used when the node cannot make the topic's key
     and tokens itself (a type it does not know): the topic is then tapped unannounced.
@@ -130,55 +129,29 @@ class RawTap:
 
     def __init__(
         self,
-        node: Node,
+        node: NodeLike,
         topic: str,
         type_name: str,
         *,
         qos: QoS,
         key: str | None,
-        callback: Callable[[Any], None],
+        callback: Callable[[Sample], None],
     ) -> None:
-        from zros.wire import entity_wire
-
+        super().__init__(node)
         self.topic = topic
         self.qos = qos
-        self.transport = node.transport
-        tokens: tuple[str, ...] = ()
+        context = self.context
+        self.transport = context.transport
         try:
-            wire = entity_wire(
-                node, EntityKind.SUBSCRIBER, topic, type_name, node.registry, qos=qos
-            )
-            key, tokens = wire.key, wire.tokens
+            wire = self._place(EntityKind.SUBSCRIBER, topic, type_name, context.registry, qos=qos)
         except ZrosError as exc:
             if key is None:
                 raise
             _log.debug('not announcing the tap on %s: %s', topic, exc)
-        self.key = key
-        session = self.transport.session
-        if qos.transient_local:
-            from zenoh import ext
-
-            history = ext.HistoryConfig(detect_late_publishers=True, max_samples=qos.depth)
-            self._subscriber: Any = ext.declare_advanced_subscriber(
-                session, key, callback, history=history
-            )
-        else:
-            self._subscriber = session.declare_subscriber(key, callback)
-        self._tokens = tokens
-        for token in self._tokens:
-            self.transport.declare_token(token)
-
-    def close(self) -> None:
-        """Withdraw the subscription (idempotent)."""
-        tokens, self._tokens = self._tokens, ()
-        for token in reversed(tokens):
-            self.transport.release_token(token)
-        subscriber, self._subscriber = self._subscriber, None
-        if subscriber is not None and not self.transport.closed:
-            try:
-                subscriber.undeclare()
-            except Exception:  # the session is closing
-                _log.debug('undeclaring a tap failed', exc_info=True)
+            wire = context.wire.unannounced(key)
+        self.key = wire.key
+        self._subscribe(wire, qos, callback)
+        self._announce()
 
     def __repr__(self) -> str:
         return f'<zros RawTap {self.topic} on {self.key} {self.qos}>'

@@ -20,22 +20,17 @@ which scheme announced an endpoint.
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from zros.keyexpr.bridge import (
-    BRIDGE_TOKENS,
-    ENTITY_TOKENS,
-    EntityToken,
-    admin_key,
-    bridge_zid,
-    ros_name,
-)
+from zenoh import SampleKind, ZError
+from zenoh.handlers import FifoChannel
+
+from zros.keyexpr.bridge import BRIDGE_TOKENS, ENTITY_TOKENS, EntityToken, bridge_zid, ros_name
 from zros.keyexpr.kinds import EntityKind, TokenError
 from zros.keyexpr.owners import ZROS_TOKENS, OwnedEntity, OwnedNode, parse_owner_token
 from zros.keyexpr.rmw_zenoh import ALL_TOKENS as RMW_TOKENS
@@ -43,9 +38,9 @@ from zros.keyexpr.rmw_zenoh import EndpointToken as RmwEndpoint
 from zros.keyexpr.rmw_zenoh import NodeToken, gid, name_key, parse_token
 from zros.qos import QoS
 from zros.runtime.signal import Signal
-
-if TYPE_CHECKING:
-    from zros.transport import Transport
+from zros.transport import Transport
+from zros.transport.shared import PerSession
+from zros.wire import BridgeInfo, ask_bridge
 
 _log = logging.getLogger('zros.graph')
 
@@ -78,67 +73,11 @@ class Endpoint:
         return self.node is None
 
 
-@dataclass(frozen=True)
-class BridgeInfo:
-    """A zenoh-bridge-ros2dds on the network."""
-
-    zid: str
-    version: str | None = None  #: e.g. ``1.10.0`` (None until its admin space answered)
-    namespace: str | None = None
-    nodename: str | None = None
-
-    @property
-    def version_tuple(self) -> tuple[int, ...] | None:
-        """The version as numbers, e.g. ``(1, 10, 0)``; None if unknown."""
-        if not self.version:
-            return None
-        digits = self.version.lstrip('v').split('-')[0].split('.')
-        try:
-            return tuple(int(part) for part in digits)
-        except ValueError:
-            return None
-
-    @property
-    def node_name(self) -> str:
-        """The one ROS node the bridge shows: ``<namespace>/<nodename>``."""
-        namespace = self.namespace or '/'
-        return namespace.rstrip('/') + '/' + (self.nodename or 'zenoh_bridge_ros2dds')
-
-
-def query_bridges(session: Any, timeout: float = 1.0) -> dict[str, BridgeInfo]:
-    """Ask every reachable bridge for its version and configuration (ends at once without any)."""
-    found: dict[str, dict[str, Any]] = {}
-    for selector in ('@/*/ros2/version', '@/*/ros2/config'):
-        for reply in session.get(selector, timeout=timeout):
-            if reply.ok is None:
-                continue
-            parts = str(reply.ok.key_expr).split('/')
-            if len(parts) < 4:
-                continue
-            try:
-                value = json.loads(reply.ok.payload.to_string())
-            except ValueError:
-                continue
-            found.setdefault(parts[1], {})[parts[3]] = value
-    bridges = {}
-    for zid, answers in found.items():
-        config = answers.get('config') if isinstance(answers.get('config'), dict) else {}
-        version = answers.get('version')
-        bridges[zid] = BridgeInfo(
-            zid,
-            str(version).lstrip('v') if version is not None else None,
-            config.get('namespace') if config else None,
-            config.get('nodename') if config else None,
-        )
-    return bridges
-
-
 class Graph:
     """What one session sees of the ROS graph; updated by Zenoh as tokens come and go."""
 
     def __init__(self, transport: Transport) -> None:
-        self._transport = transport
-        session = transport.session
+        session = self._session = transport.session
         self._lock = threading.Lock()
         self._entities: dict[str, EntityToken] = {}  # token key -> token
         self._owners: dict[tuple[str, EntityKind, str, str], str] = {}  # -> zros node
@@ -157,6 +96,7 @@ class Graph:
             liveliness.declare_subscriber(ZROS_TOKENS, self._on_zros, history=True),
             liveliness.declare_subscriber(RMW_TOKENS, self._on_rmw, history=True),
         ]
+        transport.on_close(self.close)
 
     # --- token handling, on Zenoh's threads -----------------------------------------------------
 
@@ -166,10 +106,8 @@ class Graph:
             self._changed.notify()
 
     def _on_entity(self, sample: Any) -> None:
-        import zenoh
-
         key = str(sample.key_expr)
-        alive = sample.kind == zenoh.SampleKind.PUT
+        alive = sample.kind == SampleKind.PUT
         zid = bridge_zid(key)
         if zid is not None:
             with self._lock:
@@ -196,10 +134,8 @@ class Graph:
         self._bump()
 
     def _on_zros(self, sample: Any) -> None:
-        import zenoh
-
         key = str(sample.key_expr)
-        alive = sample.kind == zenoh.SampleKind.PUT
+        alive = sample.kind == SampleKind.PUT
         token = parse_owner_token(key)
         with self._lock:
             if isinstance(token, OwnedNode):
@@ -219,10 +155,8 @@ class Graph:
         self._bump()
 
     def _on_rmw(self, sample: Any) -> None:
-        import zenoh
-
         key = str(sample.key_expr)
-        alive = sample.kind == zenoh.SampleKind.PUT
+        alive = sample.kind == SampleKind.PUT
         try:
             token = parse_token(key)
         except TokenError as exc:
@@ -239,26 +173,15 @@ class Graph:
         self._bump()
 
     def _ask_bridge(self, zid: str) -> None:
-        session = self._transport.session
-        info: dict[str, Any] = {}
         try:
-            for item in ('version', 'config'):
-                for reply in session.get(admin_key(zid, item), timeout=2.0):
-                    if reply.ok is not None:
-                        info[item] = json.loads(reply.ok.payload.to_string())
-        except Exception as exc:  # a bridge that does not answer keeps its token entry
+            info = ask_bridge(self._session, zid, timeout=2.0)
+        except ZError as exc:  # a bridge that does not answer keeps its token entry
             _log.debug('bridge %s admin space: %s', zid, exc)
-        config = info.get('config') if isinstance(info.get('config'), dict) else {}
-        version = info.get('version')
+            info = BridgeInfo(zid)
         with self._lock:
             if zid not in self._bridges or self._closed:
                 return
-            self._bridges[zid] = BridgeInfo(
-                zid,
-                str(version).lstrip('v') if version is not None else None,
-                config.get('namespace') if config else None,
-                config.get('nodename') if config else None,
-            )
+            self._bridges[zid] = info
         self._bump()
 
     def refresh(self, timeout: float = 2.0) -> None:
@@ -267,9 +190,7 @@ class Graph:
         The view fills by itself shortly after a session opens; a command-line tool that looks
         once calls this to see the whole graph at once.
         """
-        from zenoh.handlers import FifoChannel
-
-        liveliness = self._transport.session.liveliness()
+        liveliness = self._session.liveliness()
         deadline = time.monotonic() + timeout
         for selector, handler in (
             (ENTITY_TOKENS, self._on_entity),
@@ -421,6 +342,10 @@ class Graph:
         for subscriber in self._subscribers:
             try:
                 subscriber.undeclare()
-            except Exception:  # the session may be closing already
+            except ZError:  # the session may be closing already
                 _log.debug('undeclaring a graph subscriber failed', exc_info=True)
         self._changed.notify()
+
+
+#: the graph of a session, made on first use and closed with it (shared by its nodes)
+graph_of = PerSession(Graph)

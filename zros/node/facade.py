@@ -1,0 +1,215 @@
+"""A zros node: a ROS name on the Zenoh network that owns publishers, subscribers and timers.
+
+Zenoh delivers samples on its own threads; subscribers queue them as raw buffers and the node's
+executor runs callbacks and timers on whichever thread calls :meth:`Node.spin_once` or
+:meth:`Node.spin` (rosR's ``ros.SpinOnce``). Polling reads never need spinning.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+from collections.abc import Coroutine, Iterable, Mapping, Sequence
+from typing import Any, TypeVar
+
+from zros.cdr import TypeRegistry, default_registry
+from zros.keyexpr.names import Remapping
+from zros.node.factories import EntityFactories
+from zros.node.graph_methods import GraphMethods
+from zros.node.parameter_methods import ParameterMethods
+from zros.node.settings import NodeSettings, PathLike, node_transport
+from zros.params import ParameterStore
+from zros.params.server import ParameterServer
+from zros.pubsub.rosout import RosoutSink
+from zros.runtime.clock import Clock, SimClock, Time
+from zros.runtime.clock_feed import ClockSubscription
+from zros.runtime.context import NodeContext
+from zros.runtime.logger import Logger, logger_name
+from zros.transport import Transport, TransportConfig
+from zros.wire import KeyScheme, open_wire
+
+T = TypeVar('T')
+
+_SIM_TIME_SWITCH = (
+    'zros sets use_sim_time when a node starts (zros.Node(use_sim_time=...) '
+    'or -p use_sim_time:=true), not while it runs'
+)
+
+
+class Node(EntityFactories, ParameterMethods, GraphMethods):
+    """A ROS node on the Zenoh network.
+
+    ``namespace`` is the node's own namespace (relative topic names resolve into it);
+    ``bridge_namespace`` is the ``namespace`` setting of the zenoh-bridge-ros2dds to reach, which
+    prefixes every Zenoh key; by default the namespace the bridges present report (``/`` when
+    none answers at creation). ``args`` takes a command line with ``--ros-args`` (remappings
+    ``-r from:=to``, ``__node``, ``__ns``, ``-p use_sim_time:=true``, ``--log-level``). Without
+    ``transport``, the node uses the process's session, opened from ``connect``/``config``, the
+    other settings of ``TransportConfig.create`` (``mode``, ``tls``, ``user``, ``password``, ...)
+    or the environment (see ``zros.transport``).
+
+    ``use_sim_time`` (also ``ZROS_USE_SIM_TIME=1``) makes the node's clock, timers and rates
+    follow ``/clock``. ``log_level`` (also ``ZROS_LOG_LEVEL``) is the threshold of its logger;
+    ``enable_rosout`` publishes its log records on ``/rosout``.
+
+    Parameters get their values, lowest priority first, from ``parameters``, the files of
+    ``params_file`` and ``--params-file``, and ``-p name:=value``; with
+    ``allow_undeclared_parameters`` those are declared at once and clients may set new names.
+    ``start_parameter_services`` serves them to ROS tools.
+
+    ``wire`` picks the key scheme: ``'bridge'`` (zenoh-bridge-ros2dds, the default) or
+    ``'rmw_zenoh'`` (ROS 2 nodes running rmw_zenoh, no bridge), also from ``ZROS_WIRE``; under
+    rmw_zenoh ``domain_id`` (default ``ROS_DOMAIN_ID``, else 0) is the ROS domain.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        namespace: str = '/',
+        *,
+        transport: Transport | None = None,
+        connect: str | Sequence[str] | None = None,
+        config: TransportConfig | None = None,
+        registry: TypeRegistry | None = None,
+        bridge_namespace: str | None = None,
+        remap: Iterable[str] | dict[str, str] | None = None,
+        args: Sequence[str] | None = None,
+        use_sim_time: bool | None = None,
+        log_level: str | int | None = None,
+        enable_rosout: bool = True,
+        parameters: Mapping[str, Any] | None = None,
+        params_file: PathLike | Sequence[PathLike] | None = None,
+        allow_undeclared_parameters: bool = False,
+        start_parameter_services: bool = True,
+        wire: str | None = None,
+        domain_id: int | None = None,
+        **settings: Any,
+    ) -> None:
+        options = NodeSettings.parse(
+            name, namespace, remap=remap, args=args, use_sim_time=use_sim_time,
+            log_level=log_level, parameters=parameters, params_file=params_file, wire=wire,
+        )  # fmt: skip
+        self.name, self.namespace = options.name, options.namespace
+        self.remapping: Remapping = options.remapping
+        self.wire: str = options.wire  #: the wire scheme's name
+        self.transport = node_transport(
+            transport, connect=connect, config=config, wire=self.wire,
+            wire_given=wire is not None, settings=settings,
+        )  # fmt: skip
+        self.registry: TypeRegistry = registry or default_registry()
+        node_wire = open_wire(
+            self.wire, self.transport, self.namespace, self.name, self.registry,
+            bridge_namespace=bridge_namespace, domain_id=domain_id,
+        )  # fmt: skip
+        self.scheme: KeyScheme = node_wire.scheme  #: the pure key functions of the wire
+        self.clock: Clock = SimClock() if options.use_sim_time else Clock()
+        #: what the node's entities get from it
+        self.context = NodeContext(
+            self.name, self.namespace, remapping=self.remapping, transport=self.transport,
+            wire=node_wire, registry=self.registry, clock=self.clock,
+        )  # fmt: skip
+        sink = RosoutSink(self, options.log_level, enable_rosout)
+        self._logger = Logger(logger_name(self.name, self.namespace), sink)
+        if isinstance(self.clock, SimClock):
+            ClockSubscription(self, self.clock)
+        self._node_token = node_wire.node_token
+        self.transport.declare_token(self._node_token)
+        self.transport.on_close(self.destroy)
+        self.parameters = ParameterStore(
+            self.fully_qualified_name, options.overrides, allow_undeclared_parameters
+        )
+        self._parameter_server: ParameterServer | None = None
+        if start_parameter_services:
+            self._parameter_server = ParameterServer(self, self.parameters)
+        if not self.parameters.has('use_sim_time'):
+            self.parameters.declare('use_sim_time', options.use_sim_time)
+        self.parameters.add_on_set_callback(self._refuse_sim_time_switch, internal=True)
+
+    def _refuse_sim_time_switch(self, changes: list[Any]) -> object:
+        for change in changes:
+            if change.name == 'use_sim_time' and change.value is not self.use_sim_time:
+                return (False, _SIM_TIME_SWITCH)
+        return True
+
+    # --- names, time and logging -----------------------------------------------------------
+
+    @property
+    def fully_qualified_name(self) -> str:
+        """``/namespace/name`` of this node."""
+        return self.context.fully_qualified_name
+
+    def resolve_name(self, name: str, kind: str = 'topic name') -> str:
+        """The fully qualified form of a topic or service name, remappings applied."""
+        return self.context.resolve_name(name, kind)
+
+    @property
+    def use_sim_time(self) -> bool:
+        """Whether the node's clock follows ``/clock``."""
+        return self.clock.sim
+
+    def get_clock(self) -> Clock:
+        """The node's clock (ROS time; sim time with ``use_sim_time``)."""
+        return self.clock
+
+    def now(self) -> Time:
+        """The node's current ROS time."""
+        return self.clock.now()
+
+    def get_logger(self) -> Logger:
+        """The node's logger (console, ``/rosout`` and Python's ``ros.<name>`` logger)."""
+        return self._logger
+
+    # --- spinning ------------------------------------------------------------------------
+
+    def ok(self) -> bool:
+        """True until the node is destroyed or the process got Ctrl-C (after ``zros.init``)."""
+        return self.context.ok()
+
+    def spin_once(self, timeout: float | None = 0.0) -> int:
+        """Run due callbacks and timers, waiting up to ``timeout`` seconds for one; returns how
+        many ran. ``timeout=None`` waits until something runs."""
+        return self.context.executor.run_once(timeout)
+
+    def spin(self, timeout: float | None = None) -> None:
+        """Run callbacks and timers until the node stops being ok (or ``timeout`` seconds)."""
+        self.context.executor.spin(timeout)
+
+    def spin_until_clock(self, deadline: int) -> None:
+        """Run callbacks and timers until the node clock's timer base reaches ``deadline``."""
+        self.context.executor.spin_until_clock(self.clock, deadline)
+
+    def spin_until(self, deadline: float) -> None:
+        """Run callbacks and timers until ``time.monotonic()`` reaches ``deadline``."""
+        self.context.executor.spin_until(deadline)
+
+    async def spin_async(self) -> None:
+        """Run callbacks and timers on the asyncio loop until the node stops being ok."""
+        await self.context.executor.spin_async()
+
+    def run_coroutine(self, coroutine: Coroutine[Any, Any, T]) -> concurrent.futures.Future[T]:
+        """Run an async callback: on the loop of :meth:`spin_async` while one spins the node,
+        else on an event loop thread of the node's own (started on first use)."""
+        return self.context.executor.run_coroutine(coroutine)
+
+    # --- lifetime --------------------------------------------------------------------------
+
+    def destroy(self) -> None:
+        """Undeclare every publisher, subscriber and timer of the node; safe to call twice."""
+        if self.context.closed:
+            return
+        if self._parameter_server is not None:
+            self.parameters.on_change = None
+        self.context.close()
+        self.transport.release_token(self._node_token)
+        self.transport.remove_on_close(self.destroy)
+
+    close = destroy
+
+    def __enter__(self) -> Node:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.destroy()
+
+    def __repr__(self) -> str:
+        state = ' (destroyed)' if self.context.closed else ''
+        return f'<zros Node {self.fully_qualified_name}{state}>'

@@ -1,0 +1,88 @@
+"""The ``create_*`` methods of a node (rclpy's names and argument order)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from zros.actions import ActionClient, ActionServer, ServerGoalHandle
+from zros.cdr import Message
+from zros.cdr.interfaces import ActionType, ServiceType
+from zros.pubsub import Publisher, Subscriber
+from zros.qos import QoSLike
+from zros.runtime.clock import Clock
+from zros.runtime.context import NodeContext
+from zros.runtime.timers import Rate, Timer
+from zros.services import Client, Service
+
+
+class EntityFactories:
+    """``create_publisher``, ``create_subscription``, ``create_service``... of a node."""
+
+    context: NodeContext
+    clock: Clock
+    spin_until_clock: Callable[[int], None]
+
+    def create_publisher(
+        self, msg_type: str | type[Message], topic: str, qos: QoSLike | None = None
+    ) -> Publisher:
+        """A publisher on ``topic`` (argument order of rclpy)."""
+        return Publisher(topic, msg_type, qos, node=self)
+
+    def create_subscription(
+        self,
+        msg_type: str | type[Message],
+        topic: str,
+        callback: Callable[[Any], object] | None = None,
+        qos: QoSLike | None = None,
+    ) -> Subscriber:
+        """A subscriber on ``topic``; ``callback(message)`` runs when the node spins."""
+        return Subscriber(topic, msg_type, callback, qos, node=self)
+
+    def create_service(
+        self,
+        srv_type: str | ServiceType,
+        name: str,
+        handler: Callable[..., Any] | None = None,
+    ) -> Service:
+        """A service server; ``handler(request)`` returns the response (see ``zros.Service``)."""
+        return Service(name, srv_type, handler, node=self)
+
+    def create_client(
+        self, srv_type: str | ServiceType, name: str, timeout: float = 10.0
+    ) -> Client:
+        """A service client; ``client.call(request)`` returns the response."""
+        return Client(name, srv_type, node=self, timeout=timeout)
+
+    def create_action_server(
+        self,
+        action_type: str | ActionType,
+        name: str,
+        execute_callback: Callable[[ServerGoalHandle], Any],
+        *,
+        goal_callback: Callable[[Any], object] | None = None,
+        cancel_callback: Callable[[ServerGoalHandle], object] | None = None,
+        result_timeout: float = 900.0,
+    ) -> ActionServer:
+        """An action server; ``execute_callback(goal_handle)`` returns the result."""
+        return ActionServer(
+            name,
+            action_type,
+            execute_callback,
+            goal_callback=goal_callback,
+            cancel_callback=cancel_callback,
+            node=self,
+            result_timeout=result_timeout,
+        )
+
+    def create_action_client(self, action_type: str | ActionType, name: str) -> ActionClient:
+        """An action client; ``client.send_goal(goal)`` returns a goal handle."""
+        return ActionClient(name, action_type, node=self)
+
+    def create_timer(self, period: float, callback: Callable[[], object]) -> Timer:
+        """A timer calling ``callback()`` every ``period`` seconds while the node spins."""
+        return Timer(self, period, callback)
+
+    def create_rate(self, hz: float) -> Rate:
+        """A rate whose ``sleep()`` runs this node's callbacks while it waits."""
+        return Rate(hz, self)

@@ -1,0 +1,46 @@
+"""What a node tells of the ROS graph: names, types, counts, waits (as rclpy's node does)."""
+
+from __future__ import annotations
+
+from zros.graph import Graph, graph_of
+from zros.runtime.context import NodeContext
+
+
+class GraphMethods:
+    """``get_topic_names_and_types``, ``count_publishers``, ``wait_for_publisher``..."""
+
+    context: NodeContext
+
+    @property
+    def graph(self) -> Graph:
+        """The live view of the ROS graph (shared by the nodes of a session)."""
+        return graph_of(self.context.transport)
+
+    def _key(self, topic: str) -> str:
+        return self.context.wire.key(self.context.resolve_name(topic))
+
+    def get_topic_names_and_types(self) -> list[tuple[str, list[str]]]:
+        """Every topic on the network with its types, as rclpy lists them."""
+        return list(self.graph.topics(self.context.wire.namespace).items())
+
+    def get_node_names(self) -> list[str]:
+        """zros nodes by name, and each bridge's node (ROS nodes hide behind it)."""
+        return self.graph.nodes()
+
+    def count_publishers(self, topic: str) -> int:
+        """How many publishers are announced on ``topic``."""
+        return len(self.graph.publishers(self._key(topic)))
+
+    def count_subscribers(self, topic: str) -> int:
+        """How many subscribers are announced on ``topic``."""
+        return len(self.graph.subscribers(self._key(topic)))
+
+    def wait_for_publisher(self, topic: str, timeout: float | None = 5.0) -> bool:
+        """Wait until a publisher on ``topic`` is announced (by a bridge or another node)."""
+        key, graph = self._key(topic), self.graph
+        return graph.wait_until(lambda: graph.publishers(key), timeout)
+
+    def wait_for_subscriber(self, topic: str, timeout: float | None = 5.0) -> bool:
+        """Wait until a subscriber on ``topic`` is announced (by a bridge or another node)."""
+        key, graph = self._key(topic), self.graph
+        return graph.wait_until(lambda: graph.subscribers(key), timeout)

@@ -1,0 +1,281 @@
+"""Subscribers: samples kept raw in a bounded queue, decoded only when read.
+
+Samples overwritten unread cost nothing. Reads never block; callbacks run when the node spins;
+``async for`` works on the same queue.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import threading
+import time
+from collections.abc import AsyncIterator, Callable
+from typing import Any
+
+from zros.cdr import CdrError
+from zros.cdr.message import Message, decode
+from zros.keyexpr.kinds import EntityKind
+from zros.pubsub.senders import describe_sender
+from zros.qos import QoS, QoSLike, as_qos
+from zros.runtime.defaults import NodeLike
+from zros.runtime.drops import DropCounter, sender_key
+from zros.runtime.entity import Entity, Sample, message_class
+from zros.runtime.executor import Work
+from zros.runtime.sample_queue import KEEP_ALL_BYTES, SampleQueue
+from zros.runtime.signal import (
+    Signal,
+    add_interrupt_listener,
+    interrupted,
+    remove_interrupt_listener,
+)
+
+_log = logging.getLogger('zros')
+
+
+class Subscriber(Entity):
+    """Receives messages of one type on one topic (rosR: ``ros.Subscriber``).
+
+    Poll it (``has_new_message``, ``read_message``, ``take``), give it a ``callback`` that runs
+    when the node spins, or iterate it with ``async for``. It holds up to ``qos.depth`` unread
+    messages (keep-last drops the oldest). A keep-all subscriber holds every unread message up
+    to ``max_queue_bytes`` (256 MiB: payloads plus some 384 bytes each) and, if given,
+    ``max_queue`` messages; past that it drops new ones, counted in ``dropped`` and logged,
+    and never holds up its publishers or the rest of the process.
+
+    Messages that do not decode (or, under rmw_zenoh, come without a valid attachment) are
+    dropped, counted per sender (:meth:`dropped_by_sender`) and logged, at most once per sender
+    every 10 s; they never count as new.
+    """
+
+    def __init__(
+        self,
+        topic: str,
+        msg_type: str | type[Message],
+        callback: Callable[[Any], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        node: NodeLike | None = None,
+        raw: bool = False,
+        max_queue: int | None = None,
+        max_queue_bytes: int = KEEP_ALL_BYTES,
+        announce: bool = True,
+    ) -> None:
+        super().__init__(node)
+        context = self.context
+        self.msg_type = message_class(context.registry, msg_type)
+        self.type_name = self.msg_type.__msgtype__
+        self.topic = context.resolve_name(topic)
+        self.qos: QoS = as_qos(qos)
+        wire = self._place(
+            EntityKind.SUBSCRIBER, self.topic, self.type_name, self.msg_type._registry,
+            qos=self.qos, announce=announce,
+        )  # fmt: skip
+        self.key = wire.key
+        self.gid = wire.gid  #: rmw_zenoh: the GID in its token's hash
+        self._callback = callback
+        self.raw = raw
+        self._queue = SampleQueue(
+            None if self.qos.keep_all else self.qos.depth, max_queue, max_queue_bytes
+        )
+        self._reading = threading.Lock()  #: one reader at a time
+        self._checked: Any = None  #: the sample has_new_message decoded, and its message
+        self._checked_message: Any = None
+        self._work = Work(self._dispatch)
+        self._schedule = context.executor.schedule
+        self._arrived = Signal()  #: threads waiting for a message
+        self._async_wakers: list[Callable[[], None]] = []
+        self._last: Any = None
+        self.undecodable = 0  #: samples that did not decode as the type
+        self._drops = DropCounter(self.topic)
+        self._overflows = DropCounter(self.topic)
+        self._rejection = wire.rejection
+        self._subscribe(wire, self.qos, self._on_sample, rejected=self._on_rejected)
+        self._announce()
+
+    @property
+    def received(self) -> int:
+        """Samples that reached the subscription so far (dropped ones included)."""
+        return self._queue.received
+
+    @property
+    def overflowed(self) -> int:
+        """Keep-all: samples dropped past the queue's bounds."""
+        return self._queue.overflowed
+
+    @property
+    def unattached(self) -> int:
+        """rmw_zenoh: samples dropped for want of a valid attachment."""
+        return self._queue.rejected
+
+    @property
+    def dropped(self) -> int:
+        """Messages lost: past a keep-all queue's bounds, undecodable, or (rmw_zenoh) without
+        a valid attachment. Keep-last replacing unread messages is not counted."""
+        return self.overflowed + self.undecodable + self.unattached
+
+    def dropped_by_sender(self) -> dict[str, int]:
+        """Undecodable and unattached messages by sender (as the warnings name them)."""
+        return self._drops.counts()
+
+    # --- on Zenoh's thread -------------------------------------------------------------------
+
+    def _on_rejected(self, sample: Sample) -> None:
+        """The wire turned ``sample`` away (rmw_zenoh: no valid attachment)."""
+        self._queue.reject()
+        self._drop(sample, self._rejection)
+
+    def _on_sample(self, sample: Sample) -> None:
+        if not self._queue.put(sample):
+            self._overflows.add('queue', lambda: '', self._queue.describe_full)
+            return
+        if self._callback is not None:
+            self._schedule(self._work)
+        if self._arrived:
+            self._arrived.notify()
+        for waker in self._async_wakers:
+            waker()
+
+    def _drop(self, sample: Sample, reason: str) -> None:
+        key = sender_key(sample)
+        self._drops.add(key, lambda: describe_sender(sample, key, self.context, self.topic), reason)
+
+    # --- reading ---------------------------------------------------------------------------
+
+    def _convert(self, sample: Sample) -> Any:
+        if sample is self._checked:
+            message = self._checked_message
+            self._checked = self._checked_message = None
+            return message
+        data = sample.payload.to_bytes()
+        if self.raw:
+            return data
+        try:
+            return decode(self.msg_type, data)
+        except CdrError as exc:
+            self.undecodable += 1  # under self._reading
+            self._drop(sample, f'it does not decode as {self.type_name}: {exc}')
+            return None
+
+    def has_new_message(self) -> bool:
+        """Whether a message arrived since the last ``read_message`` or ``take``.
+
+        It decodes the newest unread sample to be sure (``read_message`` then returns it
+        without decoding again): samples that do not decode are dropped here and never make
+        it true.
+        """
+        queue = self._queue
+        if self.raw or not queue:
+            return bool(queue)
+        with self._reading:
+            while (sample := queue.newest()) is not None:
+                if sample is self._checked:
+                    return True
+                message = self._convert(sample)
+                if message is not None:
+                    self._checked, self._checked_message = sample, message
+                    return True
+                queue.discard(sample)
+            return False
+
+    def read_message(self) -> Any:
+        """The newest message (rosR: ``ros.ReadMessage``); unread older ones are discarded.
+
+        Returns the last message read again when nothing new came, and None before the first.
+        """
+        with self._reading:
+            for sample in reversed(self._queue.pop()):
+                message = self._convert(sample)
+                if message is not None:
+                    self._last = message
+                    break
+            self._checked = self._checked_message = None
+        return self._last
+
+    def take(self, max_messages: int | None = None) -> list[Any]:
+        """Every unread message, oldest first (up to ``max_messages``)."""
+        messages: list[Any] = []
+        with self._reading:
+            while max_messages is None or len(messages) < max_messages:
+                samples = self._queue.pop(
+                    None if max_messages is None else max_messages - len(messages)
+                )
+                if not samples:
+                    break
+                messages.extend(m for m in map(self._convert, samples) if m is not None)
+                if max_messages is None:
+                    break
+        if messages:
+            self._last = messages[-1]
+        return messages
+
+    def _has_message(self) -> bool:
+        return bool(self._queue) or self._closed
+
+    def wait_for_message(self, timeout: float | None = None) -> Any:
+        """Block until a message is unread, then return the oldest one (None on timeout, once
+        the subscriber is closed, and after Ctrl-C)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            messages = self.take(1)
+            if messages:
+                return messages[0]
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if self._closed or interrupted() or (remaining is not None and remaining <= 0):
+                return None
+            self._arrived.wait(self._has_message, remaining, interruptible=True)
+
+    def _dispatch(self) -> int:
+        callback = self._callback
+        if callback is None:
+            return 0
+        done = 0
+        for message in self.take():
+            try:
+                callback(message)
+            except Exception:  # a user callback: logged, the others still run
+                _log.exception('callback %r of the subscriber on %s raised', callback, self.topic)
+            done += 1
+        return done
+
+    async def __aiter__(self) -> AsyncIterator[Any]:
+        """Messages as they arrive: ``async for message in subscriber`` (ends on close and
+        on Ctrl-C)."""
+        loop = asyncio.get_running_loop()
+        event = asyncio.Event()
+
+        def waker() -> None:
+            with contextlib.suppress(RuntimeError):  # the loop closed
+                loop.call_soon_threadsafe(event.set)
+
+        self._async_wakers.append(waker)
+        add_interrupt_listener(waker)
+        try:
+            while not (self._closed or interrupted()):
+                event.clear()
+                messages = self.take()
+                if not messages:
+                    await event.wait()
+                    continue
+                for message in messages:
+                    yield message
+        finally:
+            remove_interrupt_listener(waker)
+            self._async_wakers.remove(waker)
+
+    # --- lifetime --------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Withdraw the subscriber from the network; queued messages stay readable."""
+        super().close()
+
+    def _on_close(self) -> None:
+        self._drops.flush()
+        self._overflows.flush()
+        self._arrived.notify()
+        for waker in list(self._async_wakers):
+            waker()
+
+    def __repr__(self) -> str:
+        return f'<zros Subscriber {self.topic} [{self.type_name}] {self.qos}>'

@@ -1,0 +1,161 @@
+"""The one base of everything a node declares on Zenoh, and the one way to subscribe raw.
+
+An :class:`Entity` takes its place on the node's wire (key, liveliness tokens, GID), declares
+its Zenoh objects through the helpers here, announces itself, and is closed once: tokens
+retired (newest first), Zenoh objects undeclared, parts closed, then what the kind adds.
+:meth:`Entity._subscribe` is the single raw subscription of zros: the wire's admission rule
+(rmw_zenoh drops samples without a valid attachment), and for transient local a zenoh-ext
+advanced subscriber with the wire's options; the callback runs on Zenoh's thread.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from zenoh import ZError, ext
+
+from zros.cdr import Message
+from zros.keyexpr.kinds import EntityKind
+from zros.qos import QoS
+from zros.runtime.context import NodeContext
+from zros.runtime.defaults import NodeLike, default_node
+
+if TYPE_CHECKING:
+    from zros.cdr import TypeRegistry
+    from zros.wire import WireEntity
+
+_log = logging.getLogger('zros')
+
+Sample = Any  #: a Zenoh sample, on Zenoh's thread
+
+
+def message_class(registry: TypeRegistry, msg_type: str | type[Message]) -> type[Message]:
+    """The message class of a type name (from ``registry``) or a message class."""
+    if isinstance(msg_type, type):
+        if not issubclass(msg_type, Message):
+            raise TypeError(f'{msg_type!r} is not a zros message class')
+        return msg_type
+    return registry.get_class(msg_type)
+
+
+class Entity:
+    """A publisher, subscriber, service, client, action part, tap... of a node (``node``
+    None: the default node of ``zros.init``)."""
+
+    def __init__(self, node: NodeLike | None) -> None:
+        owner = node if node is not None else default_node()
+        self.node: NodeLike = owner  #: the node it belongs to
+        self.context: NodeContext = owner.context
+        self.context.check_open()
+        self.gid: bytes | None = None  #: its GID, on wires that give entities one
+        self._tokens: tuple[str, ...] = ()
+        self._declared: list[Any] = []
+        self._parts: list[Entity] = []
+        self._closed = False
+
+    # --- while it is made ----------------------------------------------------------------
+
+    def _place(
+        self,
+        kind: EntityKind,
+        name: str,
+        type_name: str,
+        registry: TypeRegistry,
+        *,
+        qos: QoS | None = None,
+        announce: bool = True,
+        owned: bool = True,
+    ) -> WireEntity:
+        """Its place on the node's wire; the tokens are declared by :meth:`_announce`."""
+        wire = self.context.wire.entity(
+            kind, name, type_name, registry, qos=qos, announce=announce, owned=owned
+        )
+        self._tokens += wire.tokens
+        return wire
+
+    def _add_tokens(self, tokens: tuple[str, ...]) -> None:
+        """More tokens announcing it (an action as a whole)."""
+        self._tokens += tokens
+
+    def _keep(self, declared: Any) -> Any:
+        """Undeclare ``declared`` (a Zenoh subscriber, queryable...) when it closes."""
+        self._declared.append(declared)
+        return declared
+
+    def _part(self, part: Entity) -> None:
+        """Close ``part`` (an entity it is made of) with it."""
+        self._parts.append(part)
+
+    def _subscribe(
+        self,
+        wire: WireEntity,
+        qos: QoS,
+        callback: Callable[[Sample], None],
+        *,
+        rejected: Callable[[Sample], None] | None = None,
+        late_publishers: bool = True,
+    ) -> Any:
+        """Subscribe to ``wire.key``: ``callback(sample)`` on Zenoh's thread for each sample
+        the wire accepts, ``rejected(sample)`` for the others (default: a debug line).
+        Transient local fetches the publishers' caches (of ``late_publishers`` too)."""
+        on_sample = wire.admitting(callback, rejected or self._rejected(wire.rejection))
+        session = self.context.transport.session
+        if qos.transient_local:
+            history = ext.HistoryConfig(detect_late_publishers=late_publishers,
+                                        max_samples=qos.depth)  # fmt: skip
+            subscriber = ext.declare_advanced_subscriber(
+                session, wire.key, on_sample, history=history, **wire.subscriber_options(qos)
+            )
+        else:
+            subscriber = session.declare_subscriber(wire.key, on_sample)
+        return self._keep(subscriber)
+
+    def _rejected(self, reason: str) -> Callable[[Sample], None]:
+        def rejected(sample: Sample) -> None:
+            _log.debug('dropped a sample on %s: %s', sample.key_expr, reason)
+
+        return rejected
+
+    def _serve(self, wire: WireEntity, callback: Callable[[Any], None]) -> Any:
+        """A queryable on ``wire.key`` calling ``callback(query)`` on Zenoh's thread."""
+        session = self.context.transport.session
+        options = self.context.wire.queryable_options()
+        return self._keep(session.declare_queryable(wire.key, callback, **options))
+
+    def _announce(self) -> None:
+        """Declare its tokens (after its Zenoh objects) and have the node close it."""
+        transport = self.context.transport
+        for token in self._tokens:
+            transport.declare_token(token)
+        self.context.add(self)
+
+    # --- lifetime ------------------------------------------------------------------------
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
+        return self._closed
+
+    def close(self) -> None:
+        """Withdraw it from the network; safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        transport = self.context.transport
+        for token in reversed(self._tokens):
+            transport.release_token(token)
+        if not transport.closed:
+            for declared in self._declared:
+                try:
+                    declared.undeclare()
+                except ZError:  # the session closes under it
+                    _log.debug('undeclaring on %s failed', self, exc_info=True)
+        for part in self._parts:
+            part.close()
+        self._on_close()
+        self.context.remove(self)
+
+    def _on_close(self) -> None:
+        """What a kind of entity does once withdrawn (wake its waiters, fail its requests)."""

@@ -1,0 +1,217 @@
+"""Service clients: a call is a Zenoh query, waited for on the caller's thread.
+
+``call`` waits on Zenoh's reply channel directly, so it works with or without spinning and
+never deadlocks inside a callback; ``call_async`` resolves a future that is also awaitable.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from zenoh.handlers import Callback
+
+from zros.cdr import CdrError
+from zros.cdr.interfaces import ServiceType
+from zros.cdr.message import Message, decode, encode
+from zros.keyexpr.kinds import EntityKind
+from zros.runtime.defaults import NodeLike
+from zros.runtime.entity import Entity
+from zros.runtime.futures import ServiceFuture
+from zros.runtime.signal import Signal, raises_on_interrupt
+from zros.services.errors import (
+    ERROR_PREFIX,
+    ServiceCallError,
+    ServiceError,
+    ServiceTimeoutError,
+    ServiceUnavailableError,
+    service_type,
+)
+
+Reply = Any  #: a Zenoh reply, received on Zenoh's thread
+
+
+class Client(Entity):
+    """A service client (rclpy: ``node.create_client``).
+
+    ``call(request)`` (or ``call(a=1, b=2)``) returns the response or raises
+    :class:`ServiceUnavailableError` (no server), :class:`ServiceTimeoutError` or
+    :class:`ServiceCallError` (the server failed). ``call_async`` returns a future to ``await``.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        srv_type: str | ServiceType,
+        *,
+        node: NodeLike | None = None,
+        timeout: float = 10.0,
+        announce: bool = True,
+    ) -> None:
+        super().__init__(node)
+        context = self.context
+        self.srv_type = service_type(context.registry, srv_type)
+        self.type_name = self.srv_type.__srvtype__
+        self.Request = self.srv_type.Request
+        self.Response = self.srv_type.Response
+        self.name = context.resolve_name(name, 'service name')
+        self._wire = self._place(
+            EntityKind.SERVICE_CLIENT, self.name, self.type_name, self.Request._registry,
+            announce=announce,
+        )  # fmt: skip
+        self.key = self._wire.key
+        self.gid = self._wire.gid  #: rmw_zenoh: the GID in its requests
+        self.timeout = timeout
+        session = context.transport.session
+        self._get = session.get
+        self._matching = Signal()
+        self._querier = session.declare_querier(self.key)
+        self._listener = self._querier.declare_matching_listener(
+            lambda _status: self._matching.notify()
+        )
+        self._keep(self._listener)
+        self._keep(self._querier)
+        self._announce()
+
+    def service_is_ready(self) -> bool:
+        """Whether a server (a zros one, or a ROS one behind a bridge) is reachable now."""
+        return bool(self._querier.matching_status.matching)
+
+    def wait_for_service(self, timeout: float | None = 5.0) -> bool:
+        """Wait until a server is reachable; returns whether one showed up in time (False once
+        closed, and after Ctrl-C)."""
+        self._matching.wait_for(lambda: self._closed or self.service_is_ready(), timeout)
+        return not self._closed and self.service_is_ready()
+
+    def _request(self, request: Message | None, fields: dict[str, Any]) -> bytes:
+        if self._closed:
+            raise ServiceError(f'the client of {self.name} was closed')
+        if request is None:
+            request = self.Request(**fields)
+        elif fields:
+            raise TypeError('give a request or its fields, not both')
+        elif type(request) is not self.Request:
+            got = getattr(request, '__msgtype__', type(request).__name__)
+            raise TypeError(f'{self.name} takes {self.Request.__msgtype__}, not {got}')
+        return encode(request)
+
+    def _send(self, data: bytes, timeout: float, handler: Any, attachment: bytes | None) -> Any:
+        """Send a request (with what the wire attaches); Zenoh's reply channel."""
+        return self._get(
+            self.key, handler, payload=data, timeout=timeout,
+            **self._wire.query_options(attachment),
+        )  # fmt: skip
+
+    def _outcome(
+        self, reply: Reply, started: float, timeout: float, sent: bytes | None = None
+    ) -> Any:
+        """The response of a reply, or the error to raise."""
+        if reply.ok is not None:
+            mismatch = self._wire.reply_problem(reply.ok, sent)
+            if mismatch is not None:
+                return ServiceCallError(f'{self.name}: {mismatch}')
+            data = reply.ok.payload.to_bytes()
+            try:
+                return decode(self.Response, data)
+            except CdrError as exc:
+                return ServiceCallError(
+                    f'the reply of {self.name} does not decode as '
+                    f'{self.Response.__msgtype__}: {exc}'
+                )
+        text = reply.err.payload.to_string()
+        if text.startswith(ERROR_PREFIX):
+            return ServiceCallError(text[len(ERROR_PREFIX) :])
+        if time.monotonic() - started >= timeout * 0.98:  # Zenoh's own "Timeout" reply
+            return ServiceTimeoutError(f'{self.name} did not reply within {timeout:g} s')
+        return ServiceCallError(f'{self.name} replied with an error: {text}')
+
+    def _unavailable(self) -> ServiceUnavailableError:
+        return ServiceUnavailableError(
+            f'no server for {self.name} [{self.type_name}] is reachable (key {self.key!r}); '
+            'wait_for_service() waits for one'
+        )
+
+    def call(
+        self, request: Message | None = None, timeout: float | None = None, **fields: Any
+    ) -> Any:
+        """Call the service and return its response (see the class docstring for errors);
+        Ctrl-C raises KeyboardInterrupt."""
+        data = self._request(request, fields)
+        timeout = self.timeout if timeout is None else timeout
+        started = time.monotonic()
+        sent = self._wire.request_attachment()
+        if threading.current_thread() is threading.main_thread():
+            # Zenoh's reply channel runs the signal handler, which raises in this block
+            with raises_on_interrupt():
+                reply = next(iter(self._send(data, timeout, None, sent)), None)
+        else:
+            reply = self._first_reply(data, timeout, sent)
+        if reply is None:
+            raise self._unavailable()
+        outcome = self._outcome(reply, started, timeout, sent)
+        if isinstance(outcome, ServiceError):
+            raise outcome
+        return outcome
+
+    def _first_reply(self, data: bytes, timeout: float, sent: bytes | None) -> Reply:
+        """The first reply (None if none came) waited for where Ctrl-C can end the wait: a
+        Rust channel cannot be interrupted from another thread, a Signal can."""
+        first: list[Any] = []
+        arrived = Signal()
+
+        def on_reply(reply: Reply) -> None:
+            if not first:
+                first.append(reply)
+                arrived.notify()
+
+        # on Zenoh's thread, which only hands the reply over
+        handler = Callback(on_reply, lambda: on_reply(None), indirect=False)
+        self._send(data, timeout, handler, sent)
+        if not arrived.wait_for(lambda: bool(first), None):  # Zenoh ends every query in time
+            raise KeyboardInterrupt
+        return first[0]
+
+    __call__ = call
+
+    def call_async(
+        self,
+        request: Message | None = None,
+        timeout: float | None = None,
+        callback: Callable[[Any], object] | None = None,
+        **fields: Any,
+    ) -> ServiceFuture:
+        """Send a request and return at once: a future to ``await`` or ``.result()``.
+
+        ``callback(future)``, if given, runs on the node's spinning thread once it is done.
+        """
+        data = self._request(request, fields)
+        timeout = self.timeout if timeout is None else timeout
+        future = ServiceFuture()
+        started = time.monotonic()
+        executor = self.context.executor
+        sent = self._wire.request_attachment()
+
+        def on_reply(reply: Reply) -> None:
+            if not future.done():
+                future.settle(self._outcome(reply, started, timeout, sent))
+
+        def on_end() -> None:
+            if not future.done():
+                future.settle(self._unavailable())
+            if callback is not None:
+                executor.call_soon(lambda: callback(future))
+
+        self._send(data, timeout, Callback(on_reply, on_end), sent)
+        return future
+
+    def close(self) -> None:
+        """Withdraw the client; calls in flight still end (with their reply or error)."""
+        super().close()
+
+    def _on_close(self) -> None:
+        self._matching.notify()
+
+    def __repr__(self) -> str:
+        return f'<zros Client {self.name} [{self.type_name}]>'
