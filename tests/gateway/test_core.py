@@ -17,11 +17,11 @@ from zros.gateway.core import (
     SendQueue,
     Taps,
     endpoint_owner,
-    message_from_json,
     offered_services,
     parameter_nodes,
     service_providers,
 )
+from zros.gateway.foxglove_calls import message_from_json
 from zros.taps import graph_topics
 from zros.testing import wait_for
 

@@ -8,6 +8,8 @@
   comes and released when the last leaves, with the QoS of the topic's publishers; the last
   messages of shallow latched (transient local) topics are kept for watchers that come later.
 * :class:`SendQueue`: a client's bounded outbox that drops its oldest items and counts them.
+* :class:`ClientCache`: the service and parameter clients made for clients, closed together;
+  :func:`publisher_qos`: the QoS of a publisher a client asked for.
 * Graph views both protocols show: the services offered, the nodes serving parameters, the
   node owning an endpoint.
 """
@@ -16,22 +18,21 @@ from __future__ import annotations
 
 import collections
 import fnmatch
-import json
 import logging
 import re
 import threading
 import time
 from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar
 
 from zros.errors import ZrosError
 from zros.keyexpr.bridge import EntityKind
+from zros.qos import Durability, QoS
 from zros.signal import Signal
 from zros.taps import GraphTopic, RawTap, is_hidden, matched_qos
 
 if TYPE_CHECKING:
-    from zros.cdr import Message
     from zros.graph import Endpoint, Graph
     from zros.node import Node
 
@@ -350,6 +351,55 @@ class SendQueue(Generic[T]):
         self._arrived.notify()
 
 
+class Closable(Protocol):
+    """What :class:`ClientCache` holds: anything with ``close()``."""
+
+    def close(self) -> None: ...
+
+
+C = TypeVar('C', bound=Closable)
+
+
+class ClientCache(Generic[C]):
+    """The service or parameter clients a gateway made, one per key, made on first use and
+    closed together (thread-safe)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._clients: dict[Hashable, C] = {}
+
+    def get(self, key: Hashable, make: Callable[[], C]) -> C:
+        """The client of ``key``, made by ``make()`` the first time."""
+        with self._lock:
+            client = self._clients.get(key)
+            if client is None:
+                client = self._clients[key] = make()
+            return client
+
+    def discard(self, key: Hashable) -> None:
+        """Close and forget the client of ``key`` (if any)."""
+        with self._lock:
+            client = self._clients.pop(key, None)
+        if client is not None:
+            client.close()
+
+    def close(self) -> None:
+        """Close every client."""
+        with self._lock:
+            clients, self._clients = list(self._clients.values()), {}
+        for client in clients:
+            client.close()
+
+
+def publisher_qos(offered: Iterable[QoS], latched: bool = False) -> QoS:
+    """The QoS of a publisher a client asked for: depth 1 transient local when it latches,
+    else the QoS matched to the topic's other publishers (ROS 2's default without any)."""
+    if latched:
+        return QoS(1, durability=Durability.TRANSIENT_LOCAL)
+    offers = list(offered)
+    return matched_qos(offers) if offers else QoS()
+
+
 # --- graph views both protocols show ----------------------------------------------------------
 
 
@@ -413,13 +463,3 @@ def endpoint_owner(endpoint: Endpoint, graph: Graph) -> str:
         if bridge.zid == endpoint.zid:
             return bridge.node_name
     return f'/zenoh_{endpoint.zid[:8]}'
-
-
-def message_from_json(cls: type[Message], data: bytes | str) -> Message:
-    """A message from JSON text (objects for nested messages, arrays for sequences; missing
-    fields keep their defaults); GatewayError says what is wrong."""
-    try:
-        fields = json.loads(data)
-        return cls.from_dict(fields)
-    except (ValueError, TypeError, AttributeError, OverflowError) as exc:
-        raise GatewayError(f'cannot make a {cls.__msgtype__} from the JSON given: {exc}') from None
