@@ -22,7 +22,8 @@ class RawClient:
         context = None
         if ca is not None:
             context = ssl.create_default_context(cafile=ca)
-        self.connection = connect(url, ssl=context, max_size=None, open_timeout=TIMEOUT)
+        # entered as a context manager, which websockets asks of its connections (17.1)
+        self.connection = connect(url, ssl=context, max_size=None, open_timeout=TIMEOUT).__enter__()
         self.received: list[dict[str, Any]] = []
         self.frames: list[str | bytes] = []
         self._arrived = threading.Condition()
