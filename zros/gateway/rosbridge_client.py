@@ -99,6 +99,7 @@ class ClientSession:
         self.max_message_size = max_message_size
         self.level = LEVELS.index('error')
         self.outbox: SendQueue[Frames] = SendQueue(queue_items, queue_bytes, self._dropped)
+        self._notice: Frames | None = None  #: the status of a burst of drops, to send first
         self._partial: collections.OrderedDict[Any, dict[int, str]] = collections.OrderedDict()
         self._ops: dict[str, Callable[[dict[str, Any]], object]] = {
             'advertise': lambda m: topics.advertise(self, m),
@@ -216,12 +217,14 @@ class ClientSession:
             self.send(status)
 
     def _dropped(self, dropped: int) -> None:
-        self.status(
-            'error',
+        text = (
             f'this client reads too slowly: its oldest messages are being dropped '
             f'({dropped} so far; room for {self.outbox.max_items} messages, '
-            f'{self.outbox.max_bytes} bytes)',
+            f'{self.outbox.max_bytes} bytes)'
         )
+        _log.warning('[client %d] %s', self.id, text)
+        if LEVELS.index('error') >= self.level:  # sent ahead of the queue: never dropped
+            self._notice = encode({'op': 'status', 'level': 'error', 'msg': text})
 
     @property
     def dropped(self) -> int:
@@ -232,8 +235,9 @@ class ClientSession:
         from websockets.exceptions import ConnectionClosed
 
         while (frames := self.outbox.get()) is not None:
+            notice, self._notice = self._notice, None
             try:
-                for frame in frames:
+                for frame in (*(notice or ()), *frames):
                     self.connection.send(frame)
             except ConnectionClosed:
                 return

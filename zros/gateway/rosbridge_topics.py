@@ -217,7 +217,12 @@ class Topics:
         return name
 
     def _graph_topic(self, name: str) -> GraphTopic | None:
-        return graph_topics(self._node, publishers_only=False).get(name)
+        found = graph_topics(self._node, publishers_only=False).get(name)
+        if found is None:  # a client's publisher the graph may not show yet
+            published = self._publishers.get(name)
+            if published is not None:
+                return GraphTopic(name, published.publisher.type_name)
+        return found
 
     def _type(self, name: str, asked: str | None, known: GraphTopic | None) -> str:
         """The topic's type: the graph's, checked against ``asked``."""
