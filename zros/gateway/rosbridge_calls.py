@@ -40,6 +40,8 @@ _log = logging.getLogger('zros.gateway')
 SERVICE_TIMEOUT = 10.0
 #: seconds a client serving a service has to answer a request
 RESPONSE_TIMEOUT = 10.0
+#: seconds a result waits for the feedback received before it to be sent
+FEEDBACK_WAIT = 2.0
 #: rosbridge's status of a goal that failed before reaching the server (GoalStatus UNKNOWN)
 STATUS_UNKNOWN = 0
 
@@ -69,7 +71,7 @@ class Calls:
         self._actions: ClientCache[ActionClient] = ClientCache()
         self._lock = threading.Lock()
         self._offered: dict[str, _Offered] = {}
-        self._goals: dict[tuple[int, Any], Any] = {}  # (peer, id) -> ClientGoalHandle
+        self._goals: dict[tuple[int, Any], _Goal] = {}  # by (peer, id)
         self._ids = itertools.count(1)
         self._pool = concurrent.futures.ThreadPoolExecutor(workers, 'zros rosbridge calls')
 
@@ -113,7 +115,11 @@ class Calls:
         client: Client = self._clients.get(
             (name, type_name), lambda: self._node.create_client(type_name, name, SERVICE_TIMEOUT)
         )
-        request = self._request(client.Request, op.get('args'))
+        try:
+            request = self._request(client.Request, op.get('args'))
+        except GatewayError as exc:  # rosbridge answers a request it cannot make
+            answer.fail(str(exc))
+            return
         timeout = op.get('timeout')
         if not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or timeout <= 0:
             timeout = SERVICE_TIMEOUT
@@ -212,9 +218,18 @@ class Calls:
             )
         except ZrosError as exc:
             raise GatewayError(f'cannot reach action {name} as {type_text}: {exc}') from None
-        goal = self._request(client.Goal, op.get('args'))
         goal_id = op.get('id')
         answer = _Answer(peer, op, action, 'action')
+        try:
+            goal = self._request(client.Goal, op.get('args'))
+        except GatewayError as exc:
+            answer.fail(str(exc), STATUS_UNKNOWN)
+            return
+
+        sent = _Count()
+        record = _Goal()
+        with self._lock:
+            self._goals[peer.id, goal_id] = record
 
         def on_feedback(feedback: Message) -> None:
             message = {
@@ -225,22 +240,30 @@ class Calls:
             if goal_id is not None:
                 message['id'] = goal_id
             peer.send(message, answer.compression, answer.fragment_size)
+            sent.add()
 
         def on_answer(future: concurrent.futures.Future[Any]) -> None:
             try:
                 handle = future.result()
-            except Exception as exc:
+            except Exception as exc:  # no server, or it failed: the client is told why
+                with self._lock:
+                    self._goals.pop((peer.id, goal_id), None)
                 answer.fail(str(exc), STATUS_UNKNOWN)
                 return
             with self._lock:
-                self._goals[peer.id, goal_id] = handle
+                record.handle = handle
+                cancel = record.cancel
+            if cancel:  # asked for before the server accepted the goal
+                self._pool.submit(handle.cancel)
 
-            def on_result(result: concurrent.futures.Future[Any]) -> None:
+            def send_result(result: concurrent.futures.Future[Any]) -> None:
+                if feedback is not None:  # the feedback received before the result goes first
+                    sent.wait_for(handle.feedback_count, FEEDBACK_WAIT)
                 with self._lock:
                     self._goals.pop((peer.id, goal_id), None)
                 answer.done(result, self._values.to_json, int(handle.status))
 
-            handle.result_async().add_done_callback(on_result)
+            handle.result_async().add_done_callback(lambda f: self._pool.submit(send_result, f))
 
         feedback = on_feedback if op.get('feedback') else None
         client.send_goal_async(goal, feedback).add_done_callback(on_answer)
@@ -249,10 +272,12 @@ class Calls:
         """A ``cancel_action_goal`` message (asked of the server on a thread of the pool)."""
         self._name(op['action'], 'action')
         with self._lock:
-            handle = self._goals.get((peer.id, op.get('id')))
-        if handle is None:
-            raise GatewayError(f'no goal {op.get("id")!r} of this client is running')
-        self._pool.submit(handle.cancel)
+            record = self._goals.get((peer.id, op.get('id')))
+            if record is None:
+                raise GatewayError(f'no goal {op.get("id")!r} of this client is running')
+            handle, record.cancel = record.handle, True
+        if handle is not None:
+            self._pool.submit(handle.cancel)
 
     # --- lifetime ----------------------------------------------------------------------------
 
@@ -274,6 +299,31 @@ class Calls:
         self._clients.close()
         self._actions.close()
         self.rosapi.close()
+
+
+@dataclass
+class _Goal:
+    """A goal a client sent: its handle once the server accepted it."""
+
+    handle: Any = None
+    cancel: bool = False  #: the client asked to cancel it
+
+
+class _Count:
+    """A counter one can wait on."""
+
+    def __init__(self) -> None:
+        self._value = 0
+        self._changed = threading.Condition()
+
+    def add(self) -> None:
+        with self._changed:
+            self._value += 1
+            self._changed.notify_all()
+
+    def wait_for(self, value: int, timeout: float) -> bool:
+        with self._changed:
+            return self._changed.wait_for(lambda: self._value >= value, timeout)
 
 
 class _Answer:
