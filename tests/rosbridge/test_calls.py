@@ -110,6 +110,10 @@ def test_roslibpy_sends_an_action_goal_with_feedback(
             results.append(dict(result))
             done.set()
 
+        # a first goal makes the gateway's action client: its feedback route is up after it
+        warm_up = client.send_goal(roslibpy.Goal({'order': 1}), on_result, print, on_result)
+        client.wait_goal(warm_up, TIMEOUT)
+        results.clear()
         goal = client.send_goal(
             roslibpy.Goal({'order': 5}), on_result, lambda f: feedback.append(dict(f)), on_result
         )
