@@ -14,7 +14,9 @@ pytest.importorskip(
     reason='rclpy (ROS 2 Jazzy from PyPI, the "interop" extra) is not importable',
 )
 pytest.importorskip('websockets', reason='the websockets library (the rosbridge extra) is missing')
-roslibpy = pytest.importorskip('roslibpy', reason='roslibpy (the test extra) is missing')
+pytest.importorskip('roslibpy', reason='roslibpy (the test extra) is missing')
+
+import roslibpy
 
 import zros
 from tests.interop.conftest import Interop
