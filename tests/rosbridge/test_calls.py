@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 
 from tests.rosbridge.clients import RawClient
+from tests.runtime.test_actions import fibonacci
 from zros.services import ServiceCallError
 from zros.testing import spinning, wait_for
 
@@ -30,19 +31,6 @@ def gate() -> Iterator[threading.Event]:
     event = threading.Event()
     yield event
     event.set()
-
-
-def fibonacci(goal: Any, gate: threading.Event | None = None) -> Any:
-    sequence = [0, 1]
-    for i in range(1, goal.request.order):
-        if gate is not None:
-            gate.wait(TIMEOUT)
-        if goal.is_cancel_requested:
-            goal.canceled()
-            break
-        sequence.append(sequence[i] + sequence[i - 1])
-        goal.publish_feedback(sequence=sequence)
-    return goal.server.Result(sequence=sequence)
 
 
 def test_roslibpy_calls_a_zros_service(

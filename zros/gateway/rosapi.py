@@ -19,16 +19,9 @@ from typing import TYPE_CHECKING, Any
 
 from zros.cdr.model import Kind, MessageDef
 from zros.errors import ZrosError
-from zros.gateway.core import (
-    ClientCache,
-    GatewayError,
-    NameFilter,
-    endpoint_owner,
-    offered_services,
-    owners,
-    parameter_nodes,
-)
+from zros.gateway.core import ClientCache, GatewayError, NameFilter
 from zros.gateway.rosbridge_values import short_name
+from zros.gateway.views import endpoint_owner, offered_services, owners, parameter_nodes
 from zros.keyexpr.bridge import EntityKind
 from zros.taps import is_hidden
 

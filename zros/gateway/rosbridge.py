@@ -22,7 +22,7 @@ import threading
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
-from zros.gateway.core import GatewayError, NameFilter, Taps
+from zros.gateway.core import GatewayError, NameFilter, Taps, gateway_node
 from zros.gateway.listen import Listen
 from zros.gateway.rosapi import Rosapi
 from zros.gateway.rosbridge_calls import Calls
@@ -232,11 +232,7 @@ def serve(
     listen = Listen(port, address, tls_cert, tls_key, 'the rosbridge server')
     own = node is None
     if node is None:
-        import zros
-
-        settings.setdefault('enable_rosout', False)
-        settings.setdefault('start_parameter_services', False)
-        node = zros.Node(name, **settings)
+        node = gateway_node(name, settings)
     try:
         return RosbridgeGateway(
             node,

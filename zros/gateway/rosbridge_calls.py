@@ -23,9 +23,10 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
-from zros.gateway.core import ClientCache, GatewayError, NameFilter, offered_services
+from zros.gateway.core import ClientCache, GatewayError, NameFilter
 from zros.gateway.rosapi import Rosapi
 from zros.gateway.rosbridge_values import ConversionError, Values
+from zros.gateway.views import offered_services
 
 if TYPE_CHECKING:
     from zros.actions import ActionClient
