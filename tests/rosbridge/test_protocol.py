@@ -5,6 +5,7 @@ rosbridge's, and the safety bounds hold (allow-lists, message size, slow clients
 
 from __future__ import annotations
 
+import json
 import socket
 import time
 from collections.abc import Callable
@@ -330,3 +331,73 @@ def test_a_port_in_use_is_refused(rosbridge: Make) -> None:
         taken.listen()
         with pytest.raises(GatewayError, match='cannot start the rosbridge server'):
             rosbridge(port=taken.getsockname()[1])
+
+
+@pytest.mark.parametrize(
+    ('service', 'args', 'expected'),
+    [
+        ('/rosapi/get_param', {'name': 'no_colon'}, {'successful': False}),
+        ('/rosapi/set_param', {'name': '/n:p', 'value': 'not json'}, {'successful': False}),
+        ('/rosapi/get_param', {'name': '/nobody:p', 'default_value': '7'}, {'value': '7'}),
+        ('/rosapi/has_param', {'name': '/nobody:p'}, {'exists': False}),
+        ('/rosapi/delete_param', {'name': 'bad'}, {'successful': False}),
+        ('/rosapi/topic_type', {'topic': '/nothing'}, {'type': ''}),
+        ('/rosapi/service_type', {'service': '/nothing'}, {'type': ''}),
+        ('/rosapi/service_node', {'service': '/nothing'}, {'node': ''}),
+    ],
+)
+def test_rosapi_answers_what_it_cannot_do(
+    rosbridge: Make, raw_client: Make, service: str, args: dict[str, Any], expected: dict[str, Any]
+) -> None:
+    client = raw_client(rosbridge())
+    client.send(op='call_service', service=service, args=args, id='q')
+    response = client.wait(lambda m: m.get('id') == 'q')
+    assert response['result'] is True
+    assert expected.items() <= response['values'].items()
+
+
+@pytest.mark.parametrize(
+    ('service', 'args', 'text'),
+    [
+        ('/rosapi/message_details', {'type': 'no_pkg/msg/Nothing'}, 'unknown type'),
+        ('/rosapi/service_request_details', {'type': 'no_pkg/srv/Nothing'}, 'unknown service'),
+        ('/rosapi/topic_type', {'topic': 5}, 'must be a string'),
+    ],
+)
+def test_rosapi_failures_are_false_results(
+    rosbridge: Make, raw_client: Make, service: str, args: dict[str, Any], text: str
+) -> None:
+    client = raw_client(rosbridge())
+    client.send(op='call_service', service=service, args=args, id='q')
+    response = client.wait(lambda m: m.get('id') == 'q')
+    assert response['result'] is False and text in response['values']
+
+
+def test_more_refusals(rosbridge: Make, raw_client: Make, zros_node: Make) -> None:
+    gateway = rosbridge(max_message_size=100_000)
+    client = raw_client(gateway)
+    zros_node('talker').create_publisher('std_msgs/msg/Header', '/h')
+    sub = listener(zros_node, '/h', 'std_msgs/msg/Header')
+    client.send(op='advertise', topic='/h', type='std_msgs/Header')
+    assert wait_for(lambda: sub.node.count_publishers('/h') >= 1, TIMEOUT)
+    cases = [
+        ({'op': 'subscribe', 'topic': '/h', 'throttle_rate': -1}, 'never negative'),
+        (
+            {'op': 'publish', 'topic': '/h', 'msg': {'stamp': 12}},
+            'requires a builtin_interfaces/Time',
+        ),
+        ({'op': 'publish', 'topic': '/h', 'msg': {'stamp': {'sec': 'a'}}}, 'for field stamp.sec'),
+        ({'op': 'advertise', 'topic': '/h', 'type': 'std_msgs/String'}, 'already established'),
+        ({'op': 'call_service', 'service': 5}, 'Expected field service'),
+        ({'op': 'call_service', 'service': '/rosapi/topics', 'args': [1]}, 'must be an object'),
+        ({'op': 'fragment', 'id': 'f', 'data': 'x' * 60_000, 'num': 0, 'total': 3}, 'f'),
+        ({'op': 'fragment', 'id': 'f', 'data': 'x' * 60_000, 'num': 1, 'total': 3}, 'exceed'),
+    ]
+    for number, (op, text) in enumerate(cases):
+        start = client.mark()
+        client.connection.send(json.dumps({'id': number, **op}))
+        if op['op'] != 'fragment':
+            assert text in client.wait(lambda m, n=number: m.get('id') == n, start=start)['msg']
+    assert 'fragments of' in client.status('exceed 100000 bytes')['msg']
+    client.send(op='service_response', service='/served', id='x', result=True)
+    assert 'has not been advertised' in client.status('/served')['msg']
