@@ -188,3 +188,20 @@ def test_fragments_join_into_the_message() -> None:
     assert ''.join(p['data'] for p in parts) == text
     assert fragments(text, 10_000) == (text,)
     assert png_text(json.loads(png_message('ab'))['data']) == 'ab'  # 1 pixel wide at least
+
+
+def test_a_subscription_s_fragment_size(rosbridge: Make, raw_client: Make, zros_node: Make) -> None:
+    client = raw_client(rosbridge())
+    message = zros.Message('std_msgs/msg/String', data='f' * 1000)
+    first, _ = subscribe_and_publish(
+        client, zros_node, message, '/fragmented', 'fragment', fragment_size=100
+    )
+    total = first['total']
+    client.wait(lambda m: m.get('op') == 'fragment' and m['num'] == total - 1)
+    parts = sorted(client.of('fragment', id=first['id']), key=lambda m: m['num'])
+    assert total == len(parts) > 1 and all(len(p['data']) <= 100 for p in parts)
+    assert json.loads(''.join(p['data'] for p in parts)) == {
+        'op': 'publish',
+        'topic': '/fragmented',
+        'msg': {'data': 'f' * 1000},
+    }
