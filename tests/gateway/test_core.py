@@ -10,18 +10,9 @@ from typing import Any
 import pytest
 
 import zros
-from zros.gateway.core import (
-    GatewayError,
-    GraphWatcher,
-    NameFilter,
-    SendQueue,
-    Taps,
-    endpoint_owner,
-    message_from_json,
-    offered_services,
-    parameter_nodes,
-    service_providers,
-)
+from zros.gateway.core import GatewayError, GraphWatcher, NameFilter, SendQueue, Taps
+from zros.gateway.foxglove_calls import message_from_json
+from zros.gateway.views import endpoint_owner, offered_services, parameter_nodes, service_providers
 from zros.taps import graph_topics
 from zros.testing import wait_for
 

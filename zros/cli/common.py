@@ -229,6 +229,28 @@ def run_until_interrupted(step: Callable[[], bool]) -> int:
     return 0
 
 
+def serve_until_interrupted() -> int:
+    """Wait for Ctrl-C while a server runs on threads of its own; exit code 0."""
+    idle = threading.Event()  # never set: a sleep Ctrl-C interrupts
+    return run_until_interrupted(lambda: not idle.wait(0.5))
+
+
+def port_number(text: str) -> int:
+    """An argparse type: a TCP port, 0 to 65535 (0: any free one)."""
+    value = int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f'a port is 0 to 65535, not {text}')
+    return value
+
+
+def at_least_one(text: str) -> int:
+    """An argparse type: an integer of at least 1."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f'must be at least 1, not {text}')
+    return value
+
+
 def out(text: str = '') -> None:
     """Print and flush (output often goes to a pipe another program reads line by line)."""
     sys.stdout.write(text + '\n')
