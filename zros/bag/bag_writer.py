@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros import __version__
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE, McapFile, compression_type
 from zros.bag.rosbag2_yaml import (
     FileEntry,
@@ -26,6 +25,7 @@ from zros.bag.rosbag2_yaml import (
 )
 from zros.errors import ZrosError
 from zros.qos import QoS
+from zros.version import __version__
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry

@@ -7,7 +7,7 @@ import os
 import sys
 from collections.abc import Sequence
 
-from zros import __version__
+from zros.version import __version__
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -16,6 +16,8 @@ def _parser() -> argparse.ArgumentParser:
         description='zros: a ROS 2 client over Eclipse Zenoh, for machines with no ROS installed.',
     )
     parser.add_argument('--version', action='version', version=f'zros {__version__}')
+    # a command that describes the command line itself (completion) finds it in its arguments
+    parser.set_defaults(root_parser=parser)
     commands = parser.add_subparsers(dest='command', metavar='COMMAND')
 
     from zros.cli import (
