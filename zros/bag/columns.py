@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from zros.bag.column_plan import Leaf, Plan, plan, select
 from zros.bag.errors import BagError
-from zros.bag.fields import Leaf, Plan, plan, select
 from zros.bag.mcap_bulk import Unsupported
 from zros.bag.source import Block, Connection, RawMessage, Source
 from zros.bag.types import BagTypes

@@ -17,7 +17,7 @@ import threading
 import time
 from typing import Any
 
-from zros.cli.common import add_connection_options, out
+from zros.cli.shared import add_connection_options, out
 
 SKEW_WARNING = 0.5  #: seconds between clocks that make header stamps misleading
 

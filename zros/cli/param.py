@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
-from zros.cli.common import DISCOVERY, CommandError, add_connection_options, open_node, out
+from zros.cli.shared import DISCOVERY, CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:
     from zros.node import Node

@@ -6,7 +6,7 @@ import argparse
 import time
 from typing import Any
 
-from zros.cli.common import (
+from zros.cli.shared import (
     CommandError,
     add_connection_options,
     build_message,
@@ -42,7 +42,7 @@ def find(args: argparse.Namespace) -> int:
 
 
 def call(args: argparse.Namespace) -> int:
-    from zros.cli.render import message_to_yaml
+    from zros.cli.message_text import message_to_yaml
     from zros.services import ServiceError
 
     srv = _service_type(args.type)

@@ -162,7 +162,7 @@ def run_demo(
         save,
         show,
     )
-    from zros.demo.recording import ensure_bag
+    from zros.demo.tutorial_bag import ensure_bag
     from zros.transport import Transport, TransportConfig, start_router
 
     started = time.monotonic()

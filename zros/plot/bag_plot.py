@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.plot.fields import PlotError, Series, resolve, split_address
+from zros.plot.addresses import PlotError, Series, resolve, split_address
 from zros.plot.figure import SeriesFigure
 
 if TYPE_CHECKING:

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from zros.plot.fields import PlotError, Series, resolve, split_address
+from zros.plot.addresses import PlotError, Series, resolve, split_address
 from zros.plot.figure import SeriesFigure, can_show
 
 if TYPE_CHECKING:
@@ -52,7 +52,7 @@ class SeriesStats:
 class LivePlot:
     """A plot of numeric fields of live topics (a context manager).
 
-    ``addresses`` are ``/topic/field/path`` strings (see :mod:`zros.plot.fields`); topics must
+    ``addresses`` are ``/topic/field/path`` strings (see :mod:`zros.plot.addresses`); topics must
     appear on the network within ``wait`` seconds. ``window`` is the width of the time axis in
     seconds (None: everything since the start), ``filter`` the length of a moving average drawn
     over each line. :meth:`start` spins ``node`` on a thread of its own until :meth:`stop`;
