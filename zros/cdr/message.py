@@ -136,7 +136,7 @@ def encode(message: Message) -> bytes:
         return message._cdr_encode(message)
     except CdrError:
         raise
-    except Exception:
+    except Exception:  # a value the fast encoder chokes on: the traced one names the field
         if not isinstance(message, Message):
             raise TypeError(f'expected a zros message, got {type(message).__name__}') from None
         raise _explain_encode(type(message), message) from None
@@ -153,7 +153,7 @@ def decode(cls: type[M], buf: bytes | bytearray | memoryview, strict: bool = Fal
         return cls._cdr_decode(buf, strict)  # type: ignore[no-any-return]
     except CdrError:
         raise
-    except Exception:
+    except Exception:  # malformed input: the traced decoder names the field and offset
         raise _explain_decode(cls, buf, strict) from None
 
 

@@ -97,7 +97,7 @@ def _clocks(session: Any, graph: Any, listen: float, report: Report) -> None:
     if '/rosout' not in topics or listen <= 0:
         report.ok('clock skew not measured (no /rosout to compare stamps with)')
         return
-    from zros.cdr import decode, default_registry
+    from zros.cdr import CdrError, decode, default_registry
     from zros.keyexpr.bridge import topic_key
 
     log_class = default_registry().get_class('rcl_interfaces/msg/Log')
@@ -107,7 +107,7 @@ def _clocks(session: Any, graph: Any, listen: float, report: Report) -> None:
     def on_sample(sample: Any) -> None:
         try:
             stamp = decode(log_class, sample.payload.to_bytes()).stamp
-        except Exception:  # not a Log: nothing to compare
+        except CdrError:  # not a Log: nothing to compare
             return
         offsets.append(time.time() - (stamp.sec + stamp.nanosec * 1e-9))
         if len(offsets) >= 20:
