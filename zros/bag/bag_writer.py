@@ -23,6 +23,8 @@ from zros.bag.rosbag2_yaml import (
     qos_profiles_text,
     write_metadata_yaml,
 )
+from zros.cdr.hashing import type_hash
+from zros.cdr.render import render_bundle
 from zros.errors import ZrosError
 from zros.qos import QoS
 from zros.version import __version__
@@ -63,9 +65,6 @@ class BagTopic:
         qos: Sequence[QoS] = (),
     ) -> BagTopic:
         """A topic whose definition and hash come from ``registry`` (left empty if unknown)."""
-        from zros.cdr.hashing import type_hash
-        from zros.cdr.render import render_bundle
-
         try:
             definition = render_bundle(registry, type_name)
             digest = type_hash(registry, type_name)

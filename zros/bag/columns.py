@@ -12,18 +12,19 @@ which also gives the reader's definition fallback and errors.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from zros.bag.column_plan import Leaf, Plan, plan, select
+from zros.bag.column_plan import Leaf, Plan, Step, plan, select
 from zros.bag.errors import BagError
 from zros.bag.mcap_bulk import Unsupported
 from zros.bag.source import Block, Connection, RawMessage, Source
 from zros.bag.types import BagTypes
+from zros.cdr.message import Message
 
 TIME = 'time'
 #: messages read per batch (bounds the memory of the joined bytes)
@@ -71,7 +72,7 @@ def _run(plan_: Plan, leaves: list[Leaf], parts: list[_Part], pieces: Pieces) ->
             raise _Unplannable(f'{left} bytes left after the message')
 
 
-def _step(step: Any, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Part]:
+def _step(step: Step, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Part]:
     rows, offset = part.rows, part.offset
     body = rows.shape[1] - 4
     offset += -offset % step.align
@@ -118,7 +119,7 @@ def _subset(part: _Part, counts: np.ndarray, count: int) -> _Part:
     return _Part(part.rows[mask], part.where[mask], part.offset)
 
 
-def _split(part: _Part, counts: np.ndarray, offset_of: Any) -> list[_Part]:
+def _split(part: _Part, counts: np.ndarray, offset_of: Callable[[int], int]) -> list[_Part]:
     parts = []
     for count in np.unique(counts).tolist():
         chosen = _subset(part, counts, count)
@@ -159,7 +160,7 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
     values: dict[str, list[Any]] = {leaf.path: [] for leaf in leaves}
     connection = block.connection
     for stamp, data in zip(block.times.tolist(), block.data, strict=True):
-        message: Any = types.decode(RawMessage(connection, stamp, data))
+        message = types.decode(RawMessage(connection, stamp, data))
         for leaf, parts in getters:
             value = message
             for part in parts:
@@ -221,14 +222,14 @@ def _concatenate(chunks: list[np.ndarray]) -> np.ndarray:
     return ragged
 
 
-def _leaves(path: Path, topic: str, cls: Any, fields: list[str] | None) -> list[Leaf]:
+def _leaves(path: Path, topic: str, cls: type[Message], fields: list[str] | None) -> list[Leaf]:
     try:
         return select(plan(cls), fields, cls.__msgtype__)
     except ValueError as exc:
         raise BagError(path, f'topic {topic}: {exc}') from None
 
 
-def _take(messages: Any, count: int) -> list[RawMessage]:
+def _take(messages: Iterator[RawMessage], count: int) -> list[RawMessage]:
     batch = []
     for raw in messages:
         batch.append(raw)

@@ -19,11 +19,15 @@ from typing import TYPE_CHECKING
 
 from zros.bag.play_clock import PlayClock
 from zros.bag.rosbag2_yaml import parse_qos_profiles
+from zros.bag.source import open_source
 from zros.bag.types import how_to_define
+from zros.cdr import TypeRegistry
+from zros.cdr.registry import registry_of
 from zros.errors import ZrosError
 from zros.qos import Durability, History, QoS, Reliability
 from zros.signal import add_interrupt_listener, remove_interrupt_listener
 
+# the runtime (Zenoh) is imported where a player starts: reading a bag needs none of it
 if TYPE_CHECKING:
     from zros.bag.source import Connection, RawMessage, Source
     from zros.cdr import Message
@@ -65,8 +69,6 @@ def playback_qos(offered: Iterable[QoS]) -> QoS:
 
 def message_class(node: Node, connection: Connection) -> type[Message]:
     """The class for a connection's type: the node's, else one built from the bag's definition."""
-    from zros.cdr import TypeRegistry
-
     try:
         return node.registry.get_class(connection.type_name)
     except ZrosError as exc:
@@ -123,8 +125,6 @@ class Player:
         wait_for_subscribers: float = 0.0,
         on_message: Callable[[RawMessage], object] | None = None,
     ) -> None:
-        from zros.bag.source import open_source
-
         if node is None:
             from zros.api import default_node
 
@@ -223,7 +223,7 @@ class Player:
         """Serve ``~/get_type_description`` for the types only the bag defines, as ROS 2 nodes
         serve their types: ``zros topic echo`` (and ROS tools) learn them from the player."""
         self._types: TypeDescriptionService | None = None
-        own = [p.msg_type for p in publishers if p.msg_type._registry is not self.node.registry]
+        own = [p.msg_type for p in publishers if registry_of(p.msg_type) is not self.node.registry]
         if own:
             from zros.typeinfo import TypeDescriptionService
 

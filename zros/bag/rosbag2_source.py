@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from zros.bag.errors import BagError
-from zros.bag.mcap_bulk import Unsupported
+from zros.bag.mcap_bulk import Unsupported, read_blocks
+from zros.bag.mcap_recover import RecoveredMcap, is_mcap
 from zros.bag.source_base import Block, Connection, RawMessage, Source, normalise_type_name
 
 _log = logging.getLogger('zros.bag')
@@ -106,8 +107,6 @@ class Rosbag2Source(Source):
         summary or end: a recorder killed mid-file) up to their last complete record."""
         from rosbags.rosbag2.storage_mcap import McapReader
         from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
-
-        from zros.bag.mcap_recover import RecoveredMcap
 
         if not paths:
             raise BagError(self.path, f'not a ROS 2 bag folder: {reason} and no .mcap or .db3 file')
@@ -224,8 +223,6 @@ class Rosbag2Source(Source):
     def blocks(
         self, connections: Iterable[Connection], start: int | None = None, end: int | None = None
     ) -> Iterator[list[Block]]:
-        from zros.bag.mcap_bulk import read_blocks
-
         if self._decompress is not None:
             raise Unsupported('compressed messages are read one by one')
         ids = {c.id for c in connections}
@@ -285,8 +282,6 @@ def _timestamp(message: RawMessage) -> int:
 
 
 def _mcap_file(path: Path) -> bool:
-    from zros.bag.mcap_recover import is_mcap
-
     try:
         return path.is_file() and is_mcap(path)
     except OSError:

@@ -10,6 +10,7 @@ registry knows is tried before giving up.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -72,7 +73,7 @@ class UndecodedMessage(Message):
     def __repr__(self) -> str:
         return f'UndecodedMessage({self.__msgtype__}, {len(self.data)} bytes)'
 
-    def __reduce__(self) -> tuple[Any, tuple[str, bytes]]:
+    def __reduce__(self) -> tuple[Callable[[str, bytes], UndecodedMessage], tuple[str, bytes]]:
         return (_undecoded, (self.__msgtype__, self.data))
 
 

@@ -35,7 +35,7 @@ class ClassSource(Protocol):
         ...
 
     @property
-    def lock(self) -> AbstractContextManager[Any]:
+    def lock(self) -> AbstractContextManager[bool]:
         """The re-entrant lock that guards the registry (codecs compile under it)."""
         ...
 

@@ -98,7 +98,7 @@ class TypeRegistry:
         self.layout = LayoutCache(self.message_definition)
 
     @property
-    def lock(self) -> AbstractContextManager[Any]:
+    def lock(self) -> AbstractContextManager[bool]:
         """The re-entrant lock that guards this registry; its classes compile codecs under it."""
         return self._lock
 

@@ -13,9 +13,12 @@ from __future__ import annotations
 import argparse
 import datetime
 import threading
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.cli.shared import CommandError, add_connection_options, open_node, out, stop_on_signals
+
+if TYPE_CHECKING:  # the command imports the bag package only when it runs (start-up)
+    from zros.bag.player import Player
 
 
 def default_bag_name() -> str:
@@ -75,7 +78,7 @@ def record(args: argparse.Namespace) -> int:
 # --- play --------------------------------------------------------------------------------------
 
 
-def _status(player: Any) -> str:
+def _status(player: Player) -> str:
     state = 'PAUSED ' if player.paused else 'PLAYING'
     elapsed = max(0, player.clock.now() - player.start_ns) / 1e9
     total = max(0, player.end_ns - player.start_ns) / 1e9
@@ -85,7 +88,7 @@ def _status(player: Any) -> str:
     )
 
 
-def _on_key(player: Any, key: str) -> bool:
+def _on_key(player: Player, key: str) -> bool:
     """Steer the player from a key; False to quit."""
     if key == ' ':
         player.toggle_pause()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
     CommandError,
@@ -18,8 +18,11 @@ from zros.cli.shared import (
     print_types,
 )
 
+if TYPE_CHECKING:
+    from zros.cdr.interfaces import ServiceType
 
-def _service_type(type_name: str) -> Any:
+
+def _service_type(type_name: str) -> ServiceType:
     from zros.cdr import default_registry
     from zros.cdr.interfaces import ServiceType
 

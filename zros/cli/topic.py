@@ -264,7 +264,7 @@ def _measuring_subscription(
     return undeclare
 
 
-def _report_loop(node: Node, args: argparse.Namespace, report: Any) -> int:
+def _report_loop(node: Node, args: argparse.Namespace, report: Callable[[], bool]) -> int:
     reports = 0
     try:
         while node.ok():

@@ -13,7 +13,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from zros.bag import Player
 
 from zros.demo.sensor import (
     CALIBRATION_TOPIC,
@@ -266,5 +269,5 @@ def _seconds_of(stamps: list[int]) -> list[float]:
     return [(stamp - stamps[0]) / 1e9 for stamp in stamps] if stamps else []
 
 
-def _seconds(player: Any) -> str:
+def _seconds(player: Player) -> str:
     return f'{(player.end_ns - player.start_ns) / 1e9:.1f}'

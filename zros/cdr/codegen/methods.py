@@ -13,7 +13,7 @@ from zros.cdr import convert
 from zros.cdr.codegen.ops import STRUCT_CODES, Context, value_dtype
 from zros.cdr.codegen.program import Program
 from zros.cdr.errors import FieldError
-from zros.cdr.model import PRIMITIVE_SIZES, FieldType, Kind, MessageDef
+from zros.cdr.model import PRIMITIVE_SIZES, Field, FieldType, Kind, MessageDef
 from zros.cdr.naming import attribute_name
 from zros.cdr.struct_seq import StructSeq, struct_items
 
@@ -70,7 +70,7 @@ def _scalar_check(t: FieldType, attr: str, type_: str, src: Program) -> str:
     return f'{type_}({attr}) is not {src.ref(int, "int")}'
 
 
-def _default_expr(ctx: Context, src: Program, f: Any, category: str) -> str:
+def _default_expr(ctx: Context, src: Program, f: Field, category: str) -> str:
     """The expression of a field's default value (a fresh object for mutable ones)."""
     t = f.type
     if category in ('prim', 'str'):
