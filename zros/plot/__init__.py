@@ -14,7 +14,8 @@ from __future__ import annotations
 
 from zros.plot.addresses import PlotError, Series, moving_average, resolve
 from zros.plot.bag_plot import bag
-from zros.plot.graph_layout import Box, GraphModel, Layout, Route, Vertex, layout_graph
+from zros.plot.graph_data import Box, GraphModel, Layout, Route, Vertex
+from zros.plot.graph_layout import layout_graph
 from zros.plot.graph_picture import draw_graph, graph, graph_model, to_dot
 from zros.plot.live_plot import LivePlot, live
 

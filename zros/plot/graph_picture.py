@@ -14,7 +14,8 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.plot.graph_layout import NODE, GraphModel, Layout, Measure, Vertex, layout_graph
+from zros.plot.graph_data import NODE, GraphModel, Layout, Measure, Vertex
+from zros.plot.graph_layout import layout_graph
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -206,7 +207,7 @@ def graph(
     >>> zros.plot.graph(node, 'graph.svg')  # doctest: +SKIP
 
     ``source`` is a node (its graph view, itself left out), a ``zros.graph.Graph`` or a
-    :class:`~zros.plot.graph_layout.GraphModel`. The picture is what the view knows at the call: a
+    :class:`~zros.plot.graph_data.GraphModel`. The picture is what the view knows at the call: a
     program that just connected calls ``node.graph.refresh()`` first. ``path`` receives it as
     PNG, SVG or PDF by its extension, or as Graphviz DOT text for ``.dot``/``.gv``.
     ``hide_hidden`` leaves out hidden names, ``hide_debug`` ``/rosout`` and
