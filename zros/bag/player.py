@@ -72,7 +72,7 @@ class Player:
         wait_for_subscribers: float = 0.0,
         on_message: Callable[[RawMessage], object] | None = None,
     ) -> None:
-        if node is None:
+        if node is None:  # the module API loads Zenoh: only for a player without a node
             from zros.api import default_node
 
             node = default_node()

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 from zros.plot.addresses import PlotError, Series, resolve, split_address
 from zros.plot.figure import SeriesFigure
 
+# matplotlib loads when a figure is made, zros.bag (type registry, rosbags) when a bag is read
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 

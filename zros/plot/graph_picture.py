@@ -14,9 +14,11 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from zros.plot.figure import new_figure
 from zros.plot.graph_data import NODE, GraphModel, Layout, Measure, Vertex
 from zros.plot.graph_layout import layout_graph
 
+# matplotlib loads when a picture is drawn, the graph (Zenoh) when a live one is read
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -132,8 +134,6 @@ def draw_graph(
 ) -> Figure:
     """Draw a laid-out graph: one text per node and topic, a shape around each, the edges."""
     from matplotlib.patches import Ellipse, FancyArrowPatch, Rectangle
-
-    from zros.plot.figure import new_figure
 
     width = max(layout.width, 100.0) + 2 * MARGIN
     height = max(layout.height, 30.0) + 2 * MARGIN

@@ -23,7 +23,9 @@ import numpy as np
 
 from zros.plot.addresses import PlotError, Series, resolve, split_address
 from zros.plot.figure import SeriesFigure, can_show
+from zros.qos import QoS, Reliability
 
+# matplotlib loads when a figure is made, the runtime (Zenoh) when a plot makes its own node
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -133,8 +135,6 @@ class LivePlot:
         return series
 
     def _subscribe(self, topic: str, numbers: list[int]) -> Subscriber:
-        from zros.qos import QoS, Reliability
-
         node = self.node
         publishers = node.graph.publishers(node.scheme.key(node.resolve_name(topic)))
         reliable = all(p.qos is None or p.qos.reliable for p in publishers)
