@@ -8,7 +8,7 @@ from zros.cdr.message import Message
 from zros.cdr.model import ActionDef, ServiceDef
 
 
-class Classes(Protocol):
+class ClassRegistry(Protocol):
     """Where a service or action type finds the classes of its parts (a TypeRegistry)."""
 
     @property
@@ -28,7 +28,7 @@ class Classes(Protocol):
 class ServiceType:
     """A service type: ``.Request``, ``.Response`` and (Iron and later) ``.Event`` classes."""
 
-    def __init__(self, registry: Classes, definition: ServiceDef) -> None:
+    def __init__(self, registry: ClassRegistry, definition: ServiceDef) -> None:
         self.__srvtype__ = definition.name
         self.definition = definition
         self.Request: type[Message] = registry.get_class(definition.name + '_Request')
@@ -45,7 +45,7 @@ class ActionType:
     """An action type: ``.Goal``, ``.Result``, ``.Feedback``, ``.FeedbackMessage`` classes and
     the ``.SendGoal`` and ``.GetResult`` service types."""
 
-    def __init__(self, registry: Classes, definition: ActionDef) -> None:
+    def __init__(self, registry: ClassRegistry, definition: ActionDef) -> None:
         name = definition.name
         self.__actiontype__ = name
         self.definition = definition
