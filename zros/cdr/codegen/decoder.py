@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable
+from contextlib import nullcontext
 from typing import Any
 
 import numpy as np
@@ -22,13 +23,14 @@ from zros.cdr.codegen.ops import (
     Seq,
     State,
     Str,
+    empty_message,
+    fields_of,
     merge_state,
 )
 from zros.cdr.codegen.program import Program, path_literal
 from zros.cdr.errors import CdrError
 from zros.cdr.layout import numpy_dtype
 from zros.cdr.model import PRIMITIVE_SIZES, FieldType, Kind, MessageDef
-from zros.cdr.naming import attribute_name
 from zros.cdr.struct_seq import StructSeq
 
 
@@ -55,12 +57,9 @@ class _DecoderBuilder:
 
     def struct_ops(self, msg: MessageDef, var: str, path: str, ops: list[Op]) -> None:
         if not msg.fields:
-            ops.append(Fix('x', 1, None, path or '(empty message)'))
+            ops.append(empty_message(path))
             return
-        for f in msg.fields:
-            ref = f'{var}.{attribute_name(f.name)}'
-            fpath = f'{path}.{f.name}' if path else f.name
-            t = f.type
+        for ref, fpath, t in fields_of(msg, var, path):
             if t.kind is Kind.SCALAR:
                 self.scalar_ops(t, ref, fpath, ops)
             elif t.kind is Kind.ARRAY:
@@ -332,28 +331,19 @@ def generate_decoder(
     src.add('pos = 4')
     if trace:
         src.add("_f = '(header)'; _p = 0")
-        src.depth += 1
-        body_start = len(src.lines)
-    src.add(f'o = {builder.new}({cls})')
-    builder.emit(ops, START)
-    if not ctx.info(msg.name).has_wstring:
-        if trace:
-            src.add("_f = ''; _p = pos")
-        builder.fail(
-            'strict and end - pos > 3',
-            '{end - pos} bytes left after the end of the message (at most 3 padding bytes are '
-            'allowed); the data may be of another type or version',
-        )
-    src.add('return o')
-    if trace:
-        body = src.lines[body_start:]
-        del src.lines[body_start:]
-        src.depth -= 1
-        src.add('try:')
-        src.lines.extend(body)
-        src.add('except Exception as exc:')
-        explain = src.ref(_decode_error, 'err')
-        src.add(f'    raise {explain}({msg.name!r}, _f, _p, exc, end) from None')
+    explained = src.guarded(_decode_error, f'{msg.name!r}, _f, _p, exc, end')
+    with explained if trace else nullcontext():
+        src.add(f'o = {builder.new}({cls})')
+        builder.emit(ops, START)
+        if not ctx.info(msg.name).has_wstring:
+            if trace:
+                src.add("_f = ''; _p = pos")
+            builder.fail(
+                'strict and end - pos > 3',
+                '{end - pos} bytes left after the end of the message (at most 3 padding bytes '
+                'are allowed); the data may be of another type or version',
+            )
+        src.add('return o')
     return src.compile('buf, strict=False', 'decode')
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable
+from contextlib import nullcontext
 from typing import Any
 
 from zros.cdr import convert
@@ -19,13 +20,14 @@ from zros.cdr.codegen.ops import (
     Op,
     Pre,
     State,
+    empty_message,
+    fields_of,
     merge_state,
     value_dtype,
 )
 from zros.cdr.codegen.program import Program, path_literal
 from zros.cdr.errors import CdrError
 from zros.cdr.model import INTEGER_RANGES, PRIMITIVE_SIZES, FieldType, Kind, MessageDef
-from zros.cdr.naming import attribute_name
 from zros.cdr.struct_seq import struct_array
 
 #: the CDR header of little-endian data
@@ -46,12 +48,9 @@ class _EncoderBuilder:
     def struct_ops(self, msg: MessageDef, var: str, path: str, ops: list[Op]) -> None:
         src = self.src
         if not msg.fields:
-            ops.append(Fix('x', 1, None, path or '(empty message)'))
+            ops.append(empty_message(path))
             return
-        for f in msg.fields:
-            expr = f'{var}.{attribute_name(f.name)}'
-            fpath = f'{path}.{f.name}' if path else f.name
-            t = f.type
+        for expr, fpath, t in fields_of(msg, var, path):
             if t.kind is Kind.SCALAR:
                 self.scalar_ops(t, expr, fpath, ops)
                 continue
@@ -73,11 +72,9 @@ class _EncoderBuilder:
                     items = src.tmp('l')
                     lines = [*self.mark_lines(fpath), f'{items} = {expr}']
                     lines.append(
-                        f'if len({items}) != {t.length}: raise {self.bad}'
-                        + (
-                            f'(f"expected exactly {t.length} elements, got {{len({items})}}")'
-                            if self.trace
-                            else ''
+                        self.refuse(
+                            f'len({items}) != {t.length}',
+                            f'expected exactly {t.length} elements, got {{len({items})}}',
                         )
                     )
                     ops.append(Pre(lines))
@@ -113,16 +110,19 @@ class _EncoderBuilder:
                 lines = [*self.mark_lines(fpath), f'{items} = {expr}', f'{count} = len({items})']
                 if bound >= 0:
                     lines.append(
-                        f'if {count} > {bound}: raise {self.bad}'
-                        + (
-                            f'(f"{{{count}}} elements exceed the bound of {bound}")'
-                            if self.trace
-                            else ''
+                        self.refuse(
+                            f'{count} > {bound}',
+                            f'{{{count}}} elements exceed the bound of {bound}',
                         )
                     )
                 ops.append(Pre(lines))
                 ops.append(Fix('I', 4, count, fpath))
                 ops.append(self.loop(t, items, fpath))
+
+    def refuse(self, condition: str, reason: str) -> str:
+        """A line raising ``Bad`` when ``condition`` holds (with ``reason``, an f-string body
+        without double quotes, when traced)."""
+        return f'if {condition}: raise {self.bad}' + (f'(f"{reason}")' if self.trace else '')
 
     def mark_lines(self, path: str) -> list[str]:
         return [f'_f = {path_literal(path)}'] if self.trace else []
@@ -143,11 +143,9 @@ class _EncoderBuilder:
             lines += [f'{data} = {expr}.encode()', f'{count} = len({data})']
             if t.string_bound:
                 lines.append(
-                    f'if {count} > {t.string_bound}: raise {self.bad}'
-                    + (
-                        f'(f"string of {{{count}}} bytes exceeds its bound {t.string_bound}")'
-                        if self.trace
-                        else ''
+                    self.refuse(
+                        f'{count} > {t.string_bound}',
+                        f'string of {{{count}}} bytes exceeds its bound {t.string_bound}',
                     )
                 )
             ops.append(Pre(lines))
@@ -160,11 +158,9 @@ class _EncoderBuilder:
             lines = [*self.mark_lines(path), f'{data}, {count} = {encode}({expr})']
             if t.string_bound:
                 lines.append(
-                    f'if {count} > {t.string_bound}: raise {self.bad}'
-                    + (
-                        f'(f"wstring of {{{count}}} characters exceeds its bound {t.string_bound}")'
-                        if self.trace
-                        else ''
+                    self.refuse(
+                        f'{count} > {t.string_bound}',
+                        f'wstring of {{{count}}} characters exceeds its bound {t.string_bound}',
                     )
                 )
             ops.append(Pre(lines))
@@ -371,21 +367,11 @@ def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[...
     src.add('parts = []; _p = parts.append; r = 0')
     if trace:
         src.add("_f = ''")
-        src.depth += 1
-        start = len(src.lines)
-    builder.emit(ops, START)
-    builder.ensure_header()
-    src.add('return join(parts)')
-    if trace:
-        body = src.lines[start:]
-        del src.lines[start:]
-        src.depth -= 1
-        src.add('try:')
-        src.lines.extend(body)
-        src.add('except Exception as exc:')
-        explain = src.ref(_encode_error, 'err')
-        src.add(f'    raise {explain}({msg.name!r}, _f, exc) from None')
-    elif builder.appends == 1 and builder.single_pack:
+    with src.guarded(_encode_error, f'{msg.name!r}, _f, exc') if trace else nullcontext():
+        builder.emit(ops, START)
+        builder.ensure_header()
+        src.add('return join(parts)')
+    if not trace and builder.appends == 1 and builder.single_pack:
         # the whole message is one pack call: return its bytes, no parts list
         lines = src.lines[: builder.last_append]
         del lines[0]

@@ -13,7 +13,8 @@ from typing import Protocol
 import numpy as np
 
 from zros.cdr.layout import StructInfo, numpy_dtype
-from zros.cdr.model import MessageDef
+from zros.cdr.model import FieldType, MessageDef
+from zros.cdr.naming import attribute_name
 
 #: the ``struct`` code of each primitive
 STRUCT_CODES = {
@@ -140,6 +141,20 @@ class Loop:
 
 
 Op = Fix | FixArr | Pre | Str | Seq | Blob | Loop
+
+
+def fields_of(msg: MessageDef, var: str, path: str) -> list[tuple[str, str, FieldType]]:
+    """Each field of ``msg`` (held in the generated variable ``var``, at ``path`` in the
+    message): its attribute expression, its dotted path and its type."""
+    return [
+        (f'{var}.{attribute_name(f.name)}', f'{path}.{f.name}' if path else f.name, f.type)
+        for f in msg.fields
+    ]
+
+
+def empty_message(path: str) -> Fix:
+    """The one placeholder byte of a message without fields."""
+    return Fix('x', 1, None, path or '(empty message)')
 
 
 # --- static offsets -------------------------------------------------------------------------

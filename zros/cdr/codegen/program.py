@@ -33,6 +33,21 @@ class Program:
         yield
         self.depth -= 1
 
+    @contextmanager
+    def guarded(self, explain: Callable[..., Exception], arguments: str) -> Iterator[None]:
+        """Lines added inside the ``with`` go in a ``try:`` whose ``except`` raises
+        ``explain(arguments)`` instead (``exc`` names the exception caught)."""
+        self.depth += 1
+        start = len(self.lines)
+        yield
+        body = self.lines[start:]
+        del self.lines[start:]
+        self.depth -= 1
+        self.add('try:')
+        self.lines.extend(body)
+        self.add('except Exception as exc:')
+        self.add(f'    raise {self.ref(explain, "err")}({arguments}) from None')
+
     def tmp(self, prefix: str) -> str:
         """A fresh name for a generated variable (``prefix`` and a number)."""
         self._counter += 1
