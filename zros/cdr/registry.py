@@ -399,7 +399,7 @@ def set_default_registry(registry: TypeRegistry) -> None:
 
 def registry_of(cls: type[Message]) -> TypeRegistry:
     """The registry that built a message class (a bag's own, or the default one...)."""
-    registry = cls._registry
+    registry = getattr(cls, '_registry', None)
     if not isinstance(registry, TypeRegistry):
         raise TypeError(f'{cls.__name__} was not built by a TypeRegistry')
     return registry
