@@ -75,7 +75,9 @@ class Message:
         raise NotImplementedError
 
     @staticmethod
-    def _cdr_encode(message: Any, join: Any = None) -> bytes:
+    def _cdr_encode(
+        message: Message, join: Callable[[list[Any]], bytes | bytearray] | None = None
+    ) -> bytes:
         raise NotImplementedError
 
     @staticmethod

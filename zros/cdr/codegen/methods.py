@@ -13,6 +13,7 @@ from zros.cdr import convert
 from zros.cdr.codegen.ops import STRUCT_CODES, Context, value_dtype
 from zros.cdr.codegen.program import Program
 from zros.cdr.errors import FieldError
+from zros.cdr.message import Message
 from zros.cdr.model import PRIMITIVE_SIZES, Field, FieldType, Kind, MessageDef
 from zros.cdr.naming import attribute_name
 from zros.cdr.struct_seq import StructSeq, struct_items
@@ -100,7 +101,7 @@ def _default_expr(ctx: Context, src: Program, f: Field, category: str) -> str:
     return f'{src.ref(StructSeq, "Seq")}({cls})'
 
 
-def _gen_default(ctx: Context, msg: MessageDef) -> Callable[[], Any]:
+def _gen_default(ctx: Context, msg: MessageDef) -> Callable[[], Message]:
     """A message with every default value, made without the constructor's checks (nested
     defaults use it: they need no checking, and ``Msg()`` of a nested type costs twice as much)."""
     src = Program()
@@ -173,14 +174,14 @@ def _gen_init(ctx: Context, msg: MessageDef) -> Callable[..., None]:
     return init
 
 
-def _unknown_field(type_name: str, fields: tuple[str, ...], extra: dict[str, Any]) -> Exception:
+def _unknown_field(type_name: str, fields: tuple[str, ...], extra: dict[str, object]) -> Exception:
     return FieldError.unknown(type_name, next(iter(extra)), fields)
 
 
 _MISSING = object()
 
 
-def _gen_eq(ctx: Context, msg: MessageDef) -> Callable[[Any, Any], Any]:
+def _gen_eq(ctx: Context, msg: MessageDef) -> Callable[[Message, object], bool]:
     src = Program()
     # the same type from another registry (e.g. a bag's own definitions) compares by content
     src.add(
@@ -203,7 +204,7 @@ def _array_equal(a: Any, b: Any) -> bool:
     return bool(np.array_equal(a, b))
 
 
-def _gen_repr(ctx: Context, msg: MessageDef) -> Callable[[Any], str]:
+def _gen_repr(ctx: Context, msg: MessageDef) -> Callable[[Message], str]:
     src = Program()
     parts = ', '.join(
         f'{attribute_name(f.name)}={{self.{attribute_name(f.name)}!r}}' for f in msg.fields
@@ -212,7 +213,7 @@ def _gen_repr(ctx: Context, msg: MessageDef) -> Callable[[Any], str]:
     return src.compile('self', '__repr__')
 
 
-def _gen_copy(ctx: Context, msg: MessageDef) -> Callable[[Any], Any]:
+def _gen_copy(ctx: Context, msg: MessageDef) -> Callable[[Message], Message]:
     src = Program()
     cls = src.ref(ctx.cls(msg.name), 'C')
     src.add(f'o = {src.ref(object.__new__, "new")}({cls})')
@@ -238,7 +239,7 @@ def _to_list(value: Any) -> list[Any]:
     return value.tolist() if isinstance(value, np.ndarray) else list(value)
 
 
-def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Any], dict[str, Any]]:
+def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str, Any]]:
     src = Program()
     to_list = src.ref(_to_list, 'tolist')
     items = []
@@ -299,7 +300,7 @@ def _tuple_pattern(ctx: Context, msg: MessageDef, src: Program, var: str, lines:
     return '(' + ''.join(n + ', ' for n in names) + ')'
 
 
-def _gen_from_tuple(ctx: Context, msg: MessageDef) -> Callable[[Any], Any]:
+def _gen_from_tuple(ctx: Context, msg: MessageDef) -> Callable[[tuple[Any, ...]], Message]:
     src = Program()
     lines: list[str] = []
     pattern = _tuple_pattern(ctx, msg, src, 'o', lines)
@@ -325,7 +326,7 @@ def _tuple_expr(ctx: Context, msg: MessageDef, var: str) -> str:
     return '(' + ''.join(item + ', ' for item in items) + ')'
 
 
-def _gen_to_tuple(ctx: Context, msg: MessageDef) -> Callable[[Any], tuple[Any, ...]]:
+def _gen_to_tuple(ctx: Context, msg: MessageDef) -> Callable[[Message], tuple[Any, ...]]:
     src = Program()
     src.add(f'return {_tuple_expr(ctx, msg, "o")}')
     return src.compile('o', '_to_tuple')
@@ -359,7 +360,7 @@ def _row_layout(
     return offset
 
 
-def _gen_pack_rows(ctx: Context, msg: MessageDef) -> Callable[[Any], bytes] | None:
+def _gen_pack_rows(ctx: Context, msg: MessageDef) -> Callable[[list[Message]], bytes] | None:
     """``_pack_rows(items) -> bytes``: rows of a uniform struct, one ``struct`` call each."""
     layout: list[tuple[int, str, str]] = []
     if _row_layout(ctx, msg, 'o', 0, layout) is None:

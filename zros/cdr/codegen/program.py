@@ -17,7 +17,7 @@ class Program:
     def __init__(self) -> None:
         self.lines: list[str] = []
         self.depth = 1
-        self.objects: dict[str, Any] = {}
+        self.objects: dict[str, object] = {}
         self._ids: dict[int, str] = {}
         self._counter = 0
 
@@ -53,7 +53,7 @@ class Program:
         self._counter += 1
         return f'{prefix}{self._counter}'
 
-    def ref(self, obj: Any, hint: str) -> str:
+    def ref(self, obj: object, hint: str) -> str:
         """A name in the generated code that refers to ``obj``."""
         key = id(obj)
         if key not in self._ids:
