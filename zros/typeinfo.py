@@ -19,6 +19,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from zros.cdr.errors import UnknownTypeError
+from zros.cdr.registry import registry_of
 from zros.errors import ZrosError
 
 if TYPE_CHECKING:
@@ -58,7 +59,7 @@ class TypeDescriptionService:
     def _registry_for(self, type_name: str) -> TypeRegistry | None:
         cls = self._classes.get(type_name)
         if cls is not None:
-            return cls._registry
+            return registry_of(cls)
         registry = self.node.registry
         try:
             registry.definition(type_name)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from zros.cli.common import CommandError, UsageError, out
+from zros.cli.shared import CommandError, UsageError, out
 
 if TYPE_CHECKING:
     from zros.cdr.expand import Comments

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from zros.cli.common import (
+from zros.cli.shared import (
     add_connection_options,
     at_least_one,
     open_node,
@@ -57,7 +57,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help=help_text,
         description=f'{help_text}. Needs the rosbridge extra: pip install "zros[rosbridge]".',
     )
-    parser.set_defaults(run='zros.cli.rosbridge:run')
+    parser.set_defaults(run='zros.cli.rosbridge_command:run')
     parser.add_argument('--port', type=port_number, default=9090,
                         help='TCP port (default 9090; 0: any)')  # fmt: skip
     parser.add_argument('--address', default='127.0.0.1',

@@ -15,9 +15,13 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from types import FrameType
 from typing import TYPE_CHECKING, Any
 
+# commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
+# `zros --help` loads none of them
 if TYPE_CHECKING:
+    from zros.cdr.message import Message
     from zros.node import Node
 
 
@@ -147,7 +151,7 @@ def parse_values(text: str | None) -> dict[str, Any]:
     return values
 
 
-def message_class(type_name: str) -> Any:
+def message_class(type_name: str) -> type[Message]:
     """The message class of a type name (``std_msgs/msg/String`` or ``std_msgs/String``)."""
     from zros.cdr import default_registry
     from zros.cdr.interfaces import ActionType, ServiceType
@@ -188,7 +192,7 @@ def known_type(node: Node, topic: str, type_name: str) -> str:
     raise CommandError(f'{unknown}\nThe nodes on the network did not describe it ({asked}).')
 
 
-def build_message(cls: Any, values: dict[str, Any]) -> Any:
+def build_message(cls: type[Message], values: dict[str, Any]) -> Message:
     """A message of ``cls`` with ``values`` (nested dicts for nested fields), checked before
     anything is sent: a wrong field name or value is a usage error naming the field."""
     from zros.cdr.errors import CdrError, FieldError
@@ -208,7 +212,7 @@ def build_message(cls: Any, values: dict[str, Any]) -> Any:
 def stop_on_signals(stop: threading.Event) -> Iterator[None]:
     """SIGINT and SIGTERM set ``stop`` instead of killing the process (restored after)."""
 
-    def handler(signum: int, frame: Any) -> None:
+    def handler(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
     saved = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}

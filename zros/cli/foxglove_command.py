@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from zros.cli.common import (
+from zros.cli.shared import (
     add_connection_options,
     at_least_one,
     open_node,
@@ -61,7 +61,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help=help_text,
         description=f'{help_text}. Needs the foxglove extra: pip install "zros[foxglove]".',
     )
-    parser.set_defaults(run='zros.cli.foxglove:run')
+    parser.set_defaults(run='zros.cli.foxglove_command:run')
     parser.add_argument('--port', type=port_number, default=8765,
                         help='TCP port (default 8765; 0: any)')  # fmt: skip
     parser.add_argument('--address', default='127.0.0.1',
