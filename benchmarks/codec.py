@@ -150,7 +150,7 @@ def rosbags_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[
     from zros.cdr.layout import VALUE_CODES
     from zros.cdr.model import Kind
     from zros.cdr.naming import attribute_name
-    from zros.cdr.registry import PLACEHOLDER_FIELD
+    from zros.cdr.typestore import PLACEHOLDER_FIELD
 
     store = REGISTRY.typestore
 

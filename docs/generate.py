@@ -118,7 +118,7 @@ def examples_listing() -> str:
         )
     others = sorted(
         p for p in EXAMPLES.rglob('*') if p.is_file() and p.suffix != '.py'
-        and '__pycache__' not in p.parts
+        and not {'__pycache__', 'node_modules'} & set(p.parts) and p.name != 'package-lock.json'
     )  # fmt: skip
     if others:
         parts.append('## Other files\n')

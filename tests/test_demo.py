@@ -18,7 +18,6 @@ import pytest
 import zros
 from zros.demo import sensor
 from zros.demo.analysis import Calibration, RangeNode, fit_curve, moving_average, read_calibration
-from zros.demo.recording import BAG_NAME, bag_problem, ensure_bag, write_bag
 from zros.demo.sensor import (
     CALIBRATION_TOPIC,
     DISTANCE_TOPIC,
@@ -28,6 +27,7 @@ from zros.demo.sensor import (
     READINGS,
     VOLTAGE_TOPIC,
 )
+from zros.demo.tutorial_bag import BAG_NAME, bag_problem, ensure_bag, write_bag
 from zros.testing import wait_for
 
 ROOT = Path(__file__).resolve().parent.parent

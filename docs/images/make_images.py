@@ -30,8 +30,8 @@ import zros
 import zros.plot
 from zros.cdr import encode
 from zros.keyexpr.bridge import EntityKind, EntityToken, TokenQoS
+from zros.plot.graph_layout import layout_graph
 from zros.plot.graph_picture import draw_graph, font_measure, graph_model, save_figure
-from zros.plot.layout import layout_graph
 from zros.transport import Transport, TransportConfig
 
 HERE = Path(__file__).resolve().parent

@@ -174,7 +174,7 @@ def test_data_that_fits_no_definition_is_an_error(tmp_path: Path) -> None:
 
 
 def test_attribute_spellings_are_accepted(tmp_path: Path) -> None:
-    from zros.bag.fields import ros_path
+    from zros.bag.column_plan import ros_path
 
     assert ros_path('a.from_.b_') == 'a.from.b_'
 

@@ -16,7 +16,8 @@ import zros
 from zros.bag import BagError
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.bag.play_clock import PlayClock
-from zros.bag.player import Player, PlayerError, parse_remap, playback_qos
+from zros.bag.play_topics import PlayerError, parse_remap, playback_qos
+from zros.bag.player import Player
 from zros.bag.recorder import Recorder
 from zros.cdr import default_registry, encode
 from zros.keyexpr.kinds import EntityKind

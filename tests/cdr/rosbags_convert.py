@@ -9,7 +9,8 @@ import numpy as np
 from zros.cdr.layout import VALUE_CODES
 from zros.cdr.model import Kind
 from zros.cdr.naming import attribute_name
-from zros.cdr.registry import PLACEHOLDER_FIELD, TypeRegistry
+from zros.cdr.registry import TypeRegistry
+from zros.cdr.typestore import PLACEHOLDER_FIELD
 
 
 def to_rosbags(registry: TypeRegistry, typestore: Any, message: Any) -> Any:

@@ -220,7 +220,7 @@ def test_encoding_does_not_detach_element_objects(registry: TypeRegistry) -> Non
 
 
 def test_encode_buffer_is_reused_and_byte_identical(registry: TypeRegistry) -> None:
-    from zros.cdr.message import EncodeBuffer
+    from zros.cdr.encode_buffer import EncodeBuffer
 
     Image = registry.get_class('sensor_msgs/msg/Image')
     Imu = registry.get_class('sensor_msgs/msg/Imu')

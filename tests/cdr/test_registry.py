@@ -9,7 +9,7 @@ import pytest
 from zros import cdr
 from zros.cdr.errors import TypeNameError, UnknownTypeError
 from zros.cdr.interfaces import ActionType, ServiceType
-from zros.cdr.registry import TypeRegistry
+from zros.cdr.registry import TypeRegistry, registry_of
 
 
 @pytest.fixture
@@ -175,6 +175,17 @@ def test_kind_mismatch_and_bad_names(registry: TypeRegistry) -> None:
         registry.get_action('std_srvs/srv/Empty')
     with pytest.raises(TypeNameError, match='is not a ROS type name'):
         registry.get_type('not a type')
+
+
+def test_a_class_knows_the_registry_that_built_it(registry: TypeRegistry) -> None:
+    assert registry_of(registry.get_class('std_msgs/msg/String')) is registry
+    assert registry_of(cdr.get_class('std_msgs/msg/String')) is cdr.default_registry()
+
+    class Handmade(cdr.Message):
+        __msgtype__ = 'my_msgs/msg/Handmade'
+
+    with pytest.raises(TypeError, match='Handmade was not built by a TypeRegistry'):
+        registry_of(Handmade)
 
 
 def test_module_level_helpers() -> None:

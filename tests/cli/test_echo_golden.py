@@ -19,7 +19,7 @@ from tests.cli.conftest import Cli
 from tests.cli.echo_cases import CASES, CSV_CASES
 from zros.cdr import decode, default_registry, encode
 from zros.cdr.registry import TypeRegistry
-from zros.cli.render import message_to_csv, message_to_yaml, to_yaml
+from zros.cli.message_text import message_to_csv, message_to_yaml, to_yaml
 
 GOLDEN = Path(__file__).parent / 'golden'
 #: the ROS wheels of the interop extra install test_msgs' definitions here

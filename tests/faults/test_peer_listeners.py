@@ -201,14 +201,16 @@ def test_password_peers_refuse_what_their_router_refuses(
 
 def exchange_directly(first: Transport, second: Transport) -> None:
     """Two peers meet at their router, link to each other, and a message goes through."""
-    assert wait_for(lambda: second.zid in {str(z) for z in first.session.info.peers_zid()})
+    # generous deadlines: two peers dialling each other at once drop one of the two links
+    # ('lost the link to peer'), and on a loaded machine settling takes seconds
+    assert wait_for(lambda: second.zid in {str(z) for z in first.session.info.peers_zid()}, 30)
     talker = zros.Node('talker', transport=first)
     listener = zros.Node('listener', transport=second)
     sub = listener.create_subscription('std_msgs/msg/String', 'chatter')
     pub = talker.create_publisher('std_msgs/msg/String', 'chatter')
-    assert pub.wait_for_subscribers()
+    assert pub.wait_for_subscribers(30)
     pub.write(zros.Message('std_msgs/msg/String', data='direct'))
-    assert wait_for(sub.has_new_message)
+    assert wait_for(sub.has_new_message, 30)
     assert sub.read_message().data == 'direct'
 
 

@@ -29,13 +29,14 @@ TIMEOUT = 20.0
 _install_lock = threading.Lock()
 
 
-def install() -> str | None:
-    """Install the npm packages if needed; None when ready, else why the tests cannot run."""
+def install(package: str = '@foxglove/ws-protocol') -> str | None:
+    """Install the npm packages if ``package`` is missing; None when ready, else why the
+    tests cannot run."""
     node, npm = shutil.which('node'), shutil.which('npm')
     if node is None or npm is None:
-        return 'node and npm are needed for the Foxglove client tests'
+        return 'node and npm are needed for the tests with JavaScript clients'
     with _install_lock:
-        if (NODE_DIR / 'node_modules' / '@foxglove' / 'ws-protocol').is_dir():
+        if (NODE_DIR / 'node_modules' / package).is_dir():
             return None
         result = subprocess.run(
             [npm, 'ci', '--no-audit', '--no-fund', '--loglevel=error'],
@@ -50,23 +51,23 @@ def install() -> str | None:
     return None
 
 
-def require() -> None:
+def require(package: str = '@foxglove/ws-protocol') -> None:
     """Skip the calling test where the client cannot run (fail instead when ``REQUIRED`` is
     set, as in CI)."""
     import pytest
 
-    reason = install()
+    reason = install(package)
     if reason is not None:
         if os.environ.get(REQUIRED):
             pytest.fail(reason)
         pytest.skip(reason)
 
 
-class FoxgloveClient:
-    """One client connected to ``url``; events are kept in order and waited for by predicate."""
+class NodeProcess:
+    """A node script speaking JSON lines (commands in, events out); events are kept in order
+    and waited for by predicate."""
 
-    def __init__(self, url: str, ca: str | os.PathLike[str] | None = None) -> None:
-        args = ['node', str(SCRIPT), url] + ([str(ca)] if ca is not None else [])
+    def __init__(self, args: list[str]) -> None:
         self.process = subprocess.Popen(
             args,
             stdin=subprocess.PIPE,
@@ -130,6 +131,25 @@ class FoxgloveClient:
         """Every event of one kind so far."""
         with self._arrived:
             return [e for e in self.events if e['ev'] == kind]
+
+    def close(self) -> None:
+        """Stop the script (its stdin closes; killed if it lingers)."""
+        if self.process.poll() is None:
+            assert self.process.stdin is not None
+            with contextlib.suppress(OSError):
+                self.process.stdin.close()
+            try:
+                self.process.wait(5)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait(5)
+
+
+class FoxgloveClient(NodeProcess):
+    """One Foxglove client connected to ``url`` (``node/client.js``)."""
+
+    def __init__(self, url: str, ca: str | os.PathLike[str] | None = None) -> None:
+        super().__init__(['node', str(SCRIPT), url] + ([str(ca)] if ca is not None else []))
 
     # --- what tests do -----------------------------------------------------------------------
 
@@ -277,17 +297,6 @@ class FoxgloveClient:
         start = self.mark()
         self.send('stats')
         return dict(self.wait(lambda e: e['ev'] == 'stats', start=start)['counts'])
-
-    def close(self) -> None:
-        if self.process.poll() is None:
-            assert self.process.stdin is not None
-            with contextlib.suppress(OSError):
-                self.process.stdin.close()
-            try:
-                self.process.wait(5)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait(5)
 
 
 def image(width: int, height: int, seq: int) -> Any:

@@ -170,6 +170,11 @@ class Interop:
     def topic(self, stem: str) -> str:
         return self.unique_topic(stem)
 
+    def standin_log(self) -> str:
+        """The end of the stand-in's log, for a failure's message (a real bridge: nothing)."""
+        local = self.bridge.rig
+        return '(a real bridge: no log here)' if local is None else local.log_tail()
+
 
 @pytest.fixture
 def interop(

@@ -226,35 +226,47 @@ def test_ros_action_server_from_zenoh(interop: Interop, raw_session: Any) -> Non
     # drops what it writes (the goal runs in milliseconds)
     assert interop.ros.wait_readers(f'{action}/_action/feedback') >= 1
 
-    goal_id = UUID(uuid=list(os.urandom(16)))
-    goal = Fibonacci.Impl.SendGoalService.Request(goal_id=goal_id, goal=Fibonacci.Goal(order=5))
-    replies = ok_replies(raw_session, p.action_key(key, 'send_goal'), serialize_message(goal))
-    assert len(replies) == 1
-    assert deserialize_message(replies[0], Fibonacci.Impl.SendGoalService.Response).accepted
+    def feedback_of(goal_id: UUID) -> list[list[int]]:
+        messages = (deserialize_message(data, Fibonacci.Impl.FeedbackMessage) for data in feedback)
+        return [list(m.feedback.sequence) for m in messages if m.goal_id == goal_id]
 
-    ask = Fibonacci.Impl.GetResultService.Request(goal_id=goal_id)
-    replies = ok_replies(raw_session, p.action_key(key, 'get_result'), serialize_message(ask))
-    assert len(replies) == 1
-    result = deserialize_message(replies[0], Fibonacci.Impl.GetResultService.Response)
-    assert result.status == GoalStatus.STATUS_SUCCEEDED
-    assert list(result.result.sequence) == fibonacci(5)
+    def run_goal() -> UUID:
+        goal_id = UUID(uuid=list(os.urandom(16)))
+        goal = Fibonacci.Impl.SendGoalService.Request(goal_id=goal_id, goal=Fibonacci.Goal(order=5))
+        replies = ok_replies(raw_session, p.action_key(key, 'send_goal'), serialize_message(goal))
+        assert len(replies) == 1
+        assert deserialize_message(replies[0], Fibonacci.Impl.SendGoalService.Response).accepted
 
-    def succeeded() -> bool:
-        for data in statuses:
-            for status in deserialize_message(data, GoalStatusArray).status_list:
-                if (
-                    status.goal_info.goal_id == goal_id
-                    and status.status == GoalStatus.STATUS_SUCCEEDED
-                ):
-                    return True
-        return False
+        ask = Fibonacci.Impl.GetResultService.Request(goal_id=goal_id)
+        replies = ok_replies(raw_session, p.action_key(key, 'get_result'), serialize_message(ask))
+        assert len(replies) == 1
+        result = deserialize_message(replies[0], Fibonacci.Impl.GetResultService.Response)
+        assert result.status == GoalStatus.STATUS_SUCCEEDED
+        assert list(result.result.sequence) == fibonacci(5)
 
-    assert wait_for(succeeded, TIMEOUT)
-    assert feedback, 'no feedback reached Zenoh'
-    for data in feedback:
-        message = deserialize_message(data, Fibonacci.Impl.FeedbackMessage)
-        assert message.goal_id == goal_id
-        sequence = list(message.feedback.sequence)
+        def succeeded() -> bool:
+            for data in statuses:
+                for status in deserialize_message(data, GoalStatusArray).status_list:
+                    if (
+                        status.goal_info.goal_id == goal_id
+                        and status.status == GoalStatus.STATUS_SUCCEEDED
+                    ):
+                        return True
+            return False
+
+        assert wait_for(succeeded, TIMEOUT)
+        return goal_id
+
+    # The server's writer matching the bridge's reader is not the reader matching the writer:
+    # on a loaded machine Fast DDS has dropped all of a first goal's (volatile) feedback while
+    # the reader's side of discovery lagged (seen once in CI). A later goal must get its feedback.
+    goals = [run_goal()]
+    while not wait_for(lambda: bool(feedback_of(goals[-1])), 2.0) and len(goals) < 3:
+        goals.append(run_goal())
+    goal_id = goals[-1]
+    sequences = feedback_of(goal_id)
+    assert sequences, 'no feedback reached Zenoh (3 goals)'
+    for sequence in sequences:
         assert sequence == fibonacci(5)[: len(sequence)]
 
     cancel = CancelGoal.Request()

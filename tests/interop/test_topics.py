@@ -154,6 +154,11 @@ def zros_to_ros(ix: Interop, topic: str, name: str, messages: list[Any]) -> None
         for message in messages:
             publisher.write(message)
         received = ros.wait_messages(subscription, len(messages), timeout=TIMEOUT)
+        if len(received) != len(messages):  # say what the bridge did, not only what is missing
+            pytest.fail(
+                f'{len(received)} of {len(messages)} messages arrived; the stand-in log ends '
+                f'with:\n{ix.standin_log()}'
+            )
         assert_received_by_ros(name, messages, received)
         ros.destroy(subscription)
     finally:

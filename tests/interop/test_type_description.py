@@ -1,7 +1,7 @@
 """A type zros has no definition of, published by rclpy behind the bridge: zros asks ROS.
 
 rclpy nodes (Jazzy) serve ``~/get_type_description``; the bridge routes it like any service.
-``zros topic echo`` does what this test does through ``zros.cli.common.known_type``.
+``zros topic echo`` does what this test does through ``zros.cli.shared.known_type``.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from tests.interop import rig
 from tests.interop.conftest import Interop
 from tests.interop.rclpy_support import make_registry, to_rclpy
 from zros.cdr.registry import TypeRegistry
-from zros.cli.common import known_type
+from zros.cli.shared import known_type
 
 TIMEOUT = 30.0
 NAME = 'test_msgs/msg/BasicTypes'  # in the wheels, not in the rosbags typestore

@@ -28,6 +28,7 @@ from zros.actions.common import (
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode
+from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
 from zros.runtime.clock import Time
@@ -161,11 +162,11 @@ class ActionClient(Entity):
         status_qos = QoS(1, durability=Durability.TRANSIENT_LOCAL)
         feedback = self._place(
             subscriber, part + 'feedback', self._FeedbackMessage.__msgtype__,
-            self._FeedbackMessage._registry, qos=QoS(10), announce=parts,
+            registry_of(self._FeedbackMessage), qos=QoS(10), announce=parts,
         )  # fmt: skip
         status = self._place(
             subscriber, part + 'status', self._StatusArray.__msgtype__,
-            self._StatusArray._registry, qos=status_qos, announce=parts,
+            registry_of(self._StatusArray), qos=status_qos, announce=parts,
         )  # fmt: skip
         self._subscribe(feedback, QoS(10), self._on_feedback)
         # the statuses that matter are those of goals sent to servers present then: no late

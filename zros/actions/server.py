@@ -31,6 +31,7 @@ from zros.actions.goals import cancel_candidates, run_goal
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode
+from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub import Publisher
 from zros.qos import Durability, QoS
@@ -175,7 +176,7 @@ class ActionServer(Entity):
         ):
             place = self._place(
                 EntityKind.SERVICE_SERVER, part + service, srv.__srvtype__,
-                srv.Request._registry, announce=parts_announced,
+                registry_of(srv.Request), announce=parts_announced,
             )  # fmt: skip
             if service == 'send_goal':  # one admission for the three (shared pending requests)
                 self._requests = place.requests(self.name, ERROR_PREFIX)

@@ -10,7 +10,8 @@ from __future__ import annotations
 from zros.bag.bag_writer import BagTopic, BagWriteError, BagWriter
 from zros.bag.errors import BagError
 from zros.bag.info import BagInfo, info
-from zros.bag.player import Player, PlayerError
+from zros.bag.play_topics import PlayerError
+from zros.bag.player import Player
 from zros.bag.reader import Bag, TopicInfo
 from zros.bag.recorder import Recorder, RecorderError
 from zros.bag.reindexer import FileReport, ReindexReport, reindex

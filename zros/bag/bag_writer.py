@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros import __version__
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE, McapFile, compression_type
 from zros.bag.rosbag2_yaml import (
     FileEntry,
@@ -24,8 +23,11 @@ from zros.bag.rosbag2_yaml import (
     qos_profiles_text,
     write_metadata_yaml,
 )
+from zros.cdr.hashing import type_hash
+from zros.cdr.render import render_bundle
 from zros.errors import ZrosError
 from zros.qos import QoS
+from zros.version import __version__
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -63,9 +65,6 @@ class BagTopic:
         qos: Sequence[QoS] = (),
     ) -> BagTopic:
         """A topic whose definition and hash come from ``registry`` (left empty if unknown)."""
-        from zros.cdr.hashing import type_hash
-        from zros.cdr.render import render_bundle
-
         try:
             definition = render_bundle(registry, type_name)
             digest = type_hash(registry, type_name)

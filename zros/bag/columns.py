@@ -12,20 +12,19 @@ which also gives the reader's definition fallback and errors.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from zros.bag.column_plan import Leaf, Plan, Step, plan, select
 from zros.bag.errors import BagError
-from zros.bag.fields import Leaf, Plan, plan, select
 from zros.bag.mcap_bulk import Unsupported
 from zros.bag.source import Block, Connection, RawMessage, Source
-
-if TYPE_CHECKING:
-    from zros.bag.reader import Bag
+from zros.bag.types import BagTypes
+from zros.cdr.message import Message
 
 TIME = 'time'
 #: messages read per batch (bounds the memory of the joined bytes)
@@ -73,7 +72,7 @@ def _run(plan_: Plan, leaves: list[Leaf], parts: list[_Part], pieces: Pieces) ->
             raise _Unplannable(f'{left} bytes left after the message')
 
 
-def _step(step: Any, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Part]:
+def _step(step: Step, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Part]:
     rows, offset = part.rows, part.offset
     body = rows.shape[1] - 4
     offset += -offset % step.align
@@ -120,7 +119,7 @@ def _subset(part: _Part, counts: np.ndarray, count: int) -> _Part:
     return _Part(part.rows[mask], part.where[mask], part.offset)
 
 
-def _split(part: _Part, counts: np.ndarray, offset_of: Any) -> list[_Part]:
+def _split(part: _Part, counts: np.ndarray, offset_of: Callable[[int], int]) -> list[_Part]:
     parts = []
     for count in np.unique(counts).tolist():
         chosen = _subset(part, counts, count)
@@ -155,13 +154,13 @@ def _fast(plan_: Plan, leaves: list[Leaf], datas: list[bytes]) -> Pieces:
     return pieces
 
 
-def _slow(bag: Bag, block: Block, leaves: list[Leaf]) -> Pieces:
+def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
     """Decode one by one (with the reader's definition fallback) and pick the fields."""
     getters = [(leaf, leaf.path.split('.')) for leaf in leaves]
     values: dict[str, list[Any]] = {leaf.path: [] for leaf in leaves}
     connection = block.connection
     for stamp, data in zip(block.times.tolist(), block.data, strict=True):
-        message: Any = bag.types.decode(RawMessage(connection, stamp, data))
+        message = types.decode(RawMessage(connection, stamp, data))
         for leaf, parts in getters:
             value = message
             for part in parts:
@@ -223,14 +222,14 @@ def _concatenate(chunks: list[np.ndarray]) -> np.ndarray:
     return ragged
 
 
-def _leaves(bag: Bag, topic: str, cls: Any, fields: list[str] | None) -> list[Leaf]:
+def _leaves(path: Path, topic: str, cls: type[Message], fields: list[str] | None) -> list[Leaf]:
     try:
         return select(plan(cls), fields, cls.__msgtype__)
     except ValueError as exc:
-        raise BagError(bag.path, f'topic {topic}: {exc}') from None
+        raise BagError(path, f'topic {topic}: {exc}') from None
 
 
-def _take(messages: Any, count: int) -> list[RawMessage]:
+def _take(messages: Iterator[RawMessage], count: int) -> list[RawMessage]:
     batch = []
     for raw in messages:
         batch.append(raw)
@@ -264,8 +263,9 @@ def _message_blocks(
 class _Extraction:
     """Columns of one topic built block by block, then put in time order."""
 
-    def __init__(self, bag: Bag, topic: str, fields: list[str] | None) -> None:
-        self.bag = bag
+    def __init__(self, types: BagTypes, topic: str, fields: list[str] | None) -> None:
+        self.types = types
+        self.path = types.path
         self.topic = topic
         self.fields = fields
         self.plans: dict[int, tuple[Plan, list[Leaf]]] = {}
@@ -287,8 +287,8 @@ class _Extraction:
             self._flush(cid)
         if self.leaves is None:
             # no message to settle the definition with: the class the reader would start with
-            cls = self.bag.types.message_class(connections[0])
-            self.leaves = _leaves(self.bag, self.topic, cls, self.fields)
+            cls = self.types.message_class(connections[0])
+            self.leaves = _leaves(self.path, self.topic, cls, self.fields)
         times = np.concatenate(self.times) if self.times else np.empty(0, np.int64)
         order = None
         if len(self.times) > 1 or (len(times) > 1 and (np.diff(times) < 0).any()):
@@ -302,13 +302,13 @@ class _Extraction:
 
     def _settle(self, block: Block) -> tuple[Plan, list[Leaf]]:
         first = RawMessage(block.connection, int(block.times[0]), block.data[0])
-        self.bag.types.decode(first)  # settles which definition fits the data
-        cls = self.bag.types.message_class(block.connection)
-        own = _leaves(self.bag, self.topic, cls, self.fields)
+        self.types.decode(first)  # settles which definition fits the data
+        cls = self.types.message_class(block.connection)
+        own = _leaves(self.path, self.topic, cls, self.fields)
         if self.leaves is None:
             self.leaves = own
         elif [leaf.path for leaf in own] != [leaf.path for leaf in self.leaves]:
-            raise BagError(self.bag.path, f'topic {self.topic} holds types with different fields')
+            raise BagError(self.path, f'topic {self.topic} holds types with different fields')
         return plan(cls), own
 
     def _flush(self, cid: int) -> None:
@@ -331,7 +331,7 @@ class _Extraction:
         try:
             found = _fast(plan_, own, block.data)
         except _Unplannable:
-            found = _slow(self.bag, block, own)
+            found = _slow(self.types, block, own)
         for leaf in own:
             column = _assemble(leaf, found[leaf.path], len(block.data))
             self.chunks.setdefault(leaf.path, []).append(column)
@@ -340,26 +340,31 @@ class _Extraction:
 
 
 def extract(
-    bag: Bag,
-    topic: str,
+    source: Source,
+    types: BagTypes,
+    connections: list[Connection],
     fields: Iterable[str] | None,
+    *,
     start: int | None,
     end: int | None,
 ) -> dict[str, np.ndarray]:
-    """The columns of ``Bag.columns``."""
+    """The columns of ``Bag.columns``: the messages of ``connections`` (one topic's) in
+    ``source``, decoded with ``types`` where the plan cannot read them."""
     requested = None if fields is None else ([fields] if isinstance(fields, str) else list(fields))
-    connections = bag._connections([topic])
+    topic = connections[0].topic
     names = {c.type_name for c in connections}
     if len(names) > 1:
-        raise BagError(bag.path, f'topic {topic} holds several types: {", ".join(sorted(names))}')
-    bag.types.message_class(connections[0])  # a type with no definition has no columns
-    extraction = _Extraction(bag, topic, requested)
+        raise BagError(
+            source.path, f'topic {topic} holds several types: {", ".join(sorted(names))}'
+        )
+    types.message_class(connections[0])  # a type with no definition has no columns
+    extraction = _Extraction(types, topic, requested)
     try:
-        for blocks in bag.source.blocks(connections, start, end):
+        for blocks in source.blocks(connections, start, end):
             extraction.add(blocks)
     except Unsupported:
-        extraction = _Extraction(bag, topic, requested)
-        for blocks in _message_blocks(bag.source, connections, start, end):
+        extraction = _Extraction(types, topic, requested)
+        for blocks in _message_blocks(source, connections, start, end):
             extraction.add(blocks)
     return extraction.finish(connections)
 

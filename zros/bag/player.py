@@ -18,15 +18,17 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import TYPE_CHECKING
 
 from zros.bag.play_clock import PlayClock
+from zros.bag.play_topics import PlayerError, message_class, parse_remap, playback_qos
 from zros.bag.rosbag2_yaml import parse_qos_profiles
-from zros.bag.types import how_to_define
+from zros.bag.source import open_source
+from zros.cdr.registry import registry_of
 from zros.errors import ZrosError
-from zros.qos import Durability, History, QoS, Reliability
+from zros.qos import QoS, Reliability
 from zros.runtime.signal import add_interrupt_listener, remove_interrupt_listener
 
+# the runtime (Zenoh) is imported where a player starts: reading a bag needs none of it
 if TYPE_CHECKING:
     from zros.bag.source import Connection, RawMessage, Source
-    from zros.cdr import Message
     from zros.node import Node
     from zros.pubsub import Publisher
     from zros.services.typeinfo import TypeDescriptionService
@@ -40,59 +42,6 @@ _BATCH_MESSAGES = 256
 _BATCH_BYTES = 1 << 20
 _BATCHES = 32
 _LOOP = None  #: the reader's marker between two passes of a looping playback
-
-
-class PlayerError(ZrosError):
-    """A bag cannot be played as asked (unknown topics, a bad rate or offset...)."""
-
-
-def playback_qos(offered: Iterable[QoS]) -> QoS:
-    """The publisher QoS for a topic from its recorded offers: latched (transient local) and
-    best effort only when every offer was, as deep as the deepest; ROS 2's default without."""
-    offers = list(offered)
-    if not offers:
-        return QoS(10)
-    keep_all = all(q.keep_all for q in offers)
-    return QoS(
-        max(q.depth for q in offers),
-        Reliability.BEST_EFFORT if all(not q.reliable for q in offers) else Reliability.RELIABLE,
-        Durability.TRANSIENT_LOCAL
-        if all(q.transient_local for q in offers)
-        else Durability.VOLATILE,
-        History.KEEP_ALL if keep_all else History.KEEP_LAST,
-    )
-
-
-def message_class(node: Node, connection: Connection) -> type[Message]:
-    """The class for a connection's type: the node's, else one built from the bag's definition."""
-    from zros.cdr import TypeRegistry
-
-    try:
-        return node.registry.get_class(connection.type_name)
-    except ZrosError as exc:
-        if connection.definition_format != 'ros2msg' or not connection.definition:
-            raise PlayerError(
-                f'cannot play {connection.topic}: the bag has no definition of '
-                f'{connection.type_name} and zros knows none; {how_to_define(connection.type_name)}'
-            ) from exc
-    registry = TypeRegistry(distro=node.registry.distro)
-    registry.register_bundle(connection.type_name, connection.definition, str(connection.topic))
-    return registry.get_class(connection.type_name)
-
-
-def parse_remap(rules: Mapping[str, str] | Iterable[str] | None) -> dict[str, str]:
-    """``{'/a': '/b'}`` or ``['/a:=/b']`` as a dict."""
-    if rules is None:
-        return {}
-    if isinstance(rules, Mapping):
-        return dict(rules)
-    result = {}
-    for rule in rules:
-        source, sep, target = rule.partition(':=')
-        if not sep or not source or not target:
-            raise PlayerError(f'a remap rule is /from:=/to, not {rule!r}')
-        result[source] = target
-    return result
 
 
 class Player:
@@ -123,9 +72,7 @@ class Player:
         wait_for_subscribers: float = 0.0,
         on_message: Callable[[RawMessage], object] | None = None,
     ) -> None:
-        from zros.bag.source import open_source
-
-        if node is None:
+        if node is None:  # the module API loads Zenoh: only for a player without a node
             from zros.api import default_node
 
             node = default_node()
@@ -223,7 +170,7 @@ class Player:
         """Serve ``~/get_type_description`` for the types only the bag defines, as ROS 2 nodes
         serve their types: ``zros topic echo`` (and ROS tools) learn them from the player."""
         self._types: TypeDescriptionService | None = None
-        own = [p.msg_type for p in publishers if p.msg_type._registry is not self.node.registry]
+        own = [p.msg_type for p in publishers if registry_of(p.msg_type) is not self.node.registry]
         if own:
             from zros.services.typeinfo import TypeDescriptionService
 

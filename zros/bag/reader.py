@@ -8,6 +8,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
+from zros.bag.columns import dataframe, extract, structured
 from zros.bag.errors import BagError
 from zros.bag.source import Connection, RawMessage, Source, open_source
 from zros.bag.types import BagTypes
@@ -174,9 +175,15 @@ class Bag:
         sequences whose length is the same in every message, become 2-D arrays; other sequences
         become object arrays of 1-D arrays.
         """
-        from zros.bag.columns import extract
-
-        return extract(self, topic, fields, _nanoseconds(start), _nanoseconds(end))
+        connections = self._connections([topic])
+        return extract(
+            self.source,
+            self.types,
+            connections,
+            fields,
+            start=_nanoseconds(start),
+            end=_nanoseconds(end),
+        )
 
     def to_numpy(
         self,
@@ -186,8 +193,6 @@ class Bag:
         end: TimeLike = None,
     ) -> np.ndarray:
         """The :meth:`columns` of a topic as one numpy structured array (a record per message)."""
-        from zros.bag.columns import structured
-
         return structured(self.columns(topic, fields, start, end), self.path)
 
     def to_dataframe(
@@ -201,8 +206,6 @@ class Bag:
 
         2-D columns are spread over ``name[0]``, ``name[1]``...; ``time`` is a column of int64 ns.
         """
-        from zros.bag.columns import dataframe
-
         return dataframe(self.columns(topic, fields, start, end))
 
     # --- lifetime -------------------------------------------------------------------------

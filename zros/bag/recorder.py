@@ -83,7 +83,7 @@ class Recorder:
         on_topic: Callable[[str, str], object] | None = None,
         max_queue: int = MAX_QUEUE,
     ) -> None:
-        if node is None:
+        if node is None:  # the module API loads Zenoh: only for a recorder without a node
             from zros.api import default_node
 
             node = default_node()

@@ -28,6 +28,7 @@ from typing import Any
 from zros.bag.errors import BagError
 from zros.bag.mcap_recover import LinearScan, is_mcap
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
+from zros.bag.rosbag2_source import storage_files
 from zros.bag.rosbag2_yaml import (
     FileEntry,
     TopicEntry,
@@ -35,7 +36,6 @@ from zros.bag.rosbag2_yaml import (
     dump,
     write_metadata_yaml,
 )
-from zros.bag.source import storage_files
 
 _TEMPORARY = '.{}.reindex'
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from zros.bag.reader import Bag
 from zros.cdr import Message
 
 
@@ -44,8 +45,6 @@ def bag_read(
     ``topics`` selects topics (default all); ``start``/``end`` bound the receive time
     (``start <= time < end``, integer ns or ``zros.Time``).
     """
-    from zros.bag.reader import Bag
-
     result = BagRead()
     with Bag(path) as bag:
         for topic, stamp, message in bag.messages(topics, start, end):

@@ -10,6 +10,7 @@ registry knows is tried before giving up.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -19,6 +20,7 @@ from zros.bag.source import Connection, RawMessage
 from zros.cdr import CdrError, Message, TypeRegistry, UnknownTypeError, default_registry
 from zros.cdr.message import decode
 from zros.cdr.model import split_type_name
+from zros.cdr.typestore import from_rosbags
 
 if TYPE_CHECKING:
     from typing_extensions import Self
@@ -71,7 +73,7 @@ class UndecodedMessage(Message):
     def __repr__(self) -> str:
         return f'UndecodedMessage({self.__msgtype__}, {len(self.data)} bytes)'
 
-    def __reduce__(self) -> tuple[Any, tuple[str, bytes]]:
+    def __reduce__(self) -> tuple[Callable[[str, bytes], UndecodedMessage], tuple[str, bytes]]:
         return (_undecoded, (self.__msgtype__, self.data))
 
 
@@ -153,14 +155,12 @@ class BagTypes:
     def _register_idl(self, text: str) -> None:
         from rosbags.typesys import get_types_from_idl
 
-        from zros.cdr.registry import _from_rosbags
-
         parts = [text]
         if text.startswith(_IDL_RULE + 'IDL: '):
             parts = [part.split('\n', 1)[1] for part in text.split(_IDL_RULE)[1:]]
         for part in parts:
             for name, fielddefs in get_types_from_idl(part).items():
-                self.registry.register(_from_rosbags(name, fielddefs))
+                self.registry.register(from_rosbags(name, fielddefs))
 
     def _choice(self, connection: Connection) -> _Choice:
         known = self._choices.get(connection.id)

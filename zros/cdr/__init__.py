@@ -18,11 +18,13 @@ from zros.cdr.errors import (
     TypeNameError,
     UnknownTypeError,
 )
+from zros.cdr.hashing import type_hash as _type_hash
 from zros.cdr.interfaces import ActionType, ServiceType
-from zros.cdr.message import Message, StructSeq, encode
+from zros.cdr.message import Message, encode
 from zros.cdr.message import decode as _decode
 from zros.cdr.model import ActionDef, Definition, MessageDef, ServiceDef
 from zros.cdr.registry import TypeRegistry, default_registry, set_default_registry
+from zros.cdr.struct_seq import StructSeq
 
 TypeLike = str | type[Message]
 
@@ -67,10 +69,8 @@ def register_type(type_name: str, text: str) -> Definition:
 
 def type_hash(type_name: TypeLike) -> str:
     """The RIHS01 type hash of a message, service or action type."""
-    from zros.cdr.hashing import type_hash as compute
-
     name = type_name.__msgtype__ if isinstance(type_name, type) else type_name
-    return compute(default_registry(), name)
+    return _type_hash(default_registry(), name)
 
 
 __all__ = [

@@ -200,16 +200,6 @@ def message_list(cls: Any, value: Any, shape: Shape, where: Where) -> list[Any]:
     return items
 
 
-def struct_items(cls: Any, value: Any, bound: int, where: Where) -> Any:
-    """The argument of a struct sequence field: arrays and StructSeqs as they are, else a
-    checked list of messages."""
-    from zros.cdr.message import StructSeq
-
-    if isinstance(value, (np.ndarray, StructSeq)):
-        return value
-    return message_list(cls, value, (-1, bound), where)
-
-
 def string_list(
     value: Any, primitive: str, string_bound: int, shape: Shape, where: Where
 ) -> list[str]:

@@ -21,10 +21,10 @@ import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from zros.cdr.errors import ZrosError
 from zros.cdr.model import ActionDef, Definition, MessageDef, ServiceDef
 from zros.cdr.parser import parse_definition, parse_message
 from zros.cdr.render import render_definition
+from zros.errors import ZrosError
 
 if TYPE_CHECKING:
     from zros.cdr.registry import TypeRegistry

@@ -31,7 +31,8 @@ from zros.cdr.model import (
     type_name_candidates,
 )
 from zros.cdr.parser import parse_message
-from zros.cdr.registry import PLACEHOLDER_FIELD, TypeRegistry
+from zros.cdr.registry import TypeRegistry
+from zros.cdr.typestore import PLACEHOLDER_FIELD
 
 RIHS01_PREFIX = 'RIHS01_'
 

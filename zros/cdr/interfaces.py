@@ -2,19 +2,33 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
+from zros.cdr.message import Message
 from zros.cdr.model import ActionDef, ServiceDef
 
-if TYPE_CHECKING:
-    from zros.cdr.message import Message
-    from zros.cdr.registry import TypeRegistry
+
+class ClassRegistry(Protocol):
+    """Where a service or action type finds the classes of its parts (a TypeRegistry)."""
+
+    @property
+    def has_service_events(self) -> bool:
+        """Whether services define an ``_Event`` message (Iron and later)."""
+        ...
+
+    def get_class(self, name: str) -> type[Message]:
+        """The class of a message type."""
+        ...
+
+    def get_service(self, name: str) -> ServiceType:
+        """The service type of a service name."""
+        ...
 
 
 class ServiceType:
     """A service type: ``.Request``, ``.Response`` and (Iron and later) ``.Event`` classes."""
 
-    def __init__(self, registry: TypeRegistry, definition: ServiceDef) -> None:
+    def __init__(self, registry: ClassRegistry, definition: ServiceDef) -> None:
         self.__srvtype__ = definition.name
         self.definition = definition
         self.Request: type[Message] = registry.get_class(definition.name + '_Request')
@@ -31,7 +45,7 @@ class ActionType:
     """An action type: ``.Goal``, ``.Result``, ``.Feedback``, ``.FeedbackMessage`` classes and
     the ``.SendGoal`` and ``.GetResult`` service types."""
 
-    def __init__(self, registry: TypeRegistry, definition: ActionDef) -> None:
+    def __init__(self, registry: ClassRegistry, definition: ActionDef) -> None:
         name = definition.name
         self.__actiontype__ = name
         self.definition = definition

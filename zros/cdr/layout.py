@@ -15,6 +15,7 @@ from functools import cache
 import numpy as np
 
 from zros.cdr.model import PRIMITIVE_SIZES, FieldType, Kind, MessageDef
+from zros.cdr.naming import attribute_name
 
 Resolver = Callable[[str], MessageDef]
 
@@ -156,8 +157,6 @@ class LayoutCache:
         offset = 0
         if not msg.fields:
             return np.dtype({'names': [], 'formats': [], 'offsets': [], 'itemsize': 1})
-        from zros.cdr.naming import attribute_name
-
         for f in msg.fields:
             t = f.type
             if t.is_primitive:

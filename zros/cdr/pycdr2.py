@@ -31,7 +31,8 @@ from zros.cdr.layout import VALUE_CODES
 from zros.cdr.message import Message
 from zros.cdr.model import FieldType, Kind, MessageDef
 from zros.cdr.naming import attribute_name
-from zros.cdr.registry import PLACEHOLDER_FIELD, TypeRegistry, default_registry
+from zros.cdr.registry import TypeRegistry, default_registry
+from zros.cdr.typestore import PLACEHOLDER_FIELD
 
 TypeLike = str | type[Message]
 

@@ -13,18 +13,19 @@ import os
 import sys
 import threading
 from collections.abc import Iterable, Sequence
+from contextlib import AbstractContextManager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from zros.cdr.builtin import SHIPPED_PACKAGES, builtin_definition, builtin_names
+from zros.cdr.classes import build_message_class
 from zros.cdr.errors import UnknownTypeError
+from zros.cdr.interfaces import ActionType, ServiceType
+from zros.cdr.layout import LayoutCache
+from zros.cdr.message import Message, decode
 from zros.cdr.model import (
     ActionDef,
-    Constant,
     Definition,
-    Field,
-    FieldType,
-    Kind,
     MessageDef,
     ServiceDef,
     action_parts,
@@ -33,18 +34,11 @@ from zros.cdr.model import (
     type_name_candidates,
 )
 from zros.cdr.parser import parse_definition, parse_message_bundle
-
-if TYPE_CHECKING:
-    from zros.cdr.interfaces import ActionType, ServiceType
-    from zros.cdr.message import Message
+from zros.cdr.typestore import from_rosbags
 
 #: Distros zros knows, and whether their services define an ``_Event`` message.
 DISTROS: dict[str, bool] = {'humble': False, 'iron': True, 'jazzy': True, 'kilted': True}
 DEFAULT_DISTRO = 'jazzy'
-
-#: rosbags and rclpy keep this dummy member in empty messages; zros hides it (the byte is still
-#: on the wire).
-PLACEHOLDER_FIELD = 'structure_needs_at_least_one_member'
 
 _EXTENSIONS = {'msg': '.msg', 'srv': '.srv', 'action': '.action'}
 _ACTION_SUFFIXES = (
@@ -64,51 +58,8 @@ _ACTION_SUFFIXES = (
 _SERVICE_SUFFIXES = ('_Request', '_Response', '_Event')
 
 
-#: Default values the rosbags typestores drop: (type, field) -> (value, constant that must exist).
-#: Only defaults that differ from zero matter; the rest equal the implicit default.
-_TYPESTORE_DEFAULTS: dict[tuple[str, str], tuple[float | int, str | None]] = {
-    ('geometry_msgs/msg/Quaternion', 'w'): (1.0, None),
-    ('sensor_msgs/msg/NavSatStatus', 'status'): (-2, 'STATUS_UNKNOWN'),  # Jazzy and later
-}
-
-
 def _env_paths(variable: str) -> list[Path]:
     return [Path(p) for p in os.environ.get(variable, '').split(os.pathsep) if p]
-
-
-def _from_rosbags(name: str, fielddefs: Any) -> MessageDef:
-    """Convert one rosbags typestore entry to a MessageDef."""
-    from rosbags.interfaces import Nodetype
-
-    def base_of(desc: Any) -> tuple[str, int]:
-        if desc[0] == Nodetype.NAME:
-            return desc[1], 0
-        return desc[1][0], desc[1][1]
-
-    constants = tuple(
-        Constant(cname, FieldType(ctype), value) for cname, ctype, value in fielddefs[0]
-    )
-    fields = []
-    for fname, desc in fielddefs[1]:
-        if desc[0] in (Nodetype.BASE, Nodetype.NAME):
-            base, bound = base_of(desc)
-            ftype = FieldType(base, Kind.SCALAR, 0, bound)
-        else:
-            sub, length = desc[1]
-            base, bound = base_of(sub)
-            if desc[0] == Nodetype.ARRAY:
-                kind = Kind.ARRAY
-            else:
-                kind = Kind.BOUNDED if length else Kind.SEQUENCE
-            ftype = FieldType(base, kind, length, bound)
-        default = None
-        patch = _TYPESTORE_DEFAULTS.get((name, fname))
-        if patch is not None and (patch[1] is None or any(c.name == patch[1] for c in constants)):
-            default = patch[0]
-        fields.append(Field(fname, ftype, default))
-    if len(fields) == 1 and fields[0].name == PLACEHOLDER_FIELD:
-        fields = []
-    return MessageDef(name, tuple(fields), constants, 'rosbags typestore')
 
 
 class TypeRegistry:
@@ -143,6 +94,13 @@ class TypeRegistry:
         self._types: dict[str, ServiceType | ActionType] = {}
         self._store: Any = None
         self._lock = threading.RLock()
+        #: layout facts of this registry's message types
+        self.layout = LayoutCache(self.message_definition)
+
+    @property
+    def lock(self) -> AbstractContextManager[bool]:
+        """The re-entrant lock that guards this registry; its classes compile codecs under it."""
+        return self._lock
 
     # --- sources ---------------------------------------------------------------------------
 
@@ -192,7 +150,7 @@ class TypeRegistry:
         if split_type_name(name)[1] == 'msg':
             fielddefs = self.typestore.fielddefs.get(name)
             if fielddefs is not None:
-                return _from_rosbags(name, fielddefs)
+                return from_rosbags(name, fielddefs)
         return None
 
     def _searched(self, name: str) -> list[str]:
@@ -359,17 +317,13 @@ class TypeRegistry:
             definition = self.message_definition(name)
             cls = self._classes.get(definition.name)
             if cls is None:
-                from zros.cdr.message import build_message_class
-
-                cls = build_message_class(self, definition)
+                cls = build_message_class(self, definition, restore_message)
                 self._classes[definition.name] = cls
             self._classes[name] = cls
             return cls
 
     def get_service(self, name: str) -> ServiceType:
         """The service type (``.Request``, ``.Response``, ``.Event``) of a service name."""
-        from zros.cdr.interfaces import ServiceType
-
         found = self.definition(name)
         if not isinstance(found, ServiceDef):
             raise TypeError(f'{found.name} is not a service type')
@@ -382,8 +336,6 @@ class TypeRegistry:
 
     def get_action(self, name: str) -> ActionType:
         """The action type (``.Goal``, ``.Result``, ``.Feedback``...) of an action name."""
-        from zros.cdr.interfaces import ActionType
-
         found = self.definition(name)
         if not isinstance(found, ActionDef):
             raise TypeError(f'{found.name} is not an action type')
@@ -443,3 +395,17 @@ def set_default_registry(registry: TypeRegistry) -> None:
     global _default  # noqa: PLW0603
     with _default_lock:
         _default = registry
+
+
+def registry_of(cls: type[Message]) -> TypeRegistry:
+    """The registry that built a message class (a bag's own, or the default one...)."""
+    registry = getattr(cls, '_registry', None)
+    if not isinstance(registry, TypeRegistry):
+        raise TypeError(f'{cls.__name__} was not built by a TypeRegistry')
+    return registry
+
+
+def restore_message(type_name: str, data: bytes) -> Message:
+    """A message from its type name and CDR bytes, as unpickling rebuilds it (the default
+    registry's class: a process that unpickles knows nothing of the registry that pickled)."""
+    return decode(default_registry().get_class(type_name), data)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from zros.cli.common import (
+from zros.cli.shared import (
     CommandError,
     add_connection_options,
     build_message,
@@ -55,7 +55,7 @@ def send_goal(args: argparse.Namespace) -> int:
     from zros.actions import GoalStatus
     from zros.cdr import default_registry
     from zros.cdr.interfaces import ActionType
-    from zros.cli.render import message_to_yaml
+    from zros.cli.message_text import message_to_yaml
     from zros.services import ServiceError
 
     action = default_registry().get_type(args.type)

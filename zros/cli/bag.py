@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from zros.cli.common import out
+from zros.cli.shared import out
 
 
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -41,8 +41,8 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     fix.add_argument('path', help='a bag folder or .mcap file')
     fix.set_defaults(run='zros.cli.bag:reindex')
 
-    # --- record and play: verbs of zros.cli.recording go here ---------------------------------
-    from zros.cli.recording import add_verbs
+    # --- record and play: verbs of zros.cli.bag_record_play go here -------------------------
+    from zros.cli.bag_record_play import add_verbs
 
     add_verbs(verbs)
 

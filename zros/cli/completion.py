@@ -48,9 +48,8 @@ complete -o default -F _zros_complete zros
 
 
 def run(args: argparse.Namespace) -> int:
-    from zros.cli.main import _parser
-
-    print(script(_parser()), end='')
+    """Print the script for the whole command line (``args.root_parser``)."""
+    print(script(args.root_parser), end='')
     return 0
 
 

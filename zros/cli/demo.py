@@ -7,7 +7,6 @@ every ``zros`` command, so it imports nothing heavy).
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 DESCRIPTION = """\
 The rosR tutorial on a simulated Sharp GP2D120 infrared distance sensor, with no robot, no
@@ -21,7 +20,7 @@ distances at 0.8 V and 2.0 V beside the paper's, the residual error) and leaves 
 three PNGs (voltage.png, fit.png, distance.png) in the output folder."""
 
 
-def add_parser(commands: Any) -> None:
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add ``zros demo`` to the subcommands."""
     demo = commands.add_parser(
         'demo',

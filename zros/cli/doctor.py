@@ -15,9 +15,12 @@ import statistics
 import sys
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from zros.cli.common import add_connection_options, out
+from zros.cli.shared import add_connection_options, out
+
+if TYPE_CHECKING:
+    from zros.graph import Graph
 
 SKEW_WARNING = 0.5  #: seconds between clocks that make header stamps misleading
 
@@ -67,7 +70,7 @@ def _routers(session: Any, report: Report, local: str) -> None:
         report.warn('no Zenoh router answered (peer mode, or a router without admin space)')
 
 
-def _bridges(graph: Any, report: Report) -> None:
+def _bridges(graph: Graph, report: Report) -> None:
     bridges = graph.bridges()
     if not bridges:
         report.warn(
@@ -90,14 +93,14 @@ def _bridges(graph: Any, report: Report) -> None:
             report.ok(text)
 
 
-def _clocks(session: Any, graph: Any, listen: float, report: Report) -> None:
+def _clocks(session: Any, graph: Graph, listen: float, report: Report) -> None:
     topics = graph.topics('/')
     if '/clock' in topics:
         report.warn('/clock is published: the robot runs on simulated time (use_sim_time)')
     if '/rosout' not in topics or listen <= 0:
         report.ok('clock skew not measured (no /rosout to compare stamps with)')
         return
-    from zros.cdr import decode, default_registry
+    from zros.cdr import CdrError, decode, default_registry
     from zros.keyexpr.bridge import topic_key
 
     log_class = default_registry().get_class('rcl_interfaces/msg/Log')
@@ -107,7 +110,7 @@ def _clocks(session: Any, graph: Any, listen: float, report: Report) -> None:
     def on_sample(sample: Any) -> None:
         try:
             stamp = decode(log_class, sample.payload.to_bytes()).stamp
-        except Exception:  # not a Log: nothing to compare
+        except CdrError:  # not a Log: nothing to compare
             return
         offsets.append(time.time() - (stamp.sec + stamp.nanosec * 1e-9))
         if len(offsets) >= 20:

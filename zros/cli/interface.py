@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
-from zros.cli.common import CommandError, UsageError, out
+from zros.cli.shared import CommandError, UsageError, out
+
+if TYPE_CHECKING:
+    from zros.cdr.expand import Comments
 
 
 def show(args: argparse.Namespace) -> int:
@@ -28,7 +32,7 @@ def show(args: argparse.Namespace) -> int:
     if args.all and isinstance(definition, MessageDef):
         text = render_bundle(registry, definition.name)
     else:
-        comments = 'none' if args.no_comments else 'all' if args.all_comments else 'top'
+        comments: Comments = 'none' if args.no_comments else 'all' if args.all_comments else 'top'
         text = expanded_text(registry, definition.name, comments)
     sys.stdout.write(text)
     if args.hash:

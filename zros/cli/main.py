@@ -3,11 +3,32 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 from collections.abc import Sequence
 
-from zros import __version__
+# the command modules are light: each imports what it runs inside the function that runs it
+from zros.cli import (
+    action,
+    bag,
+    completion,
+    demo,
+    doctor,
+    foxglove_command,
+    interface,
+    node_command,
+    param,
+    plot,
+    rosbridge_command,
+    router_command,
+    service,
+    tls,
+    topic,
+)
+from zros.cli.shared import CommandError
+from zros.errors import SettingError, ZrosError
+from zros.version import __version__
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -16,38 +37,24 @@ def _parser() -> argparse.ArgumentParser:
         description='zros: a ROS 2 client over Eclipse Zenoh, for machines with no ROS installed.',
     )
     parser.add_argument('--version', action='version', version=f'zros {__version__}')
+    # a command that describes the command line itself (completion) finds it in its arguments
+    parser.set_defaults(root_parser=parser)
     commands = parser.add_subparsers(dest='command', metavar='COMMAND')
-
-    from zros.cli import (
-        action,
-        bag,
-        completion,
-        demo,
-        doctor,
-        foxglove,
-        interface,
-        node,
-        param,
-        plot,
-        router,
-        service,
-        tls,
-        topic,
-    )
 
     for module in (
         demo,
         topic,
-        node,
+        node_command,
         service,
         action,
         param,
         interface,
         bag,
         plot,
-        foxglove,
+        foxglove_command,
+        rosbridge_command,
         doctor,
-        router,
+        router_command,
         tls,
         completion,
     ):
@@ -83,11 +90,6 @@ def _run(argv: Sequence[str] | None) -> int:
         parser.print_help()
         return 2
     module_name, function_name = target.split(':')
-    import importlib
-
-    from zros.cli.common import CommandError
-    from zros.errors import SettingError, ZrosError
-
     function = getattr(importlib.import_module(module_name), function_name)
     try:
         return int(function(args))

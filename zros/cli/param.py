@@ -7,9 +7,9 @@ bridge (whose ``ros2 param`` view needs the services, not the node list).
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from zros.cli.common import DISCOVERY, CommandError, add_connection_options, open_node, out
+from zros.cli.shared import DISCOVERY, CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -190,7 +190,9 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser = commands.add_parser('param', help='parameters: list, get, set, describe, dump...')
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
 
-    def verb(name: str, help_text: str, target: str, node_optional: bool = False) -> Any:
+    def verb(
+        name: str, help_text: str, target: str, node_optional: bool = False
+    ) -> argparse.ArgumentParser:
         sub = verbs.add_parser(name, help=help_text, description=help_text)
         sub.set_defaults(run=f'zros.cli.param:{target}')
         if node_optional:

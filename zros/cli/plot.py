@@ -10,7 +10,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from zros.cli.common import DISCOVERY, CommandError, add_connection_options, open_node, out
+from zros.cli.shared import DISCOVERY, CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:
     from zros.plot.figure import SeriesFigure

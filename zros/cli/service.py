@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 import time
-from typing import Any
+from typing import TYPE_CHECKING
 
-from zros.cli.common import (
+from zros.cli.shared import (
     CommandError,
     add_connection_options,
     build_message,
@@ -18,8 +18,11 @@ from zros.cli.common import (
     print_types,
 )
 
+if TYPE_CHECKING:
+    from zros.cdr.interfaces import ServiceType
 
-def _service_type(type_name: str) -> Any:
+
+def _service_type(type_name: str) -> ServiceType:
     from zros.cdr import default_registry
     from zros.cdr.interfaces import ServiceType
 
@@ -42,7 +45,7 @@ def find(args: argparse.Namespace) -> int:
 
 
 def call(args: argparse.Namespace) -> int:
-    from zros.cli.render import message_to_yaml
+    from zros.cli.message_text import message_to_yaml
     from zros.services import ServiceError
 
     srv = _service_type(args.type)

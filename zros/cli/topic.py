@@ -12,7 +12,7 @@ from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from zros.cli.common import (
+from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     add_connection_options,
@@ -120,7 +120,7 @@ def find(args: argparse.Namespace) -> int:
 
 
 def echo(args: argparse.Namespace) -> int:
-    from zros.cli.render import message_to_csv, message_to_yaml, select, value_to_yaml
+    from zros.cli.message_text import message_to_csv, message_to_yaml, select, value_to_yaml
 
     options = {'truncate': args.truncate_length, 'no_arr': args.no_arr, 'no_str': args.no_str}
 
@@ -262,7 +262,7 @@ def _measuring_subscription(
     return undeclare
 
 
-def _report_loop(node: Node, args: argparse.Namespace, report: Any) -> int:
+def _report_loop(node: Node, args: argparse.Namespace, report: Callable[[], bool]) -> int:
     reports = 0
     try:
         while node.ok():

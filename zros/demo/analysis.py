@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import zros
+from zros.bag import Bag
 from zros.demo.sensor import (
     CALIBRATION_TOPIC,
     DISTANCE_TOPIC,
@@ -89,8 +90,6 @@ def fit_curve(volt: np.ndarray, dist: np.ndarray, degree: int = DEGREE) -> Polyn
 
 def read_calibration(bag: str | os.PathLike[str], degree: int = DEGREE) -> Calibration:
     """Read the calibration pairs out of a bag (``/sharpGP2D120/Linearization``) and fit them."""
-    from zros.bag import Bag
-
     with Bag(os.fspath(bag)) as recording:
         columns = recording.columns(CALIBRATION_TOPIC, ['dist', 'volt'])
     volt = columns['volt'].astype(float)

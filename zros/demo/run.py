@@ -15,6 +15,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import zros
+from zros.bag import Player
+from zros.demo.analysis import RangeNode, read_calibration
+from zros.demo.figures import (
+    LiveVoltagePlot,
+    distance_figure,
+    fit_figure,
+    gui_backend,
+    save,
+    show,
+)
 from zros.demo.sensor import (
     CALIBRATION_TOPIC,
     DISTANCE_TOPIC,
@@ -26,6 +37,8 @@ from zros.demo.sensor import (
     register_linearization,
     sweep,
 )
+from zros.demo.tutorial_bag import ensure_bag
+from zros.transport import Transport, TransportConfig, start_router
 
 DEFAULT_OUTPUT = 'zros-demo'
 DEFAULT_RATE = 10.0
@@ -147,24 +160,10 @@ def run_demo(
     gui: bool = False,
     regenerate: bool = False,
     log_every: int = 50,
-    out: Callable[[str], Any] = print,
+    out: Callable[[str], object] = print,
 ) -> DemoResult:
     """Run the tutorial: make or reuse the bag in ``output``, play it at ``rate`` times its
     speed, analyse it, write the PNGs into ``output`` and print the report through ``out``."""
-    import zros
-    from zros.bag import Player
-    from zros.demo.analysis import RangeNode, read_calibration
-    from zros.demo.figures import (
-        LiveVoltagePlot,
-        distance_figure,
-        fit_figure,
-        gui_backend,
-        save,
-        show,
-    )
-    from zros.demo.recording import ensure_bag
-    from zros.transport import Transport, TransportConfig, start_router
-
     started = time.monotonic()
     folder = Path(output)
     out('zros demo: the rosR tutorial on a simulated Sharp GP2D120 infrared distance sensor')
@@ -266,5 +265,5 @@ def _seconds_of(stamps: list[int]) -> list[float]:
     return [(stamp - stamps[0]) / 1e9 for stamp in stamps] if stamps else []
 
 
-def _seconds(player: Any) -> str:
+def _seconds(player: Player) -> str:
     return f'{(player.end_ns - player.start_ns) / 1e9:.1f}'

@@ -16,6 +16,8 @@ import math
 import random
 from importlib import resources
 
+from zros.cdr import default_registry
+
 VOLTAGE_TOPIC = '/sharpGP2D120/Voltage'
 CALIBRATION_TOPIC = '/sharpGP2D120/Linearization'
 DISTANCE_TOPIC = '/sharpGP2D120/Distance'
@@ -75,8 +77,6 @@ def register_linearization() -> str:
     Setting ``ZROS_INTERFACE_PATH`` to a folder holding ``rosR_demos/msg/Linearization.msg``
     does the same for every zros program and the CLI.
     """
-    from zros.cdr import default_registry
-
     registry = default_registry()
     if registry.find(LINEARIZATION) is None:
         registry.register_text(LINEARIZATION, linearization_definition(), 'zros.demo')

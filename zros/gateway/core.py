@@ -8,31 +8,32 @@
   comes and released when the last leaves, with the QoS of the topic's publishers; the last
   messages of shallow latched (transient local) topics are kept for watchers that come later.
 * :class:`SendQueue`: a client's bounded outbox that drops its oldest items and counts them.
-* Graph views both protocols show: the services offered, the nodes serving parameters, the
-  node owning an endpoint.
+* :class:`ClientCache`: the service and parameter clients made for clients, closed together;
+  :func:`publisher_qos`: the QoS of a publisher a client asked for.
+
+The graph views both gateways show are in :mod:`zros.gateway.views`, where they listen in
+:mod:`zros.gateway.listen`.
 """
 
 from __future__ import annotations
 
 import collections
 import fnmatch
-import json
 import logging
 import re
 import threading
 import time
 from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar
 
 from zros.errors import ZrosError
-from zros.keyexpr.kinds import EntityKind
-from zros.pubsub.taps import GraphTopic, RawTap, is_hidden, matched_qos
+from zros.pubsub.taps import GraphTopic, RawTap, matched_qos
+from zros.qos import Durability, QoS
 from zros.runtime.signal import Signal
 
 if TYPE_CHECKING:
-    from zros.cdr import Message
-    from zros.graph import Endpoint, Graph
+    from zros.graph import Graph
     from zros.node import Node
 
 _log = logging.getLogger('zros.gateway')
@@ -350,76 +351,60 @@ class SendQueue(Generic[T]):
         self._arrived.notify()
 
 
-# --- graph views both protocols show ----------------------------------------------------------
+class Closable(Protocol):
+    """What :class:`ClientCache` holds: anything with ``close()``."""
+
+    def close(self) -> None: ...
 
 
-def offered_services(
-    node: Node, *, exclude_node: str | None = None, include_hidden: bool = False
-) -> dict[str, str]:
-    """Service names with a server on the graph, and their type (the first, if several)."""
-    namespace = node.scheme.namespace
-    services: dict[str, set[str]] = {}
-    for endpoint in node.graph.endpoints((EntityKind.SERVICE_SERVER,)):
-        if exclude_node is not None and endpoint.node == exclude_node:
-            continue
-        name = endpoint.ros_name(namespace)
-        if include_hidden or not is_hidden(name):
-            services.setdefault(name, set()).add(endpoint.type_name)
-    return {name: sorted(types)[0] for name, types in sorted(services.items())}
+C = TypeVar('C', bound=Closable)
 
 
-PARAMETER_SERVICES = {
-    'get_parameters': 'rcl_interfaces/srv/GetParameters',
-    'list_parameters': 'rcl_interfaces/srv/ListParameters',
-}
+class ClientCache(Generic[C]):
+    """The service or parameter clients a gateway made, one per key, made on first use and
+    closed together (thread-safe)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._clients: dict[Hashable, C] = {}
+
+    def get(self, key: Hashable, make: Callable[[], C]) -> C:
+        """The client of ``key``, made by ``make()`` the first time."""
+        with self._lock:
+            client = self._clients.get(key)
+            if client is None:
+                client = self._clients[key] = make()
+            return client
+
+    def discard(self, key: Hashable) -> None:
+        """Close and forget the client of ``key`` (if any)."""
+        with self._lock:
+            client = self._clients.pop(key, None)
+        if client is not None:
+            client.close()
+
+    def close(self) -> None:
+        """Close every client."""
+        with self._lock:
+            clients, self._clients = list(self._clients.values()), {}
+        for client in clients:
+            client.close()
 
 
-def parameter_nodes(services: dict[str, str]) -> list[str]:
-    """The nodes serving parameters, found by their ``get_parameters`` and
-    ``list_parameters`` services (ROS nodes behind a bridge show no name otherwise)."""
-    nodes = []
-    suffix = '/get_parameters'
-    for name, type_name in services.items():
-        if name.endswith(suffix) and type_name == PARAMETER_SERVICES['get_parameters']:
-            node = name[: -len(suffix)] or '/'
-            if services.get(f'{node}/list_parameters') == PARAMETER_SERVICES['list_parameters']:
-                nodes.append(node)
-    return sorted(nodes)
+def gateway_node(name: str, settings: dict[str, Any]) -> Node:
+    """A node of its own for a gateway, from the connection ``settings`` of :class:`zros.Node`
+    (no /rosout and no parameter services unless asked)."""
+    import zros
+
+    settings.setdefault('enable_rosout', False)
+    settings.setdefault('start_parameter_services', False)
+    return zros.Node(name, **settings)
 
 
-def owners(endpoints: Iterable[Endpoint], graph: Graph) -> list[str]:
-    """The nodes owning ``endpoints`` (see :func:`endpoint_owner`), sorted, once each."""
-    return sorted({endpoint_owner(endpoint, graph) for endpoint in endpoints})
-
-
-def service_providers(node: Node, names: Iterable[str]) -> dict[str, list[str]]:
-    """The nodes serving each of the services ``names`` (those with a server)."""
-    wanted = set(names)
-    servers: dict[str, list[Endpoint]] = {}
-    namespace = node.scheme.namespace
-    for endpoint in node.graph.endpoints((EntityKind.SERVICE_SERVER,)):
-        name = endpoint.ros_name(namespace)
-        if name in wanted:
-            servers.setdefault(name, []).append(endpoint)
-    return {name: owners(found, node.graph) for name, found in sorted(servers.items())}
-
-
-def endpoint_owner(endpoint: Endpoint, graph: Graph) -> str:
-    """The node an endpoint belongs to: its own (zros, rmw_zenoh), else the bridge's node
-    that shows it (ROS nodes behind a bridge are not named), else its Zenoh session."""
-    if endpoint.node is not None:
-        return endpoint.node
-    for bridge in graph.bridges():
-        if bridge.zid == endpoint.zid:
-            return bridge.node_name
-    return f'/zenoh_{endpoint.zid[:8]}'
-
-
-def message_from_json(cls: type[Message], data: bytes | str) -> Message:
-    """A message from JSON text (objects for nested messages, arrays for sequences; missing
-    fields keep their defaults); GatewayError says what is wrong."""
-    try:
-        fields = json.loads(data)
-        return cls.from_dict(fields)
-    except (ValueError, TypeError, AttributeError, OverflowError) as exc:
-        raise GatewayError(f'cannot make a {cls.__msgtype__} from the JSON given: {exc}') from None
+def publisher_qos(offered: Iterable[QoS], latched: bool = False) -> QoS:
+    """The QoS of a publisher a client asked for: depth 1 transient local when it latches,
+    else the QoS matched to the topic's other publishers (ROS 2's default without any)."""
+    if latched:
+        return QoS(1, durability=Durability.TRANSIENT_LOCAL)
+    offers = list(offered)
+    return matched_qos(offers) if offers else QoS()

@@ -26,18 +26,11 @@ from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
 from zros.gateway.assets import Assets
-from zros.gateway.core import (
-    GraphWatcher,
-    NameFilter,
-    Taps,
-    offered_services,
-    owners,
-    parameter_nodes,
-    service_providers,
-)
+from zros.gateway.core import GraphWatcher, NameFilter, Taps, gateway_node
 from zros.gateway.foxglove_calls import ENCODINGS, ClientChannels, ServiceOffer
 from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk, ros2msg_schema
 from zros.gateway.foxglove_params import Parameters
+from zros.gateway.views import offered_services, owners, parameter_nodes, service_providers
 from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
 from zros.qos import QoS, Reliability
 
@@ -433,11 +426,7 @@ def serve(
         return BagGateway(bag, options, topics=topics, exclude=exclude, asset_paths=asset_paths)
     own = node is None
     if node is None:
-        import zros
-
-        settings.setdefault('enable_rosout', False)
-        settings.setdefault('start_parameter_services', False)
-        node = zros.Node(name, **settings)
+        node = gateway_node(name, settings)
     try:
         return FoxgloveGateway(
             node,

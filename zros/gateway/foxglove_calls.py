@@ -9,6 +9,7 @@ zros service client.
 
 from __future__ import annotations
 
+import json
 import logging
 import threading
 from collections.abc import Callable
@@ -18,9 +19,8 @@ from typing import TYPE_CHECKING, Any
 from zros.cdr import CdrError
 from zros.cdr.message import decode, encode
 from zros.errors import ZrosError
-from zros.gateway.core import GatewayError, NameFilter, message_from_json
+from zros.gateway.core import ClientCache, GatewayError, NameFilter, publisher_qos
 from zros.gateway.foxglove_common import ros2msg_schema
-from zros.pubsub.taps import matched_qos
 from zros.qos import QoS
 
 if TYPE_CHECKING:
@@ -79,8 +79,7 @@ class ClientChannels:
                     f'{topic}: unknown type {type_name} and no ros2msg schema'
                 ) from exc
             cls = self._client_type(topic, type_name, schema)
-        offered = self._offered_qos(topic)
-        qos = matched_qos(offered) if offered else QoS()
+        qos = publisher_qos(self._offered_qos(topic))
         try:
             publisher = Publisher(topic, cls, qos, node=self._node)
         except (ZrosError, ValueError) as exc:
@@ -147,9 +146,8 @@ class ServiceOffer:
         self._node = node
         self._server = server
         self._allowed = allowed
-        self._lock = threading.Lock()
         self._offered: dict[str, str] = {}  # name -> type
-        self._clients: dict[str, Client] = {}
+        self._clients: ClientCache[Client] = ClientCache()
 
     def update(self, services: dict[str, str]) -> None:
         """Offer the services of ``services`` (name -> type) and withdraw the others."""
@@ -157,12 +155,9 @@ class ServiceOffer:
         gone = [n for n, t in self._offered.items() if wanted.get(n) != t]
         if gone:
             self._server.remove_services(gone)
-            with self._lock:
-                for name in gone:
-                    del self._offered[name]
-                    client = self._clients.pop(name, None)
-                    if client is not None:
-                        client.close()
+            for name in gone:
+                del self._offered[name]
+                self._clients.discard(name)
         added = [self._service(n, t) for n, t in wanted.items() if n not in self._offered]
         added_services = [service for service in added if service is not None]
         if added_services:
@@ -186,14 +181,10 @@ class ServiceOffer:
         )
 
     def _client(self, name: str, type_name: str) -> Client:
-        from zros.services import Client
-
-        with self._lock:
-            client = self._clients.get(name)
-            if client is None:
-                client = Client(name, type_name, node=self._node, timeout=SERVICE_TIMEOUT)
-                self._clients[name] = client
-            return client
+        client: Client = self._clients.get(
+            name, lambda: self._node.create_client(type_name, name, SERVICE_TIMEOUT)
+        )
+        return client
 
     def _handler(self, name: str, type_name: str) -> Callable[[Any], bytes]:
         def handle(request: Any) -> bytes:
@@ -216,7 +207,14 @@ class ServiceOffer:
 
     def close(self) -> None:
         """Close the service clients."""
-        with self._lock:
-            clients, self._clients = list(self._clients.values()), {}
-        for client in clients:
-            client.close()
+        self._clients.close()
+
+
+def message_from_json(cls: type[Message], data: bytes | str) -> Message:
+    """A message from JSON text (objects for nested messages, arrays for sequences; missing
+    fields keep their defaults); GatewayError says what is wrong."""
+    try:
+        fields = json.loads(data)
+        return cls.from_dict(fields)
+    except (ValueError, TypeError, AttributeError, OverflowError) as exc:
+        raise GatewayError(f'cannot make a {cls.__msgtype__} from the JSON given: {exc}') from None

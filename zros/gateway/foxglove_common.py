@@ -12,7 +12,6 @@ queue, which the SDK bounds too, and disconnects a client when it overflows).
 
 from __future__ import annotations
 
-import ipaddress
 import logging
 import os
 import queue
@@ -21,11 +20,11 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
 from zros.gateway.core import GatewayError
+from zros.gateway.listen import Listen
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -71,38 +70,20 @@ class ServerOptions:
     message_backlog: int = DEFAULT_BACKLOG
     name: str = 'zros'
 
+    def _listen(self) -> Listen:
+        return Listen(self.port, self.address, self.tls_cert, self.tls_key, 'the Foxglove server')
+
     @property
     def scheme(self) -> str:
         """``wss`` with TLS, else ``ws``."""
-        return 'wss' if self.tls_cert else 'ws'
-
-    def _tls(self) -> tuple[bytes | None, bytes | None]:
-        if (self.tls_cert is None) != (self.tls_key is None):
-            raise GatewayError('TLS needs both a certificate and its private key')
-        if self.tls_cert is None or self.tls_key is None:
-            return None, None
-        files = []
-        for what, path in (('certificate', self.tls_cert), ('private key', self.tls_key)):
-            try:
-                files.append(Path(path).read_bytes())
-            except OSError as exc:
-                raise GatewayError(f'cannot read the TLS {what} {path}: {exc.strerror}') from None
-        return files[0], files[1]
+        return self._listen().scheme
 
     def check(self) -> None:
         """Refuse impossible settings; warn about an address reachable from the network."""
-        if not 0 <= self.port <= 65535:
-            raise GatewayError(f'the port must be 0 to 65535, not {self.port}')
+        self._listen().check()
         if self.message_backlog < 1:
             raise GatewayError(
                 f'the message backlog must be at least 1, not {self.message_backlog}'
-            )
-        if not is_loopback(self.address):
-            _log.warning(
-                'the Foxglove server listens on %s: anyone who reaches this machine there can '
-                'see the robot%s',
-                self.address,
-                '' if self.tls_cert else ' (and the traffic is not encrypted: --tls-cert)',
             )
 
     def start(self, **settings: Any) -> Any:
@@ -110,7 +91,7 @@ class ServerOptions:
         context...); GatewayError when it cannot listen."""
         foxglove = import_sdk()
         self.check()
-        cert, key = self._tls()
+        cert, key = self._listen().tls_files()
         try:
             return foxglove.start_server(
                 name=self.name,
@@ -128,20 +109,7 @@ class ServerOptions:
 
     def url(self, port: int) -> str:
         """The address clients open."""
-        host = f'[{self.address}]' if ':' in self.address else self.address
-        if host in ('0.0.0.0', '[::]'):
-            host = 'localhost'
-        return f'{self.scheme}://{host}:{port}'
-
-
-def is_loopback(address: str) -> bool:
-    """Whether ``address`` is reachable from this machine only."""
-    if address == 'localhost':
-        return True
-    try:
-        return ipaddress.ip_address(address).is_loopback
-    except ValueError:
-        return False
+        return self._listen().url(port)
 
 
 class _OutboxLog(logging.Handler):

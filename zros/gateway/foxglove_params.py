@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
-from zros.gateway.core import NameFilter
+from zros.gateway.core import ClientCache, NameFilter
 from zros.params.values import ParameterType
 from zros.qos import PARAMETER_EVENTS
 
@@ -90,18 +90,13 @@ class Parameters:
         self._publish = publish
         self._status = status
         self._lock = threading.Lock()
-        self._clients: dict[str, ParameterClient] = {}
+        self._clients: ClientCache[ParameterClient] = ClientCache()
         self._subscribed: set[str] = set()
         self._events: RawTap | None = None
         self._pool = concurrent.futures.ThreadPoolExecutor(_WORKERS, 'zros foxglove parameters')
 
     def _client(self, node_name: str) -> ParameterClient:
-        with self._lock:
-            client = self._clients.get(node_name)
-            if client is None:
-                client = self._node.parameter_client(node_name, TIMEOUT)
-                self._clients[node_name] = client
-            return client
+        return self._clients.get(node_name, lambda: self._node.parameter_client(node_name, TIMEOUT))
 
     def _of_node(self, node_name: str, names: list[str] | None) -> list[Any]:
         client = self._client(node_name)
@@ -225,7 +220,4 @@ class Parameters:
         """Stop following events and close the parameter clients."""
         self.unsubscribe(list(self._subscribed))
         self._pool.shutdown(wait=False, cancel_futures=True)
-        with self._lock:
-            clients, self._clients = list(self._clients.values()), {}
-        for client in clients:
-            client.close()
+        self._clients.close()

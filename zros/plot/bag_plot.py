@@ -11,9 +11,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.plot.fields import PlotError, Series, resolve, split_address
+from zros.plot.addresses import PlotError, Series, resolve, split_address
 from zros.plot.figure import SeriesFigure
 
+# matplotlib loads when a figure is made, zros.bag (type registry, rosbags) when a bag is read
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from zros.plot.fields import Series, moving_average
+from zros.plot.addresses import Series, moving_average
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -14,8 +14,11 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.plot.layout import NODE, GraphModel, Layout, Measure, Vertex, layout_graph
+from zros.plot.figure import new_figure
+from zros.plot.graph_data import NODE, GraphModel, Layout, Measure, Vertex
+from zros.plot.graph_layout import layout_graph
 
+# matplotlib loads when a picture is drawn, the graph (Zenoh) when a live one is read
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -132,8 +135,6 @@ def draw_graph(
     """Draw a laid-out graph: one text per node and topic, a shape around each, the edges."""
     from matplotlib.patches import Ellipse, FancyArrowPatch, Rectangle
 
-    from zros.plot.figure import new_figure
-
     width = max(layout.width, 100.0) + 2 * MARGIN
     height = max(layout.height, 30.0) + 2 * MARGIN
     figure = new_figure(show, (width / 72, height / 72))
@@ -206,7 +207,7 @@ def graph(
     >>> zros.plot.graph(node, 'graph.svg')  # doctest: +SKIP
 
     ``source`` is a node (its graph view, itself left out), a ``zros.graph.Graph`` or a
-    :class:`~zros.plot.layout.GraphModel`. The picture is what the view knows at the call: a
+    :class:`~zros.plot.graph_data.GraphModel`. The picture is what the view knows at the call: a
     program that just connected calls ``node.graph.refresh()`` first. ``path`` receives it as
     PNG, SVG or PDF by its extension, or as Graphviz DOT text for ``.dot``/``.gv``.
     ``hide_hidden`` leaves out hidden names, ``hide_debug`` ``/rosout`` and

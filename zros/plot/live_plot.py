@@ -21,9 +21,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from zros.plot.fields import PlotError, Series, resolve, split_address
+from zros.plot.addresses import PlotError, Series, resolve, split_address
 from zros.plot.figure import SeriesFigure, can_show
+from zros.qos import QoS, Reliability
 
+# matplotlib loads when a figure is made, the runtime (Zenoh) when a plot makes its own node
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -52,7 +54,7 @@ class SeriesStats:
 class LivePlot:
     """A plot of numeric fields of live topics (a context manager).
 
-    ``addresses`` are ``/topic/field/path`` strings (see :mod:`zros.plot.fields`); topics must
+    ``addresses`` are ``/topic/field/path`` strings (see :mod:`zros.plot.addresses`); topics must
     appear on the network within ``wait`` seconds. ``window`` is the width of the time axis in
     seconds (None: everything since the start), ``filter`` the length of a moving average drawn
     over each line. :meth:`start` spins ``node`` on a thread of its own until :meth:`stop`;
@@ -133,8 +135,6 @@ class LivePlot:
         return series
 
     def _subscribe(self, topic: str, numbers: list[int]) -> Subscriber:
-        from zros.qos import QoS, Reliability
-
         node = self.node
         publishers = node.graph.publishers(node.scheme.key(node.resolve_name(topic)))
         reliable = all(p.qos is None or p.qos.reliable for p in publishers)

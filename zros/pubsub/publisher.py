@@ -10,8 +10,10 @@ from typing import Any
 from zenoh import CongestionControl, Reliability, ext
 
 from zros.cdr import encode
-from zros.cdr.message import EncodeBuffer, Message
+from zros.cdr.encode_buffer import EncodeBuffer
+from zros.cdr.message import Message
 from zros.cdr.model import Kind
+from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
@@ -42,7 +44,7 @@ class Publisher(Entity):
         self.topic = context.resolve_name(topic)
         self.qos: QoS = as_qos(qos)
         wire = self._place(
-            EntityKind.PUBLISHER, self.topic, self.type_name, self.msg_type._registry,
+            EntityKind.PUBLISHER, self.topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce,
         )  # fmt: skip
         self.key = wire.key

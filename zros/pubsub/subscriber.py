@@ -16,6 +16,7 @@ from typing import Any
 
 from zros.cdr import CdrError
 from zros.cdr.message import Message, decode
+from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.senders import describe_sender
 from zros.qos import QoS, QoSLike, as_qos
@@ -69,7 +70,7 @@ class Subscriber(Entity):
         self.topic = context.resolve_name(topic)
         self.qos: QoS = as_qos(qos)
         wire = self._place(
-            EntityKind.SUBSCRIBER, self.topic, self.type_name, self.msg_type._registry,
+            EntityKind.SUBSCRIBER, self.topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce,
         )  # fmt: skip
         self.key = wire.key

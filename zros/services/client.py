@@ -16,6 +16,7 @@ from zenoh.handlers import Callback
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
+from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity
@@ -58,7 +59,7 @@ class Client(Entity):
         self.Response = self.srv_type.Response
         self.name = context.resolve_name(name, 'service name')
         self._wire = self._place(
-            EntityKind.SERVICE_CLIENT, self.name, self.type_name, self.Request._registry,
+            EntityKind.SERVICE_CLIENT, self.name, self.type_name, registry_of(self.Request),
             announce=announce,
         )  # fmt: skip
         self.key = self._wire.key

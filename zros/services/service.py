@@ -19,6 +19,7 @@ from typing import Any
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
+from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity
@@ -84,7 +85,7 @@ class Service(Entity):
         self.Response = self.srv_type.Response
         self.name = context.resolve_name(name, 'service name')
         wire = self._place(
-            EntityKind.SERVICE_SERVER, self.name, self.type_name, self.Request._registry,
+            EntityKind.SERVICE_SERVER, self.name, self.type_name, registry_of(self.Request),
             announce=announce,
         )  # fmt: skip
         self.key = wire.key

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from zros.cdr.errors import UnknownTypeError
 from zros.cdr.hashing import message_text, type_description, type_hash
+from zros.cdr.registry import registry_of
 from zros.errors import ZrosError
 from zros.runtime.defaults import NodeLike
 from zros.services.client import Client
@@ -60,7 +61,7 @@ class TypeDescriptionService:
     def _registry_for(self, type_name: str) -> TypeRegistry | None:
         cls = self._classes.get(type_name)
         if cls is not None:
-            return cls._registry
+            return registry_of(cls)
         registry = self._registry
         try:
             registry.definition(type_name)

@@ -10,13 +10,15 @@ messages at once with numpy.
 from __future__ import annotations
 
 import keyword
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from zros.cdr.layout import VALUE_CODES, LayoutCache, numpy_dtype
-from zros.cdr.message import Message, _layout_of
+from zros.cdr.layout import VALUE_CODES, numpy_dtype
+from zros.cdr.message import Message
 from zros.cdr.model import PRIMITIVE_SIZES, Kind, MessageDef
+from zros.cdr.registry import registry_of
 
 
 @dataclass(frozen=True)
@@ -61,8 +63,8 @@ class Plan:
 
 class _Planner:
     def __init__(self, cls: type[Message]) -> None:
-        self.registry = cls._registry
-        self.layout: LayoutCache = _layout_of(self.registry)
+        self.registry = registry_of(cls)
+        self.layout = self.registry.layout
         self.steps: list[Step] = []
         self.leaves: list[Leaf] = []
         self.other: list[str] = []
@@ -143,18 +145,17 @@ class _Planner:
         self.stopped = True
 
 
+_plans: weakref.WeakKeyDictionary[type[Message], Plan] = weakref.WeakKeyDictionary()
+
+
 def plan(cls: type[Message]) -> Plan:
-    """The plan of a message class (cached on the class's registry)."""
-    cache: dict[str, Plan] | None = getattr(cls._registry, '_zros_bag_plans', None)
-    if cache is None:
-        cache = {}
-        cls._registry._zros_bag_plans = cache  # type: ignore[attr-defined]
-    known = cache.get(cls.__msgtype__)
+    """The plan of a message class (cached while the class lives)."""
+    known = _plans.get(cls)
     if known is None:
         planner = _Planner(cls)
         planner.message(cls._definition, '')
         known = Plan(planner.steps, planner.leaves, planner.other, not planner.stopped)
-        cache[cls.__msgtype__] = known
+        _plans[cls] = known
     return known
 
 

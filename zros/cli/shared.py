@@ -15,9 +15,13 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from types import FrameType
 from typing import TYPE_CHECKING, Any
 
+# commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
+# `zros --help` loads none of them
 if TYPE_CHECKING:
+    from zros.cdr.message import Message
     from zros.node import Node
 
 
@@ -147,7 +151,7 @@ def parse_values(text: str | None) -> dict[str, Any]:
     return values
 
 
-def message_class(type_name: str) -> Any:
+def message_class(type_name: str) -> type[Message]:
     """The message class of a type name (``std_msgs/msg/String`` or ``std_msgs/String``)."""
     from zros.cdr import default_registry
     from zros.cdr.interfaces import ActionType, ServiceType
@@ -188,7 +192,7 @@ def known_type(node: Node, topic: str, type_name: str) -> str:
     raise CommandError(f'{unknown}\nThe nodes on the network did not describe it ({asked}).')
 
 
-def build_message(cls: Any, values: dict[str, Any]) -> Any:
+def build_message(cls: type[Message], values: dict[str, Any]) -> Message:
     """A message of ``cls`` with ``values`` (nested dicts for nested fields), checked before
     anything is sent: a wrong field name or value is a usage error naming the field."""
     from zros.cdr.errors import CdrError, FieldError
@@ -208,7 +212,7 @@ def build_message(cls: Any, values: dict[str, Any]) -> Any:
 def stop_on_signals(stop: threading.Event) -> Iterator[None]:
     """SIGINT and SIGTERM set ``stop`` instead of killing the process (restored after)."""
 
-    def handler(signum: int, frame: Any) -> None:
+    def handler(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
     saved = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -227,6 +231,28 @@ def run_until_interrupted(step: Callable[[], bool]) -> int:
     except KeyboardInterrupt:
         pass
     return 0
+
+
+def serve_until_interrupted() -> int:
+    """Wait for Ctrl-C while a server runs on threads of its own; exit code 0."""
+    idle = threading.Event()  # never set: a sleep Ctrl-C interrupts
+    return run_until_interrupted(lambda: not idle.wait(0.5))
+
+
+def port_number(text: str) -> int:
+    """An argparse type: a TCP port, 0 to 65535 (0: any free one)."""
+    value = int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f'a port is 0 to 65535, not {text}')
+    return value
+
+
+def at_least_one(text: str) -> int:
+    """An argparse type: an integer of at least 1."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f'must be at least 1, not {text}')
+    return value
 
 
 def out(text: str = '') -> None:

@@ -13,8 +13,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.patches import Ellipse, FancyArrowPatch, Rectangle
 
 from zros.plot import GraphModel, Layout, Vertex, draw_graph, graph, layout_graph, to_dot
+from zros.plot.graph_data import NODE, TOPIC
 from zros.plot.graph_picture import BRIDGE_COLORS, NODE_COLORS, font_measure
-from zros.plot.layout import NODE, TOPIC
 
 
 def scene() -> GraphModel:

@@ -17,6 +17,8 @@ import os
 import shutil
 from pathlib import Path
 
+from zros.bag import Bag, BagTopic, BagWriter
+from zros.cdr import default_registry, encode, get_class
 from zros.demo.sensor import (
     CALIBRATION_TOPIC,
     LINEARIZATION,
@@ -28,6 +30,7 @@ from zros.demo.sensor import (
     register_linearization,
 )
 from zros.errors import ZrosError
+from zros.qos import QoS
 
 BAG_NAME = 'sharpGP2D120'
 #: written into the bag's ``custom_data``; a bag of another model version is made again
@@ -43,10 +46,6 @@ GAP_NS = _NS
 
 def write_bag(path: str | os.PathLike[str]) -> Path:
     """Write the tutorial's bag into the new folder ``path`` (it must not exist); returns it."""
-    from zros.bag import BagTopic, BagWriter
-    from zros.cdr import default_registry, encode, get_class
-    from zros.qos import QoS
-
     register_linearization()
     registry = default_registry()
     pair_class = get_class(LINEARIZATION)
@@ -84,8 +83,6 @@ def bag_problem(path: str | os.PathLike[str]) -> str | None:
         return f'unreadable metadata.yaml ({exc})'
     if str(custom.get(MODEL_KEY)) != MODEL_VERSION:
         return f'made by another version of the model ({custom.get(MODEL_KEY)})'
-    from zros.bag import Bag
-
     try:
         with Bag(folder) as bag:
             counts = {name: topic.count for name, topic in bag.topics.items()}

@@ -13,9 +13,12 @@ from __future__ import annotations
 import argparse
 import datetime
 import threading
-from typing import Any
+from typing import TYPE_CHECKING
 
-from zros.cli.common import CommandError, add_connection_options, open_node, out, stop_on_signals
+from zros.cli.shared import CommandError, add_connection_options, open_node, out, stop_on_signals
+
+if TYPE_CHECKING:  # the command imports the bag package only when it runs (start-up)
+    from zros.bag.player import Player
 
 
 def default_bag_name() -> str:
@@ -75,7 +78,7 @@ def record(args: argparse.Namespace) -> int:
 # --- play --------------------------------------------------------------------------------------
 
 
-def _status(player: Any) -> str:
+def _status(player: Player) -> str:
     state = 'PAUSED ' if player.paused else 'PLAYING'
     elapsed = max(0, player.clock.now() - player.start_ns) / 1e9
     total = max(0, player.end_ns - player.start_ns) / 1e9
@@ -85,7 +88,7 @@ def _status(player: Any) -> str:
     )
 
 
-def _on_key(player: Any, key: str) -> bool:
+def _on_key(player: Player, key: str) -> bool:
     """Steer the player from a key; False to quit."""
     if key == ' ':
         player.toggle_pause()
@@ -162,7 +165,7 @@ def add_verbs(verbs: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     """Add ``record`` and ``play`` to the verbs of ``zros bag``."""
     help_text = 'record topics into a bag (rosbag2 MCAP)'
     parser = verbs.add_parser('record', help=help_text, description=help_text)
-    parser.set_defaults(run='zros.cli.recording:record')
+    parser.set_defaults(run='zros.cli.bag_record_play:record')
     add_connection_options(parser)
     parser.add_argument('topics', nargs='*', metavar='TOPIC', help='topics to record')
     parser.add_argument('-a', '--all', action='store_true', help='every topic, also later ones')
@@ -180,7 +183,7 @@ def add_verbs(verbs: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
 
     help_text = 'play a bag into the graph'
     parser = verbs.add_parser('play', help=help_text, description=help_text)
-    parser.set_defaults(run='zros.cli.recording:play')
+    parser.set_defaults(run='zros.cli.bag_record_play:play')
     add_connection_options(parser)
     parser.add_argument('path', help='bag folder, .mcap, .db3 or ROS 1 .bag')
     parser.add_argument('-r', '--rate', type=_positive, default=1.0, help='speed (default 1)')

@@ -15,7 +15,7 @@ import os
 import sys
 import threading
 
-from zros.cli.common import CommandError, out, stop_on_signals
+from zros.cli.shared import CommandError, out, stop_on_signals
 
 DEFAULT_LISTEN = 'tcp/127.0.0.1:7447'
 DEFAULT_TLS_LISTEN = 'tls/127.0.0.1:7447'
@@ -105,4 +105,4 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         '--shared-memory', action='store_true', help="Zenoh's shared memory for local clients"
     )
-    parser.set_defaults(run='zros.cli.router:run')
+    parser.set_defaults(run='zros.cli.router_command:run')

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from zros.cli.common import DISCOVERY, CommandError, add_connection_options, open_node, out
+from zros.cli.shared import DISCOVERY, CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:
     from zros.graph import Endpoint
@@ -73,9 +73,9 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
     listing = verbs.add_parser('list', help='list the nodes on the network')
     listing.add_argument('-c', '--count-nodes', action='store_true', help='only their number')
-    listing.set_defaults(run='zros.cli.node:list_nodes')
+    listing.set_defaults(run='zros.cli.node_command:list_nodes')
     add_connection_options(listing)
     detail = verbs.add_parser('info', help="a node's publishers, subscribers, services, actions")
     detail.add_argument('node', help='e.g. /robot/driver')
-    detail.set_defaults(run='zros.cli.node:info')
+    detail.set_defaults(run='zros.cli.node_command:info')
     add_connection_options(detail)

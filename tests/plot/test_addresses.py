@@ -8,7 +8,7 @@ import pytest
 import zros
 from zros.cdr import default_registry
 from zros.plot import PlotError, Series, moving_average, resolve
-from zros.plot.fields import split_address
+from zros.plot.addresses import split_address
 
 TOPICS = {
     '/imu': 'sensor_msgs/msg/Imu',

@@ -7,24 +7,16 @@ WebSocket).
 from __future__ import annotations
 
 import argparse
-import threading
 from typing import Any
 
-from zros.cli.common import add_connection_options, open_node, out, run_until_interrupted
-
-
-def _port(text: str) -> int:
-    value = int(text)
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f'a port is 0 to 65535, not {text}')
-    return value
-
-
-def _count(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f'must be at least 1, not {text}')
-    return value
+from zros.cli.shared import (
+    add_connection_options,
+    at_least_one,
+    open_node,
+    out,
+    port_number,
+    serve_until_interrupted,
+)
 
 
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
@@ -40,19 +32,13 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
-def _until_interrupted() -> int:
-    """Serve until Ctrl-C (the server runs on threads of its own)."""
-    idle = threading.Event()  # never set: a sleep Ctrl-C interrupts
-    return run_until_interrupted(lambda: not idle.wait(0.5))
-
-
 def run(args: argparse.Namespace) -> int:
     from zros.gateway.foxglove import serve
 
     if args.bag is not None:
         with serve(bag=args.bag, **_settings(args)) as server:
             out(f'Foxglove: {server.url} serves {args.bag} (paused; play it from Foxglove)')
-            return _until_interrupted()
+            return serve_until_interrupted()
     with open_node(args) as node:
         gateway = serve(
             node=node,
@@ -65,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
         with gateway:
             sim = ', sim time from /clock' if gateway.sim_time else ''
             out(f'Foxglove: {gateway.url} ({node.wire} wire{sim})')
-            return _until_interrupted()
+            return serve_until_interrupted()
 
 
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -75,8 +61,9 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help=help_text,
         description=f'{help_text}. Needs the foxglove extra: pip install "zros[foxglove]".',
     )
-    parser.set_defaults(run='zros.cli.foxglove:run')
-    parser.add_argument('--port', type=_port, default=8765, help='TCP port (default 8765; 0: any)')
+    parser.set_defaults(run='zros.cli.foxglove_command:run')
+    parser.add_argument('--port', type=port_number, default=8765,
+                        help='TCP port (default 8765; 0: any)')  # fmt: skip
     parser.add_argument('--address', default='127.0.0.1',
                         help='address to listen on (default 127.0.0.1; others warn)')  # fmt: skip
     parser.add_argument('--topics', nargs='+', action='extend', metavar='REGEX',
@@ -95,7 +82,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                         help='serve this recording instead of the live graph')  # fmt: skip
     parser.add_argument('--tls-cert', metavar='PEM', help='certificate: serve wss://')
     parser.add_argument('--tls-key', metavar='PEM', help='its private key (PKCS#8)')
-    parser.add_argument('--message-backlog', type=_count, default=1024, metavar='N',
+    parser.add_argument('--message-backlog', type=at_least_one, default=1024, metavar='N',
                         help='messages queued per client before its oldest are dropped '
                         '(default 1024)')  # fmt: skip
     parser.add_argument('--sim-time', action=argparse.BooleanOptionalAction, default=None,

@@ -1,0 +1,69 @@
+"""``zros rosbridge``: the command serves the graph to rosbridge clients until Ctrl-C."""
+
+from __future__ import annotations
+
+import re
+import signal
+from typing import Any
+
+import pytest
+
+import zros
+from tests.cli.conftest import Cli
+from tests.rosbridge.clients import RawClient
+
+pytest.importorskip('websockets', reason='the websockets library (the rosbridge extra) is missing')
+
+TIMEOUT = 60.0
+
+
+def _url(line: str) -> str:
+    found = re.search(r'wss?://\S+', line)
+    assert found is not None, line
+    return found.group(0)
+
+
+def test_the_command_serves_the_graph(cli: Cli, zros_node: Any) -> None:
+    talker = zros_node('talker')
+    pub = talker.create_publisher('std_msgs/msg/String', '/chatter')
+    running = cli.start('rosbridge', '--port', '0', '--topics-glob', "['/chat*']")
+    url = _url(running.wait_line(lambda line: line.startswith('rosbridge: ')))
+    assert url.startswith('ws://127.0.0.1:')
+    client = RawClient(url)
+    try:
+        client.send(op='subscribe', topic='/chatter', type='std_msgs/String')
+        assert pub.wait_for_subscribers(TIMEOUT)
+        pub.write(zros.Message('std_msgs/msg/String', data='through the command'))
+        message = client.wait(lambda m: m.get('op') == 'publish', TIMEOUT)
+        assert message == {
+            'op': 'publish',
+            'topic': '/chatter',
+            'msg': {'data': 'through the command'},
+        }
+        client.send(op='subscribe', topic='/rosout', id='refused')
+        assert 'not allowed' in client.status('/rosout')['msg']  # the topics glob
+    finally:
+        client.close()
+    running.process.send_signal(signal.SIGINT)
+    code, _ = running.finish()
+    assert code == 0
+
+
+@pytest.mark.parametrize(
+    ('args', 'error'),
+    [
+        (['--tls-cert', '/nonexistent.pem', '--tls-key', '/nonexistent.key'], 'cannot read'),
+        (['--tls-cert', '/nonexistent.pem'], 'both a certificate and its private key'),
+    ],
+)
+def test_bad_arguments_fail_with_a_message(cli: Cli, args: list[str], error: str) -> None:
+    result = cli.run('rosbridge', '--port', '0', *args)
+    assert result.returncode == 1
+    assert error in result.stderr
+    assert 'Traceback' not in result.stderr
+
+
+def test_a_port_out_of_range_is_a_usage_error(cli: Cli) -> None:
+    result = cli.run('rosbridge', '--port', '70000')
+    assert result.returncode == 2
+    assert 'a port is 0 to 65535' in result.stderr

@@ -1,0 +1,175 @@
+"""Building the class of a message type: its generated methods and lazily compiled codecs.
+
+The registry calls :func:`build_message_class` once per type and caches the class; what the
+builder needs from the registry is the small :class:`ClassSource` interface, so this module
+never imports the registry.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from contextlib import AbstractContextManager
+from typing import Any, Protocol
+
+import numpy as np
+
+from zros.cdr import codegen
+from zros.cdr.convert import Bad
+from zros.cdr.layout import LayoutCache, StructInfo
+from zros.cdr.message import Message
+from zros.cdr.model import MessageDef
+from zros.cdr.naming import attribute_name
+
+#: a compiled decoder: ``decode(buf, strict) -> message``
+Decoder = Callable[[Any, bool], Message]
+#: a compiled encoder: ``encode(message, join) -> bytes``
+Encoder = Callable[..., bytes]
+
+
+class ClassSource(Protocol):
+    """What building a class needs from the registry that owns it."""
+
+    @property
+    def layout(self) -> LayoutCache:
+        """The layout facts of the registry's types."""
+        ...
+
+    @property
+    def lock(self) -> AbstractContextManager[bool]:
+        """The re-entrant lock that guards the registry (codecs compile under it)."""
+        ...
+
+    def message_definition(self, name: str) -> MessageDef:
+        """The definition of a message type."""
+        ...
+
+    def get_class(self, name: str) -> type[Message]:
+        """The class of a message type."""
+        ...
+
+
+class _Codecs:
+    """Compiles the codec variants of one class on first use; the generators' context."""
+
+    def __init__(self, source: ClassSource, cls: type[Message]) -> None:
+        self.source = source
+        self.message_class = cls
+        self._traced: dict[str, Callable[..., Any]] = {}
+
+    # the generators' Context
+    def resolve(self, name: str) -> MessageDef:
+        return self.source.message_definition(name)
+
+    def info(self, name: str) -> StructInfo:
+        return self.source.layout.info(name)
+
+    def cls(self, name: str) -> type:
+        # the class being built is not in the registry yet
+        if name == self.message_class.__msgtype__:
+            return self.message_class
+        return self.source.get_class(name)
+
+    def dtype(self, name: str, endian: str) -> np.dtype:
+        return self.source.layout.dtype(name, endian)
+
+    # the variants
+    def decoder(self, endian: str, memory: bool) -> Decoder:
+        definition = self.message_class._definition
+        return codegen.generate_decoder(self, definition, endian, memory, False)
+
+    def encoder(self) -> Encoder:
+        return codegen.generate_encoder(self, self.message_class._definition, False)
+
+    def traced_decoder(self, endian: str) -> Decoder:
+        key = 'd' + endian
+        if key not in self._traced:
+            definition = self.message_class._definition
+            self._traced[key] = codegen.generate_decoder(self, definition, endian, True, True)
+        return self._traced[key]
+
+    def traced_encoder(self) -> Encoder:
+        if 'e' not in self._traced:
+            definition = self.message_class._definition
+            self._traced['e'] = codegen.generate_encoder(self, definition, True)
+        return self._traced['e']
+
+
+def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
+    """Give ``cls`` codec stubs that compile the real functions on their first call."""
+    lock = codecs.source.lock
+
+    def decode_first(buf: Any, strict: bool = False) -> Any:
+        with lock:
+            if cls.__dict__['_cdr_decode'] is lazy_decode:
+                little = codecs.decoder('<', False)
+                variants: dict[str, Decoder] = {}
+
+                def other(view: Any, strict: bool) -> Any:
+                    # big-endian data, or text read from a memoryview: compile on demand
+                    if type(view) is memoryview and (view.ndim != 1 or view.itemsize != 1):
+                        view = view.cast('B')
+                    if len(view) < 4 or view[0] or view[1] > 1:
+                        raise Bad
+                    key = ('m' if type(view) is memoryview else 'b') + ('<' if view[1] else '>')
+                    if key not in variants:
+                        variants[key] = codecs.decoder(key[1], key[0] == 'm')
+                    return variants[key](view, strict)
+
+                def fast(buf: Any, strict: bool = False) -> Any:
+                    if type(buf) is memoryview or len(buf) < 4 or buf[0] or buf[1] != 1:
+                        return other(buf, strict)
+                    return little(buf, strict)
+
+                cls._cdr_decode = staticmethod(fast)  # type: ignore[method-assign]
+        return cls._cdr_decode(buf, strict)
+
+    def encode_first(message: Any, join: Any = b''.join) -> bytes:
+        with lock:
+            if cls.__dict__['_cdr_encode'] is lazy_encode:
+                cls._cdr_encode = staticmethod(codecs.encoder())  # type: ignore[method-assign]
+        return cls._cdr_encode(message, join)
+
+    lazy_decode = staticmethod(decode_first)
+    lazy_encode = staticmethod(encode_first)
+    cls._cdr_decode = lazy_decode  # type: ignore[method-assign]
+    cls._cdr_encode = lazy_encode  # type: ignore[method-assign]
+
+
+def build_message_class(
+    source: ClassSource,
+    definition: MessageDef,
+    restore: Callable[[str, bytes], Message],
+) -> type[Message]:
+    """Create the class of one message type (called by the registry, which caches it).
+
+    ``restore(type_name, data)`` rebuilds a message when unpickling: a module-level function,
+    so pickle can name it.
+    """
+    package, kind, short = definition.name.split('/')
+    attributes = tuple(attribute_name(f.name) for f in definition.fields)
+    namespace: dict[str, Any] = {
+        '__slots__': attributes,
+        '__module__': f'zros.types.{package}.{kind}',
+        '__qualname__': short,
+        '__msgtype__': definition.name,
+        '_fields': attributes,
+        '_field_types': {attribute_name(f.name): str(f.type) for f in definition.fields},
+        '_definition': definition,
+        '_registry': source,
+        '_restore': staticmethod(restore),
+        '__annotations__': {attribute_name(f.name): str(f.type) for f in definition.fields},
+    }
+    for constant in definition.constants:
+        namespace[constant.name] = constant.value
+    cls: type[Message] = type(short, (Message,), namespace)
+    codecs = _Codecs(source, cls)
+    cls._zros_codecs = codecs
+    for name, function in codegen.generate_methods(codecs, definition).items():
+        setattr(cls, name, function)
+    if source.layout.info(definition.name).uniform:
+        cls._dtype = source.layout.dtype(definition.name, '<')
+    _install_lazy_codecs(cls, codecs)
+    return cls
+
+
+__all__ = ['ClassSource', 'build_message_class']

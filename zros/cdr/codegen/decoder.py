@@ -1,0 +1,364 @@
+"""The generated CDR decoder of a message type (the fast one and the traced one)."""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+from contextlib import nullcontext
+from typing import Any
+
+import numpy as np
+
+from zros.cdr import convert
+from zros.cdr.codegen.ops import (
+    START,
+    STRUCT_CODES,
+    UNKNOWN,
+    Context,
+    Fix,
+    FixArr,
+    Loop,
+    Op,
+    Pre,
+    Seq,
+    State,
+    Str,
+    empty_message,
+    fields_of,
+    merge_state,
+)
+from zros.cdr.codegen.program import Program, path_literal
+from zros.cdr.errors import CdrError
+from zros.cdr.layout import numpy_dtype
+from zros.cdr.model import PRIMITIVE_SIZES, FieldType, Kind, MessageDef
+from zros.cdr.struct_seq import StructSeq
+
+
+def _dynamic_align(align: int) -> str:
+    if align == 8:
+        return 'pos += (4 - pos) & 7'
+    if align == 4:
+        return 'pos += -pos & 3'
+    return 'pos += pos & 1'
+
+
+class _DecoderBuilder:
+    def __init__(self, ctx: Context, endian: str, text_from_memoryview: bool, trace: bool) -> None:
+        self.ctx = ctx
+        self.endian = endian
+        self.mv = text_from_memoryview
+        self.trace = trace
+        self.src = Program()
+        self.bad = self.src.ref(convert.Bad, 'Bad')
+        self.new = self.src.ref(object.__new__, 'new')
+        self.frombuffer = self.src.ref(np.frombuffer, 'fb')
+
+    # ops
+
+    def struct_ops(self, msg: MessageDef, var: str, path: str, ops: list[Op]) -> None:
+        if not msg.fields:
+            ops.append(empty_message(path))
+            return
+        for ref, fpath, t in fields_of(msg, var, path):
+            if t.kind is Kind.SCALAR:
+                self.scalar_ops(t, ref, fpath, ops)
+            elif t.kind is Kind.ARRAY:
+                if t.is_primitive:
+                    ops.append(FixArr(t.base, t.length, ref, fpath))
+                else:
+                    ops.append(self.loop(t, str(t.length), -1, ref, fpath))
+            else:
+                count = self.src.tmp('n')
+                ops.append(Fix('I', 4, count, fpath))
+                bound = t.length if t.kind is Kind.BOUNDED else -1
+                if t.is_primitive:
+                    ops.append(Seq(t.base, ref, count, bound, fpath, False))
+                elif t.is_nested and self.ctx.info(t.base).uniform:
+                    ops.append(Seq(t.base, ref, count, bound, fpath, True))
+                else:
+                    ops.append(self.loop(t, count, bound, ref, fpath))
+
+    def scalar_ops(self, t: FieldType, ref: str, path: str, ops: list[Op]) -> None:
+        if t.is_primitive:
+            ops.append(Fix(STRUCT_CODES[t.base], PRIMITIVE_SIZES[t.base], ref, path, t.base))
+        elif t.is_string:
+            count = self.src.tmp('n')
+            ops.append(Fix('I', 4, count, path))
+            ops.append(Str(ref, count, t.string_bound, path, t.base == 'wstring'))
+        else:
+            var = self.src.tmp('v')
+            cls = self.src.ref(self.ctx.cls(t.base), 'C')
+            ops.append(Pre([f'{var} = {self.new}({cls})', f'{ref} = {var}']))
+            self.struct_ops(self.ctx.resolve(t.base), var, path, ops)
+
+    def loop(self, t: FieldType, count: str, bound: int, ref: str, path: str) -> Loop:
+        index = self.src.tmp('i')
+        item = self.src.tmp('e')
+        body: list[Op] = []
+        self.scalar_ops(t.element, item, f'{path}[{{{index}}}]', body)
+        min_size = 4 if t.is_string else self.ctx.info(t.base).min_size
+        return Loop(count, bound, min_size, ref, item, index, body, path)
+
+    # emission
+
+    def align(self, state: State, align: int) -> State:
+        pad = state.static_pad(align)
+        if pad is None:
+            self.src.add(_dynamic_align(align))
+            return State(0, align)
+        if pad:
+            self.src.add(f'pos += {pad}')
+        return state.advance(pad)
+
+    def mark(self, path: str) -> None:
+        if self.trace:
+            self.src.add(f'_f = {path_literal(path)}; _p = pos')
+
+    def emit(self, ops: list[Op], state: State) -> State:
+        run: list[tuple[int, Fix | FixArr]] = []
+        run_state = state
+        offset = 0
+        for op in ops:
+            if isinstance(op, Pre):
+                for line in op.lines:
+                    self.src.add(line)
+                continue
+            if isinstance(op, (Fix, FixArr)) and not self.trace:
+                size = PRIMITIVE_SIZES[op.primitive] if isinstance(op, FixArr) else op.size
+                align = 1 if isinstance(op, Fix) and op.code == 'x' else size
+                if run and run_state.modulus >= align:
+                    offset += -(run_state.mod + offset) % align
+                else:
+                    if run:
+                        state = self.flush(run, run_state, offset)
+                        run = []
+                    pad = state.static_pad(align)
+                    if pad is None:
+                        self.src.add(_dynamic_align(align))
+                        state = State(0, align)
+                        pad = 0
+                    run_state = state
+                    offset = pad
+                run.append((offset, op))
+                offset += size * (op.count if isinstance(op, FixArr) else 1)
+                continue
+            if run:
+                state = self.flush(run, run_state, offset)
+                run = []
+            state = self.emit_one(op, state)
+        if run:
+            state = self.flush(run, run_state, offset)
+        return state
+
+    def flush(self, run: list[tuple[int, Fix | FixArr]], state: State, total: int) -> State:
+        fmt = [self.endian]
+        targets: list[str] = []
+        arrays: list[tuple[int, FixArr]] = []
+        position = 0
+        for offset, op in run:
+            if offset > position:
+                fmt.append(f'{offset - position}x')
+            if isinstance(op, FixArr):
+                size = PRIMITIVE_SIZES[op.primitive] * op.count
+                fmt.append(f'{size}x')
+                arrays.append((offset, op))
+                position = offset + size
+            else:
+                fmt.append(op.code)
+                if op.ref is not None:
+                    targets.append(op.ref)
+                position = offset + op.size
+        if total > position:
+            fmt.append(f'{total - position}x')
+        packer = self.src.ref(struct.Struct(''.join(fmt)), 'S')
+        if targets:
+            self.src.add(f'{", ".join(targets)}, = {packer}.unpack_from(buf, pos)')
+        else:
+            self.src.add(f'{packer}.unpack_from(buf, pos)')
+        for offset, array in arrays:
+            where = f'pos + {offset}'
+            self.src.add(
+                f'{array.ref} = {self.array_expr(array.primitive, str(array.count), where)}'
+            )
+        self.src.add(f'pos += {total}')
+        return state.advance(total)
+
+    def array_expr(self, primitive: str, count: str, where: str) -> str:
+        dtype = self.src.ref(numpy_dtype(primitive, self.endian), 'D')
+        expr = f'{self.frombuffer}(buf, {dtype}, {count}, {where})'
+        return f'({expr} != 0)' if primitive == 'bool' else expr
+
+    def fail(self, condition: str, message: str) -> None:
+        if self.trace:
+            self.src.add(f'if {condition}: raise {self.bad}(f{message!r})')
+        else:
+            self.src.add(f'if {condition}: raise {self.bad}')
+
+    def emit_one(self, op: Op, state: State) -> State:
+        src = self.src
+        if isinstance(op, Fix):
+            align = 1 if op.code in 'x?' else op.size
+            state = self.align(state, align)
+            self.mark(op.path)
+            packer = src.ref(struct.Struct(self.endian + op.code), 'S')
+            if op.ref is None:
+                src.add(f'{packer}.unpack_from(buf, pos)')
+            else:
+                src.add(f'{op.ref}, = {packer}.unpack_from(buf, pos)')
+            src.add(f'pos += {op.size}')
+            return state.advance(op.size)
+        if isinstance(op, FixArr):
+            size = PRIMITIVE_SIZES[op.primitive]
+            state = self.align(state, size)
+            self.mark(op.path)
+            self.fail(
+                f'pos + {size * op.count} > end',
+                f'array of {op.count} elements runs past the end of the buffer ({{end}} bytes)',
+            )
+            src.add(f'{op.ref} = {self.array_expr(op.primitive, str(op.count), "pos")}')
+            src.add(f'pos += {size * op.count}')
+            return state.advance(size * op.count)
+        if isinstance(op, Str):
+            # the count before it was marked with this path: the offset stays at the field start
+            if op.wide:
+                decode = src.ref(convert.wstring_decode, 'wstr')
+                if op.bound:
+                    self.fail(
+                        f'{op.count} > {op.bound}',
+                        f'wstring of {{{op.count}}} characters exceeds its bound {op.bound}',
+                    )
+                src.add(f'{op.ref}, pos = {decode}(buf, pos, {op.count}, end, {self.endian!r})')
+                return State(0, 4)
+            with src.block(f'if {op.count}:'):
+                src.add(f'e = pos + {op.count}')
+                self.fail(
+                    'e > end',
+                    f'string of {{{op.count} - 1}} bytes runs past the end of the buffer '
+                    '({end} bytes)',
+                )
+                self.fail('buf[e - 1]', 'string does not end with a NUL byte')
+                if self.mv or self.trace:
+                    src.add(f"{op.ref} = str(buf[pos:e - 1], 'utf-8')")
+                else:
+                    src.add(f'{op.ref} = buf[pos:e - 1].decode()')
+                if op.bound:
+                    # the bound counts bytes (C++ readers check that), but rclpy checks characters
+                    # and writes longer strings: accept them when the characters fit
+                    self.fail(
+                        f'{op.count} > {op.bound + 1} and len({op.ref}) > {op.bound}',
+                        f'string of {{len({op.ref})}} characters exceeds its bound {op.bound}',
+                    )
+                src.add('pos = e')
+            with src.block('else:'):
+                src.add(f"{op.ref} = ''")
+            return UNKNOWN
+        if isinstance(op, Seq):
+            if op.bound >= 0:
+                self.fail(
+                    f'{op.count} > {op.bound}',
+                    f'{{{op.count}}} elements exceed the bound {op.bound}',
+                )
+            if op.struct:
+                info = self.ctx.info(op.element)
+                align, stride = info.first_align, info.size
+                dtype = src.ref(self.ctx.dtype(op.element, self.endian), 'D')
+                cls = src.ref(self.ctx.cls(op.element), 'C')
+                make = src.ref(StructSeq._from_array, 'seq')
+                empty = src.ref(convert.empty_array(self.ctx.dtype(op.element, self.endian)), 'E')
+            else:
+                align = stride = PRIMITIVE_SIZES[op.element]
+                empty = src.ref(
+                    convert.empty_array(
+                        np.dtype('?')
+                        if op.element == 'bool'
+                        else numpy_dtype(op.element, self.endian)
+                    ),
+                    'E',
+                )
+            with src.block(f'if {op.count}:'):
+                self.align(state, align)
+                if op.struct:
+                    view = f'{self.frombuffer}(buf, {dtype}, {op.count}, pos)'
+                    src.add(f'{op.ref} = {make}({cls}, {view})')
+                else:
+                    src.add(f'{op.ref} = {self.array_expr(op.element, op.count, "pos")}')
+                src.add(f'pos += {op.count}' if stride == 1 else f'pos += {op.count} * {stride}')
+            with src.block('else:'):
+                src.add(
+                    f'{op.ref} = {make}({cls}, {empty})' if op.struct else f'{op.ref} = {empty}'
+                )
+            after = State(0, min(align, 4)) if stride % min(align, 4) == 0 else UNKNOWN
+            return merge_state(after, state)
+        assert isinstance(op, Loop)
+        if op.count.isdigit():
+            self.mark(op.path)
+        items = src.tmp('l')
+        append = src.tmp('a')
+        src.add(f'{items} = []; {append} = {items}.append')
+        if not op.count.isdigit():
+            if op.bound >= 0:
+                self.fail(
+                    f'{op.count} > {op.bound}',
+                    f'{{{op.count}}} elements exceed the bound {op.bound}',
+                )
+            self.fail(
+                f'{op.count} > (end - pos) // {op.min_size}',
+                f'{{{op.count}}} elements cannot fit in the {{end - pos}} bytes left',
+            )
+        with src.block(f'for {op.index} in range({op.count}):'):
+            self.emit(op.body, UNKNOWN)
+            src.add(f'{append}({op.item})')
+        src.add(f'{op.ref} = {items}')
+        return UNKNOWN
+
+
+def generate_decoder(
+    ctx: Context, msg: MessageDef, endian: str, text_from_memoryview: bool, trace: bool
+) -> Callable[[Any, bool], Any]:
+    """The function ``decode(buf, strict) -> message`` for the body after a valid header.
+
+    It reads from offset 4 and ignores bytes left at the end, as DDS readers do (rclpy's
+    serializer leaves up to 4 stray bytes per empty 8-byte sequence and per wstring). With
+    ``strict`` at most 3 may be left (any number for types with a wstring): bag readers use that
+    to tell whether an embedded definition matches its data.
+    """
+    builder = _DecoderBuilder(ctx, endian, text_from_memoryview, trace)
+    src = builder.src
+    cls = src.ref(ctx.cls(msg.name), 'C')
+    ops: list[Op] = []
+    builder.struct_ops(msg, 'o', '', ops)
+    src.add('end = len(buf)')
+    src.add('pos = 4')
+    if trace:
+        src.add("_f = '(header)'; _p = 0")
+    explained = src.guarded(_decode_error, f'{msg.name!r}, _f, _p, exc, end')
+    with explained if trace else nullcontext():
+        src.add(f'o = {builder.new}({cls})')
+        builder.emit(ops, START)
+        if not ctx.info(msg.name).has_wstring:
+            if trace:
+                src.add("_f = ''; _p = pos")
+            builder.fail(
+                'strict and end - pos > 3',
+                '{end - pos} bytes left after the end of the message (at most 3 padding bytes '
+                'are allowed); the data may be of another type or version',
+            )
+        src.add('return o')
+    return src.compile('buf, strict=False', 'decode')
+
+
+def _decode_error(type_name: str, path: str, offset: int, exc: Exception, size: int) -> Exception:
+    if isinstance(exc, CdrError):
+        return exc
+    reason = str(exc) or type(exc).__name__
+    if isinstance(exc, struct.error) or (isinstance(exc, ValueError) and 'buffer' in reason):
+        reason = f'the buffer ends too early ({size} bytes)'
+    elif isinstance(exc, UnicodeDecodeError):
+        reason = f'invalid UTF-8 ({exc.reason} at byte {exc.start} of the string)'
+    where = f' field {path!r}' if path else ''
+    return CdrError(
+        f'cannot decode {type_name}:{where} at byte {offset}: {reason}',
+        type_name=type_name,
+        field=path,
+        offset=offset,
+    )

@@ -1,0 +1,85 @@
+"""Python source under construction: its lines, the objects it refers to, and compiling it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+
+class Program:
+    """Python source under construction plus the objects it refers to.
+
+    ``compile`` turns it into a function whose free names are those objects (bound once, as
+    arguments of a factory), so generated code reads them as fast locals.
+    """
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self.depth = 1
+        self.objects: dict[str, object] = {}
+        self._ids: dict[int, str] = {}
+        self._counter = 0
+
+    def add(self, line: str) -> None:
+        """Append a line at the current indentation."""
+        self.lines.append('    ' * self.depth + line)
+
+    @contextmanager
+    def block(self, header: str) -> Iterator[None]:
+        """Lines added inside the ``with`` are indented under ``header``."""
+        self.add(header)
+        self.depth += 1
+        yield
+        self.depth -= 1
+
+    @contextmanager
+    def guarded(self, explain: Callable[..., Exception], arguments: str) -> Iterator[None]:
+        """Lines added inside the ``with`` go in a ``try:`` whose ``except`` raises
+        ``explain(arguments)`` instead (``exc`` names the exception caught)."""
+        self.depth += 1
+        start = len(self.lines)
+        yield
+        body = self.lines[start:]
+        del self.lines[start:]
+        self.depth -= 1
+        self.add('try:')
+        self.lines.extend(body)
+        self.add('except Exception as exc:')
+        self.add(f'    raise {self.ref(explain, "err")}({arguments}) from None')
+
+    def tmp(self, prefix: str) -> str:
+        """A fresh name for a generated variable (``prefix`` and a number)."""
+        self._counter += 1
+        return f'{prefix}{self._counter}'
+
+    def ref(self, obj: object, hint: str) -> str:
+        """A name in the generated code that refers to ``obj``."""
+        key = id(obj)
+        if key not in self._ids:
+            name = f'_{hint}{len(self._ids)}'
+            self._ids[key] = name
+            self.objects[name] = obj
+        return self._ids[key]
+
+    def compile(self, signature: str, name: str) -> Callable[..., Any]:
+        """The function ``name(signature)`` with these lines as its body."""
+        params = ', '.join(self.objects)
+        text = f'def _factory({params}):\n    def {name}({signature}):\n'
+        text += '\n'.join('    ' + line for line in self.lines)
+        text += f'\n    return {name}\n'
+        scope: dict[str, Any] = {}
+        exec(compile(text, f'<zros codec {name}>', 'exec'), scope)
+        function: Callable[..., Any] = scope['_factory'](**self.objects)
+        function.__zros_source__ = text  # type: ignore[attr-defined]
+        return function
+
+
+def path_literal(path: str) -> str:
+    """A field path as a Python literal (an f-string when it holds loop indexes)."""
+    return 'f' + repr(path) if '{' in path else repr(path)
+
+
+def source_of(function: Callable[..., Any]) -> str:
+    """The generated source of a codec or method (for debugging)."""
+    return str(getattr(function, '__zros_source__', ''))

@@ -1,0 +1,79 @@
+"""``zros rosbridge``: serve the robot to web apps built on roslibjs and roslibpy, as
+rosbridge_server (with rosapi) does.
+
+Runs until Ctrl-C. Prints the address to give ``new ROSLIB.Ros({url})``.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from zros.cli.shared import (
+    add_connection_options,
+    at_least_one,
+    open_node,
+    out,
+    port_number,
+    serve_until_interrupted,
+)
+
+
+def globs(values: list[str] | None) -> list[str]:
+    """Globs from the command line; rosbridge's list syntax (``"['/a', '/b*']"``) is read too."""
+    found = []
+    for value in values or ():
+        if value.startswith('[') and value.endswith(']'):
+            found += [g.strip().strip('\'"') for g in value[1:-1].split(',') if g.strip(' \'"')]
+        else:
+            found.append(value)
+    return found
+
+
+def run(args: argparse.Namespace) -> int:
+    from zros.gateway.rosbridge import serve
+
+    with open_node(args) as node:
+        gateway = serve(
+            node=node,
+            port=args.port,
+            address=args.address,
+            topics_glob=globs(args.topics_glob),
+            services_glob=globs(args.services_glob),
+            params_glob=globs(args.params_glob),
+            tls_cert=args.tls_cert,
+            tls_key=args.tls_key,
+            max_message_size=args.max_message_size,
+            queue_items=args.client_queue,
+        )
+        with gateway:
+            out(f'rosbridge: {gateway.url} ({node.wire} wire)')
+            return serve_until_interrupted()
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    help_text = 'serve the robot to roslibjs and roslibpy apps (as rosbridge_server and rosapi)'
+    parser = commands.add_parser(
+        'rosbridge',
+        help=help_text,
+        description=f'{help_text}. Needs the rosbridge extra: pip install "zros[rosbridge]".',
+    )
+    parser.set_defaults(run='zros.cli.rosbridge_command:run')
+    parser.add_argument('--port', type=port_number, default=9090,
+                        help='TCP port (default 9090; 0: any)')  # fmt: skip
+    parser.add_argument('--address', default='127.0.0.1',
+                        help='address to listen on (default 127.0.0.1; others warn)')  # fmt: skip
+    parser.add_argument('--topics-glob', nargs='+', action='extend', metavar='GLOB',
+                        help='allow only topics matching one of these ("/camera/*")')  # fmt: skip
+    parser.add_argument('--services-glob', nargs='+', action='extend', metavar='GLOB',
+                        help='allow only services and actions matching these')  # fmt: skip
+    parser.add_argument('--params-glob', nargs='+', action='extend', metavar='GLOB',
+                        help='allow only parameters (/node:name) matching these')  # fmt: skip
+    parser.add_argument('--tls-cert', metavar='PEM', help='certificate: serve wss://')
+    parser.add_argument('--tls-key', metavar='PEM', help='its private key')
+    parser.add_argument('--max-message-size', type=at_least_one, default=10_000_000,
+                        metavar='BYTES', help='largest message a client may send; longer JSON '
+                        'to clients goes as fragments (default 10000000)')  # fmt: skip
+    parser.add_argument('--client-queue', type=at_least_one, default=1000, metavar='N',
+                        help='messages queued per client before its oldest are dropped '
+                        '(default 1000)')  # fmt: skip
+    add_connection_options(parser)

@@ -1,0 +1,251 @@
+"""``zros rosbridge``: the rosbridge v2 protocol over a WebSocket, for web apps built on
+roslibjs and roslibpy, in front of the ROS graph reached over Zenoh.
+
+The server is the websockets library's threaded server (the ``rosbridge`` extra): each client
+has a thread reading its messages (:mod:`~zros.gateway.rosbridge_client`) and one writing its
+bounded outbox. Topics (:mod:`~zros.gateway.rosbridge_topics`) are tapped raw, only while a
+client subscribes, and each message is converted once per form (JSON, CBOR, raw CDR, PNG)
+whatever the number of clients. Services, client-served services and actions
+(:mod:`~zros.gateway.rosbridge_calls`) go through zros clients and servers; rosapi's services
+(:mod:`~zros.gateway.rosapi`) are answered by the gateway itself.
+
+The gateway spins the node it is given (client-served services and action feedback run there):
+give it a node of its own.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import os
+import threading
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
+
+from zros.gateway.core import GatewayError, NameFilter, Taps, gateway_node
+from zros.gateway.listen import Listen
+from zros.gateway.rosapi import Rosapi
+from zros.gateway.rosbridge_calls import Calls
+from zros.gateway.rosbridge_client import ClientSession
+from zros.gateway.rosbridge_topics import Topics
+from zros.gateway.rosbridge_values import Values
+
+if TYPE_CHECKING:
+    from zros.node import Node
+
+_log = logging.getLogger('zros.gateway')
+
+#: rosbridge_server's port
+DEFAULT_PORT = 9090
+#: rosbridge_server's ``max_message_size``: larger client messages close the connection,
+#: larger JSON messages to clients go as fragments
+MAX_MESSAGE_SIZE = 10_000_000
+#: a client's outbox: messages, and bytes
+QUEUE_ITEMS = 1000
+QUEUE_BYTES = 100_000_000
+#: seconds a closing client has to answer the close handshake
+CLOSE_TIMEOUT = 2.0
+
+
+def import_websockets() -> Any:
+    """The websockets server module; GatewayError says how to install it."""
+    try:
+        from websockets.sync import server
+    except ImportError:
+        raise GatewayError(
+            "the websockets library is not installed: pip install 'zros[rosbridge]'"
+        ) from None
+    return server
+
+
+class RosbridgeGateway:
+    """A rosbridge v2 server showing the graph ``node`` sees (see the module docstring).
+
+    ``topics_glob``, ``services_glob`` and ``params_glob`` are allow-lists of shell globs as
+    rosbridge's (every name when empty); ``max_message_size`` bounds what a client may send in
+    one message; ``queue_items`` and ``queue_bytes`` bound each client's outbox. ``own_node``:
+    the gateway made ``node`` and destroys it on :meth:`close`.
+    """
+
+    def __init__(
+        self,
+        node: Node,
+        listen: Listen,
+        *,
+        topics_glob: Iterable[str] | None = None,
+        services_glob: Iterable[str] | None = None,
+        params_glob: Iterable[str] | None = None,
+        max_message_size: int = MAX_MESSAGE_SIZE,
+        queue_items: int = QUEUE_ITEMS,
+        queue_bytes: int = QUEUE_BYTES,
+        own_node: bool = False,
+    ) -> None:
+        server_module = import_websockets()
+        listen.check()
+        if max_message_size < 1 or queue_items < 1 or queue_bytes < 1:
+            raise GatewayError('the message size and the queue bounds must be at least 1')
+        context = listen.ssl_context()
+        self.node = node
+        self._own_node = own_node
+        self._sizes = (max_message_size, queue_items, queue_bytes)
+        self.values = Values(node.registry, self._now)
+        self._taps = Taps(node, lambda: node.now().nanoseconds)
+        self.topics = Topics(node, self.values, NameFilter.globs(topics_glob), self._taps)
+        rosapi = Rosapi(
+            node,
+            NameFilter.globs(topics_glob),
+            NameFilter.globs(services_glob),
+            NameFilter.globs(params_glob),
+        )
+        self.calls = Calls(node, self.values, NameFilter.globs(services_glob), rosapi)
+        self._lock = threading.Lock()
+        self._clients: dict[int, ClientSession] = {}
+        self._ids = itertools.count(1)
+        self._closed = threading.Event()
+        try:
+            self._server = server_module.serve(
+                self._serve_client,
+                listen.address,
+                listen.port,
+                ssl=context,
+                max_size=max_message_size,
+                compression=None,
+                close_timeout=CLOSE_TIMEOUT,
+                server_header='zros rosbridge',
+            )
+        except OSError as exc:
+            self._close_parts()
+            raise GatewayError(
+                f'cannot start the rosbridge server on {listen.address}:{listen.port}: '
+                f'{exc.strerror or exc}'
+            ) from None
+        self.port: int = self._server.socket.getsockname()[1]
+        self.url = listen.url(self.port)
+        self._threads = [
+            threading.Thread(target=self._server.serve_forever, name='zros rosbridge', daemon=True),
+            threading.Thread(target=self._spin, name='zros rosbridge spin', daemon=True),
+        ]
+        for thread in self._threads:
+            thread.start()
+        _log.info('rosbridge server on %s (%s wire)', self.url, node.wire)
+
+    def _now(self) -> tuple[int, int]:
+        sec, nanosec = divmod(self.node.now().nanoseconds, 1_000_000_000)
+        return sec, nanosec
+
+    def _spin(self) -> None:
+        while not self._closed.is_set() and self.node.ok():
+            self.node.spin_once(0.2)
+
+    def _serve_client(self, connection: Any) -> None:
+        max_message_size, queue_items, queue_bytes = self._sizes
+        client = ClientSession(
+            next(self._ids),
+            connection,
+            self.topics,
+            self.calls,
+            max_message_size=max_message_size,
+            queue_items=queue_items,
+            queue_bytes=queue_bytes,
+        )
+        with self._lock:
+            if self._closed.is_set():
+                return
+            self._clients[client.id] = client
+        _log.info('client %d connected from %s', client.id, connection.remote_address)
+        try:
+            client.run()
+        finally:
+            with self._lock:
+                self._clients.pop(client.id, None)
+            _log.info('client %d left', client.id)
+
+    # --- the user's side -----------------------------------------------------------------------
+
+    @property
+    def clients(self) -> list[ClientSession]:
+        """The clients connected now."""
+        with self._lock:
+            return list(self._clients.values())
+
+    def watched(self) -> dict[str, int]:
+        """The topics with a Zenoh subscription now, and how many client subscriptions each."""
+        return self._taps.watched()
+
+    def _close_parts(self) -> None:
+        self.topics.close()
+        self.calls.close()
+        self._taps.close()
+
+    def close(self) -> None:
+        """Stop the server, disconnect the clients and release every Zenoh entity (and the
+        node, if the gateway made it)."""
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        from websockets.protocol import State
+
+        for client in self.clients:
+            if client.connection.state is State.OPEN:
+                client.connection.close()  # the close handshake, CLOSE_TIMEOUT at most
+            client.connection.close_socket()  # a client gone silent holds no thread
+        self._server.shutdown()
+        for thread in self._threads:
+            thread.join(5.0)
+        self._close_parts()
+        if self._own_node:
+            self.node.destroy()
+
+    def __enter__(self) -> RosbridgeGateway:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f'<zros RosbridgeGateway {self.url} ({len(self._clients)} clients)>'
+
+
+def serve(
+    *,
+    port: int = DEFAULT_PORT,
+    address: str = '127.0.0.1',
+    topics_glob: Iterable[str] | None = None,
+    services_glob: Iterable[str] | None = None,
+    params_glob: Iterable[str] | None = None,
+    tls_cert: str | os.PathLike[str] | None = None,
+    tls_key: str | os.PathLike[str] | None = None,
+    max_message_size: int = MAX_MESSAGE_SIZE,
+    queue_items: int = QUEUE_ITEMS,
+    queue_bytes: int = QUEUE_BYTES,
+    node: Node | None = None,
+    name: str = 'zros_rosbridge',
+    **settings: Any,
+) -> RosbridgeGateway:
+    """Serve the robot to rosbridge clients at ``ws://address:port``; returns the running
+    server (``close()`` it, or use ``with``).
+
+    Without ``node``, a node named ``name`` joins the graph with the connection ``settings``
+    of :class:`zros.Node` (``connect``, ``wire``, ``transport``, ``tls``...). The gateway spins
+    its node: a node given here should be one nothing else spins.
+    """
+    listen = Listen(port, address, tls_cert, tls_key, 'the rosbridge server')
+    own = node is None
+    if node is None:
+        node = gateway_node(name, settings)
+    try:
+        return RosbridgeGateway(
+            node,
+            listen,
+            topics_glob=topics_glob,
+            services_glob=services_glob,
+            params_glob=params_glob,
+            max_message_size=max_message_size,
+            queue_items=queue_items,
+            queue_bytes=queue_bytes,
+            own_node=own,
+        )
+    except BaseException:
+        if own:
+            node.destroy()
+        raise
