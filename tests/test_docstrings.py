@@ -33,7 +33,7 @@ DOCUMENTED = {
     'zros.pubsub.taps',
     'zros.qos',
     'zros.services',
-    'zros.services.service',
+    'zros.services.server',
     'zros.services.client',
     'zros.services.errors',
     'zros.actions.server',

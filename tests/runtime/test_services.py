@@ -21,7 +21,7 @@ from zros.services import (
     ServiceUnavailableError,
 )
 from zros.services import errors as service_errors
-from zros.services import service as service_module
+from zros.services import server as server_module
 from zros.testing import spinning, wait_for
 
 
@@ -335,7 +335,7 @@ def test_closing_a_server_answers_what_it_holds(zros_node: Callable[..., Node]) 
 def test_a_flooded_server_refuses_beyond_its_limit(
     zros_node: Callable[..., Node], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(service_module, 'MAX_PENDING', 3)
+    monkeypatch.setattr(server_module, 'MAX_PENDING', 3)
     server, caller = zros_node('server'), zros_node('caller')
     service = server.create_service(ADD, 'add')
     client = caller.create_client(ADD, 'add')
@@ -353,7 +353,7 @@ def test_a_late_reply_warns_about_the_bridge_timeout(
     monkeypatch: pytest.MonkeyPatch,
     caplog: pytest.LogCaptureFixture,
 ) -> None:
-    monkeypatch.setattr(service_module, 'BRIDGE_TIMEOUT', -1.0)  # every reply counts as late
+    monkeypatch.setattr(server_module, 'BRIDGE_TIMEOUT', -1.0)  # every reply counts as late
     server, caller = zros_node('server'), zros_node('caller')
     service = server.create_service(ADD, 'slow')
     client = caller.create_client(ADD, 'slow')

@@ -39,7 +39,7 @@ from zros.keyexpr.rmw_zenoh import NodeToken, gid, name_key, parse_token
 from zros.qos import QoS
 from zros.runtime.signal import Signal
 from zros.transport import Transport
-from zros.transport.shared import PerSession
+from zros.transport.per_session import PerSession
 from zros.wire import BridgeInfo, ask_bridge
 
 _log = logging.getLogger('zros.graph')

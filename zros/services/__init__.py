@@ -17,7 +17,7 @@ from zros.services.errors import (
     ServiceTimeoutError,
     ServiceUnavailableError,
 )
-from zros.services.service import Service
+from zros.services.server import Service
 
 __all__ = [
     'BRIDGE_TIMEOUT',

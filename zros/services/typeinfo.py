@@ -25,7 +25,7 @@ from zros.errors import ZrosError
 from zros.runtime.defaults import NodeLike
 from zros.services.client import Client
 from zros.services.errors import ServiceError
-from zros.services.service import Service
+from zros.services.server import Service
 
 if TYPE_CHECKING:
     from zros.cdr.message import Message

@@ -18,7 +18,7 @@ from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.owners import entity_token, node_token
 from zros.qos import QoS
 from zros.transport import Transport
-from zros.transport.shared import PerSession
+from zros.transport.per_session import PerSession
 from zros.wire.base import Wire, WireEntity
 
 if TYPE_CHECKING:

@@ -29,7 +29,7 @@ from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.rmw_zenoh import IdCounter, NodeToken, RmwZenohScheme, gid
 from zros.qos import QoS
 from zros.transport import Transport
-from zros.transport.shared import PerSession
+from zros.transport.per_session import PerSession
 from zros.wire.base import Sample, SampleCallback, Wire, WireEntity
 from zros.wire.requests import Requests
 
