@@ -60,6 +60,7 @@ def _install_exit_hook() -> None:
 
 
 def _explain(error: Exception, config: TransportConfig) -> TransportError:
+    # only a session that failed pays for the diagnosis (it imports ssl)
     from zros.transport.diagnose import explain_unreachable
 
     text = zenoh_reason(error, config.secrets())
