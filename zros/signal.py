@@ -127,6 +127,32 @@ def remove_interrupt_listener(listener: Callable[[], object]) -> None:
         _listeners.remove(listener)
 
 
+#: the longest the main thread sleeps in one go before Python's signal handlers may run
+_MAIN_THREAD_SLICE = 0.1
+
+
+def _sleep_on_main_thread(
+    lock: _thread.LockType, timeout: float | None, interruptible: bool
+) -> None:
+    """Acquire ``lock`` (a waiter's) on the main thread in slices of 0.1 s.
+
+    Python runs a signal's handler on the main thread between two bytecodes. A blocked acquire
+    is cut short to run it only if the signal lands on the main thread during the acquire; one
+    that arrives just before the acquire starts, or lands on another thread (Zenoh's), leaves
+    the handler pending, and the acquire would sleep through the Ctrl-C. Between slices the
+    pending handler runs (and releases this lock through :func:`interrupt`).
+    """
+    deadline = None if timeout is None else time.monotonic() + timeout
+    while True:
+        length = _MAIN_THREAD_SLICE
+        if deadline is not None:
+            length = min(length, deadline - time.monotonic())
+            if length <= 0:
+                return
+        if lock.acquire(True, length) or (interruptible and _interrupted.is_set()):
+            return
+
+
 def sleep(seconds: float) -> bool:
     """Sleep ``seconds`` unless interrupted; returns False when Ctrl-C cut it short."""
     Signal().wait_for(lambda: False, seconds)
@@ -157,7 +183,10 @@ class Signal:
             _sleeping.add(lock)
         try:
             if not (ready() or (interruptible and _interrupted.is_set())):
-                lock.acquire(True, -1 if timeout is None else max(timeout, 0.0))
+                if threading.get_ident() == threading.main_thread().ident:
+                    _sleep_on_main_thread(lock, timeout, interruptible)
+                else:
+                    lock.acquire(True, -1 if timeout is None else max(timeout, 0.0))
         finally:
             self._waiters.remove(lock)
             _sleeping.discard(lock)

@@ -9,6 +9,8 @@ KeyboardInterrupt.
 from __future__ import annotations
 
 import signal
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -218,3 +220,38 @@ def test_the_first_ctrl_c_ends_the_call(
     assert reaction < REACTION
     child.expect('closed', 30)
     assert child.process.wait(30) == 0, child.stop()
+
+
+#: a wait on the main thread while SIGINT lands on another thread: Python's handler is then
+#: only pending, and the main thread must come back to run it (a blocked acquire is cut short
+#: only by a signal that lands on the main thread while it is blocked)
+ELSEWHERE = """
+import signal, sys, threading, time
+from zros import signal as zros_signal
+
+signal.signal(signal.SIGINT, lambda signum, frame: zros_signal.interrupt())
+main = threading.main_thread().ident
+waiting = zros_signal.Signal()
+sent = []
+
+def ctrl_c_elsewhere():
+    while not (waiting and sys._current_frames()[main].f_code.co_filename == zros_signal.__file__):
+        time.sleep(0.001)
+    time.sleep(0.2)  # the main thread blocks (were it still running Python, the handler would run)
+    sent.append(time.monotonic())
+    signal.pthread_kill(threading.get_ident(), signal.SIGINT)  # to this thread, not the main one
+
+threading.Thread(target=ctrl_c_elsewhere, daemon=True).start()
+ended = waiting.wait_for(lambda: False, 30)
+print(ended, zros_signal.interrupted(), f'{time.monotonic() - sent[0]:.3f}', flush=True)
+"""
+
+
+def test_a_ctrl_c_that_lands_on_another_thread_ends_a_wait_on_the_main_thread() -> None:
+    result = subprocess.run(
+        [sys.executable, '-c', ELSEWHERE], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert result.returncode == 0, result.stderr
+    ended, interrupted, reaction = result.stdout.split()
+    assert (ended, interrupted) == ('False', 'True')
+    assert float(reaction) < REACTION
