@@ -226,7 +226,7 @@ def test_the_first_ctrl_c_ends_the_call(
 #: only pending, and the main thread must come back to run it (a blocked acquire is cut short
 #: only by a signal that lands on the main thread while it is blocked)
 ELSEWHERE = """
-import signal, sys, threading, time
+import linecache, signal, sys, threading, time
 from zros.runtime import signal as zros_signal
 
 signal.signal(signal.SIGINT, lambda signum, frame: zros_signal.interrupt())
@@ -234,10 +234,16 @@ main = threading.main_thread().ident
 waiting = zros_signal.Signal()
 sent = []
 
+def blocked():
+    # the main thread sits on a lock acquire inside zros's signal module (were it still running
+    # Python, the pending handler would run)
+    frame = sys._current_frames()[main]
+    line = linecache.getline(frame.f_code.co_filename, frame.f_lineno)
+    return frame.f_code.co_filename == zros_signal.__file__ and '.acquire(' in line
+
 def ctrl_c_elsewhere():
-    while not (waiting and sys._current_frames()[main].f_code.co_filename == zros_signal.__file__):
+    while not (waiting and blocked()):
         time.sleep(0.001)
-    time.sleep(0.2)  # the main thread blocks (were it still running Python, the handler would run)
     sent.append(time.monotonic())
     signal.pthread_kill(threading.get_ident(), signal.SIGINT)  # to this thread, not the main one
 

@@ -259,6 +259,21 @@ class Worker:
         self.param_clients: dict[str, Any] = {}
         self.param_events: dict[str, list[dict[str, Any]]] = {}
 
+    def group(self) -> Any:
+        """A callback group of its own for each entity with callbacks.
+
+        In rclpy Jazzy the executor takes an entity's data before the ``try`` that ends the
+        entity's turn in its callback group (``Executor._make_handler``): a take that raises,
+        as an ``ActionClient`` destroyed while the executor takes its feedback does ("action
+        client pointer is invalid"), leaves that group busy for good. Had every entity shared
+        the node's default group, each later subscription and client of the worker would
+        never run again (later tests saw "0 of 3 messages arrived", "send_goal got no
+        response").
+        """
+        from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+
+        return MutuallyExclusiveCallbackGroup()
+
     def spin(self) -> None:
         """``executor.spin()``, except that a callback that raises does not stop it.
 
@@ -332,6 +347,7 @@ class Worker:
                 lambda data: store.append(data),
                 _profile(command.get('qos')),
                 raw=True,
+                callback_group=self.group(),
             )
             return {}
         if op == 'wait_messages':
@@ -363,7 +379,9 @@ class Worker:
                         setattr(response, field, getattr(request, field))
                 return response
 
-            self.others[name] = self.node.create_service(srv_class, command['service'], echo)
+            self.others[name] = self.node.create_service(
+                srv_class, command['service'], echo, callback_group=self.group()
+            )
             return {}
         if op == 'call':
             return self.call(command)
@@ -379,7 +397,7 @@ class Worker:
             store_events: list[dict[str, Any]] = []
             self.param_events[name] = store_events
             self.subscriptions[name] = client.on_parameter_event(
-                lambda event: store_events.append(_event_json(event))
+                lambda event: store_events.append(_event_json(event)), callback_group=self.group()
             )
             return {}
         if op == 'wait_param_events':
@@ -473,7 +491,7 @@ class Worker:
     def param_client(self, name: str, command: dict[str, Any]) -> dict[str, Any]:
         from rclpy.parameter_client import AsyncParameterClient
 
-        client = AsyncParameterClient(self.node, command['node'])
+        client = AsyncParameterClient(self.node, command['node'], callback_group=self.group())
         self.param_clients[name] = client
         ready = self.spin_until(client.services_are_ready, float(command.get('timeout', 10)))
         return {'ready': ready}
@@ -523,7 +541,7 @@ class Worker:
 
         srv_class = _message_class(command['type'])
         timeout = float(command.get('timeout', 10))
-        client = self.node.create_client(srv_class, command['service'])
+        client = self.node.create_client(srv_class, command['service'], callback_group=self.group())
         try:
             if not client.wait_for_service(timeout_sec=timeout):
                 raise TimeoutError(f'no server for {command["service"]}')
@@ -569,7 +587,12 @@ class Worker:
             return CancelResponse.ACCEPT if cancelable else CancelResponse.REJECT
 
         self.others[name] = ActionServer(
-            self.node, Fibonacci, command['action'], execute, cancel_callback=cancel
+            self.node,
+            Fibonacci,
+            command['action'],
+            execute,
+            cancel_callback=cancel,
+            callback_group=self.group(),
         )
         return {}
 
@@ -581,7 +604,7 @@ class Worker:
 
         timeout = float(command.get('timeout', 10))
         action = command['action']
-        client = ActionClient(self.node, Fibonacci, action)
+        client = ActionClient(self.node, Fibonacci, action, callback_group=self.group())
         feedback: list[list[int]] = []
         messages: list[tuple[bytes, list[int]]] = []  # (goal id, sequence) on the feedback topic
         arrays: list[list[tuple[bytes, int]]] = []  # [(goal id, state)...] on the status topic
@@ -593,6 +616,7 @@ class Worker:
                     f'{action}/_action/feedback',
                     lambda m: messages.append((bytes(m.goal_id.uuid), list(m.feedback.sequence))),
                     QoSProfile(depth=100),
+                    callback_group=self.group(),
                 ),
                 self.node.create_subscription(
                     GoalStatusArray,
@@ -601,6 +625,7 @@ class Worker:
                         [(bytes(s.goal_info.goal_id.uuid), s.status) for s in m.status_list]
                     ),
                     qos_profile_action_status_default,
+                    callback_group=self.group(),
                 ),
             ]
         try:
