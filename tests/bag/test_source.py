@@ -280,10 +280,10 @@ def test_compressed_bags(tmp_path: Path, mode: str, storage: str) -> None:
 
 def _counting_fast_path(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     """Count the messages the whole-chunk MCAP reader gives (the loop's fast path)."""
-    from zros.bag import rosbag2_source
+    from zros.bag import mcap_bulk, rosbag2_source
 
     given = [0]
-    original = rosbag2_source.ordered_messages
+    original = mcap_bulk.ordered_messages
 
     def counted(*args: Any) -> Iterator[tuple[int, int, bytes]]:
         for item in original(*args):
