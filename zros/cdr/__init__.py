@@ -60,9 +60,8 @@ def decode(
 
     Trailing bytes are ignored unless ``strict``, which allows at most 3 (alignment padding).
     """
-    try:
-        decoder = _registry.default_decoders[type_name]  # type: ignore[index]
-    except KeyError:
+    decoder = _registry.default_decoders.get(type_name)  # type: ignore[arg-type]
+    if decoder is None:
         if isinstance(type_name, type):
             return _decode(type_name, buf, strict)
         decoder = default_registry().decoder(type_name)

@@ -58,6 +58,11 @@ _ACTION_SUFFIXES = (
 _SERVICE_SUFFIXES = ('_Request', '_Response', '_Event')
 
 
+def _of(type_name: str, name: str) -> bool:
+    """Whether ``type_name`` is ``name`` or one of its parts (``name_Request``...)."""
+    return type_name == name or type_name.startswith(name + '_')
+
+
 def _env_paths(variable: str) -> list[Path]:
     return [Path(p) for p in os.environ.get(variable, '').split(os.pathsep) if p]
 
@@ -235,8 +240,11 @@ class TypeRegistry:
         self._decoders.clear()  # spellings of the name are not known here; rebuilt on use
         self._definitions.pop(name, None)
         for cache in (self._messages, self._classes, self._types):
-            for key in [k for k in cache if k == name or k.startswith(name + '_')]:
+            for key in [k for k in cache if _of(k, name)]:
                 del cache[key]
+        # other spellings (``pkg/Name``) of the forgotten classes
+        for key in [k for k, c in self._classes.items() if _of(c.__msgtype__, name)]:
+            del self._classes[key]
 
     def find(self, name: str) -> Definition | None:
         """The definition of a full type name (also an action's SendGoal/GetResult), or None."""
