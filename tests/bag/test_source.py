@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import re
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -274,3 +276,86 @@ def test_compressed_bags(tmp_path: Path, mode: str, storage: str) -> None:
     assert all((path / name).exists() for name in names)
     if mode == 'FILE':
         assert names[1].endswith('.zstd')
+
+
+def _counting_fast_path(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Count the messages the whole-chunk MCAP reader gives (the loop's fast path)."""
+    from zros.bag import mcap_bulk, rosbag2_source
+
+    given = [0]
+    original = mcap_bulk.ordered_messages
+
+    def counted(*args: Any) -> Iterator[tuple[int, int, bytes]]:
+        for item in original(*args):
+            given[0] += 1
+            yield item
+
+    monkeypatch.setattr(rosbag2_source, 'ordered_messages', counted)
+    return given
+
+
+@pytest.mark.parametrize('compression', ['zstd', 'none'])
+@pytest.mark.parametrize('shuffle', [False, True])
+def test_mcap_messages_by_whole_chunks_equal_rosbags(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, compression: str, shuffle: bool
+) -> None:
+    path = make_points_mcap(tmp_path / 'p.mcap', 300, compression, shuffle=shuffle)
+    given = _counting_fast_path(monkeypatch)
+    expected = [(e[2], e[3]) for e in raw_messages(path)]
+    with open_source(path) as source:
+        got = [(m.timestamp, bytes(m.data)) for m in source.messages()]
+        window = [(m.timestamp, bytes(m.data)) for m in source.messages(None, 1500, 2500)]
+    assert got == expected
+    assert window == [e for e in expected if 1500 <= e[0] < 2500]
+    assert given[0] == len(got) + len(window)  # chunks in time order are read whole
+
+
+def test_mcap_chunks_overlapping_in_time_are_read_by_rosbags(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from mcap.writer import Writer
+
+    from zros.cdr import encode, new_message
+
+    path = tmp_path / 'overlap.mcap'
+    with path.open('wb') as stream:
+        writer = Writer(stream, chunk_size=1024)
+        writer.start(profile='ros2', library='zros tests')
+        schema = writer.register_schema('std_msgs/msg/Int32', 'ros2msg', b'int32 data\n')
+        channel = writer.register_channel('/n', 'cdr', schema)
+        for index in range(400):  # the second half goes back in time, between the first's
+            stamp = 1000 + 10 * index if index < 200 else 1005 + 10 * (index - 200)
+            data = encode(new_message('std_msgs/msg/Int32', data=index))
+            writer.add_message(channel, log_time=stamp, data=data, publish_time=stamp)
+        writer.finish()
+    given = _counting_fast_path(monkeypatch)
+    expected = [(e[2], e[3]) for e in raw_messages(path)]
+    with open_source(path) as source:
+        got = [(m.timestamp, bytes(m.data)) for m in source.messages()]
+    assert got == expected
+    assert [t for t, _ in got] == sorted(t for t, _ in got)
+    assert given[0] == 0
+
+
+def test_a_chunk_index_failing_midway_hands_over_to_rosbags_without_loss_or_repeats(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.bag import mcap_bulk
+
+    path = make_points_mcap(tmp_path / 'p.mcap', 300, 'none', shuffle=False)
+    given = _counting_fast_path(monkeypatch)
+    original = mcap_bulk._block
+    calls = [0]
+
+    def third_fails(*args: Any) -> mcap_bulk.Block:
+        calls[0] += 1
+        if calls[0] == 3:
+            raise mcap_bulk.Unsupported('message index does not match the chunk')
+        return original(*args)
+
+    monkeypatch.setattr(mcap_bulk, '_block', third_fails)
+    expected = [(e[2], e[3]) for e in raw_messages(path)]
+    with open_source(path) as source:
+        got = [(m.timestamp, bytes(m.data)) for m in source.messages()]
+    assert 0 < given[0] < len(expected)
+    assert got == expected

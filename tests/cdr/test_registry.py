@@ -206,3 +206,30 @@ def test_typestore_messages_keep_ros_defaults() -> None:
     assert (
         TypeRegistry('humble', ament=False).get_class('sensor_msgs/msg/NavSatStatus')().status == 0
     )
+
+
+def test_decode_by_name_follows_the_default_registry_and_replaced_definitions() -> None:
+    from zros.cdr.parser import parse_definition
+    from zros.cdr.registry import default_registry, set_default_registry
+
+    previous = default_registry()
+    mine = TypeRegistry(paths=[])
+    mine.register_text('speed_test/msg/Value', 'int32 value')
+    data = cdr.encode(mine.get_class('speed_test/msg/Value')(value=7))
+    try:
+        set_default_registry(mine)
+        decoded = cdr.decode('speed_test/msg/Value', data)
+        assert type(decoded) is mine.get_class('speed_test/msg/Value')
+        assert cdr.decode('speed_test/Value', data).value == 7  # another spelling
+        # replacing the definition drops the decoders cached for every spelling
+        replacement = parse_definition('speed_test/msg/Value', 'uint16 value\nuint16 other', '')
+        mine.register(replacement, replace=True)
+        for spelling in ('speed_test/msg/Value', 'speed_test/Value'):
+            decoded = cdr.decode(spelling, data)
+            assert type(decoded) is mine.get_class('speed_test/msg/Value')
+            assert (decoded.value, decoded.other) == (7, 0)
+    finally:
+        set_default_registry(previous)
+    # back to a registry that never heard of the type: the cache went with the registry
+    with pytest.raises(UnknownTypeError):
+        cdr.decode('speed_test/msg/Value', data)

@@ -11,6 +11,7 @@ reads them record by record through rosbags.
 from __future__ import annotations
 
 import io
+import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -78,10 +79,16 @@ def _index(stream: io.BufferedReader, at: int, limit: int) -> np.ndarray:
 
 
 def read_blocks(
-    path: Path, channels: set[int], start: int | None, end: int | None
+    path: Path,
+    channels: set[int],
+    start: int | None,
+    end: int | None,
+    *,
+    ordered: bool = False,
 ) -> Iterator[list[Block]]:
     """The blocks of each chunk holding messages of ``channels`` with ``start <= log time < end``,
-    in file order (chunks may overlap in time: the caller sorts)."""
+    in file order (chunks may overlap in time: the caller sorts). ``ordered`` refuses (before
+    the first block) files whose chunks of those messages overlap in time."""
     from mcap.data_stream import ReadDataStream
     from mcap.reader import make_reader
     from mcap.records import Chunk
@@ -94,15 +101,20 @@ def read_blocks(
             raise Unsupported(str(exc)) from exc
         if summary is None or not summary.chunk_indexes:
             raise Unsupported('no chunk index')
-        indexes = sorted(summary.chunk_indexes, key=lambda index: index.chunk_start_offset)
+        indexes = [
+            index
+            for index in sorted(summary.chunk_indexes, key=lambda index: index.chunk_start_offset)
+            if channels & set(index.message_index_offsets)
+            and (start is None or index.message_end_time >= start)
+            and (end is None or index.message_start_time < end)
+        ]
+        if ordered and any(
+            later.message_start_time < earlier.message_end_time
+            for earlier, later in itertools.pairwise(indexes)
+        ):
+            raise Unsupported('chunks overlap in time')
         for index in indexes:
             wanted = channels & set(index.message_index_offsets)
-            if not wanted:
-                continue
-            if start is not None and index.message_end_time < start:
-                continue
-            if end is not None and index.message_start_time >= end:
-                continue
             limit = index.chunk_start_offset + index.chunk_length + index.message_index_length
             if limit > size:
                 raise Unsupported('chunk beyond the end of the file')
@@ -122,6 +134,29 @@ def read_blocks(
                 block.order = ranks[at : at + len(block.offsets)]
                 at += len(block.offsets)
             yield blocks
+
+
+def ordered_messages(
+    path: Path, channels: set[int], start: int | None, end: int | None
+) -> Iterator[tuple[int, int, bytes]]:
+    """``(channel, log time, payload)`` of the messages of ``channels`` with ``start <= log time
+    < end``, in time order (file order among equal times), chunk by chunk.
+
+    Raises :class:`Unsupported` before the first message where chunks overlap in time (or
+    :func:`read_blocks` refuses the file), and possibly later where a chunk's index does not
+    match it.
+    """
+    for blocks in read_blocks(path, channels, start, end, ordered=True):
+        times = np.concatenate([block.times for block in blocks])
+        ranks = np.concatenate([block.order for block in blocks if block.order is not None])
+        channel_of = list(
+            itertools.chain.from_iterable([block.channel] * len(block.data) for block in blocks)
+        )
+        payloads = list(itertools.chain.from_iterable(block.data for block in blocks))
+        order = np.lexsort((ranks, times)).tolist()
+        stamps = times.tolist()
+        for at in order:
+            yield channel_of[at], stamps[at], payloads[at]
 
 
 def _window(block: Block, start: int | None, end: int | None) -> Block:

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from zros.bag.errors import BagError
-from zros.bag.mcap_bulk import Unsupported, read_blocks
+from zros.bag.mcap_bulk import Unsupported, ordered_messages, read_blocks
 from zros.bag.mcap_recover import RecoveredMcap, is_mcap
 from zros.bag.source_base import Block, Connection, RawMessage, Source, normalise_type_name
 
@@ -216,7 +216,26 @@ class Rosbag2Source(Source):
     ) -> Iterator[RawMessage]:
         mapping = stream.mapping
         decompress = self._decompress
+        skip: list[tuple[int, bytes]] = []
+        if self.storage_id == 'mcap' and decompress is None:
+            # whole chunks through their message indexes, without rosbags' step per record
+            path = Path(getattr(stream.reader, 'path', ''))
+            try:
+                for channel, timestamp, data in ordered_messages(
+                    path, {item.id for item in wanted}, start, end
+                ):
+                    if skip and timestamp != start:
+                        skip = []
+                    start = timestamp
+                    skip.append((channel, data))
+                    yield RawMessage(mapping[channel], timestamp, data)
+                return
+            except Unsupported:
+                pass  # rosbags reads it, from the last time given (those given are skipped)
         for item, timestamp, data in stream.reader.messages(wanted, start, end):
+            if skip and timestamp == start and (item.id, bytes(data)) in skip:
+                skip.remove((item.id, bytes(data)))
+                continue
             raw = data if decompress is None else decompress(data)
             yield RawMessage(mapping[item.id], timestamp, raw)
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from zros.cdr import registry as _registry
 from zros.cdr.errors import (
     CdrError,
     FieldError,
@@ -59,7 +60,15 @@ def decode(
 
     Trailing bytes are ignored unless ``strict``, which allows at most 3 (alignment padding).
     """
-    return _decode(get_class(type_name), buf, strict)
+    decoder = _registry.default_decoders.get(type_name)  # type: ignore[arg-type]
+    if decoder is None:
+        if isinstance(type_name, type):
+            return _decode(type_name, buf, strict)
+        decoder = default_registry().decoder(type_name)
+    try:
+        return decoder(buf, strict)
+    except Exception:  # malformed input: decoding again raises the CdrError that explains it
+        return _decode(get_class(type_name), buf, strict)
 
 
 def register_type(type_name: str, text: str) -> Definition:

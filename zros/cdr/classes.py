@@ -73,6 +73,32 @@ class _Codecs:
         return self.source.layout.dtype(name, endian)
 
     # the variants
+    def entry_decoder(self) -> Decoder:
+        """The class's ``_cdr_decode``: compiled on the first call (under the registry's lock)."""
+        cls = self.message_class
+        current = cls.__dict__['_cdr_decode']
+        if getattr(current, '__zros_entry__', False):
+            return current  # type: ignore[no-any-return]
+        variants: dict[str, Decoder] = {}
+
+        def other(view: Any, strict: bool) -> Any:
+            # big-endian data, or text read from a memoryview: compile on demand
+            if type(view) is memoryview and (view.ndim != 1 or view.itemsize != 1):
+                view = view.cast('B')
+            if len(view) < 4 or view[0] or view[1] > 1:
+                raise Bad
+            key = ('m' if type(view) is memoryview else 'b') + ('<' if view[1] else '>')
+            if key not in variants:
+                with self.source.lock:
+                    variants[key] = self.decoder(key[1], key[0] == 'm')
+            return variants[key](view, strict)
+
+        definition = cls._definition
+        entry = codegen.generate_decoder(self, definition, '<', False, False, fallback=other)
+        entry.__zros_entry__ = True  # type: ignore[attr-defined]
+        cls._cdr_decode = entry  # type: ignore[method-assign,assignment]
+        return entry
+
     def decoder(self, endian: str, memory: bool) -> Decoder:
         definition = self.message_class._definition
         return codegen.generate_decoder(self, definition, endian, memory, False)
@@ -99,28 +125,7 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
     lock = codecs.source.lock
 
     def decode_first(buf: Any, strict: bool = False) -> Any:
-        with lock:
-            if cls.__dict__['_cdr_decode'] is lazy_decode:
-                little = codecs.decoder('<', False)
-                variants: dict[str, Decoder] = {}
-
-                def other(view: Any, strict: bool) -> Any:
-                    # big-endian data, or text read from a memoryview: compile on demand
-                    if type(view) is memoryview and (view.ndim != 1 or view.itemsize != 1):
-                        view = view.cast('B')
-                    if len(view) < 4 or view[0] or view[1] > 1:
-                        raise Bad
-                    key = ('m' if type(view) is memoryview else 'b') + ('<' if view[1] else '>')
-                    if key not in variants:
-                        variants[key] = codecs.decoder(key[1], key[0] == 'm')
-                    return variants[key](view, strict)
-
-                def fast(buf: Any, strict: bool = False) -> Any:
-                    if type(buf) is memoryview or len(buf) < 4 or buf[0] or buf[1] != 1:
-                        return other(buf, strict)
-                    return little(buf, strict)
-
-                cls._cdr_decode = staticmethod(fast)  # type: ignore[method-assign]
+        compiled_decoder(cls)
         return cls._cdr_decode(buf, strict)
 
     def encode_first(message: Any, join: Any = b''.join) -> bytes:
@@ -129,10 +134,23 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
                 cls._cdr_encode = staticmethod(codecs.encoder())  # type: ignore[method-assign]
         return cls._cdr_encode(message, join)
 
-    lazy_decode = staticmethod(decode_first)
     lazy_encode = staticmethod(encode_first)
-    cls._cdr_decode = lazy_decode  # type: ignore[method-assign]
+    # a plain function, not a staticmethod: Python specialises calls of a function found on a
+    # class (``cls._cdr_decode(...)``), not of a staticmethod; it is never read from instances
+    cls._cdr_decode = decode_first  # type: ignore[method-assign]
     cls._cdr_encode = lazy_encode  # type: ignore[method-assign]
+
+
+def compiled_decoder(cls: type[Message]) -> Decoder:
+    """The decoder of a class (``decode(buf, strict) -> message``), compiled if not yet.
+
+    It decodes ``bytes`` with the little-endian header itself and hands anything else (big
+    endian, a ``memoryview``) to variants it compiles on demand. Bad input raises any exception:
+    :func:`zros.cdr.message.decode` turns those into a CdrError that names the field.
+    """
+    codecs: _Codecs = cls.__dict__['_zros_codecs']
+    with codecs.source.lock:
+        return codecs.entry_decoder()
 
 
 def build_message_class(
@@ -172,4 +190,4 @@ def build_message_class(
     return cls
 
 
-__all__ = ['ClassSource', 'build_message_class']
+__all__ = ['ClassSource', 'build_message_class', 'compiled_decoder']

@@ -12,13 +12,13 @@ import difflib
 import os
 import sys
 import threading
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import Any
 
 from zros.cdr.builtin import SHIPPED_PACKAGES, builtin_definition, builtin_names
-from zros.cdr.classes import build_message_class
+from zros.cdr.classes import Decoder, build_message_class, compiled_decoder
 from zros.cdr.errors import UnknownTypeError
 from zros.cdr.interfaces import ActionType, ServiceType
 from zros.cdr.layout import LayoutCache
@@ -58,6 +58,11 @@ _ACTION_SUFFIXES = (
 _SERVICE_SUFFIXES = ('_Request', '_Response', '_Event')
 
 
+def _of(type_name: str, name: str) -> bool:
+    """Whether ``type_name`` is ``name`` or one of its parts (``name_Request``...)."""
+    return type_name == name or type_name.startswith(name + '_')
+
+
 def _env_paths(variable: str) -> list[Path]:
     return [Path(p) for p in os.environ.get(variable, '').split(os.pathsep) if p]
 
@@ -92,6 +97,8 @@ class TypeRegistry:
         self._messages: dict[str, MessageDef] = {}
         self._classes: dict[str, type[Message]] = {}
         self._types: dict[str, ServiceType | ActionType] = {}
+        #: compiled decoders by every spelling asked for (``zros.cdr.decode`` reads them)
+        self._decoders: dict[str, Decoder] = {}
         self._store: Any = None
         self._lock = threading.RLock()
         #: layout facts of this registry's message types
@@ -230,10 +237,14 @@ class TypeRegistry:
                 self.register(message)
 
     def _forget(self, name: str) -> None:
+        self._decoders.clear()  # spellings of the name are not known here; rebuilt on use
         self._definitions.pop(name, None)
         for cache in (self._messages, self._classes, self._types):
-            for key in [k for k in cache if k == name or k.startswith(name + '_')]:
+            for key in [k for k in cache if _of(k, name)]:
                 del cache[key]
+        # other spellings (``pkg/Name``) of the forgotten classes
+        for key in [k for k, c in self._classes.items() if _of(c.__msgtype__, name)]:
+            del self._classes[key]
 
     def find(self, name: str) -> Definition | None:
         """The definition of a full type name (also an action's SendGoal/GetResult), or None."""
@@ -322,6 +333,21 @@ class TypeRegistry:
             self._classes[name] = cls
             return cls
 
+    def decoder(self, name: str) -> Decoder:
+        """The compiled decoder (``decode(buf, strict) -> message``) of a message type, by any
+        spelling of its name; cached, so repeated look-ups cost one dict access."""
+        found = self._decoders.get(name)
+        if found is None:
+            found = compiled_decoder(self.get_class(name))
+            with self._lock:
+                self._decoders[name] = found
+        return found
+
+    @property
+    def decoders(self) -> Mapping[str, Decoder]:
+        """The decoders :meth:`decoder` returned so far, by the spelling asked for."""
+        return self._decoders
+
     def get_service(self, name: str) -> ServiceType:
         """The service type (``.Request``, ``.Response``, ``.Event``) of a service name."""
         found = self.definition(name)
@@ -379,22 +405,27 @@ def _scan(root: Path) -> Iterable[str]:
 
 _default: TypeRegistry | None = None
 _default_lock = threading.Lock()
+#: the default registry's decoders by name (empty until it exists): ``zros.cdr.decode`` reads
+#: it without taking a lock
+default_decoders: Mapping[str, Decoder] = {}
 
 
 def default_registry() -> TypeRegistry:
     """The process-wide registry (distro from ``ZROS_DISTRO``, default Jazzy)."""
-    global _default  # noqa: PLW0603
+    global _default, default_decoders  # noqa: PLW0603
     with _default_lock:
         if _default is None:
             _default = TypeRegistry()
+            default_decoders = _default.decoders
         return _default
 
 
 def set_default_registry(registry: TypeRegistry) -> None:
     """Replace the process-wide registry, e.g. to select another distro."""
-    global _default  # noqa: PLW0603
+    global _default, default_decoders  # noqa: PLW0603
     with _default_lock:
         _default = registry
+        default_decoders = registry.decoders
 
 
 def registry_of(cls: type[Message]) -> TypeRegistry:

@@ -52,6 +52,15 @@ class _DecoderBuilder:
         self.bad = self.src.ref(convert.Bad, 'Bad')
         self.new = self.src.ref(object.__new__, 'new')
         self.frombuffer = self.src.ref(np.frombuffer, 'fb')
+        #: the read offset while it is known when generating (the fast decoder reads the fixed
+        #: fields before the first variable-size one at constant offsets); None once ``pos``
+        #: holds it
+        self.static: int | None = None if trace else 4
+        #: the buffer's size: the traced decoder keeps it in ``end`` for its messages
+        self.end = 'end' if trace else 'len(buf)'
+        #: the fallback of a decoder that checks the header itself, while its first run of
+        #: fixed fields (which then reads the header too) is still to come
+        self.header_fallback: str | None = None
 
     # ops
 
@@ -101,13 +110,31 @@ class _DecoderBuilder:
 
     # emission
 
+    def where(self, delta: int = 0) -> str:
+        """The expression of the read offset plus ``delta``."""
+        if self.static is not None:
+            return str(self.static + delta)
+        return f'pos + {delta}' if delta else 'pos'
+
+    def skip(self, size: int) -> None:
+        if self.static is not None:
+            self.static += size
+        elif size:
+            self.src.add(f'pos += {size}')
+
+    def materialize(self) -> None:
+        """Store the offset known so far in ``pos`` (before code that moves it at run time)."""
+        if self.static is not None:
+            self.src.add(f'pos = {self.static}')
+            self.static = None
+
     def align(self, state: State, align: int) -> State:
         pad = state.static_pad(align)
         if pad is None:
+            assert self.static is None  # a known offset keeps the state exact
             self.src.add(_dynamic_align(align))
             return State(0, align)
-        if pad:
-            self.src.add(f'pos += {pad}')
+        self.skip(pad)
         return state.advance(pad)
 
     def mark(self, path: str) -> None:
@@ -134,6 +161,7 @@ class _DecoderBuilder:
                         run = []
                     pad = state.static_pad(align)
                     if pad is None:
+                        assert self.static is None
                         self.src.add(_dynamic_align(align))
                         state = State(0, align)
                         pad = 0
@@ -155,6 +183,11 @@ class _DecoderBuilder:
         targets: list[str] = []
         arrays: list[tuple[int, FixArr]] = []
         position = 0
+        header = self.header_fallback if self.static == 4 else None
+        if header is not None:  # the run starts the body: read the 2 header bytes with it
+            fmt.append('H2x')
+            targets.append('h')
+            self.header_fallback = None
         for offset, op in run:
             if offset > position:
                 fmt.append(f'{offset - position}x')
@@ -171,17 +204,40 @@ class _DecoderBuilder:
         if total > position:
             fmt.append(f'{total - position}x')
         packer = self.src.ref(struct.Struct(''.join(fmt)), 'S')
+        start = '0' if header is not None else self.where()
         if targets:
-            self.src.add(f'{", ".join(targets)}, = {packer}.unpack_from(buf, pos)')
+            self.src.add(f'{", ".join(targets)}, = {packer}.unpack_from(buf, {start})')
         else:
-            self.src.add(f'{packer}.unpack_from(buf, pos)')
-        for offset, array in arrays:
-            where = f'pos + {offset}'
-            self.src.add(
-                f'{array.ref} = {self.array_expr(array.primitive, str(array.count), where)}'
-            )
-        self.src.add(f'pos += {total}')
+            self.src.add(f'{packer}.unpack_from(buf, {start})')
+        if header is not None:  # 00 01, plain little-endian CDR, reads as 256
+            self.src.add(f'if h != 256: return {header}(buf, strict)')
+        self.fixed_arrays(arrays)
+        self.skip(total)
         return state.advance(total)
+
+    def fixed_arrays(self, arrays: list[tuple[int, FixArr]]) -> None:
+        """Views of the fixed-size arrays of one run; three or more of one numeric type come
+        from one ``frombuffer`` over their span (slicing an array costs half of making one)."""
+        by_type: dict[str, list[tuple[int, FixArr]]] = {}
+        for offset, array in arrays:
+            by_type.setdefault(array.primitive, []).append((offset, array))
+        for primitive, group in by_type.items():
+            size = PRIMITIVE_SIZES[primitive]
+            if len(group) < 3 or primitive == 'bool':
+                for offset, array in group:
+                    where = self.where(offset)
+                    self.src.add(
+                        f'{array.ref} = {self.array_expr(primitive, str(array.count), where)}'
+                    )
+                continue
+            first = group[0][0]
+            last_offset, last = group[-1]
+            span = self.src.tmp('x')
+            count = (last_offset - first) // size + last.count
+            self.src.add(f'{span} = {self.array_expr(primitive, str(count), self.where(first))}')
+            for offset, array in group:
+                lo = (offset - first) // size
+                self.src.add(f'{array.ref} = {span}[{lo}:{lo + array.count}]')
 
     def array_expr(self, primitive: str, count: str, where: str) -> str:
         dtype = self.src.ref(numpy_dtype(primitive, self.endian), 'D')
@@ -218,6 +274,7 @@ class _DecoderBuilder:
             src.add(f'{op.ref} = {self.array_expr(op.primitive, str(op.count), "pos")}')
             src.add(f'pos += {size * op.count}')
             return state.advance(size * op.count)
+        self.materialize()  # the operations below move the offset at run time
         if isinstance(op, Str):
             # the count before it was marked with this path: the offset stays at the field start
             if op.wide:
@@ -227,15 +284,18 @@ class _DecoderBuilder:
                         f'{op.count} > {op.bound}',
                         f'wstring of {{{op.count}}} characters exceeds its bound {op.bound}',
                     )
-                src.add(f'{op.ref}, pos = {decode}(buf, pos, {op.count}, end, {self.endian!r})')
+                src.add(
+                    f'{op.ref}, pos = {decode}(buf, pos, {op.count}, {self.end}, {self.endian!r})'
+                )
                 return State(0, 4)
             with src.block(f'if {op.count}:'):
                 src.add(f'e = pos + {op.count}')
-                self.fail(
-                    'e > end',
-                    f'string of {{{op.count} - 1}} bytes runs past the end of the buffer '
-                    '({end} bytes)',
-                )
+                if self.trace:  # the fast decoder's NUL check below raises IndexError then
+                    self.fail(
+                        'e > end',
+                        f'string of {{{op.count} - 1}} bytes runs past the end of the buffer '
+                        '({end} bytes)',
+                    )
                 self.fail('buf[e - 1]', 'string does not end with a NUL byte')
                 if self.mv or self.trace:
                     src.add(f"{op.ref} = str(buf[pos:e - 1], 'utf-8')")
@@ -302,7 +362,7 @@ class _DecoderBuilder:
                     f'{{{op.count}}} elements exceed the bound {op.bound}',
                 )
             self.fail(
-                f'{op.count} > (end - pos) // {op.min_size}',
+                f'{op.count} > ({self.end} - pos) // {op.min_size}',
                 f'{{{op.count}}} elements cannot fit in the {{end - pos}} bytes left',
             )
         with src.block(f'for {op.index} in range({op.count}):'):
@@ -313,7 +373,13 @@ class _DecoderBuilder:
 
 
 def generate_decoder(
-    ctx: Context, msg: MessageDef, endian: str, text_from_memoryview: bool, trace: bool
+    ctx: Context,
+    msg: MessageDef,
+    endian: str,
+    text_from_memoryview: bool,
+    trace: bool,
+    *,
+    fallback: Callable[[Any, bool], Any] | None = None,
 ) -> Callable[[Any, bool], Any]:
     """The function ``decode(buf, strict) -> message`` for the body after a valid header.
 
@@ -321,15 +387,29 @@ def generate_decoder(
     serializer leaves up to 4 stray bytes per empty 8-byte sequence and per wstring). With
     ``strict`` at most 3 may be left (any number for types with a wstring): bag readers use that
     to tell whether an embedded definition matches its data.
+
+    With a ``fallback`` it checks the header itself: it decodes ``bytes`` (or ``bytearray``)
+    with the little-endian header ``00 01`` and hands anything else to ``fallback(buf,
+    strict)``. Data shorter than the header raises IndexError.
     """
     builder = _DecoderBuilder(ctx, endian, text_from_memoryview, trace)
     src = builder.src
     cls = src.ref(ctx.cls(msg.name), 'C')
     ops: list[Op] = []
     builder.struct_ops(msg, 'o', '', ops)
-    src.add('end = len(buf)')
-    src.add('pos = 4')
+    if fallback is not None:
+        other = src.ref(fallback, 'other')
+        first = next((op for op in ops if not isinstance(op, Pre)), None)
+        if isinstance(first, (Fix, FixArr)):  # the first run of fixed fields checks the header
+            builder.header_fallback = other
+            src.add(f'if type(buf) is memoryview: return {other}(buf, strict)')
+        else:
+            src.add(
+                f'if type(buf) is memoryview or buf[1] != 1 or buf[0]: return {other}(buf, strict)'
+            )
     if trace:
+        src.add('end = len(buf)')
+        src.add('pos = 4')
         src.add("_f = '(header)'; _p = 0")
     explained = src.guarded(_decode_error, f'{msg.name!r}, _f, _p, exc, end')
     with explained if trace else nullcontext():
@@ -338,8 +418,13 @@ def generate_decoder(
         if not ctx.info(msg.name).has_wstring:
             if trace:
                 src.add("_f = ''; _p = pos")
+            left = (
+                f'len(buf) > {builder.static + 3}'
+                if builder.static is not None
+                else f'{builder.end} - pos > 3'
+            )
             builder.fail(
-                'strict and end - pos > 3',
+                f'strict and {left}',
                 '{end - pos} bytes left after the end of the message (at most 3 padding bytes '
                 'are allowed); the data may be of another type or version',
             )
