@@ -370,3 +370,19 @@ def test_types_come_from_the_bag_when_the_node_does_not_know_them(
     subscription.undeclare()
     with pytest.raises(PlayerError, match=r'no definition of their_pkg/msg/Secret.*ZROS_INTERF'):
         Player(player_node, tmp_path / 'blind')
+
+
+def test_a_stop_at_any_moment_of_the_start_ends_playing(player_node: Any, tmp_path: Path) -> None:
+    # a stop between the player's check and its wait for the reader's next batch once made
+    # wait() block for good (the reader ended without its end marker)
+    bag = write_bag(tmp_path / 'bag', [('/late', START, 'a'), ('/late', START + 3600 * 10**9, 'b')])
+    delays = [n * 0.0002 for n in range(25)] * 4
+    for delay in delays:
+        player = Player(player_node, bag)
+        player.start()
+        deadline = time.perf_counter() + delay
+        while time.perf_counter() < deadline:  # a precise, tiny offset into the start
+            pass
+        player.stop()
+        assert player.wait(10), f'playing did not end after a stop {delay * 1000:.1f} ms in'
+        player.close()

@@ -225,7 +225,12 @@ class Player:
         reader.start()
         try:
             while not self._stopped.is_set():
-                batch = batches.get()
+                try:
+                    # a stop can come between the check above and this get, and the reader
+                    # then ends without the end marker: never block for good
+                    batch = batches.get(timeout=0.1)
+                except queue.Empty:
+                    continue
                 if batch is _LOOP:
                     yield None
                     continue
