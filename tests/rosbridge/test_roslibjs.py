@@ -113,6 +113,9 @@ def test_services_called_and_served(rosbridge: Make, roslibjs: Make, zros_node: 
     caller = zros_node('caller').create_client('example_interfaces/srv/AddTwoInts', '/web_add')
     assert caller.wait_for_service(TIMEOUT)
     assert caller.call(a=40, b=2, timeout=TIMEOUT).sum == 42
+    # the script reports the request on its output, read on a thread of ours: the response
+    # can reach the caller before that line is read
+    assert wait_for(lambda: client.of('request'), TIMEOUT)
     assert client.of('request')[0]['args'] == {'a': 40, 'b': 2}
 
 

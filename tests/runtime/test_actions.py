@@ -35,6 +35,8 @@ def zros_wire(request: pytest.FixtureRequest) -> str:
 
 
 FIB = 'example_interfaces/action/Fibonacci'
+#: seconds to wait for what must happen (generous: a loaded 2-core machine stalls for seconds)
+DEADLINE = 30.0
 
 
 def fibonacci(goal: ServerGoalHandle, gate: threading.Event | None = None) -> Any:
@@ -42,7 +44,7 @@ def fibonacci(goal: ServerGoalHandle, gate: threading.Event | None = None) -> An
     sequence = [0, 1]
     for i in range(1, goal.request.order):
         if gate is not None:
-            gate.wait(5)
+            gate.wait(DEADLINE)
         if goal.is_cancel_requested:
             goal.canceled()
             break
@@ -74,7 +76,7 @@ def test_a_goal_runs_with_feedback_and_status(pair: tuple[Node, Node]) -> None:
         order=10, feedback_callback=lambda f: feedback.append(list(f.sequence))
     )
     assert handle.accepted and handle.stamp is not None
-    result = handle.result(timeout=5)
+    result = handle.result(timeout=DEADLINE)
     assert list(result.sequence) == [0, 1, 1, 2, 3, 5, 8, 13, 21, 34, 55]
     assert handle.status is GoalStatus.SUCCEEDED and handle.done
     # feedback travels on a topic, the result as a reply: the last feedback may come after it
@@ -91,12 +93,12 @@ def test_polling_the_status_of_a_goal(pair: tuple[Node, Node], gate: threading.E
     client = client_node.create_action_client(FIB, 'fib')
     assert client.wait_for_server()
     handle = client.send_goal(order=3)
-    assert handle.wait_for_status(lambda s: s is GoalStatus.EXECUTING, timeout=5)
+    assert handle.wait_for_status(lambda s: s is GoalStatus.EXECUTING, timeout=DEADLINE)
     assert not handle.done
     with pytest.raises(TimeoutError, match=r'did not end within 0\.05 s'):
         handle.result(timeout=0.05)
     gate.set()
-    assert list(handle.result(timeout=5).sequence) == [0, 1, 1, 2]
+    assert list(handle.result(timeout=DEADLINE).sequence) == [0, 1, 1, 2]
 
 
 def test_two_concurrent_goals(pair: tuple[Node, Node], gate: threading.Event) -> None:
@@ -108,8 +110,8 @@ def test_two_concurrent_goals(pair: tuple[Node, Node], gate: threading.Event) ->
     assert short.goal_id != long.goal_id
     assert wait_for(lambda: [g.status for g in server.goals] == [GoalStatus.EXECUTING] * 2)
     gate.set()
-    assert list(short.result(5).sequence) == [0, 1, 1, 2]
-    assert list(long.result(5).sequence) == [0, 1, 1, 2, 3, 5, 8]
+    assert list(short.result(DEADLINE).sequence) == [0, 1, 1, 2]
+    assert list(long.result(DEADLINE).sequence) == [0, 1, 1, 2, 3, 5, 8]
     assert wait_for(lambda: (short.feedback_count, long.feedback_count) == (2, 5))
     assert list(short.feedback.sequence) == [0, 1, 1, 2]  # no feedback crossed over
 
@@ -121,9 +123,9 @@ def test_cancel_a_running_goal(pair: tuple[Node, Node], gate: threading.Event) -
     assert client.wait_for_server()
     handle = client.send_goal(order=50)
     assert handle.cancel()
-    assert handle.wait_for_status(lambda s: s is GoalStatus.CANCELING, timeout=5)
+    assert handle.wait_for_status(lambda s: s is GoalStatus.CANCELING, timeout=DEADLINE)
     gate.set()
-    assert list(handle.result(5).sequence) == [0, 1]
+    assert list(handle.result(DEADLINE).sequence) == [0, 1]
     assert handle.status is GoalStatus.CANCELED
     assert not handle.cancel()  # already over
 
@@ -142,21 +144,23 @@ def test_cancel_return_codes(pair: tuple[Node, Node], gate: threading.Event) -> 
     running = client.send_goal(order=5)
     with spinning(server_node):
         refuse.set()
-        response = client._cancel_goal(running.goal_id, 5)
+        response = client._cancel_goal(running.goal_id, DEADLINE)
         assert response.return_code == CancelReturn.REJECTED and not response.goals_canceling
-        response = client._cancel_goal(bytes(range(16)), 5)
+        response = client._cancel_goal(bytes(range(16)), DEADLINE)
         assert response.return_code == CancelReturn.UNKNOWN_GOAL_ID
         refuse.clear()
         gate.set()
-        running.result(5)
-        response = client._cancel_goal(running.goal_id, 5)
+        running.result(DEADLINE)
+        response = client._cancel_goal(running.goal_id, DEADLINE)
         assert response.return_code == CancelReturn.GOAL_TERMINATED
         gate.clear()
         goals = [client.send_goal(order=5) for _ in range(2)]
-        canceled = client.cancel_all_goals(timeout=5)
+        canceled = client.cancel_all_goals(timeout=DEADLINE)
         assert sorted(canceled) == sorted(g.goal_id for g in goals)
         gate.set()
-        assert all(g.result(5) is not None and g.status is GoalStatus.CANCELED for g in goals)
+        assert all(
+            g.result(DEADLINE) is not None and g.status is GoalStatus.CANCELED for g in goals
+        )
 
 
 def test_a_rejected_goal(pair: tuple[Node, Node]) -> None:
@@ -174,8 +178,8 @@ def test_a_rejected_goal(pair: tuple[Node, Node]) -> None:
         handle = client.send_goal(order=50)
         assert not handle.accepted
         with pytest.raises(GoalRejectedError, match='rejected goal'):
-            handle.result(5)
-        assert list(client.send_goal(order=2).result(5).sequence) == [0, 1, 1]
+            handle.result(DEADLINE)
+        assert list(client.send_goal(order=2).result(DEADLINE).sequence) == [0, 1, 1]
     assert seen == [50, 2]
 
 
@@ -199,11 +203,11 @@ def test_aborted_goals(pair: tuple[Node, Node], caplog: pytest.LogCaptureFixture
         assert client_of[name].wait_for_server()
     with caplog.at_level(logging.ERROR, logger='zros'):
         handle = client_of['explicit'].send_goal(order=3)
-        assert list(handle.result(5).sequence) == [7] and handle.status is GoalStatus.ABORTED
+        assert list(handle.result(DEADLINE).sequence) == [7] and handle.status is GoalStatus.ABORTED
         handle = client_of['raising'].send_goal(order=3)
-        assert list(handle.result(5).sequence) == [] and handle.status is GoalStatus.ABORTED
+        assert list(handle.result(DEADLINE).sequence) == [] and handle.status is GoalStatus.ABORTED
         handle = client_of['sloppy'].send_goal(order=3)
-        assert handle.result(5) is not None and handle.status is GoalStatus.ABORTED
+        assert handle.result(DEADLINE) is not None and handle.status is GoalStatus.ABORTED
     assert 'RuntimeError: motor stalled' in caplog.text
     assert 'returned int, not example_interfaces/action/Fibonacci_Result' in caplog.text
 
@@ -230,7 +234,7 @@ def test_goal_state_rules(pair: tuple[Node, Node]) -> None:
     client = client_node.create_action_client(FIB, 'fib')
     assert client.wait_for_server()
     handle = client.send_goal(order=1)
-    assert list(handle.result(5).sequence) == [] and handle.status is GoalStatus.SUCCEEDED
+    assert list(handle.result(DEADLINE).sequence) == [] and handle.status is GoalStatus.SUCCEEDED
     assert [e.split(': ')[1] for e in errors] == [
         'it cannot become canceled',
         'it cannot become aborted',
@@ -250,7 +254,7 @@ def test_async_execute_callbacks(pair: tuple[Node, Node]) -> None:
     client = client_node.create_action_client(FIB, 'fib')
     assert client.wait_for_server()
     handles = [client.send_goal(order=n) for n in (3, 4, 5)]
-    assert [list(h.result(5).sequence) for h in handles] == [[3], [4], [5]]
+    assert [list(h.result(DEADLINE).sequence) for h in handles] == [[3], [4], [5]]
     assert wait_for(lambda: [h.feedback_count for h in handles] == [3, 4, 5])
 
 
@@ -262,8 +266,8 @@ def test_a_client_that_starts_before_its_server(zros_node: Callable[..., Node]) 
     with pytest.raises(ServiceUnavailableError, match='no server for /late/_action/send_goal'):
         client.send_goal(order=1)
     threading.Timer(0.2, lambda: server_node.create_action_server(FIB, 'late', fibonacci)).start()
-    assert client.wait_for_server(timeout=5)
-    assert list(client.send_goal(order=2).result(5).sequence) == [0, 1, 1]
+    assert client.wait_for_server(timeout=DEADLINE)
+    assert list(client.send_goal(order=2).result(DEADLINE).sequence) == [0, 1, 1]
 
 
 def test_results_are_kept_then_forgotten(pair: tuple[Node, Node]) -> None:
@@ -272,14 +276,14 @@ def test_results_are_kept_then_forgotten(pair: tuple[Node, Node]) -> None:
     client = client_node.create_action_client(FIB, 'fib')
     assert client.wait_for_server()
     handle = client.send_goal(order=4)
-    handle.result(5)
+    handle.result(DEADLINE)
     late = client._get_result.Request()
     late.goal_id.uuid = handle.goal_id
-    response = client._get_result.call(late, 5)  # as a second client would, after the end
+    response = client._get_result.call(late, DEADLINE)  # as a second client would, after the end
     assert response.status == GoalStatus.SUCCEEDED
     assert list(response.result.sequence) == [0, 1, 1, 2, 3]
-    assert wait_for(lambda: not server.goals, timeout=5)
-    response = client._get_result.call(late, 5)
+    assert wait_for(lambda: not server.goals, timeout=DEADLINE)
+    response = client._get_result.call(late, DEADLINE)
     assert response.status == GoalStatus.UNKNOWN
 
 
@@ -292,7 +296,7 @@ def test_a_server_remembers_a_bounded_number_of_goals(
     client = client_node.create_action_client(FIB, 'fib')
     assert client.wait_for_server()
     for _ in range(6):
-        client.send_goal(order=1).result(5)
+        client.send_goal(order=1).result(DEADLINE)
     assert wait_for(lambda: len(server.goals) == 3)
 
 
@@ -341,7 +345,7 @@ def test_status_reaches_late_subscribers(pair: tuple[Node, Node]) -> None:
     client = client_node.create_action_client(FIB, 'fib')
     assert client.wait_for_server()
     handle = client.send_goal(order=2)
-    handle.result(5)
+    handle.result(DEADLINE)
     monitor = client_node.create_subscription(
         'action_msgs/msg/GoalStatusArray', '/fib/_action/status', qos='latched'
     )
@@ -362,7 +366,7 @@ def test_only_the_action_tokens_are_announced(pair: tuple[Node, Node]) -> None:
     def kinds() -> set[str]:
         return {e.kind.value for e in graph.endpoints() if e.key.startswith('robot/fib')}
 
-    assert graph.wait_until(lambda: kinds() == {'AS', 'AC'}, timeout=5), kinds()
+    assert graph.wait_until(lambda: kinds() == {'AS', 'AC'}, timeout=DEADLINE), kinds()
     assert graph.actions() == {'/robot/fib': [FIB]}
     assert not any('_action' in name for name in {**graph.topics(), **graph.services()})
 
@@ -386,7 +390,7 @@ def test_requests_that_do_not_decode(
     assert replies and replies[0].err is not None
     assert 'does not decode' in replies[0].err.payload.to_string()
     assert 'does not decode' in caplog.text
-    assert client.send_goal(order=1).result(5) is not None  # the server still works
+    assert client.send_goal(order=1).result(DEADLINE) is not None  # the server still works
 
 
 def test_goal_and_cancel_callbacks_run_on_the_spinning_thread(pair: tuple[Node, Node]) -> None:
@@ -414,12 +418,12 @@ def test_goal_and_cancel_callbacks_run_on_the_spinning_thread(pair: tuple[Node, 
     assert client.wait_for_server()
     future = client.send_goal_async(order=5)
     assert wait_for(lambda: server_node.spin_once(0.05) > 0)
-    handle = future.result(5)
+    handle = future.result(DEADLINE)
     cancel = threading.Thread(target=handle.cancel)
     cancel.start()
     assert wait_for(lambda: server_node.spin_once(0.05) > 0)
-    cancel.join(5)
-    handle.result(5)
+    cancel.join(DEADLINE)
+    handle.result(DEADLINE)
     assert threads == [threading.current_thread()] * 2
 
 
@@ -435,7 +439,7 @@ def test_closing_the_server_ends_what_waits_for_it(
     server.close()
     # the result request was either held by the server or still on its way
     with pytest.raises(ActionError, match=r'server /fib closed|no server for /fib'):
-        handle.result(5)
+        handle.result(DEADLINE)
     assert wait_for(lambda: not client.server_is_ready())
 
 
@@ -459,7 +463,7 @@ def test_rosr_shaped_classes_on_the_default_node(zros_router: Any) -> None:
         zros.ActionServer('fib', FIB, fibonacci)
         client = zros.ActionClient('fib', FIB)
         assert client.wait_for_server()
-        assert list(client.send_goal(order=3).result(5).sequence) == [0, 1, 1, 2]
+        assert list(client.send_goal(order=3).result(DEADLINE).sequence) == [0, 1, 1, 2]
     finally:
         zros.shutdown()
 
@@ -469,6 +473,6 @@ def test_decoded_results_are_plain_messages(pair: tuple[Node, Node]) -> None:
     server_node.create_action_server(FIB, 'fib', fibonacci)
     client = client_node.create_action_client(FIB, 'fib')
     assert client.wait_for_server()
-    result = client.send_goal(order=3).result(5)
+    result = client.send_goal(order=3).result(DEADLINE)
     action = zros.get_type(FIB)
     assert decode(action.Result, encode(result)) == result
