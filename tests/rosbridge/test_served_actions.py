@@ -241,3 +241,44 @@ def test_an_action_outside_the_services_glob_is_refused(
     client.send(op='advertise_action', action='/allowed_fib', type=FIB)
     caller = zros_node('caller').create_action_client(FIB, '/allowed_fib')
     assert caller.wait_for_server(TIMEOUT)
+
+
+def test_goals_beyond_the_bound_are_aborted_without_reaching_the_client(
+    rosbridge: Make, raw_client: Make, zros_node: Make, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.gateway import rosbridge_actions
+
+    monkeypatch.setattr(rosbridge_actions, 'MAX_GOALS', 1)
+    _, client, caller = advertised(rosbridge, raw_client, zros_node)
+    first = caller.send_goal(order=1)
+    goal = goal_of(client)
+    second = caller.send_goal(order=2)
+    second.result(TIMEOUT)
+    assert second.status is GoalStatus.ABORTED
+    assert len(client.of('send_action_goal')) == 1
+    client.send(
+        op='action_result', id=goal['id'], action='/web_fib', values={}, status=4, result=True
+    )
+    first.result(TIMEOUT)
+    assert first.status is GoalStatus.SUCCEEDED
+
+
+def test_a_server_that_cannot_be_made_frees_the_name(
+    rosbridge: Make, raw_client: Make, zros_node: Make, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.errors import ZrosError
+
+    gateway = rosbridge()
+    client: RawClient = raw_client(gateway)
+    make = gateway.node.create_action_server
+
+    def broken(*args: Any, **kwargs: Any) -> Any:
+        raise ZrosError('no room')
+
+    monkeypatch.setattr(gateway.node, 'create_action_server', broken)
+    assert 'cannot serve action /web_fib: no room' in refusal(
+        client, 0, op='advertise_action', action='/web_fib', type=FIB
+    )
+    monkeypatch.setattr(gateway.node, 'create_action_server', make)
+    client.send(op='advertise_action', action='/web_fib', type=FIB)  # not held by the failure
+    assert zros_node('caller').create_action_client(FIB, '/web_fib').wait_for_server(TIMEOUT)
