@@ -40,6 +40,18 @@ def goal_of(client: RawClient, start: int = 0) -> dict[str, Any]:
     return client.wait(lambda m: m.get('op') == 'send_action_goal', start=start)
 
 
+def finish(client: RawClient, goal: dict[str, Any], sequence: list[int], status: int = 4) -> None:
+    """Answer ``goal`` with an ``action_result`` (``result: true``)."""
+    client.send(
+        op='action_result',
+        id=goal['id'],
+        action=goal['action'],
+        values={'sequence': sequence},
+        status=status,
+        result=True,
+    )
+
+
 def test_a_web_client_serves_goals_with_feedback(
     rosbridge: Make, raw_client: Make, zros_node: Make
 ) -> None:
@@ -53,14 +65,7 @@ def test_a_web_client_serves_goals_with_feedback(
         client.send(
             op='action_feedback', id=goal['id'], action='/web_fib', values={'sequence': sequence}
         )
-    client.send(
-        op='action_result',
-        id=goal['id'],
-        action='/web_fib',
-        values={'sequence': [0, 1, 1, 2]},
-        status=4,
-        result=True,
-    )
+    finish(client, goal, [0, 1, 1, 2])
     assert list(handle.result(TIMEOUT).sequence) == [0, 1, 1, 2]
     assert handle.status is GoalStatus.SUCCEEDED
     # feedback (a topic) and the result (a query reply) travel apart: both feedbacks arrive
@@ -78,14 +83,7 @@ def test_a_cancel_reaches_the_web_client(
     assert handle.cancel(TIMEOUT)
     cancel = client.wait(lambda m: m.get('op') == 'cancel_action_goal')
     assert cancel == {'op': 'cancel_action_goal', 'id': goal['id'], 'action': '/web_fib'}
-    client.send(
-        op='action_result',
-        id=goal['id'],
-        action='/web_fib',
-        values={'sequence': [0]},
-        status=5,
-        result=True,
-    )
+    finish(client, goal, [0], 5)
     assert list(handle.result(TIMEOUT).sequence) == [0]
     assert handle.status is GoalStatus.CANCELED
 
@@ -101,14 +99,7 @@ def test_a_failed_goal_is_aborted(rosbridge: Make, raw_client: Make, zros_node: 
     start = client.mark()
     second = caller.send_goal(order=2)  # an aborted status with values: they are the result
     goal = goal_of(client, start)
-    client.send(
-        op='action_result',
-        id=goal['id'],
-        action='/web_fib',
-        values={'sequence': [7]},
-        status=6,
-        result=True,
-    )
+    finish(client, goal, [7], 6)
     assert list(second.result(TIMEOUT).sequence) == [7]
     assert second.status is GoalStatus.ABORTED
 
@@ -129,14 +120,7 @@ def test_a_client_leaving_aborts_its_goals_and_withdraws_its_actions(
     assert caller.wait_for_server(TIMEOUT)
     again = caller.send_goal(order=1)
     goal = goal_of(other)
-    other.send(
-        op='action_result',
-        id=goal['id'],
-        action='/web_fib',
-        values={'sequence': [0, 1]},
-        status=4,
-        result=True,
-    )
+    finish(other, goal, [0, 1])
     assert list(again.result(TIMEOUT).sequence) == [0, 1]
 
 
@@ -256,9 +240,7 @@ def test_goals_beyond_the_bound_are_aborted_without_reaching_the_client(
     second.result(TIMEOUT)
     assert second.status is GoalStatus.ABORTED
     assert len(client.of('send_action_goal')) == 1
-    client.send(
-        op='action_result', id=goal['id'], action='/web_fib', values={}, status=4, result=True
-    )
+    finish(client, goal, [])
     first.result(TIMEOUT)
     assert first.status is GoalStatus.SUCCEEDED
 
