@@ -1,6 +1,7 @@
 """roslib (roslibjs) from npm, run by node, against ``zros rosbridge``: topics both ways on
 both wires, a 1080p image as CBOR and as JSON fragments, png, AddTwoInts called and served, an
-action goal with feedback and one canceled, rosapi's topics, nodes and parameters."""
+action goal with feedback and one canceled, an action served by roslib (``Action.advertise``),
+rosapi's topics, nodes and parameters."""
 
 from __future__ import annotations
 
@@ -160,6 +161,32 @@ def test_an_action_goal_with_feedback(rosbridge: Make, roslibjs: Make, zros_node
             assert failure['ev'] == 'failure' and 'canceled' in failure['error']
     finally:
         gate.set()
+
+
+def test_roslib_serves_an_action(rosbridge: Make, roslibjs: Make, zros_node: Make) -> None:
+    from zros.actions import GoalStatus
+
+    gateway = rosbridge()
+    client: RoslibClient = roslibjs(gateway)
+    tag = client.command('serve_action', action='/web_fib', type=FIB)
+    caller = zros_node('caller').create_action_client(FIB, '/web_fib')
+    assert caller.wait_for_server(TIMEOUT)
+    handle = caller.send_goal(order=4)
+    assert list(handle.result(TIMEOUT).sequence) == [0, 1, 1, 2, 3]
+    assert handle.status is GoalStatus.SUCCEEDED
+    assert wait_for(lambda: handle.feedback_count == 3, TIMEOUT)  # sendFeedback at each step
+    failed = caller.send_goal(order=-1)  # setFailed
+    failed.result(TIMEOUT)
+    assert failed.status is GoalStatus.ABORTED
+    waiting = caller.send_goal(order=0)
+    goal = client.wait(lambda e: e['ev'] == 'goal' and e['goal'] == {'order': 0}, TIMEOUT)
+    assert waiting.cancel(TIMEOUT)
+    assert client.answer(tag, 'cancel')['id'] == goal['id']
+    assert list(waiting.result(TIMEOUT).sequence) == [0]  # setCanceled
+    assert waiting.status is GoalStatus.CANCELED
+    client.command('unserve_action', action='/web_fib')
+    assert wait_for(lambda: not caller.server_is_ready(), TIMEOUT)
+    assert not [e for e in client.of('status') if e['status']['level'] == 'error']
 
 
 def test_rosapi_topics_nodes_and_parameters(

@@ -89,16 +89,17 @@ def test_a_goal_runs_with_feedback_and_status(pair: tuple[Node, Node]) -> None:
 
 def test_polling_the_status_of_a_goal(pair: tuple[Node, Node], gate: threading.Event) -> None:
     server_node, client_node = pair
-    server_node.create_action_server(FIB, 'fib', lambda g: fibonacci(g, gate))
+    server = server_node.create_action_server(FIB, 'fib', lambda g: fibonacci(g, gate))
     client = client_node.create_action_client(FIB, 'fib')
     assert client.wait_for_server()
     handle = client.send_goal(order=3)
     assert handle.wait_for_status(lambda s: s is GoalStatus.EXECUTING, timeout=DEADLINE)
-    assert not handle.done
+    assert not handle.done and not server.goals[0].done
     with pytest.raises(TimeoutError, match=r'did not end within 0\.05 s'):
         handle.result(timeout=0.05)
     gate.set()
     assert list(handle.result(timeout=DEADLINE).sequence) == [0, 1, 1, 2]
+    assert server.goals[0].done  # the server's side: its result is known
 
 
 def test_two_concurrent_goals(pair: tuple[Node, Node], gate: threading.Event) -> None:

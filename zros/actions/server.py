@@ -73,6 +73,11 @@ class ServerGoalHandle(GoalHandle):
         return self._status.active
 
     @property
+    def done(self) -> bool:
+        """Whether the goal's result is known (``get_result`` answers with it)."""
+        return self._done
+
+    @property
     def is_cancel_requested(self) -> bool:
         """Whether a client asked to cancel (and the cancel callback agreed)."""
         return self._status is GoalStatus.CANCELING

@@ -6,10 +6,12 @@ has a thread reading its messages (:mod:`~zros.gateway.rosbridge_client`) and on
 bounded outbox. Topics (:mod:`~zros.gateway.rosbridge_topics`) are tapped raw, only while a
 client subscribes, and each message is converted once per form (JSON, CBOR, raw CDR, PNG)
 whatever the number of clients. Services, client-served services and actions
-(:mod:`~zros.gateway.rosbridge_calls`) go through zros clients and servers; rosapi's services
+(:mod:`~zros.gateway.rosbridge_calls`), and actions clients serve
+(:mod:`~zros.gateway.rosbridge_actions`) go through zros clients and servers; rosapi's services
 (:mod:`~zros.gateway.rosapi`) are answered by the gateway itself.
 
-The gateway spins the node it is given (client-served services and action feedback run there):
+The gateway spins the node it is given (client-served services, the cancel callbacks of
+client-served actions and action feedback run there):
 give it a node of its own.
 """
 

@@ -9,6 +9,8 @@
   ``service_response`` answers the ROS caller (``result: false`` gives the caller an error).
 * ``send_action_goal``: a goal through a zros action client, with ``action_feedback``
   messages when asked and one ``action_result``; ``cancel_action_goal`` cancels it.
+* ``advertise_action`` and its ops: a client serves an action
+  (:mod:`~zros.gateway.rosbridge_actions`, reached as :attr:`Calls.served`).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 from zros.errors import ZrosError
 from zros.gateway.core import ClientCache, GatewayError, NameFilter
 from zros.gateway.rosapi import Rosapi
+from zros.gateway.rosbridge_actions import ServedActions
 from zros.gateway.rosbridge_values import ConversionError, Values
 from zros.gateway.views import offered_services
 
@@ -75,6 +78,8 @@ class Calls:
         self._goals: dict[tuple[int, Any], _Goal] = {}  # by (peer, id)
         self._ids = itertools.count(1)
         self._pool = concurrent.futures.ThreadPoolExecutor(workers, 'zros rosbridge calls')
+        #: the actions clients serve
+        self.served = ServedActions(node, values, self._name, self._request)
 
     def _name(self, name: Any, what: str = 'service') -> str:
         if not isinstance(name, str):
@@ -283,12 +288,14 @@ class Calls:
     # --- lifetime ----------------------------------------------------------------------------
 
     def drop(self, peer: Peer) -> None:
-        """A client left: withdraw the services it served (its goals keep running)."""
+        """A client left: withdraw the services and actions it served (the goals it sent keep
+        running)."""
         with self._lock:
             names = [n for n, o in self._offered.items() if o.peer is peer]
             self._goals = {k: v for k, v in self._goals.items() if k[0] != peer.id}
         for name in names:
             self._withdraw(name, peer)
+        self.served.drop(peer)
 
     def close(self) -> None:
         """Withdraw everything and stop the pool."""
@@ -296,6 +303,7 @@ class Calls:
             names = list(self._offered)
         for name in names:
             self._withdraw(name, None)
+        self.served.close()
         self._pool.shutdown(wait=False, cancel_futures=True)
         self._clients.close()
         self._actions.close()

@@ -49,6 +49,10 @@ _REQUIRED: dict[str, tuple[tuple[str, type | tuple[type, ...]], ...]] = {
     'service_response': (('service', str), ('result', bool)),
     'send_action_goal': (('action', str), ('action_type', str)),
     'cancel_action_goal': (('action', str),),
+    'advertise_action': (('action', str), ('type', str)),
+    'unadvertise_action': (('action', str),),
+    'action_feedback': (('action', str), ('id', str)),
+    'action_result': (('action', str), ('id', str), ('result', bool)),
     'set_level': (('level', str),),
     'fragment': (('id', (str, int)), ('data', str), ('num', int), ('total', int)),
 }
@@ -113,6 +117,10 @@ class ClientSession:
             'service_response': lambda m: calls.service_response(self, m),
             'send_action_goal': lambda m: calls.send_action_goal(self, m),
             'cancel_action_goal': lambda m: calls.cancel_action_goal(self, m),
+            'advertise_action': lambda m: calls.served.advertise_action(self, m),
+            'unadvertise_action': lambda m: calls.served.unadvertise_action(self, m),
+            'action_feedback': lambda m: calls.served.action_feedback(self, m),
+            'action_result': lambda m: calls.served.action_result(self, m),
             'set_level': self._set_level,
             'fragment': self._fragment,
         }

@@ -14,6 +14,10 @@
 //        events {args}; a negative a fails the call
 //   goal {action, type, goal, cancel_after?} -> feedback {values}, result {values} or
 //        failure {error}; with cancel_after, canceled after that many feedback messages
+//   serve_action {action, type} -> serves Fibonacci goals: goal {id, goal} events, feedback
+//        at each step, then succeeded; order < 0 fails (setFailed); order 0 waits for a
+//        cancel (cancel {id} event, then setCanceled)
+//   unserve_action {action}
 //   rosapi {what, args} -> rosapi {what, value} (getTopics, getNodes, getParams, ...)
 //   param_get {name} / param_set {name, value} -> param {value} / param_set_done
 //   close
@@ -25,6 +29,7 @@ import * as ROSLIB from 'roslib';
 const [url] = process.argv.slice(2);
 const ros = new ROSLIB.Ros({ url });
 const topics = new Map();
+const actions = new Map();
 
 function emit(event) {
   process.stdout.write(JSON.stringify(event) + '\n');
@@ -112,6 +117,32 @@ const commands = {
       },
       (error) => emit({ ev: 'failure', tag: c.tag, error: String(error) }),
     );
+  },
+  serve_action(c) {
+    const action = new ROSLIB.Action({ ros, name: c.action, actionType: c.type });
+    action.advertise(
+      (goal, id) => {
+        emit({ ev: 'goal', tag: c.tag, id, goal });
+        if (goal.order < 0) {
+          action.setFailed(id);
+        } else if (goal.order > 0) {
+          const sequence = [0, 1];
+          for (let i = 1; i < goal.order; i += 1) {
+            sequence.push(sequence[i] + sequence[i - 1]);
+            action.sendFeedback(id, { sequence: [...sequence] });
+          }
+          action.setSucceeded(id, { sequence });
+        }
+      },
+      (id) => {
+        emit({ ev: 'cancel', tag: c.tag, id });
+        action.setCanceled(id, { sequence: [0] });
+      },
+    );
+    actions.set(c.action, action);
+  },
+  unserve_action(c) {
+    actions.get(c.action).unadvertise();
   },
   rosapi(c) {
     const args = [...(c.args || []), (value) => emit({ ev: 'rosapi', tag: c.tag, what: c.what, value }),
