@@ -204,16 +204,19 @@ def test_transient_local_history_reaches_late_subscribers_once(
     talker, listener = connected(zros_node)
     latched = QoS(3, durability=zros.Durability.TRANSIENT_LOCAL)
     witness = zros_node('witness').create_subscription(String, 'latched', qos=100)
+    # a transient-local publisher cannot tell who matches it: a volatile one on the same topic
+    # shows the witness is known to the talker's session before anything is written
+    assert talker.create_publisher(String, 'latched').wait_for_subscribers(30)
     pub = talker.create_publisher(String, 'latched', qos=latched)
     for i in range(5):
         pub.write(text(str(i)))
     # once the witness has them, nothing is in flight: a late subscriber gets only history
-    assert wait_for(lambda: witness.received == 5)
+    assert wait_for(lambda: witness.received == 5, 30)
     sub = listener.create_subscription(String, 'latched', qos=latched)
-    assert wait_for(lambda: sub.received >= 3)
+    assert wait_for(lambda: sub.received >= 3, 30)
     assert [m.data for m in sub.take()] == ['2', '3', '4']
     pub.write(text('live'))
-    assert wait_for(lambda: sub.received >= 4)
+    assert wait_for(lambda: sub.received >= 4, 30)
     # nothing more comes: each history message exactly once, then the live one
     assert not wait_for(lambda: sub.received > 4, timeout=0.3)
     assert [m.data for m in sub.take()] == ['live']
