@@ -282,6 +282,7 @@ def test_a_slow_client_does_not_stall_a_fast_one(
     for client in (slow, fast):
         client.send(op='subscribe', topic='/stream', type='std_msgs/String')
     assert wait_for(lambda: gateway.watched() == {'/stream': 2}, TIMEOUT)
+    assert pub.wait_for_subscribers(TIMEOUT)  # else the first writes can go before a route
     payload = 'z' * 200_000
     sent = 150
     for i in range(sent):  # in step with the fast client: it keeps up, the slow one does not

@@ -131,6 +131,31 @@ def test_cancel_a_running_goal(pair: tuple[Node, Node], gate: threading.Event) -
     assert not handle.cancel()  # already over
 
 
+def test_a_cancel_between_the_accept_and_the_execution_is_kept(
+    pair: tuple[Node, Node], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # under load a client's cancel can land after the accept's reply but before the goal starts;
+    # the goal's thread is held in that window (it publishes the ACCEPTED status there) until then
+    server_node, client_node = pair
+    server = server_node.create_action_server(FIB, 'fib', fibonacci)
+    publish_status = action_server.ActionServer._publish_status
+    first = threading.Event()
+
+    def held_after_the_accept(self: action_server.ActionServer) -> None:
+        publish_status(self)
+        if not first.is_set():  # the accept's status: hold until the cancel has come
+            first.set()
+            wait_for(lambda: [g.status for g in server.goals] == [GoalStatus.CANCELING], DEADLINE)
+
+    monkeypatch.setattr(action_server.ActionServer, '_publish_status', held_after_the_accept)
+    client = client_node.create_action_client(FIB, 'fib')
+    assert client.wait_for_server()
+    handle = client.send_goal(order=50)
+    assert handle.cancel()
+    assert list(handle.result(DEADLINE).sequence) == [0, 1]
+    assert handle.status is GoalStatus.CANCELED
+
+
 def test_cancel_return_codes(pair: tuple[Node, Node], gate: threading.Event) -> None:
     server_node, client_node = pair
     refuse = threading.Event()

@@ -315,7 +315,9 @@ class ActionServer(Entity):
 
     def _execute(self, handle: ServerGoalHandle) -> None:
         with self._lock:
-            handle._status = GoalStatus.EXECUTING
+            # a cancel may have come between the accept's reply and now: it must stay
+            if handle._status is GoalStatus.ACCEPTED:
+                handle._status = GoalStatus.EXECUTING
         self._publish_status()
         run_goal(handle, self.execute_callback, self.context.executor, self._finish_from)
 
