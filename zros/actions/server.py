@@ -18,6 +18,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from zenoh import ZError
+
 from zros.actions.common import CancelReturn, GoalStatus, accepted, action_type, goal_id_of
 from zros.actions.goals import cancel_candidates, run_goal
 from zros.actions.server_goal import GoalRecord, Query, ServerGoalHandle
@@ -170,7 +172,7 @@ class ActionServer(Entity):
                 ]
             try:
                 self._status.write(self._StatusArray(status_list=statuses))
-            except Exception:
+            except ZError:  # the session closes under it
                 _log.debug('cannot publish the status of %s', self.name, exc_info=True)
 
     def _expire(self) -> float | None:
@@ -223,7 +225,7 @@ class ActionServer(Entity):
         if self.goal_callback is not None:
             try:
                 answer = accepted(self.goal_callback(request.goal))
-            except Exception:
+            except Exception:  # a user callback: logged, the goal rejected
                 _log.exception('the goal callback of action %s raised: goal rejected', self.name)
                 answer = False
         stamp = self.context.clock.now()
@@ -346,7 +348,7 @@ class ActionServer(Entity):
             if self.cancel_callback is not None:
                 try:
                     answer = accepted(self.cancel_callback(handle))
-                except Exception:
+                except Exception:  # a user callback: logged, the cancel refused
                     _log.exception('the cancel callback of action %s raised: refused', self.name)
                     answer = False
             if not answer:
