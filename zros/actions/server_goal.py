@@ -48,7 +48,7 @@ class GoalServer(Protocol):
 
 
 #: how a handle sends feedback: ``send(handle, feedback message or None, fields)``
-SendFeedback = Callable[['ServerGoalHandle', 'Message | None', 'dict[str, Any]'], None]
+SendFeedback = Callable[['ServerGoalHandle', Message | None, dict[str, Any]], None]
 
 
 class GoalRecord:
