@@ -37,6 +37,7 @@ DOCUMENTED = {
     'zros.services.client',
     'zros.services.errors',
     'zros.actions.server',
+    'zros.actions.server_goal',
     'zros.actions.client',
     'zros.actions.common',
     'zros.params',

@@ -9,6 +9,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
+from zenoh import ZError
 
 import zros
 from tests.runtime.wire_support import reply_options, request_options, service_key
@@ -154,6 +155,27 @@ def test_a_cancel_between_the_accept_and_the_execution_is_kept(
     assert handle.cancel()
     assert list(handle.result(DEADLINE).sequence) == [0, 1]
     assert handle.status is GoalStatus.CANCELED
+
+
+def test_a_goal_ends_when_its_status_cannot_go_out(
+    pair: tuple[Node, Node], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a session that refuses the status array (it is closing) must not stop the goal's steps
+    server_node, client_node = pair
+    server = server_node.create_action_server(FIB, 'fib', fibonacci)
+    refused: list[Any] = []
+
+    def refuse(message: Any) -> None:
+        refused.append(message)
+        raise ZError('session closed')
+
+    monkeypatch.setattr(server._status, 'write', refuse)
+    client = client_node.create_action_client(FIB, 'fib')
+    assert client.wait_for_server()
+    handle = client.send_goal(order=3)
+    assert list(handle.result(DEADLINE).sequence) == [0, 1, 1, 2]
+    assert handle.status is GoalStatus.SUCCEEDED
+    assert refused and server.goals[0].done
 
 
 def test_cancel_return_codes(pair: tuple[Node, Node], gate: threading.Event) -> None:

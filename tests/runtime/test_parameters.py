@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from zenoh import ZError
 
 import zros
 from zros.node import Node
@@ -86,6 +87,20 @@ def test_set_callbacks_run_where_the_node_spins(
             remote.set('speed', 1.25)
     assert driver.get_parameter('speed') == 1.0
     assert threads and all(t.name == 'spin driver' for t in threads)
+
+
+def test_a_change_holds_when_its_event_cannot_go_out(
+    driver: Node, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    refused: list[Any] = []
+
+    def refuse(message: Any) -> None:  # the session is closing
+        refused.append(message)
+        raise ZError('session closed')
+
+    monkeypatch.setattr(driver._parameter_server._events, 'write', refuse)  # type: ignore[union-attr]
+    driver.set_parameter('speed', 1.5)
+    assert driver.get_parameter('speed') == 1.5 and len(refused) == 1
 
 
 def test_parameter_events(driver: Node, zros_node: Callable[..., Node]) -> None:

@@ -9,7 +9,8 @@ from zros.actions.common import (
     GoalResponse,
     GoalStatus,
 )
-from zros.actions.server import ActionServer, ServerGoalHandle
+from zros.actions.server import ActionServer
+from zros.actions.server_goal import ServerGoalHandle
 
 __all__ = [
     'ActionClient',

@@ -54,7 +54,8 @@ class ClientGoalHandle(GoalHandle):
         goal: Message,
         feedback_callback: Callable[[Any], object] | None,
     ) -> None:
-        super().__init__(goal_id, None, GoalStatus.UNKNOWN)
+        super().__init__(goal_id, None)
+        self._status = GoalStatus.UNKNOWN
         self.client = client
         self.goal = goal
         self.accepted = False
@@ -64,6 +65,11 @@ class ClientGoalHandle(GoalHandle):
         self._result: ServiceFuture = ServiceFuture()
         self._changed = Signal()
         self._lock = threading.Lock()
+
+    @property
+    def status(self) -> GoalStatus:
+        """The goal's current state."""
+        return self._status
 
     @property
     def done(self) -> bool:

@@ -103,12 +103,12 @@ def accepted(answer: object) -> bool:
 
 
 class GoalHandle:
-    """What both sides know of a goal: its id, when the server accepted it, its state."""
+    """What both sides know of a goal: its id, when the server accepted it, its state (each
+    side keeps the state its own way)."""
 
-    def __init__(self, goal_id: bytes, stamp: Time | None, status: GoalStatus) -> None:
+    def __init__(self, goal_id: bytes, stamp: Time | None) -> None:
         self.goal_id = goal_id
         self.stamp = stamp  #: when the server accepted it (None until known)
-        self._status = status
 
     @property
     def goal_uuid(self) -> uuid.UUID:
@@ -118,4 +118,4 @@ class GoalHandle:
     @property
     def status(self) -> GoalStatus:
         """The goal's current state."""
-        return self._status
+        raise NotImplementedError

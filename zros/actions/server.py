@@ -18,16 +18,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from zros.actions.common import (
-    ActionError,
-    CancelReturn,
-    GoalHandle,
-    GoalStatus,
-    accepted,
-    action_type,
-    goal_id_of,
-)
+from zenoh import ZError
+
+from zros.actions.common import CancelReturn, GoalStatus, accepted, action_type, goal_id_of
 from zros.actions.goals import cancel_candidates, run_goal
+from zros.actions.server_goal import GoalRecord, Query, ServerGoalHandle
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode
@@ -35,80 +30,17 @@ from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub import Publisher
 from zros.qos import Durability, QoS
-from zros.runtime.clock import Time
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity
 from zros.runtime.signal import Signal
 from zros.services import ERROR_PREFIX
 
-Query = Any  #: a Zenoh query, on Zenoh's thread
+__all__ = ['MAX_FINISHED', 'ActionServer', 'ServerGoalHandle']
 
 _log = logging.getLogger('zros')
 
 #: finished goals a server remembers at most (older ones are forgotten first)
 MAX_FINISHED = 1000
-
-
-class ServerGoalHandle(GoalHandle):
-    """One goal on the server side, handed to the execute callback.
-
-    Report progress with ``publish_feedback``; end with ``succeed()``, ``abort()`` or (after a
-    cancel request, see ``is_cancel_requested``) ``canceled()``, and return the result. Returning
-    without choosing means success, or canceled if a cancel was requested; raising means aborted.
-    """
-
-    def __init__(self, server: ActionServer, goal_id: bytes, request: Message, stamp: Time):
-        super().__init__(goal_id, stamp, GoalStatus.ACCEPTED)
-        self.server = server
-        self.request = request  #: the Goal message
-        self.stamp: Time = stamp  #: when the server accepted it
-        self._result: Message | None = None
-        self._done = False  #: the result is known
-        self._finished_at = 0.0
-        self._waiters: list[Any] = []  #: get_result queries held until the result is known
-
-    @property
-    def is_active(self) -> bool:
-        """Whether the goal still runs (accepted, executing or canceling)."""
-        return self._status.active
-
-    @property
-    def done(self) -> bool:
-        """Whether the goal's result is known (``get_result`` answers with it)."""
-        return self._done
-
-    @property
-    def is_cancel_requested(self) -> bool:
-        """Whether a client asked to cancel (and the cancel callback agreed)."""
-        return self._status is GoalStatus.CANCELING
-
-    def publish_feedback(self, feedback: Message | None = None, **fields: Any) -> None:
-        """Send feedback to the clients (a Feedback message, or its fields)."""
-        self.server._publish_feedback(self, feedback, fields)
-
-    def _end(self, status: GoalStatus, allowed: tuple[GoalStatus, ...]) -> None:
-        with self.server._lock:
-            if self._status not in allowed:
-                raise ActionError(
-                    f'goal {self.goal_uuid} is {self._status.name.lower()}: it cannot become '
-                    f'{status.name.lower()}'
-                )
-            self._status = status
-
-    def succeed(self) -> None:
-        """End the goal as succeeded; return its result after."""
-        self._end(GoalStatus.SUCCEEDED, (GoalStatus.EXECUTING, GoalStatus.CANCELING))
-
-    def abort(self) -> None:
-        """End the goal as aborted (it failed); return its result after."""
-        self._end(GoalStatus.ABORTED, (GoalStatus.EXECUTING, GoalStatus.CANCELING))
-
-    def canceled(self) -> None:
-        """End a goal whose cancel was requested."""
-        self._end(GoalStatus.CANCELED, (GoalStatus.CANCELING,))
-
-    def __repr__(self) -> str:
-        return f'<zros goal {self.goal_uuid} {self._status.name}>'
 
 
 class ActionServer(Entity):
@@ -158,7 +90,7 @@ class ActionServer(Entity):
         self._GoalInfo = registry.get_class('action_msgs/msg/GoalInfo')
         self._lock = threading.RLock()
         self._status_lock = threading.Lock()
-        self._goals: collections.OrderedDict[bytes, ServerGoalHandle] = collections.OrderedDict()
+        self._goals: collections.OrderedDict[bytes, GoalRecord] = collections.OrderedDict()
         self._warned_bad = False
         self._expiry_thread: threading.Thread | None = None
         self._expiry_signal = Signal()
@@ -235,12 +167,12 @@ class ActionServer(Entity):
                 if self._closed:
                     return
                 statuses = [
-                    self._GoalStatus(goal_info=self._goal_info(goal), status=int(goal.status))
-                    for goal in self._goals.values()
+                    self._GoalStatus(goal_info=self._goal_info(g.handle), status=int(g.status))
+                    for g in self._goals.values()
                 ]
             try:
                 self._status.write(self._StatusArray(status_list=statuses))
-            except Exception:
+            except ZError:  # the session closes under it
                 _log.debug('cannot publish the status of %s', self.name, exc_info=True)
 
     def _expire(self) -> float | None:
@@ -248,13 +180,13 @@ class ActionServer(Entity):
         returns the seconds until the next one is due, None when none is finished."""
         now = time.monotonic()
         with self._lock:
-            finished = [g for g in self._goals.values() if g._done]
-            old = [g for g in finished if now - g._finished_at >= self.result_timeout]
+            finished = [g for g in self._goals.values() if g.done]
+            old = [g for g in finished if now - g.finished_at >= self.result_timeout]
             kept = [g for g in finished if g not in old]
             old += kept[: max(0, len(kept) - MAX_FINISHED)]
             for goal in old:
-                self._goals.pop(goal.goal_id, None)
-            due = [g._finished_at + self.result_timeout - now for g in kept if g not in old]
+                self._goals.pop(goal.handle.goal_id, None)
+            due = [g.finished_at + self.result_timeout - now for g in kept if g not in old]
         if old:
             self._publish_status()
         return min(due, default=None)
@@ -293,7 +225,7 @@ class ActionServer(Entity):
         if self.goal_callback is not None:
             try:
                 answer = accepted(self.goal_callback(request.goal))
-            except Exception:
+            except Exception:  # a user callback: logged, the goal rejected
                 _log.exception('the goal callback of action %s raised: goal rejected', self.name)
                 answer = False
         stamp = self.context.clock.now()
@@ -304,26 +236,27 @@ class ActionServer(Entity):
                 _log.warning('action %s: goal id %s already used: rejected', self.name, goal_id)
                 answer = False
             if answer:
-                handle = ServerGoalHandle(self, goal_id, request.goal, stamp)
-                self._goals[goal_id] = handle
+                goal = GoalRecord(
+                    self, goal_id, request.goal, stamp, lock=self._lock,
+                    send_feedback=self._publish_feedback,
+                )  # fmt: skip
+                self._goals[goal_id] = goal
         self._reply(query, self._SendGoal.Response(accepted=answer, stamp=stamp.to_msg()))
         if answer:
             self._publish_status()
-            self._execute(handle)
+            self._execute(goal)
 
     # --- executing -------------------------------------------------------------------------------
 
-    def _execute(self, handle: ServerGoalHandle) -> None:
-        with self._lock:
-            # a cancel may have come between the accept's reply and now: it must stay
-            if handle._status is GoalStatus.ACCEPTED:
-                handle._status = GoalStatus.EXECUTING
+    def _execute(self, goal: GoalRecord) -> None:
+        goal.execute()  # a cancel that came between the accept's reply and now stays
         self._publish_status()
-        run_goal(handle, self.execute_callback, self.context.executor, self._finish_from)
+        run_goal(
+            goal.handle, self.execute_callback, self.context.executor,
+            lambda _, future: self._finished(goal, future),
+        )  # fmt: skip
 
-    def _finish_from(
-        self, handle: ServerGoalHandle, future: concurrent.futures.Future[Any]
-    ) -> None:
+    def _finished(self, goal: GoalRecord, future: concurrent.futures.Future[Any]) -> None:
         result_class = self.action_type.Result
         try:
             result = future.result()
@@ -331,10 +264,10 @@ class ActionServer(Entity):
             _log.error(
                 'the execute callback of action %s raised: goal %s aborted',
                 self.name,
-                handle.goal_uuid,
+                goal.handle.goal_uuid,
                 exc_info=exc,
             )
-            self._finish(handle, result_class(), GoalStatus.ABORTED)
+            self._finish(goal, result_class(), GoalStatus.ABORTED)
             return
         if result is None:
             result = result_class()
@@ -345,26 +278,14 @@ class ActionServer(Entity):
                 self.name,
                 got,
                 result_class.__msgtype__,
-                handle.goal_uuid,
+                goal.handle.goal_uuid,
             )
-            self._finish(handle, result_class(), GoalStatus.ABORTED)
+            self._finish(goal, result_class(), GoalStatus.ABORTED)
             return
-        self._finish(handle, result, None)
+        self._finish(goal, result, None)
 
-    def _finish(self, handle: ServerGoalHandle, result: Message, forced: GoalStatus | None) -> None:
-        with self._lock:
-            status = handle._status
-            if forced is not None:
-                status = forced
-            elif status is GoalStatus.CANCELING:
-                status = GoalStatus.CANCELED
-            elif not status.terminal:
-                status = GoalStatus.SUCCEEDED
-            handle._status = status
-            handle._result = result
-            handle._done = True
-            handle._finished_at = time.monotonic()
-            waiters, handle._waiters = handle._waiters, []
+    def _finish(self, goal: GoalRecord, result: Message, forced: GoalStatus | None) -> None:
+        status, waiters = goal.finish(result, forced)
         response = self._GetResult.Response(status=int(status), result=result)
         for query in waiters:
             self._reply(query, response)
@@ -396,17 +317,16 @@ class ActionServer(Entity):
             return
         with self._lock:
             closed = self._closed
-            handle = self._goals.get(goal_id_of(request.goal_id))
-            if handle is not None and not handle._done and not closed:
-                handle._waiters.append(query)
+            goal = self._goals.get(goal_id_of(request.goal_id))
+            if goal is not None and not closed and goal.hold(query):
                 return
         if closed:
             self._fail(query, f'the action server {self.name} closed')
             return
-        if handle is None:
+        if goal is None:
             response = self._GetResult.Response(status=int(GoalStatus.UNKNOWN))
         else:
-            response = self._GetResult.Response(status=int(handle.status), result=handle._result)
+            response = self._GetResult.Response(status=int(goal.status), result=goal.result)
         self._reply(query, response)
 
     # --- cancel_goal ---------------------------------------------------------------------------
@@ -428,15 +348,14 @@ class ActionServer(Entity):
             if self.cancel_callback is not None:
                 try:
                     answer = accepted(self.cancel_callback(handle))
-                except Exception:
+                except Exception:  # a user callback: logged, the cancel refused
                     _log.exception('the cancel callback of action %s raised: refused', self.name)
                     answer = False
             if not answer:
                 continue
             with self._lock:
-                if handle.status in (GoalStatus.ACCEPTED, GoalStatus.EXECUTING):
-                    handle._status = GoalStatus.CANCELING
-                if handle.status is GoalStatus.CANCELING:
+                goal = self._goals.get(handle.goal_id)
+                if goal is not None and goal.cancel():
                     canceling.append(handle)
         if error is None:
             error = int(CancelReturn.NONE if canceling or not candidates else CancelReturn.REJECTED)
@@ -453,7 +372,7 @@ class ActionServer(Entity):
     def goals(self) -> list[ServerGoalHandle]:
         """The goals the server knows: running ones and finished ones not yet forgotten."""
         with self._lock:
-            return list(self._goals.values())
+            return [goal.handle for goal in self._goals.values()]
 
     def close(self) -> None:
         """Withdraw the server; held get_result calls get an error, running goals are left to
@@ -462,9 +381,7 @@ class ActionServer(Entity):
 
     def _on_close(self) -> None:
         with self._lock:
-            waiters = [q for goal in self._goals.values() for q in goal._waiters]
-            for goal in self._goals.values():
-                goal._waiters = []
+            waiters = [q for goal in self._goals.values() for q in goal.release()]
         self._expiry_signal.notify()
         for query in waiters:
             self._fail(query, f'the action server {self.name} closed')

@@ -97,7 +97,7 @@ def read_blocks(
         size = path.stat().st_size
         try:
             summary = make_reader(stream).get_summary()
-        except Exception as exc:
+        except Exception as exc:  # a damaged summary: the caller reads the file another way
             raise Unsupported(str(exc)) from exc
         if summary is None or not summary.chunk_indexes:
             raise Unsupported('no chunk index')

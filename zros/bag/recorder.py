@@ -151,7 +151,7 @@ class Recorder:
             seen = graph.version
             try:
                 self._discover()
-            except Exception:
+            except Exception:  # the discovery thread outlives a bad graph entry, a closing session
                 _log.exception('the recorder failed to look at the graph')
             graph.wait_until(self._graph_changed(seen), 0.1, interruptible=False)
 
@@ -186,7 +186,7 @@ class Recorder:
         if self._on_topic is not None:
             try:
                 self._on_topic(name, type_name)
-            except Exception:
+            except Exception:  # a user callback: logged
                 _log.exception('on_topic callback %r raised', self._on_topic)
         self._started.notify()
 
@@ -325,9 +325,10 @@ class Recorder:
         self._started.notify()
         try:
             self._bag.close()
-        except Exception as exc:
+        except Exception as exc:  # whatever the storage writer raised becomes a RecorderError
             if self.error is None:
                 raise RecorderError(f'cannot finish the bag {self.path}: {exc}') from exc
+            _log.debug('closing the failed bag %s failed too', self.path, exc_info=True)
         finally:
             self.message_count = self._bag.message_count
             self.size = sum(path.stat().st_size for path in self._bag.files if path.exists())

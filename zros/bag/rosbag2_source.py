@@ -65,10 +65,11 @@ class Rosbag2Source(Source):
         reader = Reader(self.path)
         try:
             reader.open()
-        except Exception:
+        except Exception:  # whatever rosbags raised: raised again unless the MCAP files recover
             files = self._listed_files() if folder else [self.path]
             if not files or not all(f.suffix == '.mcap' and _mcap_file(f) for f in files):
                 raise
+            _log.debug('rosbags cannot open %s: recovering its files', self.path, exc_info=True)
             self._open_files(files, 'its files do not open as complete MCAP files')
             return
         self._closers.append(reader.close)
@@ -115,9 +116,10 @@ class Rosbag2Source(Source):
             storage: Any = Sqlite3Reader(path) if path.suffix == '.db3' else McapReader(path)
             try:
                 storage.open()
-            except Exception:
+            except Exception:  # whatever rosbags raised: raised again unless the MCAP recovers
                 if path.suffix != '.mcap' or not _mcap_file(path):
                     raise
+                _log.debug('rosbags cannot open %s: recovering it', path, exc_info=True)
                 storage = RecoveredMcap(path)
                 storage.open()
                 if not storage.connections:

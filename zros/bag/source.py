@@ -51,7 +51,7 @@ def open_source(path: str | Path) -> Source:
     except BagError:
         source.close()
         raise
-    except Exception as exc:
+    except Exception as exc:  # the storage libraries raise what they like on a damaged file
         source.close()
         raise BagError(location, f'cannot open the recording: {describe_error(exc)}') from exc
     return source

@@ -122,7 +122,7 @@ class Source:
             yield from messages
         except BagError:
             raise
-        except Exception as exc:
+        except Exception as exc:  # the storage libraries raise what they like on a damaged file
             raise BagError(self.path, f'cannot read messages: {describe_error(exc)}') from exc
 
     def _messages(self, ids: set[int], start: int | None, end: int | None) -> Iterator[RawMessage]:

@@ -122,7 +122,7 @@ class GraphWatcher:
             seen = graph.version
             try:
                 self._on_change()
-            except Exception:
+            except Exception:  # the graph thread outlives a bad graph entry or a closing session
                 _log.exception('the gateway failed to follow the graph')
             changed = _changed_since(graph, seen)
             while not self._stopping.is_set() and not graph.wait_until(changed, _POLL):
@@ -221,7 +221,7 @@ class Taps:
             tapped.bytes += len(data)
             try:
                 deliver(data, stamp)
-            except Exception:
+            except Exception:  # a broken client session, on Zenoh's thread: counted and logged
                 tapped.failures += 1
                 if tapped.failures == 1:  # a broken client must not flood the log
                     _log.exception('delivering a message of %s failed (logged once)', tapped.name)
@@ -313,7 +313,7 @@ class SendQueue(Generic[T]):
         if report and self._on_drop is not None:
             try:
                 self._on_drop(report)
-            except Exception:
+            except Exception:  # a user callback: logged
                 _log.exception('the drop callback %r raised', self._on_drop)
         if self._arrived:
             self._arrived.notify()

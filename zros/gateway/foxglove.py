@@ -349,7 +349,7 @@ class _Listener:
     def _guard(self, what: str, call: Any, *args: Any) -> Any:
         try:
             return call(*args)
-        except Exception as exc:
+        except Exception as exc:  # a client's request: logged and told, never raised into the SDK
             _log.debug('%s failed', what, exc_info=True)
             self._gateway.status(f'{what} failed: {exc}', 'error')
             return None

@@ -312,6 +312,6 @@ class _BagListener:
     def on_playback_control_request(self, playback_control_request: Any) -> Any:
         try:
             return self._gateway.control(playback_control_request)
-        except Exception:
+        except Exception:  # a client's request: logged, never raised into the SDK
             _log.exception('a playback request failed')
             return None

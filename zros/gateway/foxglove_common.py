@@ -102,7 +102,7 @@ class ServerOptions:
                 tls_key=key,
                 **settings,
             )
-        except Exception as exc:  # the SDK raises its own error type for a port in use, bad TLS
+        except RuntimeError as exc:  # the SDK's FoxgloveError: a port in use, no such host, bad TLS
             raise GatewayError(
                 f'cannot start the Foxglove server on {self.address}:{self.port}: {exc}'
             ) from None
@@ -169,7 +169,7 @@ class SlowClients:
                 self._server.publish_status(
                     message, foxglove.StatusLevel.Warning, id=f'zros.slow.{address}'
                 )
-            except Exception:  # the server stopped meanwhile
+            except Exception:  # the server stopped meanwhile; this thread must keep draining
                 _log.debug('could not send a status', exc_info=True)
 
     def close(self) -> None:

@@ -11,6 +11,8 @@ from __future__ import annotations
 import logging
 from typing import Any
 
+from zenoh import ZError
+
 from zros.params.descriptor import Parameter
 from zros.params.store import ParameterStore
 from zros.params.values import ParameterError, ParameterType, from_message, to_message
@@ -158,7 +160,7 @@ class ParameterServer:
         )
         try:
             self._events.write(event)
-        except Exception:  # a change must not fail because its event could not go out
+        except ZError:  # a change must not fail because its event could not go out
             _log.debug('cannot publish a parameter event', exc_info=True)
 
     def close(self) -> None:

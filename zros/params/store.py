@@ -247,7 +247,7 @@ class ParameterStore:
         for callback in [*self._checks, *self._callbacks]:
             try:
                 result = _callback_result(callback(parameters))
-            except Exception as exc:
+            except Exception as exc:  # a user callback: its error is the refusal's reason
                 return f'a set callback raised {exc!r}'
             if not result:
                 return result.reason or 'refused by a callback'

@@ -274,5 +274,5 @@ class RosoutHandler(logging.Handler):
                     record.lineno,
                 )
             )
-        except Exception:
+        except Exception:  # a handler never raises: logging's handleError reports it
             self.handleError(record)
