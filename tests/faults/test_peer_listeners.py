@@ -211,12 +211,14 @@ def exchange_directly(
 
     Two peers dialling each other at once may drop both links ('lost the link to peer', seen
     on a loaded machine), and Zenoh does not dial again: the router relays nothing between
-    peers, so that pair stays apart. Such a pair is replaced (twice at most); a pair still
-    linked that cannot exchange a message fails the test at once.
+    peers, so that pair stays apart. Such a pair is replaced (twice at most), whether it lost
+    the links before or after they showed; a pair still linked that cannot exchange a message
+    fails the test at once.
     """
     for _ in range(3):
         first, second = open_pair()
-        assert wait_for(lambda: linked(first, second), 30)  # noqa: B023 (called right here)
+        if not wait_for(lambda: linked(first, second), 30):  # noqa: B023 (called right here)
+            continue
         talker = zros.Node('talker', transport=first)
         listener = zros.Node('listener', transport=second)
         sub = listener.create_subscription('std_msgs/msg/String', 'chatter')

@@ -192,18 +192,23 @@ class Graph:
         """
         liveliness = self._session.liveliness()
         deadline = time.monotonic() + timeout
-        for selector, handler in (
-            (ENTITY_TOKENS, self._on_entity),
-            (BRIDGE_TOKENS, self._on_entity),
-            (ZROS_TOKENS, self._on_zros),
-            (RMW_TOKENS, self._on_rmw),
-        ):
-            remaining = max(0.05, deadline - time.monotonic())
-            # a FIFO of Zenoh's default size (256) that fills while this thread takes the GIL
-            # back from the graph's callbacks stalls the session: give it room for any graph
-            replies = liveliness.get(
-                selector, handler=FifoChannel(REFRESH_CAPACITY), timeout=remaining
+        # the four asks go out at once, each with the whole time: asked one after another, a
+        # slow first answer (a loaded machine) left the last ones no time and the graph half seen
+        asked = [
+            (
+                # a FIFO of Zenoh's default size (256) that fills while this thread takes the GIL
+                # back from the graph's callbacks stalls the session: give it room for any graph
+                liveliness.get(selector, handler=FifoChannel(REFRESH_CAPACITY), timeout=timeout),
+                handler,
             )
+            for selector, handler in (
+                (ENTITY_TOKENS, self._on_entity),
+                (BRIDGE_TOKENS, self._on_entity),
+                (ZROS_TOKENS, self._on_zros),
+                (RMW_TOKENS, self._on_rmw),
+            )
+        ]
+        for replies, handler in asked:
             for reply in replies:
                 if reply.ok is not None:
                     handler(reply.ok)
