@@ -60,7 +60,7 @@ def build_parser(full: Container[str] = COMMANDS) -> argparse.ArgumentParser:
     for name, (help_line, builder) in COMMANDS.items():
         if name in full:
             _function(builder)(commands, help_line)
-        else:
+        else:  # never parsed: ``_run`` builds the tree of the command it parses
             commands.add_parser(name, help=help_line, add_help=False)
     return parser
 
