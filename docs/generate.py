@@ -81,10 +81,10 @@ def _commands(
 
 def cli_reference() -> str:
     """A section per command, with its ``--help`` text."""
-    from zros.cli.main import _parser
+    from zros.cli.main import build_parser
 
     sections = []
-    for path, parser in _commands(_parser(), ('zros',)):
+    for path, parser in _commands(build_parser(), ('zros',)):
         parser.formatter_class = lambda prog: argparse.HelpFormatter(prog, width=WIDTH)
         level = '#' * min(len(path) + 1, 4)
         text = parser.format_help().rstrip()

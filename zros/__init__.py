@@ -6,9 +6,12 @@ Heavy modules load on first use, so ``import zros`` and the ``zros`` command sta
 from __future__ import annotations
 
 import importlib
-from typing import TYPE_CHECKING, Any
 
 from zros.version import __version__ as __version__
+
+# not ``from typing import TYPE_CHECKING``: importing typing would slow every start-up (``zros
+# --help``); mypy reads a name TYPE_CHECKING as true all the same
+TYPE_CHECKING = False
 
 #: public name -> (module, attribute), imported on first access
 _LAZY = {
@@ -79,6 +82,8 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:
+    from typing import Any
+
     from zros.actions import (
         ActionClient,
         ActionError,

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from tests.cli.conftest import ZROS
-from zros.cli.main import _parser
+from zros.cli.main import COMMANDS, build_parser
 
 
 def verbs() -> list[list[str]]:
@@ -24,7 +24,7 @@ def verbs() -> list[list[str]]:
                 for name, child in action.choices.items():
                     walk(child, [*path, name])
 
-    walk(_parser(), [])
+    walk(build_parser(), [])
     return found
 
 
@@ -38,21 +38,70 @@ def test_every_command_has_help(path: list[str]) -> None:
     assert result.stdout.startswith(f'usage: zros {" ".join(path)}'.rstrip())
 
 
-def test_help_imports_neither_zenoh_nor_numpy() -> None:
-    """Start-up stays fast (``zros --help`` in well under 0.3 s) because the parser imports
-    only argparse and the command modules; the work imports the rest when it runs."""
-    code = (
-        'import sys, contextlib, io\n'
-        'from zros.cli.main import main\n'
-        'with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n'
-        '    main(["--help"])\n'
-        'print(sorted(m for m in ("zenoh", "numpy", "zros.cdr", "ruamel", "matplotlib")'
-        ' if m in sys.modules))\n'
-    )
+#: what no parser may import: the work of the commands imports these when it runs
+HEAVY = ('zenoh', 'numpy', 'zros.cdr', 'ruamel', 'matplotlib')
+
+
+def command_modules() -> set[str]:
+    """The modules that add the parsers of the commands."""
+    return {builder.split(':')[0] for _, builder in COMMANDS.values()}
+
+
+#: runs the console script as the shell does, then lists the modules it imported (Python's
+#: -X importtime report would miss those imported by importlib.import_module)
+RUN_AND_LIST_MODULES = """
+import atexit, runpy, sys
+atexit.register(lambda: print('MODULES', *sorted(sys.modules), file=sys.stderr))
+sys.argv[0] = sys.argv[1]
+del sys.argv[1]
+runpy.run_path(sys.argv[0], run_name='__main__')
+"""
+
+
+def imported_by(*args: str) -> set[str]:
+    """The modules the ``zros`` console script imports for ``zros ARGS``."""
+    assert ZROS is not None
     result = subprocess.run(
-        [sys.executable, '-c', code], capture_output=True, text=True, timeout=60, check=True
-    )
-    assert result.stdout == '[]\n'
+        [sys.executable, '-c', RUN_AND_LIST_MODULES, ZROS, *args],
+        capture_output=True, text=True, timeout=60, check=True,
+    )  # fmt: skip
+    assert result.stdout.startswith(f'usage: zros {" ".join(args[:-1])}'.rstrip())
+    listed = [line for line in result.stderr.splitlines() if line.startswith('MODULES ')]
+    assert len(listed) == 1, result.stderr
+    return set(listed[0].split()[1:])
+
+
+def test_help_imports_no_command_module_nor_zenoh_nor_numpy() -> None:
+    """Start-up stays fast (issue 16: ``zros --help`` under 0.1 s) because ``zros --help``
+    imports only argparse and the table of commands: a command's module loads when it is chosen,
+    and the work imports the rest when it runs."""
+    imported = imported_by('--help')
+    assert 'zros.cli.main' in imported
+    assert not imported & command_modules()
+    assert not {name for name in imported if name.startswith(HEAVY)}
+
+
+def test_a_command_imports_only_its_own_module() -> None:
+    imported = imported_by('topic', 'echo', '--help')
+    assert imported & command_modules() == {'zros.cli.topic'}
+    assert not {name for name in imported if name.startswith(HEAVY)}
+    # the two commands of one module
+    assert imported_by('graph', '--help') & command_modules() == {'zros.cli.plot'}
+
+
+def test_top_level_help_is_the_same_with_every_command_built() -> None:
+    """Each command's help line is written once, in the table: the whole tree (docs/cli.md,
+    completion) lists the commands exactly as ``zros --help`` does."""
+    assert build_parser().format_help() == build_parser(()).format_help()
+    assert build_parser(('topic', 'graph')).format_help() == build_parser(()).format_help()
+
+
+def test_a_mistyped_command_gets_the_list_of_commands() -> None:
+    result = run('tpoic', 'list')
+    assert result.returncode == 2
+    assert result.stderr.startswith('usage: zros [-h] [--version] COMMAND ...\n')
+    assert "zros: error: argument COMMAND: invalid choice: 'tpoic' (choose from" in result.stderr
+    assert all(name in result.stderr.split('(choose from', 1)[1] for name in COMMANDS)
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
@@ -77,6 +126,12 @@ def test_interface_packages_and_package() -> None:
     actions = run('interface', 'list', '-a').stdout.split()
     assert 'example_interfaces/action/Fibonacci' in actions
     assert all('/action/' in name for name in actions)
+
+
+def test_completion_knows_every_command_and_verb() -> None:
+    # ``zros completion`` builds every command's tree, not only its own
+    script = run('completion', 'bash').stdout
+    assert all(f'"{" ".join(path)}") words=' in script for path in verbs())
 
 
 @pytest.mark.parametrize(

@@ -101,8 +101,10 @@ def send_goal(args: argparse.Namespace) -> int:
         return 0 if handle.status is GoalStatus.SUCCEEDED else 1
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = commands.add_parser('action', help='actions: list, info, type, send_goal')
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    parser = commands.add_parser('action', help=help_line)
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
 
     def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:

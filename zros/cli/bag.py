@@ -8,8 +8,10 @@ import argparse
 from zros.cli.shared import out
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    bag = commands.add_parser('bag', help='read, record and play recordings')
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    bag = commands.add_parser('bag', help=help_line)
     verbs = bag.add_subparsers(dest='verb', metavar='VERB', required=True)
 
     show = verbs.add_parser(

@@ -48,15 +48,17 @@ complete -o default -F _zros_complete zros
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the script for the whole command line (``args.root_parser``)."""
-    print(script(args.root_parser), end='')
+    """Print the script for the whole command line (``args.full_parser()`` builds it)."""
+    print(script(args.full_parser()), end='')
     return 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
     parser = commands.add_parser(
         'completion',
-        help='print a shell completion script',
+        help=help_line,
         description='Print a completion script: eval "$(zros completion bash)" in ~/.bashrc; '
         'for zsh: autoload -U bashcompinit && bashcompinit && eval "$(zros completion zsh)".',
     )

@@ -20,11 +20,13 @@ distances at 0.8 V and 2.0 V beside the paper's, the residual error) and leaves 
 three PNGs (voltage.png, fit.png, distance.png) in the output folder."""
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
     """Add ``zros demo`` to the subcommands."""
     demo = commands.add_parser(
         'demo',
-        help='run the rosR sensor tutorial',
+        help=help_line,
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -173,10 +173,10 @@ def run(args: argparse.Namespace) -> int:
     return 1 if report.failed else 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = commands.add_parser(
-        'doctor', help='check the connection, bridges, versions and clocks', description=__doc__
-    )
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    parser = commands.add_parser('doctor', help=help_line, description=__doc__)
     parser.add_argument('--wait', type=float, default=2.0, help='seconds to discover the graph')
     parser.add_argument('--listen', type=float, default=2.0,
                         help='seconds to listen to /rosout for clock skew (0: skip)')  # fmt: skip

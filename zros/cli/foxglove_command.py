@@ -54,12 +54,13 @@ def run(args: argparse.Namespace) -> int:
             return serve_until_interrupted()
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    help_text = 'serve the robot, or a bag, to the Foxglove app (as foxglove_bridge)'
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
     parser = commands.add_parser(
         'foxglove',
-        help=help_text,
-        description=f'{help_text}. Needs the foxglove extra: pip install "zros[foxglove]".',
+        help=help_line,
+        description=f'{help_line}. Needs the foxglove extra: pip install "zros[foxglove]".',
     )
     parser.set_defaults(run='zros.cli.foxglove_command:run')
     parser.add_argument('--port', type=port_number, default=8765,

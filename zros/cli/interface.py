@@ -78,8 +78,10 @@ def package(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    interface = commands.add_parser('interface', help='message, service and action types')
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    interface = commands.add_parser('interface', help=help_line)
     verbs = interface.add_subparsers(dest='verb', metavar='VERB', required=True)
     show_parser = verbs.add_parser(
         'show', help='print the definition of a type, nested types expanded (as ros2)'

@@ -6,60 +6,77 @@ import argparse
 import importlib
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Container, Sequence
 
-# the command modules are light: each imports what it runs inside the function that runs it
-from zros.cli import (
-    action,
-    bag,
-    completion,
-    demo,
-    doctor,
-    foxglove_command,
-    interface,
-    node_command,
-    param,
-    plot,
-    rosbridge_command,
-    router_command,
-    service,
-    tls,
-    topic,
-)
-from zros.cli.shared import CommandError
-from zros.errors import SettingError, ZrosError
 from zros.version import __version__
 
+TYPE_CHECKING = False  # not typing's: importing typing would slow ``zros --help``
+if TYPE_CHECKING:
+    from typing import Any
 
-def _parser() -> argparse.ArgumentParser:
+#: every command, in the order ``zros --help`` lists them: its help line (written only here; the
+#: module gets it as an argument), and the function that adds its parser. That module is
+#: imported only when the command is chosen, or when the whole tree is needed (completion, docs).
+COMMANDS: dict[str, tuple[str, str]] = {
+    'demo': ('run the rosR sensor tutorial', 'zros.cli.demo:add_parser'),
+    'topic': ('topics: list, echo, pub, hz...', 'zros.cli.topic:add_parser'),
+    'node': ('nodes: list, info', 'zros.cli.node_command:add_parser'),
+    'service': ('services: list, type, find, call', 'zros.cli.service:add_parser'),
+    'action': ('actions: list, info, type, send_goal', 'zros.cli.action:add_parser'),
+    'param': ('parameters: list, get, set, describe, dump...', 'zros.cli.param:add_parser'),
+    'interface': ('message, service and action types', 'zros.cli.interface:add_parser'),
+    'bag': ('read, record and play recordings', 'zros.cli.bag:add_parser'),
+    'plot': ('plot topic fields, live or from a bag', 'zros.cli.plot:add_parser'),
+    'graph': ('draw the ROS graph (rqt_graph)', 'zros.cli.plot:add_graph_parser'),
+    'foxglove': (
+        'serve the robot, or a bag, to the Foxglove app (as foxglove_bridge)',
+        'zros.cli.foxglove_command:add_parser',
+    ),
+    'rosbridge': (
+        'serve the robot to roslibjs and roslibpy apps (as rosbridge_server and rosapi)',
+        'zros.cli.rosbridge_command:add_parser',
+    ),
+    'doctor': ('check the connection, bridges, versions and clocks', 'zros.cli.doctor:add_parser'),
+    'router': (
+        'run a Zenoh router here (for trying zros without a robot)',
+        'zros.cli.router_command:add_parser',
+    ),
+    'tls': ('make certificates for TLS to a robot', 'zros.cli.tls:add_parser'),
+    'completion': ('print a shell completion script', 'zros.cli.completion:add_parser'),
+}
+
+
+def build_parser(full: Container[str] = COMMANDS) -> argparse.ArgumentParser:
+    """The parser of ``zros``: the commands in ``full`` (default: all) with their whole tree,
+    the others with only their name and help line (enough for ``zros --help``)."""
     parser = argparse.ArgumentParser(
         prog='zros',
         description='zros: a ROS 2 client over Eclipse Zenoh, for machines with no ROS installed.',
     )
     parser.add_argument('--version', action='version', version=f'zros {__version__}')
-    # a command that describes the command line itself (completion) finds it in its arguments
-    parser.set_defaults(root_parser=parser)
+    # a command that describes the command line itself (completion) builds it from its arguments
+    parser.set_defaults(full_parser=build_parser)
     commands = parser.add_subparsers(dest='command', metavar='COMMAND')
-
-    for module in (
-        demo,
-        topic,
-        node_command,
-        service,
-        action,
-        param,
-        interface,
-        bag,
-        plot,
-        foxglove_command,
-        rosbridge_command,
-        doctor,
-        router_command,
-        tls,
-        completion,
-    ):
-        module.add_parser(commands)
+    for name, (help_line, builder) in COMMANDS.items():
+        if name in full:
+            _function(builder)(commands, help_line)
+        else:  # never parsed: ``_run`` builds the tree of the command it parses
+            commands.add_parser(name, help=help_line, add_help=False)
     return parser
+
+
+def _function(target: str) -> Callable[..., Any]:
+    """The function ``module:name`` names, importing its module."""
+    module_name, function_name = target.split(':')
+    function: Callable[..., Any] = getattr(importlib.import_module(module_name), function_name)
+    return function
+
+
+def chosen_command(argv: Sequence[str]) -> str | None:
+    """The command ``argv`` names: its first word that is not an option (``zros`` itself has
+    only ``--help`` and ``--version``, which take no value), if it is a command."""
+    first = next((word for word in argv if not word.startswith('-')), None)
+    return first if first in COMMANDS else None
 
 
 #: the exit code when the reader of our output went away (``zros interface list | head``):
@@ -83,14 +100,19 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _run(argv: Sequence[str] | None) -> int:
-    parser = _parser()
-    args = parser.parse_args(argv)
+    words = sys.argv[1:] if argv is None else list(argv)
+    command = chosen_command(words)
+    parser = build_parser(() if command is None else (command,))
+    args = parser.parse_args(words)
     target = getattr(args, 'run', None)
     if target is None:
         parser.print_help()
         return 2
-    module_name, function_name = target.split(':')
-    function = getattr(importlib.import_module(module_name), function_name)
+    # only a command that runs needs these (keeps ``zros --help`` start-up fast)
+    from zros.cli.shared import CommandError
+    from zros.errors import SettingError, ZrosError
+
+    function = _function(target)
     try:
         return int(function(args))
     except SettingError as exc:  # a setting that cannot work, as argparse's usage errors

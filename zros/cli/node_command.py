@@ -68,8 +68,10 @@ def info(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = commands.add_parser('node', help='nodes: list, info')
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    parser = commands.add_parser('node', help=help_line)
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
     listing = verbs.add_parser('list', help='list the nodes on the network')
     listing.add_argument('-c', '--count-nodes', action='store_true', help='only their number')

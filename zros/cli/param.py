@@ -186,8 +186,10 @@ def load(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = commands.add_parser('param', help='parameters: list, get, set, describe, dump...')
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    parser = commands.add_parser('param', help=help_line)
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
 
     def verb(

@@ -170,14 +170,16 @@ def graph(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
     text = (
         'plot numeric fields of live topics (like rqt_plot), or of a recording when the first '
         'argument is a bag'
     )
     parser = commands.add_parser(
         'plot',
-        help='plot topic fields, live or from a bag',
+        help=help_line,
         description=text,
         epilog='examples: zros plot /imu/linear_acceleration/x /odom/twist/twist/linear/x '
         '--filter 5; zros plot /scan/ranges[0] --duration 10 --png scan.png; '
@@ -233,8 +235,12 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     add_connection_options(parser)
 
+
+def add_graph_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
     text = 'draw the ROS graph like rqt_graph: nodes, topics, publisher -> topic -> subscriber'
-    parser = commands.add_parser('graph', help='draw the ROS graph (rqt_graph)', description=text)
+    parser = commands.add_parser('graph', help=help_line, description=text)
     parser.set_defaults(run='zros.cli.plot:graph')
     parser.add_argument(
         '-o',

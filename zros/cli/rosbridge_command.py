@@ -50,12 +50,13 @@ def run(args: argparse.Namespace) -> int:
             return serve_until_interrupted()
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    help_text = 'serve the robot to roslibjs and roslibpy apps (as rosbridge_server and rosapi)'
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
     parser = commands.add_parser(
         'rosbridge',
-        help=help_text,
-        description=f'{help_text}. Needs the rosbridge extra: pip install "zros[rosbridge]".',
+        help=help_line,
+        description=f'{help_line}. Needs the rosbridge extra: pip install "zros[rosbridge]".',
     )
     parser.set_defaults(run='zros.cli.rosbridge_command:run')
     parser.add_argument('--port', type=port_number, default=9090,

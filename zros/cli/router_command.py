@@ -81,10 +81,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
     parser = commands.add_parser(
         'router',
-        help='run a Zenoh router here (for trying zros without a robot)',
+        help=help_line,
         description=__doc__,
     )
     parser.add_argument(

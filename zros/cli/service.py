@@ -80,8 +80,10 @@ def call(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = commands.add_parser('service', help='services: list, type, find, call')
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    parser = commands.add_parser('service', help=help_line)
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
 
     def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:

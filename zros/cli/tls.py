@@ -45,8 +45,10 @@ def init(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    tls = commands.add_parser('tls', help='make certificates for TLS to a robot')
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    tls = commands.add_parser('tls', help=help_line)
     verbs = tls.add_subparsers(dest='verb', metavar='VERB', required=True)
     make = verbs.add_parser(
         'init',

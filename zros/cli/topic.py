@@ -371,8 +371,10 @@ def delay(args: argparse.Namespace) -> int:
 # --- the parser ------------------------------------------------------------------------------
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    topic = commands.add_parser('topic', help='topics: list, echo, pub, hz...')
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    topic = commands.add_parser('topic', help=help_line)
     verbs = topic.add_subparsers(dest='verb', metavar='VERB', required=True)
 
     def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:
