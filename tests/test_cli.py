@@ -5,7 +5,6 @@ from __future__ import annotations
 import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -66,11 +65,3 @@ def test_errors_exit_with_1_and_a_message() -> None:
     assert result.stderr.startswith("zros: error: unknown ROS type 'nope_msgs/msg/Nope'; searched:")
     assert run('interface', 'frobnicate').returncode == 2
     assert run().returncode == 2
-
-
-def test_help_is_fast() -> None:
-    run('--help')  # warm the file cache
-    start = time.perf_counter()
-    result = run('--help')
-    assert result.returncode == 0 and 'interface' in result.stdout
-    assert time.perf_counter() - start < 1.0  # the goal is 0.3 s; CI machines are noisy
