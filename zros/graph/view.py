@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import logging
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -46,6 +45,9 @@ _log = logging.getLogger('zros.graph')
 
 #: replies one graph refresh can hold per selector (tokens of a very large graph)
 REFRESH_CAPACITY = 1_000_000
+#: seconds a refresh's asks may wait for the network's answer: an answer ends an ask at once, so
+#: this only bounds a router slow to answer (a loaded machine took over 2 s)
+ANSWER_WITHIN = 15.0
 
 
 @dataclass(frozen=True)
@@ -185,37 +187,33 @@ class Graph:
         self._bump()
 
     def refresh(self, timeout: float = 2.0) -> None:
-        """Ask the network for every token now, and wait until bridges told their version.
+        """Ask the network for every token now, and wait up to ``timeout`` seconds more until
+        bridges told their version.
 
         The view fills by itself shortly after a session opens; a command-line tool that looks
-        once calls this to see the whole graph at once.
+        once calls this to see the whole graph at once. The asks end when the network has
+        answered them (at once, normally), within :data:`ANSWER_WITHIN` seconds.
         """
         liveliness = self._session.liveliness()
-        deadline = time.monotonic() + timeout
-        # the four asks go out at once, each with the whole time: asked one after another, a
-        # slow first answer (a loaded machine) left the last ones no time and the graph half seen
-        asked = [
-            (
-                # a FIFO of Zenoh's default size (256) that fills while this thread takes the GIL
-                # back from the graph's callbacks stalls the session: give it room for any graph
-                liveliness.get(selector, handler=FifoChannel(REFRESH_CAPACITY), timeout=timeout),
-                handler,
+        # one after another, each with the whole time: with one budget for all, a slow first
+        # answer on a loaded machine left the last ones 50 ms; asked all at once, some answers
+        # came back short under load (2 of 12 `zros action info` missed the node's name)
+        within = max(timeout, ANSWER_WITHIN)
+        for selector, handler in (
+            (ENTITY_TOKENS, self._on_entity),
+            (BRIDGE_TOKENS, self._on_entity),
+            (ZROS_TOKENS, self._on_zros),
+            (RMW_TOKENS, self._on_rmw),
+        ):
+            # a FIFO of Zenoh's default size (256) that fills while this thread takes the GIL
+            # back from the graph's callbacks stalls the session: give it room for any graph
+            replies = liveliness.get(
+                selector, handler=FifoChannel(REFRESH_CAPACITY), timeout=within
             )
-            for selector, handler in (
-                (ENTITY_TOKENS, self._on_entity),
-                (BRIDGE_TOKENS, self._on_entity),
-                (ZROS_TOKENS, self._on_zros),
-                (RMW_TOKENS, self._on_rmw),
-            )
-        ]
-        for replies, handler in asked:
             for reply in replies:
                 if reply.ok is not None:
                     handler(reply.ok)
-        self.wait_until(
-            lambda: all(b.version is not None for b in self.bridges()),
-            max(0.0, deadline - time.monotonic()),
-        )
+        self.wait_until(lambda: all(b.version is not None for b in self.bridges()), timeout)
 
     # --- queries ------------------------------------------------------------------------------
 
