@@ -155,9 +155,13 @@ def zros_to_ros(ix: Interop, topic: str, name: str, messages: list[Any]) -> None
             publisher.write(message)
         received = ros.wait_messages(subscription, len(messages), timeout=TIMEOUT)
         if len(received) != len(messages):  # say what the bridge did, not only what is missing
+            sent = [encode(message)[4:] for message in messages]
+            which = [
+                i for i, data in enumerate(sent) if any(r[4:].startswith(data) for r in received)
+            ]
             pytest.fail(
-                f'{len(received)} of {len(messages)} messages arrived; the stand-in log ends '
-                f'with:\n{ix.standin_log()}'
+                f'{len(received)} of {len(messages)} messages arrived (those sent as {which}); '
+                f'the stand-in log ends with:\n{ix.standin_log()}'
             )
         assert_received_by_ros(name, messages, received)
         ros.destroy(subscription)

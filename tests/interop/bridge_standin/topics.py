@@ -26,6 +26,9 @@ log = logging.getLogger('standin')
 
 ECHO_WINDOW = 5.0  # seconds a sample written to DDS is remembered (see EchoFilter)
 UNBOUNDED_CACHE = 1_000_000
+VOLATILE_WRITER_ROOM = (
+    100  # unacknowledged samples a volatile DDS writer keeps (see writer_profile)
+)
 
 
 # --- QoS between the token chunk and rclpy -------------------------------------------------------
@@ -42,6 +45,12 @@ def writer_profile(qos: p.TokenQos) -> QoSProfile:
 
     Unset policies take the DDS writer defaults (reliable, volatile, keep-last 1); a best-effort
     writer is made reliable, as the bridge does since its fix for issue #23.
+
+    A volatile writer gets a depth of at least ``VOLATILE_WRITER_ROOM``. The real bridge's
+    CycloneDDS keeps a reliable writer's unacknowledged samples whatever its keep-last depth (it
+    throttles the writer instead), while the stand-in's Fast DDS drops the oldest one at that
+    depth: two 900 KB images written back to back through a keep-last-1 writer lost the first
+    under load. Depth only says what a late reader gets for a transient-local writer, so it stays.
     """
     if qos.history == p.KEEP_ALL:
         return QoSProfile(
@@ -49,9 +58,12 @@ def writer_profile(qos: p.TokenQos) -> QoSProfile:
             reliability=ReliabilityPolicy.RELIABLE,
             durability=_durability(qos),
         )
+    depth = qos.depth if qos.history is not None and qos.depth else 1
+    if qos.durability in (None, p.VOLATILE):
+        depth = max(depth, VOLATILE_WRITER_ROOM)
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
-        depth=qos.depth if qos.history is not None and qos.depth else 1,
+        depth=depth,
         reliability=ReliabilityPolicy.RELIABLE,
         durability=_durability(qos),
     )
