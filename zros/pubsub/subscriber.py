@@ -92,7 +92,7 @@ class Subscriber(Entity):
         self._drops = DropCounter(self.topic)
         self._overflows = DropCounter(self.topic)
         self._rejection = wire.rejection
-        self._subscribe(wire, self.qos, self._on_sample, rejected=self._on_rejected)
+        self._subscribe(wire, self.qos, batches=self._on_samples, rejected=self._on_rejected)
         self._announce()
 
     @property
@@ -120,16 +120,18 @@ class Subscriber(Entity):
         """Undecodable and unattached messages by sender (as the warnings name them)."""
         return self._drops.counts()
 
-    # --- on Zenoh's thread -------------------------------------------------------------------
+    # --- on the delivery thread (Zenoh's for transient local) ---------------------------
 
     def _on_rejected(self, sample: Sample) -> None:
         """The wire turned ``sample`` away (rmw_zenoh: no valid attachment)."""
         self._queue.reject()
         self._drop(sample, self._rejection)
 
-    def _on_sample(self, sample: Sample) -> None:
-        if not self._queue.put(sample):
+    def _on_samples(self, samples: list[Sample]) -> None:
+        refused = self._queue.put(samples)
+        for _ in range(refused):
             self._overflows.add('queue', lambda: '', self._queue.describe_full)
+        if refused == len(samples):
             return
         if self._callback is not None:
             self._schedule(self._work)

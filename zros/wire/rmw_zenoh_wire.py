@@ -30,7 +30,7 @@ from zros.keyexpr.rmw_zenoh import IdCounter, NodeToken, RmwZenohScheme, gid
 from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
-from zros.wire.base import Sample, SampleCallback, Wire, WireEntity
+from zros.wire.base import Sample, Wire, WireEntity
 from zros.wire.requests import Requests
 
 if TYPE_CHECKING:
@@ -138,6 +138,8 @@ class RmwZenohEntity(WireEntity):
     """An entity on the rmw_zenoh wire: what it sends carries its GID and a number."""
 
     rejection = 'it has no valid rmw_zenoh attachment (rmw_zenoh drops such messages)'
+    #: only samples with a valid attachment, as rmw_zenoh
+    accepts = staticmethod(has_attachment)
 
     def __init__(self, key: str, tokens: tuple[str, ...] = (), gid: bytes | None = None) -> None:
         super().__init__(key, tokens, gid)
@@ -163,17 +165,6 @@ class RmwZenohEntity(WireEntity):
             put(data, attachment=attach())
 
         return send
-
-    def admitting(self, callback: SampleCallback, rejected: SampleCallback) -> SampleCallback:
-        """``callback`` for samples with a valid attachment, ``rejected`` for the others."""
-
-        def on_sample(sample: Sample) -> None:
-            if has_attachment(sample):
-                callback(sample)
-            else:
-                rejected(sample)
-
-        return on_sample
 
     def publisher_options(self, qos: QoS) -> dict[str, Any]:
         """Reliable ones send rmw_zenoh's sporadic heartbeat."""
