@@ -32,10 +32,10 @@ from transport_roles import ROLES, read_result, spawn_role, wait_ready, zros_nod
 
 __all__ = ['read_result', 'round_trip', 'spawn_role', 'throughput', 'wait_ready', 'zros_node']
 
-STRING_IMPLS = ('zenoh', 'zenoh_decode', 'zros', 'zros_rmw', 'zros_poll')
+STRING_IMPLS = ('zenoh', 'zenoh_decode', 'zros', 'zros_rmw', 'zros_poll', 'zros_now')
 IMAGE_IMPLS = ('zenoh', 'zros', 'zros_rmw')
 SIZE_IMPLS = ('zenoh', 'zros')
-RTT_IMPLS = ('zenoh', 'zros', 'zros_rmw')
+RTT_IMPLS = ('zenoh', 'zros', 'zros_rmw', 'zros_now')
 #: uint8[] sizes of row (c), and how many messages each run sends (full run)
 SIZES = {
     10: 200_000,

@@ -13,6 +13,14 @@ STRING_NAMES = {
     'zros': 'zros callback (bridge)',
     'zros_rmw': 'zros callback (rmw_zenoh)',
     'zros_poll': 'zros spin_once + take',
+    'zros_now': 'zros immediate callbacks',
+}
+#: the round trip's competitors
+RTT_NAMES = {
+    'zenoh': 'raw zenoh',
+    'zros': 'zros',
+    'zros_rmw': 'zros rmw_zenoh',
+    'zros_now': 'zros immediate',
 }
 
 
@@ -55,6 +63,10 @@ def _print_strings(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> Non
     if poll and raw:
         ratio = poll['rate'] / raw['rate']
         goals.append(('String, zros spin_once+take / raw bytes', ratio, '>= 0.75', ratio >= 0.75))
+    now = rows.get('string/zros_now')
+    if now and decoded:
+        ratio = now['rate'] / decoded['rate']
+        goals.append(('String, zros immediate / raw + decode', ratio, '>= 0.85', ratio >= 0.85))
     if rmw and zros:
         ratio = rmw['rate'] / zros['rate']
         goals.append(('String, rmw_zenoh wire / bridge wire', ratio, '>= 0.95', ratio >= 0.95))
@@ -106,7 +118,7 @@ def _print_round_trips(rows: Rows, goals: list[tuple[str, float, str, bool]]) ->
     print(f'(d) Float64 round trip, us       {"median":>10} {"p99":>8} {"- raw":>8}')
     for row, where in (('rtt', 'router'), ('rtt_peer', 'peer to peer')):
         raw = rows[f'{row}/zenoh']
-        for impl, name in (('zenoh', 'raw zenoh'), ('zros', 'zros'), ('zros_rmw', 'zros rmw')):
+        for impl, name in RTT_NAMES.items():
             found = rows.get(f'{row}/{impl}')
             if found is None:
                 continue
@@ -115,13 +127,15 @@ def _print_round_trips(rows: Rows, goals: list[tuple[str, float, str, bool]]) ->
             print(
                 f'    {label:28} {_us(found, "median"):>10,.0f} {_us(found, "p99"):>8,.0f} {over:>+8,.0f}'
             )
-        zros = rows.get(f'{row}/zros')
-        if zros:
+        for impl, name in (('zros', 'zros'), ('zros_now', 'zros immediate')):
+            zros = rows.get(f'{row}/{impl}')
+            if zros is None:
+                continue
             over = _us(zros, 'median') - _us(raw, 'median')
-            goals.append((f'RTT median, {where}: zros - raw (us)', over, '<= +30', over <= 30))
+            goals.append((f'RTT median, {where}: {name} - raw (us)', over, '<= +30', over <= 30))
             if row == 'rtt':
                 ratio = zros['p99'] / raw['p99']
-                goals.append((f'RTT p99, {where}: zros / raw', ratio, '<= 1.00', ratio <= 1.0))
+                goals.append((f'RTT p99, {where}: {name} / raw', ratio, '<= 1.00', ratio <= 1.0))
 
 
 def report(rows: Rows, rclpy: dict[str, dict[str, Any]] | None = None) -> None:

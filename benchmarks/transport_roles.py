@@ -8,7 +8,9 @@ Implementations (``--impl``):
   * ``zros``, ``zros_rmw``: a zros node on the bridge's keys or on rmw_zenoh's, whose
     subscriber has a callback run by ``spin_once`` (the ROS way);
   * ``zros_poll``: a zros node read the rosR way, ``spin_once(0.01)`` then
-    ``has_new_message()`` and ``take()``.
+    ``has_new_message()`` and ``take()``;
+  * ``zros_now``: a zros node with ``immediate_callbacks`` (callbacks run on the delivery
+    thread as messages arrive, not inside ``spin``).
 
 Payloads (``--kind``): ``string`` (std_msgs/String), ``image`` (sensor_msgs/Image 1080p rgb8),
 ``bytes<N>`` (std_msgs/UInt8MultiArray with N bytes of data).
@@ -52,7 +54,8 @@ def raw_session(endpoint: str, shm: bool, peer: bool = False) -> Any:
 
 
 def zros_node(name: str, endpoint: str, shm: bool, peer: bool = False, impl: str = 'zros') -> Any:
-    """A zros node on a session of its own (``impl`` 'zros_rmw': on the rmw_zenoh wire)."""
+    """A zros node on a session of its own (``impl`` 'zros_rmw': on the rmw_zenoh wire;
+    'zros_now': with immediate callbacks)."""
     import zros
     from zros.transport import Transport, TransportConfig
 
@@ -63,7 +66,8 @@ def zros_node(name: str, endpoint: str, shm: bool, peer: bool = False, impl: str
         listen='tcp/127.0.0.1:0' if peer else None,
     )
     wire = 'rmw_zenoh' if impl == 'zros_rmw' else 'bridge'
-    return zros.Node(name, transport=Transport(config), wire=wire)
+    immediate = impl == 'zros_now'
+    return zros.Node(name, transport=Transport(config), wire=wire, immediate_callbacks=immediate)
 
 
 def type_of(kind: str) -> str:

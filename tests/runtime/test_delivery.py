@@ -1,4 +1,5 @@
-"""How samples reach zros: a FIFO channel drained in batches on a thread per subscription."""
+"""How samples reach zros: a FIFO channel drained in batches on a thread per subscription, and
+nodes whose callbacks run as messages arrive (``immediate_callbacks``)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from typing import Any
 
 import pytest
 
+import zros
 from zros.node import Node
 from zros.runtime.sample_queue import SampleQueue
 from zros.testing import wait_for
@@ -108,3 +110,36 @@ def test_a_keep_all_queue_given_a_batch_past_its_bound_keeps_what_fits() -> None
     keep_last = SampleQueue(2, None, None)
     assert keep_last.put(samples) == 0
     assert keep_last.pop() == samples[3:]
+
+
+def test_immediate_callbacks_run_as_messages_arrive_without_spin(
+    zros_node: Callable[..., Node],
+) -> None:
+    talker, listener = zros_node('talker'), zros_node('listener', immediate_callbacks=True)
+    got: list[str] = []
+    threads: set[str] = set()
+
+    def on_message(message: Any) -> None:
+        got.append(message.data)
+        threads.add(threading.current_thread().name)
+
+    listener.create_subscription(String, 'chatter', on_message, qos='keep_all')
+    publisher = talker.create_publisher(String, 'chatter', qos='keep_all')
+    assert publisher.wait_for_subscribers(30)
+    sent = [str(i) for i in range(2000)]
+    for data in sent:
+        publisher.write(zros.Message(String, data=data))
+    assert wait_for(lambda: len(got) == len(sent), 30)  # nobody spins the listener
+    assert got == sent
+    assert all(name.endswith(delivery.THREAD_SUFFIX) for name in threads)
+
+
+def test_immediate_callbacks_answer_service_requests_without_spin(
+    zros_node: Callable[..., Node],
+) -> None:
+    server, caller = zros_node('server', immediate_callbacks=True), zros_node('caller')
+    add = 'example_interfaces/srv/AddTwoInts'
+    server.create_service(add, 'add', lambda r: zros.get_type(add).Response(sum=r.a + r.b))
+    client = caller.create_client(add, 'add', timeout=30)
+    assert client.wait_for_service(30)
+    assert client.call(a=2, b=3).sum == 5  # nobody spins the server
