@@ -83,6 +83,16 @@ class SequenceNumbers:
         """The attachment of the next publication or request."""
         return self._pack(next(self._numbers), time.time_ns(), GID_SIZE, self.gid)
 
+    def sender(self, put: Callable[..., None]) -> Callable[[bytes | bytearray], None]:
+        """``put(data, attachment=...)`` with the next attachment, everything bound once (a
+        publisher's hot path: two calls less per message than going through :meth:`next`)."""
+        pack, numbers, now, gid = self._pack, self._numbers, time.time_ns, self.gid
+
+        def send(data: bytes | bytearray) -> None:
+            put(data, attachment=pack(next(numbers), now(), GID_SIZE, gid))
+
+        return send
+
 
 class AttachedRequests(Requests):
     """Requests admitted by rmw_zenoh's rules, answered with the echoed attachment."""
@@ -146,7 +156,7 @@ class RmwZenohEntity(WireEntity):
         self._numbers: SequenceNumbers | None = None
         self._numbers_lock = threading.Lock()
 
-    def _next_attachment(self) -> bytes:
+    def _sequence(self) -> SequenceNumbers:
         numbers = self._numbers
         if numbers is None:
             with self._numbers_lock:
@@ -155,16 +165,20 @@ class RmwZenohEntity(WireEntity):
                         raise AttachmentError(f'the entity on {self.key} has no GID to send with')
                     self._numbers = SequenceNumbers(self.gid)
                 numbers = self._numbers
-        return numbers.next()
+        return numbers
+
+    def _next_attachment(self) -> bytes:
+        return self._sequence().next()
 
     def sender(self, put: Callable[..., None]) -> Callable[[bytes | bytearray], None]:
-        """``put`` with the next attachment."""
-        attach = self._next_attachment
+        """``put`` with the next attachment (an entity without a GID raises when it sends)."""
+        if self.gid is None:
 
-        def send(data: bytes | bytearray) -> None:
-            put(data, attachment=attach())
+            def refuse(data: bytes | bytearray) -> None:
+                self._sequence()  # raises: no GID to send with
 
-        return send
+            return refuse
+        return self._sequence().sender(put)
 
     def publisher_options(self, qos: QoS) -> dict[str, Any]:
         """Reliable ones send rmw_zenoh's sporadic heartbeat."""
