@@ -161,6 +161,22 @@ class Subscriber(Entity):
             self._drop(sample, f'it does not decode as {self.type_name}: {exc}')
             return None
 
+    def _convert_all(self, samples: list[Sample]) -> list[Any]:
+        """The messages of ``samples`` (under ``self._reading``), dropping the undecodable."""
+        if self.raw or self._checked is not None:
+            return [m for m in map(self._convert, samples) if m is not None]
+        cls = self.msg_type
+        messages: list[Any] = []
+        append = messages.append
+        for sample in samples:
+            try:
+                append(decode(cls, sample.payload.to_bytes()))
+            except CdrError:  # the checked path counts and logs the drop
+                message = self._convert(sample)
+                if message is not None:
+                    append(message)
+        return messages
+
     def has_new_message(self) -> bool:
         """Whether a message arrived since the last ``read_message`` or ``take``.
 
@@ -206,7 +222,7 @@ class Subscriber(Entity):
                 )
                 if not samples:
                     break
-                messages.extend(m for m in map(self._convert, samples) if m is not None)
+                messages.extend(self._convert_all(samples))
                 if max_messages is None:
                     break
         if messages:
