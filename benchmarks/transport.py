@@ -78,6 +78,9 @@ def parse() -> argparse.Namespace:
     parser.add_argument('--shm', action='store_true', help='allow shared memory (one host)')
     parser.add_argument('--repeats', type=int, default=0, help='runs per row (default 3, 1 quick)')
     parser.add_argument('--rows', default='a,b,c,d', help='which rows to run (default all)')
+    parser.add_argument(
+        '--skip', default='', help='competitors to leave out, e.g. zros_now (for older zros)'
+    )
     parser.add_argument('--role', help=argparse.SUPPRESS)
     parser.add_argument('--impl', default='zros', help=argparse.SUPPRESS)
     parser.add_argument('--endpoint', help=argparse.SUPPRESS)
@@ -110,6 +113,10 @@ def main() -> None:
         f'median of {repeats} alternating runs'
     )
     runs: dict[str, list[dict[str, Any]]] = {}
+    skip = set(args.skip.split(','))
+
+    def chosen(impls: tuple[str, ...]) -> list[str]:
+        return [impl for impl in impls if impl not in skip]
 
     def run(row: str, impl: str, found: dict[str, Any]) -> None:
         runs.setdefault(f'{row}/{impl}', []).append(found)
@@ -119,21 +126,21 @@ def main() -> None:
     try:
         for _ in range(repeats):
             if 'a' in rows:
-                for impl in STRING_IMPLS:
+                for impl in chosen(STRING_IMPLS):
                     run('string', impl, throughput(impl, 'string', strings, endpoint, args.shm))
             if 'b' in rows:
-                for impl in IMAGE_IMPLS:
+                for impl in chosen(IMAGE_IMPLS):
                     run('image', impl, throughput(impl, 'image', images, endpoint, args.shm))
             if 'c' in rows:
                 for size, full in SIZES.items():
                     count = max(full // scale, 20)
-                    for impl in SIZE_IMPLS:
+                    for impl in chosen(SIZE_IMPLS):
                         found = throughput(impl, f'bytes{size}', count, endpoint, args.shm)
                         run(f'bytes{size}', impl, found)
             if 'd' in rows:
-                for impl in RTT_IMPLS:
+                for impl in chosen(RTT_IMPLS):
                     run('rtt', impl, round_trip(impl, pings, endpoint, args.shm))
-                for impl in RTT_IMPLS:
+                for impl in chosen(RTT_IMPLS):
                     run('rtt_peer', impl, round_trip(impl, pings, endpoint, args.shm, peer=True))
     finally:
         router.close()

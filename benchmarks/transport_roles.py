@@ -66,8 +66,8 @@ def zros_node(name: str, endpoint: str, shm: bool, peer: bool = False, impl: str
         listen='tcp/127.0.0.1:0' if peer else None,
     )
     wire = 'rmw_zenoh' if impl == 'zros_rmw' else 'bridge'
-    immediate = impl == 'zros_now'
-    return zros.Node(name, transport=Transport(config), wire=wire, immediate_callbacks=immediate)
+    options = {'immediate_callbacks': True} if impl == 'zros_now' else {}
+    return zros.Node(name, transport=Transport(config), wire=wire, **options)
 
 
 def type_of(kind: str) -> str:

@@ -66,6 +66,12 @@ def test_polling_read_and_take(zros_node: Callable[..., Node]) -> None:
     assert wait_for(lambda: sub.received == 30)
     assert [m.data for m in sub.take()] == ['25', '26', '27', '28', '29']
     assert sub.take() == []
+    for i in range(30, 35):
+        pub.write(text(str(i)))
+    assert wait_for(lambda: sub.received == 35)
+    assert sub.has_new_message()  # decodes the newest; take() still gives every one, in order
+    assert [m.data for m in sub.take()] == ['30', '31', '32', '33', '34']
+    assert not sub.has_new_message()
 
 
 def test_messages_small_and_large_in_turn_arrive_intact(zros_node: Callable[..., Node]) -> None:

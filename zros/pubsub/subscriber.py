@@ -163,12 +163,17 @@ class Subscriber(Entity):
 
     def _convert_all(self, samples: list[Sample]) -> list[Any]:
         """The messages of ``samples`` (under ``self._reading``), dropping the undecodable."""
-        if self.raw or self._checked is not None:
+        if self.raw:
             return [m for m in map(self._convert, samples) if m is not None]
         cls = self.msg_type
+        checked = self._checked  # decoded already by has_new_message
         messages: list[Any] = []
         append = messages.append
         for sample in samples:
+            if sample is checked:
+                append(self._checked_message)
+                self._checked = self._checked_message = checked = None
+                continue
             try:
                 append(decode(cls, sample.payload.to_bytes()))
             except CdrError:  # the checked path counts and logs the drop
