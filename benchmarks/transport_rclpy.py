@@ -3,10 +3,12 @@ Fast DDS, inside a private network namespace (needs the ``interop`` extra and ro
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from transport_roles import read_result, wait_ready
@@ -84,15 +86,23 @@ rclpy.shutdown()
 """
 
 
-def rclpy_rows(quick: bool) -> dict[str, dict[str, Any]] | None:
+Spawn = Callable[[list[str]], 'subprocess.Popen[str]']
+
+
+@contextlib.contextmanager
+def dds_namespace(domain: int, what: str) -> Iterator[Spawn | None]:
+    """``spawn(argv)``: Python processes in a private network namespace for Fast DDS (only
+    ``lo``), deleted on exit; None (and a line saying why) without rclpy, root or iproute2."""
     try:
         import rclpy  # noqa: F401
     except ImportError:
-        print('rclpy row skipped: the interop extra (ros-jazzy-rclpy) is not installed')
-        return None
+        print(f'{what} skipped: the interop extra (ros-jazzy-rclpy) is not installed')
+        yield None
+        return
     if os.geteuid() != 0 or shutil.which('ip') is None:
-        print('rclpy row skipped: a private network namespace for DDS needs root and iproute2')
-        return None
+        print(f'{what} skipped: a private network namespace for DDS needs root and iproute2')
+        yield None
+        return
     namespace = f'zros_bench_{os.getpid()}'
     subprocess.run(['ip', 'netns', 'add', namespace], check=True)
     try:
@@ -100,27 +110,27 @@ def rclpy_rows(quick: bool) -> dict[str, dict[str, Any]] | None:
         env = {
             **os.environ,
             'RMW_IMPLEMENTATION': 'rmw_fastrtps_cpp',
-            'ROS_DOMAIN_ID': '42',
+            'ROS_DOMAIN_ID': str(domain),
             'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4',  # like zros here: no shared memory
         }
 
+        def spawn(argv: list[str]) -> subprocess.Popen[str]:
+            command = ['ip', 'netns', 'exec', namespace, sys.executable, *argv]
+            return subprocess.Popen(command, stdout=subprocess.PIPE, text=True, env=env)
+
+        yield spawn
+    finally:
+        subprocess.run(['ip', 'netns', 'del', namespace], check=False)
+
+
+def rclpy_rows(quick: bool) -> dict[str, dict[str, Any]] | None:
+    """The String, Image and round-trip rows between two rclpy processes, or None."""
+    with dds_namespace(42, 'rclpy row') as spawn_in:
+        if spawn_in is None:
+            return None
+
         def spawn(role: str, count: int) -> subprocess.Popen[str]:
-            return subprocess.Popen(
-                [
-                    'ip',
-                    'netns',
-                    'exec',
-                    namespace,
-                    sys.executable,
-                    '-c',
-                    RCLPY_WORKER,
-                    role,
-                    str(count),
-                ],
-                stdout=subprocess.PIPE,
-                text=True,
-                env=env,
-            )
+            return spawn_in(['-c', RCLPY_WORKER, role, str(count)])
 
         rows: dict[str, dict[str, Any]] = {}
         for kind, count in (
@@ -138,5 +148,3 @@ def rclpy_rows(quick: bool) -> dict[str, dict[str, Any]] | None:
         echo.kill()
         echo.communicate()
         return rows
-    finally:
-        subprocess.run(['ip', 'netns', 'del', namespace], check=False)

@@ -15,6 +15,14 @@ STRING_NAMES = {
     'zros_poll': 'zros spin_once + take',
     'zros_now': 'zros immediate callbacks',
 }
+#: the String row's goals: (competitor, reference, what, the least ratio)
+STRING_GOALS = [
+    ('zros', 'zenoh_decode', 'zros callback / raw + decode', 0.85),
+    ('zros', 'zenoh', 'zros callback / raw bytes', 0.75),
+    ('zros_poll', 'zenoh', 'zros spin_once+take / raw bytes', 0.75),
+    ('zros_now', 'zenoh_decode', 'zros immediate / raw + decode', 0.85),
+    ('zros_rmw', 'zros', 'rmw_zenoh wire / bridge wire', 0.95),
+]
 #: the round trip's competitors
 RTT_NAMES = {
     'zenoh': 'raw zenoh',
@@ -53,23 +61,11 @@ def _print_strings(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> Non
         over_decoded = f'{rate / decoded["rate"]:8.2f}' if decoded else ' ' * 8
         runs = ' '.join(f'{r / 1000:.0f}k' for r in found['runs'])
         print(f'    {name:28} {rate:>10,.0f} {over_raw} {over_decoded}  {runs}')
-    zros, rmw, poll = (rows.get(f'string/{i}') for i in ('zros', 'zros_rmw', 'zros_poll'))
-    if zros and decoded:
-        ratio = zros['rate'] / decoded['rate']
-        goals.append(('String, zros callback / raw + decode', ratio, '>= 0.85', ratio >= 0.85))
-    if zros and raw:
-        ratio = zros['rate'] / raw['rate']
-        goals.append(('String, zros callback / raw bytes', ratio, '>= 0.75', ratio >= 0.75))
-    if poll and raw:
-        ratio = poll['rate'] / raw['rate']
-        goals.append(('String, zros spin_once+take / raw bytes', ratio, '>= 0.75', ratio >= 0.75))
-    now = rows.get('string/zros_now')
-    if now and decoded:
-        ratio = now['rate'] / decoded['rate']
-        goals.append(('String, zros immediate / raw + decode', ratio, '>= 0.85', ratio >= 0.85))
-    if rmw and zros:
-        ratio = rmw['rate'] / zros['rate']
-        goals.append(('String, rmw_zenoh wire / bridge wire', ratio, '>= 0.95', ratio >= 0.95))
+    for ours, theirs, text, target in STRING_GOALS:
+        found, reference = rows.get(f'string/{ours}'), rows.get(f'string/{theirs}')
+        if found and reference:
+            ratio = found['rate'] / reference['rate']
+            goals.append((f'String, {text}', ratio, f'>= {target:.2f}', ratio >= target))
 
 
 def _print_images(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
