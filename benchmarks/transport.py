@@ -81,6 +81,7 @@ def parse() -> argparse.Namespace:
     parser.add_argument(
         '--skip', default='', help='competitors to leave out, e.g. zros_now (for older zros)'
     )
+    parser.add_argument('--no-rclpy', action='store_true', help='leave out the rclpy rows')
     parser.add_argument('--role', help=argparse.SUPPRESS)
     parser.add_argument('--impl', default='zros', help=argparse.SUPPRESS)
     parser.add_argument('--endpoint', help=argparse.SUPPRESS)
@@ -145,7 +146,7 @@ def main() -> None:
     finally:
         router.close()
     medians = {key: _median_run(found) for key, found in runs.items()}
-    rclpy = rclpy_rows(args.quick) if {'a', 'b', 'd'} <= rows else None
+    rclpy = rclpy_rows(args.quick) if {'a', 'b', 'd'} <= rows and not args.no_rclpy else None
     report(medians, rclpy)
 
 
