@@ -20,13 +20,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import statistics
 import subprocess
 import sys
 import threading
 import time
 from typing import Any
+
+from transport_rclpy import dds_namespace
+from transport_roles import read_result, wait_ready
 
 HERE = os.path.abspath(__file__)
 TYPE = 'std_srvs/srv/SetBool'  #: rclpy from PyPI has std_srvs (example_interfaces is not there)
@@ -181,26 +183,11 @@ def _spawn(role: str, impl: str, endpoint: str, extra: list[str]) -> subprocess.
     return subprocess.Popen([*command, *extra], stdout=subprocess.PIPE, text=True)
 
 
-def _wait_ready(process: subprocess.Popen[str]) -> None:
-    assert process.stdout is not None
-    line = process.stdout.readline()
-    if line.strip() != 'ready':
-        raise RuntimeError(f'a benchmark process did not start: {line!r}')
-
-
-def _result(process: subprocess.Popen[str], timeout: float) -> dict[str, Any]:
-    out, _ = process.communicate(timeout=timeout)
-    lines = [line for line in out.splitlines() if line.startswith('{')]
-    if process.returncode != 0 or not lines:
-        raise RuntimeError(f'a benchmark process failed (exit {process.returncode}): {out[-500:]}')
-    return dict(json.loads(lines[-1]))
-
-
 def run(impl: str, count: int, endpoint: str) -> dict[str, Any]:
     server = _spawn('server', impl, endpoint, ['--timeout', '300'])
-    _wait_ready(server)
+    wait_ready(server)
     try:
-        return _result(_spawn('client', impl, endpoint, ['--count', str(count)]), 300)
+        return read_result(_spawn('client', impl, endpoint, ['--count', str(count)]), 300)
     finally:
         server.kill()
         server.communicate()
@@ -326,43 +313,24 @@ rclpy.shutdown()
 
 def rclpy_row(count: int) -> dict[str, Any] | None:
     try:
-        import rclpy  # noqa: F401
         import std_srvs  # noqa: F401
     except ImportError:
-        print('rclpy column skipped: the interop extra (ros-jazzy-rclpy, std-srvs) is missing')
+        print('rclpy column skipped: the interop extra (std-srvs) is missing')
         return None
-    if os.geteuid() != 0 or shutil.which('ip') is None:
-        print('rclpy column skipped: a private network namespace for DDS needs root and iproute2')
-        return None
-    namespace = f'zros_bench_{os.getpid()}'
-    subprocess.run(['ip', 'netns', 'add', namespace], check=True)
-    try:
-        subprocess.run(['ip', '-n', namespace, 'link', 'set', 'lo', 'up'], check=True)
-        env = {
-            **os.environ,
-            'RMW_IMPLEMENTATION': 'rmw_fastrtps_cpp',
-            'ROS_DOMAIN_ID': '43',
-            'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4',  # like zros here: no shared memory
-        }
+    with dds_namespace(43, 'rclpy column') as spawn_in:
+        if spawn_in is None:
+            return None
 
         def spawn(role: str) -> subprocess.Popen[str]:
-            command = ['ip', 'netns', 'exec', namespace, sys.executable, '-c', RCLPY_WORKER]
-            return subprocess.Popen(
-                [*command, role, str(count), str(IN_FLIGHT)],
-                stdout=subprocess.PIPE,
-                text=True,
-                env=env,
-            )
+            return spawn_in(['-c', RCLPY_WORKER, role, str(count), str(IN_FLIGHT)])
 
         server = spawn('server')
-        _wait_ready(server)
+        wait_ready(server)
         try:
-            return _result(spawn('client'), 300)
+            return read_result(spawn('client'), 300)
         finally:
             server.kill()
             server.communicate()
-    finally:
-        subprocess.run(['ip', 'netns', 'del', namespace], check=False)
 
 
 if __name__ == '__main__':

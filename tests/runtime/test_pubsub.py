@@ -7,6 +7,7 @@ import logging
 import time
 from collections.abc import Callable
 
+import numpy as np
 import pytest
 
 import zros
@@ -65,6 +66,30 @@ def test_polling_read_and_take(zros_node: Callable[..., Node]) -> None:
     assert wait_for(lambda: sub.received == 30)
     assert [m.data for m in sub.take()] == ['25', '26', '27', '28', '29']
     assert sub.take() == []
+    for i in range(30, 35):
+        pub.write(text(str(i)))
+    assert wait_for(lambda: sub.received == 35)
+    assert sub.has_new_message()  # decodes the newest; take() still gives every one, in order
+    assert [m.data for m in sub.take()] == ['30', '31', '32', '33', '34']
+    assert not sub.has_new_message()
+
+
+def test_messages_small_and_large_in_turn_arrive_intact(zros_node: Callable[..., Node]) -> None:
+    talker, listener = connected(zros_node)
+    kind = 'std_msgs/msg/UInt8MultiArray'
+    sub = listener.create_subscription(kind, 'blobs', qos='keep_all')
+    pub = talker.create_publisher(kind, 'blobs', qos='keep_all')
+    assert pub.wait_for_subscribers(30)
+    rng = np.random.default_rng(7)
+    sizes = [10, 200_000, 70_000, 10, 5, 300_000, 100_000, 20]  # large ones reuse a buffer
+    sent = [rng.integers(0, 256, size, dtype=np.uint8) for size in sizes]
+    for data in sent:
+        pub.write(zros.Message(kind, data=data))
+    assert wait_for(lambda: sub.received == len(sent), 30)
+    got = sub.take()
+    assert len(got) == len(sent)
+    for message, data in zip(got, sent, strict=True):
+        assert np.array_equal(message.data, data)
 
 
 def test_keep_last_keeps_the_newest(zros_node: Callable[..., Node]) -> None:

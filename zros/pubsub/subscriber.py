@@ -92,7 +92,7 @@ class Subscriber(Entity):
         self._drops = DropCounter(self.topic)
         self._overflows = DropCounter(self.topic)
         self._rejection = wire.rejection
-        self._subscribe(wire, self.qos, self._on_sample, rejected=self._on_rejected)
+        self._subscribe(wire, self.qos, batches=self._on_samples, rejected=self._on_rejected)
         self._announce()
 
     @property
@@ -120,16 +120,18 @@ class Subscriber(Entity):
         """Undecodable and unattached messages by sender (as the warnings name them)."""
         return self._drops.counts()
 
-    # --- on Zenoh's thread -------------------------------------------------------------------
+    # --- on the delivery thread (Zenoh's for transient local) ---------------------------
 
     def _on_rejected(self, sample: Sample) -> None:
         """The wire turned ``sample`` away (rmw_zenoh: no valid attachment)."""
         self._queue.reject()
         self._drop(sample, self._rejection)
 
-    def _on_sample(self, sample: Sample) -> None:
-        if not self._queue.put(sample):
+    def _on_samples(self, samples: list[Sample]) -> None:
+        refused = self._queue.put(samples)
+        for _ in range(refused):
             self._overflows.add('queue', lambda: '', self._queue.describe_full)
+        if refused == len(samples):
             return
         if self._callback is not None:
             self._schedule(self._work)
@@ -158,6 +160,27 @@ class Subscriber(Entity):
             self.undecodable += 1  # under self._reading
             self._drop(sample, f'it does not decode as {self.type_name}: {exc}')
             return None
+
+    def _convert_all(self, samples: list[Sample]) -> list[Any]:
+        """The messages of ``samples`` (under ``self._reading``), dropping the undecodable."""
+        if self.raw:
+            return [m for m in map(self._convert, samples) if m is not None]
+        cls = self.msg_type
+        checked = self._checked  # decoded already by has_new_message
+        messages: list[Any] = []
+        append = messages.append
+        for sample in samples:
+            if sample is checked:
+                append(self._checked_message)
+                self._checked = self._checked_message = checked = None
+                continue
+            try:
+                append(decode(cls, sample.payload.to_bytes()))
+            except CdrError:  # the checked path counts and logs the drop
+                message = self._convert(sample)
+                if message is not None:
+                    append(message)
+        return messages
 
     def has_new_message(self) -> bool:
         """Whether a message arrived since the last ``read_message`` or ``take``.
@@ -204,7 +227,7 @@ class Subscriber(Entity):
                 )
                 if not samples:
                     break
-                messages.extend(m for m in map(self._convert, samples) if m is not None)
+                messages.extend(self._convert_all(samples))
                 if max_messages is None:
                     break
         if messages:

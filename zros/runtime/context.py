@@ -44,6 +44,7 @@ class NodeContext:
         wire: Wire,
         registry: TypeRegistry,
         clock: Clock,
+        immediate_callbacks: bool = False,
     ) -> None:
         self.name = name
         self.namespace = namespace
@@ -52,7 +53,7 @@ class NodeContext:
         self.wire = wire
         self.registry = registry
         self.clock = clock
-        self.executor = Executor(self.fully_qualified_name)
+        self.executor = Executor(self.fully_qualified_name, immediate=immediate_callbacks)
         self._entities: list[Closable] = []
         self._lock = threading.Lock()
         self._closed = False

@@ -5,7 +5,8 @@ its Zenoh objects through the helpers here, announces itself, and is closed once
 retired (newest first), Zenoh objects undeclared, parts closed, then what the kind adds.
 :meth:`Entity._subscribe` is the single raw subscription of zros: the wire's admission rule
 (rmw_zenoh drops samples without a valid attachment), and for transient local a zenoh-ext
-advanced subscriber with the wire's options; the callback runs on Zenoh's thread.
+advanced subscriber with the wire's options; the callback runs on the subscription's delivery
+thread (``zros.transport.delivery``), or Zenoh's for transient local.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
 from zros.runtime.context import NodeContext
 from zros.runtime.defaults import NodeLike, default_node
+from zros.transport import delivery
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -28,7 +30,7 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros')
 
-Sample = Any  #: a Zenoh sample, on Zenoh's thread
+Sample = Any  #: a Zenoh sample, on a delivery thread or Zenoh's
 
 
 def message_class(registry: TypeRegistry, msg_type: str | type[Message]) -> type[Message]:
@@ -38,6 +40,19 @@ def message_class(registry: TypeRegistry, msg_type: str | type[Message]) -> type
             raise TypeError(f'{msg_type!r} is not a zros message class')
         return msg_type
     return registry.get_class(msg_type)
+
+
+def _each(callback: Callable[[Sample], None]) -> Callable[[list[Sample]], None]:
+    """A batch callback calling ``callback`` per sample (one that raises spoils no other)."""
+
+    def each(samples: list[Sample]) -> None:
+        for sample in samples:
+            try:
+                callback(sample)
+            except Exception:  # a raw tap's callback: logged, the batch goes on
+                _log.exception('the callback %r of a subscription raised', callback)
+
+    return each
 
 
 class Entity:
@@ -92,24 +107,34 @@ class Entity:
         self,
         wire: WireEntity,
         qos: QoS,
-        callback: Callable[[Sample], None],
+        callback: Callable[[Sample], None] | None = None,
         *,
+        batches: Callable[[list[Sample]], None] | None = None,
         rejected: Callable[[Sample], None] | None = None,
         late_publishers: bool = True,
     ) -> Any:
-        """Subscribe to ``wire.key``: ``callback(sample)`` on Zenoh's thread for each sample
-        the wire accepts, ``rejected(sample)`` for the others (default: a debug line).
-        Transient local fetches the publishers' caches (of ``late_publishers`` too)."""
-        on_sample = wire.admitting(callback, rejected or self._rejected(wire.rejection))
+        """Subscribe to ``wire.key``: ``callback(sample)`` for each sample the wire accepts
+        (or ``batches(samples)`` for several at once), ``rejected(sample)`` for the others
+        (default: a debug line), on a thread that is not the spinning one (zros's delivery
+        thread, or Zenoh's for transient local, which fetches the publishers' caches, of
+        ``late_publishers`` too)."""
+        if batches is None:
+            if callback is None:
+                raise TypeError('_subscribe needs a callback or batches')
+            batches = _each(callback)
+        refuse = rejected or self._rejected(wire.rejection)
+        on_samples = wire.admitting(batches, refuse)
         session = self.context.transport.session
         if qos.transient_local:
             history = ext.HistoryConfig(detect_late_publishers=late_publishers,
                                         max_samples=qos.depth)  # fmt: skip
             subscriber = ext.declare_advanced_subscriber(
-                session, wire.key, on_sample, history=history, **wire.subscriber_options(qos)
-            )
+                session, wire.key, lambda sample: on_samples([sample]), history=history,
+                **wire.subscriber_options(qos),
+            )  # fmt: skip
         else:
-            subscriber = session.declare_subscriber(wire.key, on_sample)
+            subscriber = session.declare_subscriber(wire.key, delivery.channel())
+            delivery.deliver(subscriber, on_samples, wire.key)
         return self._keep(subscriber)
 
     def _rejected(self, reason: str) -> Callable[[Sample], None]:

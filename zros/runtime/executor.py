@@ -63,10 +63,18 @@ class TimerLike(Protocol):
 
 class Executor:
     """The callback queue of one node: work from its entities (unread messages, requests,
-    queued calls), and timers."""
+    queued calls), and timers.
 
-    def __init__(self, name: str = 'zros') -> None:
+    ``immediate``: the work of subscribers and services runs at once on the thread that
+    delivers it (a subscription's delivery thread, a service's Zenoh thread) instead of
+    waiting for a spin: one thread hand-over less per message, but callbacks of different
+    entities may run at the same time, and one that blocks holds up its entity's deliveries.
+    Timers and queued calls still run where the node spins.
+    """
+
+    def __init__(self, name: str = 'zros', *, immediate: bool = False) -> None:
         self.name = name  #: names the event-loop thread
+        self.immediate = immediate
         self._ready: collections.deque[Work] = collections.deque()
         self._signal = Signal()
         self._timers: list[TimerLike] = []
@@ -81,7 +89,11 @@ class Executor:
     # --- from any thread (Zenoh's included: keep it cheap) ---------------------------------
 
     def schedule(self, work: Work) -> None:
-        """Queue ``work`` unless already queued."""
+        """Queue ``work`` unless already queued (run it now if ``immediate``)."""
+        if self.immediate:
+            if not self.stopped:
+                work.run()
+            return
         if not work.scheduled:
             work.scheduled = True
             self._ready.append(work)

@@ -52,22 +52,31 @@ class SampleQueue:
         """Keep-all: the bytes held, overheads included (0 for keep-last)."""
         return self._bytes
 
-    def put(self, sample: Any) -> bool:
-        """Queue ``sample``; False when a keep-all queue is at its bounds (it is dropped)."""
+    def put(self, samples: list[Any]) -> int:
+        """Queue ``samples`` in order; returns how many a keep-all queue refused at its bounds
+        (they are dropped)."""
         limit = self.max_bytes
-        size = 0 if limit is None else _cost(sample)
         items = self._items
+        if limit is None:
+            with self._lock:
+                self.received += len(samples)
+                items.extend(samples)
+            return 0
+        sizes = [_cost(sample) for sample in samples]
+        refused = 0
         with self._lock:
-            self.received += 1
-            if limit is not None and (
-                self._bytes + size > limit
-                or (self.max_count is not None and len(items) >= self.max_count)
-            ):
-                self.overflowed += 1
-                return False
-            items.append(sample)
-            self._bytes += size
-        return True
+            self.received += len(samples)
+            count_limit = self.max_count
+            for sample, size in zip(samples, sizes, strict=True):
+                if self._bytes + size > limit or (
+                    count_limit is not None and len(items) >= count_limit
+                ):
+                    refused += 1
+                    continue
+                items.append(sample)
+                self._bytes += size
+            self.overflowed += refused
+        return refused
 
     def reject(self) -> None:
         """Count a sample turned away before queueing (received, and lost)."""

@@ -6,7 +6,8 @@ therefore closed from a ``threading`` exit hook, which runs before those joins. 
 daemon when the thread that declared the subscriber was one (a recorder's discovery thread, say),
 and Python does not join daemons: one still on its way out when the interpreter finalizes is
 stopped inside Zenoh's Rust code, which aborts the process (``FATAL: exception not rethrown``).
-The hook therefore also waits for those threads, which end once their sessions are closed.
+The hook therefore also waits for those threads, which end once their sessions are closed, and
+for zros's own delivery threads (``zros.transport.delivery``, daemons too), which end the same way.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import threading
 import weakref
 from typing import Any
 
+from zros.transport import delivery
 from zros.transport.config import TransportConfig, listen_endpoints
 from zros.transport.credentials import password_dictionary
 from zros.transport.endpoints import parse_endpoint
@@ -41,7 +43,7 @@ def _close_all() -> None:
     for transport in list(_open):
         transport.close()
     for thread in threading.enumerate():
-        if thread.daemon and thread.name.endswith(_CALLBACK_THREAD):
+        if thread.daemon and thread.name.endswith((_CALLBACK_THREAD, delivery.THREAD_SUFFIX)):
             thread.join(_CALLBACK_JOIN_TIMEOUT)
 
 

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 
 Sample = Any  #: a Zenoh sample (received on Zenoh's threads)
 SampleCallback = Callable[[Sample], None]
+BatchCallback = Callable[[list[Sample]], None]
 
 
 class KeyScheme(Protocol):
@@ -44,6 +45,8 @@ class WireEntity:
 
     #: why :meth:`admitting` turns a sample away (for the drop counters)
     rejection = ''
+    #: which samples a subscriber of this wire accepts (None: every sample)
+    accepts: Callable[[Sample], bool] | None = None
 
     def __init__(self, key: str, tokens: tuple[str, ...] = (), gid: bytes | None = None) -> None:
         self.key = key  #: the Zenoh key to declare on
@@ -54,10 +57,24 @@ class WireEntity:
         """The function that publishes one payload through ``put`` (a Zenoh publisher's)."""
         return put
 
-    def admitting(self, callback: SampleCallback, rejected: SampleCallback) -> SampleCallback:
-        """A subscriber callback: ``callback(sample)`` for the samples this wire accepts,
-        ``rejected(sample)`` for the others."""
-        return callback
+    def admitting(self, callback: BatchCallback, rejected: SampleCallback) -> BatchCallback:
+        """A subscriber's batch callback: ``callback(samples)`` with the samples this wire
+        accepts (never an empty list), ``rejected(sample)`` for each of the others."""
+        accepts = self.accepts
+        if accepts is None:
+            return callback
+
+        def on_samples(samples: list[Sample]) -> None:
+            admitted = []
+            for sample in samples:
+                if accepts(sample):
+                    admitted.append(sample)
+                else:
+                    rejected(sample)
+            if admitted:
+                callback(admitted)
+
+        return on_samples
 
     def publisher_options(self, qos: QoS) -> dict[str, Any]:
         """Extra options of a transient-local (zenoh-ext advanced) publisher."""

@@ -30,7 +30,7 @@ from zros.keyexpr.rmw_zenoh import IdCounter, NodeToken, RmwZenohScheme, gid
 from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
-from zros.wire.base import Sample, SampleCallback, Wire, WireEntity
+from zros.wire.base import Sample, Wire, WireEntity
 from zros.wire.requests import Requests
 
 if TYPE_CHECKING:
@@ -82,6 +82,16 @@ class SequenceNumbers:
     def next(self) -> bytes:
         """The attachment of the next publication or request."""
         return self._pack(next(self._numbers), time.time_ns(), GID_SIZE, self.gid)
+
+    def sender(self, put: Callable[..., None]) -> Callable[[bytes | bytearray], None]:
+        """``put(data, attachment=...)`` with the next attachment, everything bound once (a
+        publisher's hot path: two calls less per message than going through :meth:`next`)."""
+        pack, numbers, now, gid = self._pack, self._numbers, time.time_ns, self.gid
+
+        def send(data: bytes | bytearray) -> None:
+            put(data, attachment=pack(next(numbers), now(), GID_SIZE, gid))
+
+        return send
 
 
 class AttachedRequests(Requests):
@@ -138,13 +148,15 @@ class RmwZenohEntity(WireEntity):
     """An entity on the rmw_zenoh wire: what it sends carries its GID and a number."""
 
     rejection = 'it has no valid rmw_zenoh attachment (rmw_zenoh drops such messages)'
+    #: only samples with a valid attachment, as rmw_zenoh
+    accepts = staticmethod(has_attachment)
 
     def __init__(self, key: str, tokens: tuple[str, ...] = (), gid: bytes | None = None) -> None:
         super().__init__(key, tokens, gid)
         self._numbers: SequenceNumbers | None = None
         self._numbers_lock = threading.Lock()
 
-    def _next_attachment(self) -> bytes:
+    def _sequence(self) -> SequenceNumbers:
         numbers = self._numbers
         if numbers is None:
             with self._numbers_lock:
@@ -153,27 +165,20 @@ class RmwZenohEntity(WireEntity):
                         raise AttachmentError(f'the entity on {self.key} has no GID to send with')
                     self._numbers = SequenceNumbers(self.gid)
                 numbers = self._numbers
-        return numbers.next()
+        return numbers
+
+    def _next_attachment(self) -> bytes:
+        return self._sequence().next()
 
     def sender(self, put: Callable[..., None]) -> Callable[[bytes | bytearray], None]:
-        """``put`` with the next attachment."""
-        attach = self._next_attachment
+        """``put`` with the next attachment (an entity without a GID raises when it sends)."""
+        if self.gid is None:
 
-        def send(data: bytes | bytearray) -> None:
-            put(data, attachment=attach())
+            def refuse(data: bytes | bytearray) -> None:
+                self._sequence()  # raises: no GID to send with
 
-        return send
-
-    def admitting(self, callback: SampleCallback, rejected: SampleCallback) -> SampleCallback:
-        """``callback`` for samples with a valid attachment, ``rejected`` for the others."""
-
-        def on_sample(sample: Sample) -> None:
-            if has_attachment(sample):
-                callback(sample)
-            else:
-                rejected(sample)
-
-        return on_sample
+            return refuse
+        return self._sequence().sender(put)
 
     def publisher_options(self, qos: QoS) -> dict[str, Any]:
         """Reliable ones send rmw_zenoh's sporadic heartbeat."""

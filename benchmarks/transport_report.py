@@ -1,0 +1,161 @@
+"""The tables of ``benchmarks/transport.py``: every row with its ratio to raw Zenoh, and the goals
+of issue 17 (met or missed)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+Rows = dict[str, dict[str, Any]]  #: 'row/impl' -> the median run
+#: the String row's competitors
+STRING_NAMES = {
+    'zenoh': 'raw zenoh, bytes only',
+    'zenoh_decode': 'raw zenoh + zros decode',
+    'zros': 'zros callback (bridge)',
+    'zros_rmw': 'zros callback (rmw_zenoh)',
+    'zros_poll': 'zros spin_once + take',
+    'zros_now': 'zros immediate callbacks',
+}
+#: the String row's goals: (competitor, reference, what, the least ratio)
+STRING_GOALS = [
+    ('zros', 'zenoh_decode', 'zros callback / raw + decode', 0.85),
+    ('zros', 'zenoh', 'zros callback / raw bytes', 0.75),
+    ('zros_poll', 'zenoh', 'zros spin_once+take / raw bytes', 0.75),
+    ('zros_now', 'zenoh_decode', 'zros immediate / raw + decode', 0.85),
+    ('zros_rmw', 'zros', 'rmw_zenoh wire / bridge wire', 0.95),
+]
+#: the round trip's competitors
+RTT_NAMES = {
+    'zenoh': 'raw zenoh',
+    'zros': 'zros',
+    'zros_rmw': 'zros rmw_zenoh',
+    'zros_now': 'zros immediate',
+}
+
+
+def _mbs(row: dict[str, Any]) -> float:
+    return float(row['rate'] * row['size'] / 1e6)
+
+
+def _us(row: dict[str, Any], key: str) -> float:
+    return float(row[key]) * 1e6
+
+
+def _size(size: int) -> str:
+    for unit, scale in (('MB', 1_000_000), ('KB', 1_000)):
+        if size >= scale:
+            return f'{size // scale} {unit}'
+    return f'{size} B'
+
+
+def _print_strings(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
+    raw, decoded = rows.get('string/zenoh'), rows.get('string/zenoh_decode')
+    if not any(key.startswith('string/') for key in rows):
+        return
+    print(f'(a) std_msgs/String msgs/s       {"msgs/s":>10} {"/ bytes":>8} {"/ decode":>8}  runs')
+    for impl, name in STRING_NAMES.items():
+        found = rows.get(f'string/{impl}')
+        if found is None:
+            continue
+        rate = found['rate']
+        over_raw = f'{rate / raw["rate"]:8.2f}' if raw else ' ' * 8
+        over_decoded = f'{rate / decoded["rate"]:8.2f}' if decoded else ' ' * 8
+        runs = ' '.join(f'{r / 1000:.0f}k' for r in found['runs'])
+        print(f'    {name:28} {rate:>10,.0f} {over_raw} {over_decoded}  {runs}')
+    for ours, theirs, text, target in STRING_GOALS:
+        found, reference = rows.get(f'string/{ours}'), rows.get(f'string/{theirs}')
+        if found and reference:
+            ratio = found['rate'] / reference['rate']
+            goals.append((f'String, {text}', ratio, f'>= {target:.2f}', ratio >= target))
+
+
+def _print_images(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
+    raw = rows.get('image/zenoh')
+    if raw is None:
+        return
+    print(f'(b) Image 1080p rgb8 MB/s        {"MB/s":>10} {"/ raw":>8}')
+    for impl, name in (('zenoh', 'raw zenoh'), ('zros', 'zros'), ('zros_rmw', 'zros rmw_zenoh')):
+        found = rows.get(f'image/{impl}')
+        if found is not None:
+            print(f'    {name:28} {_mbs(found):>10,.0f} {_mbs(found) / _mbs(raw):8.2f}')
+    zros = rows.get('image/zros')
+    if zros:
+        ratio = _mbs(zros) / _mbs(raw)
+        goals.append(('Image 1080p MB/s, zros / raw', ratio, '>= 0.80', ratio >= 0.8))
+
+
+def _print_sizes(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
+    sizes = sorted(int(key[5:].split('/')[0]) for key in rows if key.startswith('bytes'))
+    sizes = sorted(set(sizes))
+    if not sizes:
+        return
+    print(
+        f'(c) uint8[]   {"raw msgs/s":>12} {"raw MB/s":>9} {"zros msgs/s":>12} {"zros MB/s":>9}'
+        f' {"zros/raw":>9}'
+    )
+    worst: tuple[float, int] | None = None
+    for size in sizes:
+        raw, zros = rows.get(f'bytes{size}/zenoh'), rows.get(f'bytes{size}/zros')
+        if raw is None or zros is None:
+            continue
+        ratio = zros['rate'] / raw['rate']
+        worst = min(worst or (ratio, size), (ratio, size))
+        print(
+            f'    {_size(size):>7} {raw["rate"]:>12,.0f} {_mbs(raw):>9,.1f} {zros["rate"]:>12,.0f}'
+            f' {_mbs(zros):>9,.1f} {ratio:>9.2f}'
+        )
+    if worst is not None:
+        text = f'uint8[] 10 B-10 MB, zros / raw (worst: {_size(worst[1])})'
+        goals.append((text, worst[0], '>= 0.75', worst[0] >= 0.75))
+
+
+def _print_round_trips(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
+    if 'rtt/zenoh' not in rows:
+        return
+    print(f'(d) Float64 round trip, us       {"median":>10} {"p99":>8} {"- raw":>8}')
+    for row, where in (('rtt', 'router'), ('rtt_peer', 'peer to peer')):
+        raw = rows[f'{row}/zenoh']
+        for impl, name in RTT_NAMES.items():
+            found = rows.get(f'{row}/{impl}')
+            if found is None:
+                continue
+            over = _us(found, 'median') - _us(raw, 'median')
+            label = f'{name}, {where}'
+            print(
+                f'    {label:28} {_us(found, "median"):>10,.0f} {_us(found, "p99"):>8,.0f} {over:>+8,.0f}'
+            )
+        for impl, name in (('zros', 'zros'), ('zros_now', 'zros immediate')):
+            zros = rows.get(f'{row}/{impl}')
+            if zros is None:
+                continue
+            over = _us(zros, 'median') - _us(raw, 'median')
+            goals.append((f'RTT median, {where}: {name} - raw (us)', over, '<= +30', over <= 30))
+            if row == 'rtt':
+                ratio = zros['p99'] / raw['p99']
+                goals.append((f'RTT p99, {where}: {name} / raw', ratio, '<= 1.00', ratio <= 1.0))
+
+
+def report(rows: Rows, rclpy: dict[str, dict[str, Any]] | None = None) -> None:
+    """Print every row measured, then the goals."""
+    goals: list[tuple[str, float, str, bool]] = []
+    print()
+    _print_strings(rows, goals)
+    _print_images(rows, goals)
+    _print_sizes(rows, goals)
+    _print_round_trips(rows, goals)
+    if rclpy is not None:
+        print(
+            f'rclpy over Fast DDS: String {rclpy["string"]["rate"]:,.0f} msgs/s, Image '
+            f'{_mbs(rclpy["image"]):,.0f} MB/s, RTT peer to peer median '
+            f'{_us(rclpy["rtt"], "median"):,.0f} us, p99 {_us(rclpy["rtt"], "p99"):,.0f} us'
+        )
+        if 'string/zros' in rows and 'rtt_peer/zros' in rows:
+            ours = rows['string/zros']['rate'] / rclpy['string']['rate']
+            goals.append(('zros beats rclpy on String msgs/s', ours, '> 1', ours > 1))
+            ours = rows['rtt_peer/zros']['median'] / rclpy['rtt']['median']
+            goals.append(('zros beats rclpy on RTT (zros / rclpy)', ours, '< 1', ours < 1))
+    print()
+    print(f'    {"goal":50} {"found":>8} {"target":>8}')
+    for text, value, target, met in goals:
+        print(f'    {text:50} {value:>8.2f} {target:>8}  {"met" if met else "MISSED"}')
+    lost = {key: row['lost'] for key, row in rows.items() if row.get('lost')}
+    print(f'  messages lost: {lost or "none"} (none may be)')

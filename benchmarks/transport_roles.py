@@ -1,0 +1,309 @@
+"""The process roles of ``benchmarks/transport.py``: publishers, subscribers, echo and ping.
+
+Each role runs in a process of its own (``transport.py --role ...``) and prints one JSON line.
+Implementations (``--impl``):
+
+  * ``zenoh``: zenoh-python alone; its subscriber only takes the bytes of each sample;
+  * ``zenoh_decode``: zenoh-python, whose subscriber also decodes them with zros's codec;
+  * ``zros``, ``zros_rmw``: a zros node on the bridge's keys or on rmw_zenoh's, whose
+    subscriber has a callback run by ``spin_once`` (the ROS way);
+  * ``zros_poll``: a zros node read the rosR way, ``spin_once(0.01)`` then
+    ``has_new_message()`` and ``take()``;
+  * ``zros_now``: a zros node with ``immediate_callbacks`` (callbacks run on the delivery
+    thread as messages arrive, not inside ``spin``).
+
+Payloads (``--kind``): ``string`` (std_msgs/String), ``image`` (sensor_msgs/Image 1080p rgb8),
+``bytes<N>`` (std_msgs/UInt8MultiArray with N bytes of data).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from typing import Any
+
+#: the script that plays the roles (``--role``)
+SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'transport.py')
+
+#: how long a publisher waits after its last message (the subscriber drains its queue)
+LINGER = 1.0
+#: the subscriber of the rosR polling path reads this often
+POLL_PERIOD = 0.01
+
+
+def raw_session(endpoint: str, shm: bool, peer: bool = False) -> Any:
+    """A zenoh-python session with the settings zros's transport gives its own."""
+    import zenoh
+
+    settings: dict[str, Any] = {
+        'mode': 'peer' if peer else 'client',
+        'connect': {'endpoints': [endpoint]},
+        'scouting': {'multicast': {'enabled': False}},
+        'transport': {'shared_memory': {'enabled': shm}},
+        'timestamping': {'enabled': True},
+    }
+    if peer:
+        settings['listen'] = {'endpoints': ['tcp/127.0.0.1:0']}
+    return zenoh.open(zenoh.Config.from_json5(json.dumps(settings)))
+
+
+def zros_node(name: str, endpoint: str, shm: bool, peer: bool = False, impl: str = 'zros') -> Any:
+    """A zros node on a session of its own (``impl`` 'zros_rmw': on the rmw_zenoh wire;
+    'zros_now': with immediate callbacks)."""
+    import zros
+    from zros.transport import Transport, TransportConfig
+
+    config = TransportConfig.create(
+        connect=endpoint,
+        shared_memory=shm,
+        mode='peer' if peer else 'client',
+        listen='tcp/127.0.0.1:0' if peer else None,
+    )
+    wire = 'rmw_zenoh' if impl == 'zros_rmw' else 'bridge'
+    options = {'immediate_callbacks': True} if impl == 'zros_now' else {}
+    return zros.Node(name, transport=Transport(config), wire=wire, **options)
+
+
+def type_of(kind: str) -> str:
+    """The message type of a payload kind."""
+    if kind == 'string':
+        return 'std_msgs/msg/String'
+    if kind == 'image':
+        return 'sensor_msgs/msg/Image'
+    return 'std_msgs/msg/UInt8MultiArray'
+
+
+def payload(kind: str) -> Any:
+    """The message a publisher sends over and over."""
+    import numpy as np
+
+    import zros
+
+    if kind == 'string':
+        return zros.Message('std_msgs/msg/String', data='hello zros, a short message')
+    if kind == 'image':
+        image = zros.Message(
+            'sensor_msgs/msg/Image', height=1080, width=1920, encoding='rgb8', step=5760
+        )
+        image.data = np.random.default_rng(1).integers(0, 256, 1920 * 1080 * 3, dtype=np.uint8)
+        return image
+    size = int(kind.removeprefix('bytes'))
+    message = zros.Message(type_of(kind))
+    message.data = np.random.default_rng(1).integers(0, 256, size, dtype=np.uint8)
+    return message
+
+
+def encoded_size(kind: str) -> int:
+    """The bytes of one message of ``kind`` on the wire (CDR header included)."""
+    from zros.cdr import encode
+
+    return len(encode(payload(kind)))
+
+
+def role_publish(args: argparse.Namespace) -> None:
+    """Send ``count`` messages as fast as the transport takes them."""
+    message = payload(args.kind)
+    if args.impl.startswith('zenoh'):
+        import zenoh
+
+        from zros.cdr import encode
+
+        session = raw_session(args.endpoint, args.shm)
+        publisher = session.declare_publisher(
+            'bench/data', congestion_control=zenoh.CongestionControl.BLOCK
+        )
+        while not publisher.matching_status.matching:
+            time.sleep(0.001)
+        data = encode(message)
+        put = publisher.put
+        for _ in range(args.count):
+            put(data)
+        time.sleep(LINGER)
+        session.close()
+    else:
+        node = zros_node('bench_pub', args.endpoint, args.shm, impl=args.impl)
+        publisher = node.create_publisher(message.__msgtype__, '/bench/data', qos='keep_all')
+        publisher.wait_for_subscribers(30)
+        write = publisher.write
+        for _ in range(args.count):
+            write(message)
+        time.sleep(LINGER)
+        node.transport.close()
+
+
+class Counter:
+    """Arrival times of the first and the last message, and how many came."""
+
+    def __init__(self, count: int) -> None:
+        self.count = count
+        self.received = 0
+        self.first = self.last = 0.0
+        self.done = threading.Event()
+
+    def add(self, messages: int = 1) -> None:
+        """Count ``messages`` arriving now."""
+        now = time.perf_counter()
+        if self.received == 0:
+            self.first = now
+            messages -= 1  # the clock starts at the first one
+            self.received = 1
+        self.received += messages
+        self.last = now
+        if self.received >= self.count:
+            self.done.set()
+
+    def result(self, size: int) -> dict[str, Any]:
+        """The JSON line of the subscriber."""
+        elapsed = max(self.last - self.first, 1e-9)
+        rate = (self.received - 1) / elapsed
+        return {'received': self.received, 'expected': self.count, 'rate': rate, 'size': size}
+
+
+def role_subscribe(args: argparse.Namespace) -> None:
+    """Receive (and decode) ``count`` messages; print the rate between the first and the last."""
+    from zros.cdr import get_class
+    from zros.cdr.message import decode
+
+    cls = get_class(type_of(args.kind))
+    counter = Counter(args.count)
+    if args.impl.startswith('zenoh'):
+        add = counter.add
+        if args.impl == 'zenoh':
+
+            def on_sample(sample: Any) -> None:
+                sample.payload.to_bytes()
+                add()
+
+        else:
+
+            def on_sample(sample: Any) -> None:
+                decode(cls, sample.payload.to_bytes())
+                add()
+
+        session = raw_session(args.endpoint, args.shm)
+        subscriber = session.declare_subscriber('bench/data', on_sample)
+        print('ready', flush=True)
+        counter.done.wait(args.timeout)
+        subscriber.undeclare()
+        session.close()
+    else:
+        from zros.qos import KEEP_ALL
+
+        node = zros_node('bench_sub', args.endpoint, args.shm, impl=args.impl)
+        deadline = time.monotonic() + args.timeout
+        if args.impl == 'zros_poll':
+            subscriber = node.create_subscription(cls, '/bench/data', qos=KEEP_ALL)
+            print('ready', flush=True)
+            while counter.received < args.count and time.monotonic() < deadline:
+                node.spin_once(POLL_PERIOD)
+                if subscriber.has_new_message():
+                    counter.add(len(subscriber.take()))
+        else:
+            node.create_subscription(cls, '/bench/data', lambda _: counter.add(), qos=KEEP_ALL)
+            print('ready', flush=True)
+            while counter.received < args.count and time.monotonic() < deadline:
+                node.spin_once(0.5)
+        node.transport.close()
+    print(json.dumps(counter.result(encoded_size(args.kind))))
+
+
+def role_echo(args: argparse.Namespace) -> None:
+    """Send every ping back as a pong."""
+    if args.impl.startswith('zenoh'):
+        session = raw_session(args.endpoint, args.shm, args.peer)
+        pong = session.declare_publisher('bench/pong')
+        subscriber = session.declare_subscriber('bench/ping', lambda s: pong.put(s.payload))
+        print('ready', flush=True)
+        threading.Event().wait(args.timeout)
+        subscriber.undeclare()
+        session.close()
+    else:
+        node = zros_node('bench_echo', args.endpoint, args.shm, args.peer, args.impl)
+        pong = node.create_publisher('std_msgs/msg/Float64', '/bench/pong')
+        node.create_subscription('std_msgs/msg/Float64', '/bench/ping', pong.write, qos=100)
+        print('ready', flush=True)
+        node.spin(timeout=args.timeout)
+        node.transport.close()
+
+
+def role_ping(args: argparse.Namespace) -> None:
+    """Measure ``count`` round trips after a warm-up of 100."""
+    import zros
+
+    times: list[float] = []
+    message = zros.Message('std_msgs/msg/Float64', data=0.0)
+    if args.impl.startswith('zenoh'):
+        from zros.cdr import encode
+
+        got = threading.Event()
+        session = raw_session(args.endpoint, args.shm, args.peer)
+        session.declare_subscriber('bench/pong', lambda s: got.set())
+        ping = session.declare_publisher('bench/ping')
+        while not ping.matching_status.matching:
+            time.sleep(0.001)
+        data = encode(message)
+        for i in range(args.count + 100):
+            got.clear()
+            start = time.perf_counter()
+            ping.put(data)
+            got.wait(2)
+            if i >= 100:
+                times.append(time.perf_counter() - start)
+        session.close()
+    else:
+        node = zros_node('bench_ping', args.endpoint, args.shm, args.peer, args.impl)
+        pongs = node.create_subscription('std_msgs/msg/Float64', '/bench/pong', qos=100)
+        ping = node.create_publisher('std_msgs/msg/Float64', '/bench/ping')
+        ping.wait_for_subscribers(30)
+        for i in range(args.count + 100):
+            message.data = float(i)
+            start = time.perf_counter()
+            ping.write(message)
+            pongs.wait_for_message(2)
+            if i >= 100:
+                times.append(time.perf_counter() - start)
+        node.transport.close()
+    times.sort()
+    print(json.dumps({'median': statistics.median(times), 'p99': times[int(len(times) * 0.99)]}))
+
+
+# --- the driver's side --------------------------------------------------------------------------
+
+
+def spawn_role(
+    role: str, impl: str, endpoint: str, extra: list[str], shm: bool, *, peer: bool = False
+) -> subprocess.Popen[str]:
+    """``transport.py`` in another process, playing ``role``."""
+    command = [sys.executable, SCRIPT, '--role', role, '--impl', impl, '--endpoint', endpoint]
+    command += extra
+    if shm:
+        command.append('--shm')
+    if peer:
+        command.append('--peer')
+    return subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
+
+
+def read_result(process: subprocess.Popen[str], timeout: float) -> dict[str, Any]:
+    """The JSON line a role process printed last, once it ended."""
+    out, _ = process.communicate(timeout=timeout)
+    lines = [line for line in out.splitlines() if line.startswith('{')]
+    if process.returncode != 0 or not lines:
+        raise RuntimeError(f'a benchmark process failed (exit {process.returncode}): {out[-500:]}')
+    return dict(json.loads(lines[-1]))
+
+
+def wait_ready(process: subprocess.Popen[str]) -> None:
+    """Wait until a role process printed ``ready``."""
+    assert process.stdout is not None
+    line = process.stdout.readline()
+    if line.strip() != 'ready':
+        raise RuntimeError(f'a benchmark process did not start: {line!r}')
+
+
+ROLES = {'publish': role_publish, 'subscribe': role_subscribe, 'echo': role_echo, 'ping': role_ping}

@@ -1,0 +1,145 @@
+"""How samples reach zros: a FIFO channel drained in batches on a thread per subscription, and
+nodes whose callbacks run as messages arrive (``immediate_callbacks``)."""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+
+import zros
+from zros.node import Node
+from zros.runtime.sample_queue import SampleQueue
+from zros.testing import wait_for
+from zros.transport import Transport, delivery
+
+
+@pytest.fixture(params=['bridge', 'rmw_zenoh'])
+def zros_wire(request: pytest.FixtureRequest) -> str:
+    """The node tests of this module run on both wire schemes."""
+    return str(request.param)
+
+
+String = 'std_msgs/msg/String'
+
+
+def delivery_threads() -> list[threading.Thread]:
+    return [t for t in threading.enumerate() if t.name.endswith(delivery.THREAD_SUFFIX)]
+
+
+def test_samples_queued_while_a_batch_is_handled_come_in_one_batch(
+    zros_transport: Callable[..., Transport],
+) -> None:
+    session = zros_transport().session
+    subscriber = session.declare_subscriber('delivery/test', delivery.channel())
+    release = threading.Event()
+    batches: list[list[bytes]] = []
+
+    def on_samples(samples: list[Any]) -> None:
+        batches.append([s.payload.to_bytes() for s in samples])
+        release.wait(30)
+
+    delivery.deliver(subscriber, on_samples, 'delivery/test')
+    publisher = session.declare_publisher('delivery/test')
+    publisher.put(b'first')
+    assert wait_for(lambda: batches, 30)
+    sent = [f'{i}'.encode() for i in range(200)]  # fewer than the channel holds
+    for data in sent:
+        publisher.put(data)
+    release.set()
+    assert wait_for(lambda: sum(map(len, batches)) == 201, 30)
+    assert batches[0] == [b'first']
+    assert [data for batch in batches[1:] for data in batch] == sent
+    assert len(batches) < 10  # not one hand-over per sample
+    subscriber.undeclare()
+    session.close()
+
+
+def test_a_raising_batch_callback_is_logged_and_delivery_goes_on(
+    zros_transport: Callable[..., Transport], caplog: pytest.LogCaptureFixture
+) -> None:
+    session = zros_transport().session
+    subscriber = session.declare_subscriber('delivery/raise', delivery.channel())
+    got: list[bytes] = []
+
+    def on_samples(samples: list[Any]) -> None:
+        for sample in samples:
+            data = sample.payload.to_bytes()
+            if data == b'bad':
+                raise ValueError('refused')
+            got.append(data)
+
+    thread = delivery.deliver(subscriber, on_samples, 'delivery/raise')
+    publisher = session.declare_publisher('delivery/raise')
+    with caplog.at_level(logging.ERROR, logger='zros'):
+        publisher.put(b'bad')
+        assert wait_for(lambda: 'delivering samples of delivery/raise failed' in caplog.text, 30)
+        publisher.put(b'good')
+        assert wait_for(lambda: got == [b'good'], 30)
+    subscriber.undeclare()
+    thread.join(30)
+    assert not thread.is_alive()
+
+
+def test_delivery_threads_end_with_their_subscriptions(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('listener')
+    before = set(delivery_threads())
+    subscriber = node.create_subscription(String, 'chatter', lambda _: None)
+    mine = set(delivery_threads()) - before
+    assert mine
+    subscriber.close()
+    assert wait_for(lambda: not any(t.is_alive() for t in mine), 30)
+    node.create_subscription(String, 'chatter', lambda _: None)
+    mine = set(delivery_threads()) - before
+    node.transport.close()
+    assert wait_for(lambda: not any(t.is_alive() for t in mine), 30)
+
+
+def test_a_keep_all_queue_given_a_batch_past_its_bound_keeps_what_fits() -> None:
+    class FakeSample:
+        payload = b'x' * 10
+
+    queue = SampleQueue(None, max_count=3, max_bytes=10**6)
+    samples = [FakeSample() for _ in range(5)]
+    assert queue.put(samples) == 2
+    assert queue.pop() == samples[:3]
+    assert (queue.received, queue.overflowed) == (5, 2)
+    keep_last = SampleQueue(2, None, None)
+    assert keep_last.put(samples) == 0
+    assert keep_last.pop() == samples[3:]
+
+
+def test_immediate_callbacks_run_as_messages_arrive_without_spin(
+    zros_node: Callable[..., Node],
+) -> None:
+    talker, listener = zros_node('talker'), zros_node('listener', immediate_callbacks=True)
+    got: list[str] = []
+    threads: set[str] = set()
+
+    def on_message(message: Any) -> None:
+        got.append(message.data)
+        threads.add(threading.current_thread().name)
+
+    listener.create_subscription(String, 'chatter', on_message, qos='keep_all')
+    publisher = talker.create_publisher(String, 'chatter', qos='keep_all')
+    assert publisher.wait_for_subscribers(30)
+    sent = [str(i) for i in range(2000)]
+    for data in sent:
+        publisher.write(zros.Message(String, data=data))
+    assert wait_for(lambda: len(got) == len(sent), 30)  # nobody spins the listener
+    assert got == sent
+    assert all(name.endswith(delivery.THREAD_SUFFIX) for name in threads)
+
+
+def test_immediate_callbacks_answer_service_requests_without_spin(
+    zros_node: Callable[..., Node],
+) -> None:
+    server, caller = zros_node('server', immediate_callbacks=True), zros_node('caller')
+    add = 'example_interfaces/srv/AddTwoInts'
+    server.create_service(add, 'add', lambda r: zros.get_type(add).Response(sum=r.a + r.b))
+    client = caller.create_client(add, 'add', timeout=30)
+    assert client.wait_for_service(30)
+    assert client.call(a=2, b=3).sum == 5  # nobody spins the server
