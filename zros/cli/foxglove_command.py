@@ -34,7 +34,9 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     from zros.gateway.foxglove import serve
+    from zros.gateway.heap import keep_large_blocks
 
+    keep_large_blocks()  # this process relays big messages: reuse their buffers
     if args.bag is not None:
         with serve(bag=args.bag, **_settings(args)) as server:
             out(f'Foxglove: {server.url} serves {args.bag} (paused; play it from Foxglove)')
