@@ -52,8 +52,9 @@ class Publisher(Entity):
         self.gid = wire.gid  #: rmw_zenoh: the GID in its attachments (and its token's hash)
         self._publisher: Any = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
-        # types that can grow large (sequences) reuse one output buffer, under a lock, while
-        # their messages are large; small ones are joined into fresh bytes (faster for them)
+        # types that can grow large (sequences) reuse one output buffer while their messages are
+        # large; small ones are joined into fresh bytes (faster for them). Every put holds the
+        # lock, so that close() never undeclares the Zenoh publisher in the middle of one.
         self._buffer: EncodeBuffer | None = None
         self._lock = threading.Lock()
         self._large = sys.maxsize  #: messages from this size on go through the buffer
@@ -92,7 +93,8 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) >= self._large:
                 self._small = False  # the next ones go through the buffer
-            self._put(data)
+            with self._lock:
+                self._put(data)
             return
         buffer = self._buffer
         assert buffer is not None
@@ -109,7 +111,14 @@ class Publisher(Entity):
 
     def write_raw(self, data: bytes | bytearray) -> None:
         """Publish CDR bytes (4-byte header included) as they are."""
-        self._put(bytes(data) if isinstance(data, memoryview) else data)
+        with self._lock:
+            self._put(bytes(data) if isinstance(data, memoryview) else data)
+
+    def close(self) -> None:
+        """Withdraw it from the network (after a write in progress on another thread ends: Zenoh
+        cannot undeclare a publisher in use); writes after it raise ``zenoh.ZError``."""
+        with self._lock:
+            super().close()
 
     def _check_type(self, message: object) -> None:
         if getattr(message, '__msgtype__', None) != self.type_name:
