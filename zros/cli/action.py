@@ -17,6 +17,9 @@ from zros.cli.shared import (
     print_types,
 )
 
+#: after the result, callbacks still arriving within this many seconds of each other run
+FEEDBACK_SETTLE = 0.2
+
 
 def _indented(text: str, spaces: int = 4) -> str:
     return '\n'.join(' ' * spaces + line if line else line for line in text.rstrip().split('\n'))
@@ -89,6 +92,10 @@ def send_goal(args: argparse.Namespace) -> int:
         try:
             while not handle.done:
                 node.spin(timeout=0.1)  # runs the feedback callback here
+            # feedback and result travel apart: feedback sent before the result may still be
+            # on its way to the callback; print what comes until a quiet spell
+            while node.spin_once(FEEDBACK_SETTLE):
+                pass
             result = handle.result(0)
         except KeyboardInterrupt:
             out('Canceling goal...')
