@@ -10,3 +10,5 @@ FieldValue = Any
 Untyped = Any
 #: a connection setting passed on to :class:`zros.Node` (``connect``, ``wire``...), checked there
 NodeSetting = Any
+#: a parameter's value as it crosses to users: its type is the parameter's, known at run time
+ParamValue = Any
