@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
     CommandError,
@@ -16,6 +16,9 @@ from zros.cli.shared import (
     parse_values,
     print_types,
 )
+
+if TYPE_CHECKING:
+    from zros.cdr import Message
 
 
 def _indented(text: str, spaces: int = 4) -> str:
@@ -66,7 +69,7 @@ def send_goal(args: argparse.Namespace) -> int:
         client = node.create_action_client(action, args.action)
         goal = build_message(client.Goal, values)
 
-        def on_feedback(feedback: Any) -> None:
+        def on_feedback(feedback: Message) -> None:
             out('Feedback:')
             out(_indented(message_to_yaml(feedback)))
             out()
