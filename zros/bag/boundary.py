@@ -6,7 +6,8 @@ from typing import Any
 
 #: a message field's value: its type is the message definition's, known only at run time
 FieldValue = Any
-#: an object of a library without type information for it (its own checks apply)
+#: an object of a library without type information for it (ruamel.yaml, pandas): its own
+#: checks apply
 Untyped = Any
 #: a connection setting passed on to :class:`zros.Node` (``connect``, ``wire``...), checked there
 NodeSetting = Any
