@@ -13,3 +13,5 @@ Untyped = Any
 NodeSetting = Any
 #: a parameter's value as it crosses to users: its type is the parameter's, known at run time
 ParamValue = Any
+#: a value of a YAML document (``metadata.yaml``, QoS profiles): checked where it is read
+YamlValue = Any
