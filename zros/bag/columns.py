@@ -15,11 +15,14 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from zros.bag.column_plan import Leaf, Plan, Step, plan, select
+
+if TYPE_CHECKING:
+    from zros.bag.boundary import FieldValue, Untyped
 from zros.bag.errors import BagError
 from zros.bag.mcap_bulk import Unsupported
 from zros.bag.source import Block, Connection, RawMessage, Source
@@ -157,7 +160,7 @@ def _fast(plan_: Plan, leaves: list[Leaf], datas: list[bytes]) -> Pieces:
 def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
     """Decode one by one (with the reader's definition fallback) and pick the fields."""
     getters = [(leaf, leaf.path.split('.')) for leaf in leaves]
-    values: dict[str, list[Any]] = {leaf.path: [] for leaf in leaves}
+    values: dict[str, list[FieldValue]] = {leaf.path: [] for leaf in leaves}
     connection = block.connection
     for stamp, data in zip(block.times.tolist(), block.data, strict=True):
         message = types.decode(RawMessage(connection, stamp, data))
@@ -183,7 +186,7 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
     return pieces
 
 
-def _stack(values: list[Any], leaf: Leaf, width: int) -> np.ndarray:
+def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> np.ndarray:
     if not values:
         return np.empty((0, width) if width or leaf.sequence else 0, leaf.value)
     return np.asarray(values, dtype=leaf.value)
@@ -387,7 +390,7 @@ def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
     return out
 
 
-def dataframe(columns: dict[str, np.ndarray]) -> Any:
+def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
     """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns."""
     try:
         import pandas as pd  # type: ignore[import-untyped,unused-ignore]
@@ -396,7 +399,7 @@ def dataframe(columns: dict[str, np.ndarray]) -> Any:
             'to_dataframe() needs pandas, which zros does not install: pip install pandas '
             '(columns() and to_numpy() give the same data as numpy arrays)'
         ) from None
-    data: dict[str, Any] = {}
+    data: dict[str, np.ndarray | list[object]] = {}
     for name, column in columns.items():
         if column.ndim == 2:
             for index in range(column.shape[1]):

@@ -15,9 +15,12 @@ import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from mcap.records import Chunk
 
 #: opcodes of the MCAP records this module reads
 _MESSAGE = 0x05
@@ -44,7 +47,7 @@ class Block:
     order: np.ndarray | None = None  #: int64 rank of each message in its chunk (file order)
 
 
-def _decompress(chunk: Any) -> bytes:
+def _decompress(chunk: Chunk) -> bytes:
     if chunk.uncompressed_size > _MAX_CHUNK:
         raise Unsupported('chunk too large')
     if chunk.compression == '':

@@ -10,7 +10,12 @@ from __future__ import annotations
 
 from collections.abc import Collection, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mcap.records import Channel, McapRecord, Schema
+    from rosbags.interfaces import Connection
+    from rosbags.rosbag2.metadata import ReaderMetadata
 
 MAGIC = b'\x89MCAP0\r\n'
 _FORMATS = {'ros2msg': 'MSG', 'ros2idl': 'IDL', 'omgidl': 'IDL'}
@@ -39,7 +44,7 @@ class LinearScan:
         self.compression = ''
         self._chunked = False
 
-    def records(self) -> Iterator[Any]:
+    def records(self) -> Iterator[McapRecord]:
         """Header, schemas, channels, messages, metadata, attachments... in file order."""
         from mcap.exceptions import EndOfFile
         from mcap.records import Chunk
@@ -77,12 +82,12 @@ class RecoveredMcap:
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        self.connections: list[Any] = []
-        self.metadata: Any = None
+        self.connections: list[Connection] = []
+        self.metadata: ReaderMetadata | None = None
         self.stopped_at = ''  #: why the scan stopped before the end ('' when it reached it)
         self.in_order = True
 
-    def _records(self) -> Iterator[Any]:
+    def _records(self) -> Iterator[McapRecord]:
         scan = LinearScan(self.path)
         yield from scan.records()
         self.stopped_at = scan.stopped_at
@@ -98,8 +103,8 @@ class RecoveredMcap:
         )
         from rosbags.rosbag2.metadata import ReaderMetadata, parse_qos
 
-        schemas: dict[int, Any] = {}
-        channels: dict[int, Any] = {}
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
         counts: dict[int, int] = {}
         first, last, previous = None, None, None
         for record in self._records():
@@ -150,8 +155,11 @@ class RecoveredMcap:
         """Nothing stays open between scans."""
 
     def messages(
-        self, connections: Collection[Any], start: int | None = None, stop: int | None = None
-    ) -> Iterator[tuple[Any, int, bytes]]:
+        self,
+        connections: Collection[Connection],
+        start: int | None = None,
+        stop: int | None = None,
+    ) -> Iterator[tuple[Connection, int, bytes]]:
         """(connection, log time, data) of the wanted connections, in time order."""
         from mcap.records import Message
 

@@ -14,7 +14,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mcap.writer import CompressionType
+
+    from zros.bag.boundary import Untyped
 
 #: bytes a Message record adds to its data (opcode, length, channel, sequence, two times)
 MESSAGE_OVERHEAD = 1 + 8 + 2 + 4 + 8 + 8
@@ -23,7 +28,7 @@ DEFAULT_CHUNK_SIZE = 768 * 1024
 COMPRESSIONS = ('zstd', 'lz4', 'none')
 
 
-def compression_type(name: str | None) -> Any:
+def compression_type(name: str | None) -> CompressionType:
     """The MCAP compression for ``'zstd'``, ``'lz4'`` or ``'none'``/None."""
     from mcap.writer import CompressionType
 
@@ -69,7 +74,8 @@ class McapFile:
         self.path = os.fspath(path)
         self._stream = open(self.path, 'xb')  # noqa: SIM115 (closed in close())
         # the library never closes a chunk by itself: this class decides (size or flush)
-        self._writer: Any = Writer(
+        # untyped: its private chunk flush is called, and ``finish`` has no annotations
+        self._writer: Untyped = Writer(
             self._stream, chunk_size=2**62, compression=kind, enable_crcs=True
         )
         self._writer.start(profile='ros2', library=library)

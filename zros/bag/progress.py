@@ -9,7 +9,7 @@ import select
 import sys
 import time
 from types import TracebackType
-from typing import IO, Any
+from typing import IO
 
 
 def human_size(size: float) -> str:
@@ -55,7 +55,7 @@ class Progress:
             self._shown = False
 
 
-def _isatty(stream: Any) -> bool:
+def _isatty(stream: IO[str]) -> bool:
     try:
         return bool(stream.isatty())
     except (AttributeError, ValueError):
@@ -76,7 +76,7 @@ class Keys:
     def __init__(self, stream: IO[str] | None = None) -> None:
         self.stream = stream if stream is not None else sys.stdin
         self.enabled = _isatty(self.stream) and os.name == 'posix'
-        self._saved: Any = None
+        self._saved: list[int | list[bytes | int]] | None = None  #: termios attributes
 
     def __enter__(self) -> Keys:
         if self.enabled:

@@ -6,7 +6,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Protocol
 
 from zros.bag.columns import dataframe, extract, structured
 from zros.bag.errors import BagError
@@ -17,10 +17,20 @@ if TYPE_CHECKING:
     import numpy as np
     from typing_extensions import Self
 
+    from zros.bag.boundary import Untyped
     from zros.cdr import Message, TypeRegistry
 
+
+class HasNanoseconds(Protocol):
+    """A time as an object with integer ``nanoseconds`` (``zros.Time``)."""
+
+    @property
+    def nanoseconds(self) -> int:
+        """The time in integer nanoseconds."""
+
+
 #: a time bound: integer nanoseconds, or an object with ``nanoseconds`` (zros.Time)
-TimeLike = Any
+TimeLike = int | HasNanoseconds | None
 
 
 @dataclass(frozen=True)
@@ -201,7 +211,7 @@ class Bag:
         fields: Iterable[str] | None = None,
         start: TimeLike = None,
         end: TimeLike = None,
-    ) -> Any:
+    ) -> Untyped:
         """The :meth:`columns` of a topic as a pandas DataFrame (pandas must be installed).
 
         2-D columns are spread over ``name[0]``, ``name[1]``...; ``time`` is a column of int64 ns.

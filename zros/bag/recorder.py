@@ -18,7 +18,7 @@ import re
 import threading
 import time
 from collections.abc import Callable, Iterable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE
@@ -33,6 +33,8 @@ recording_qos = matched_qos
 
 if TYPE_CHECKING:
     from pathlib import Path
+
+    import zenoh
 
     from zros.node import Node
 
@@ -114,7 +116,7 @@ class Recorder:
         self.path: Path = self._bag.path
         self._sim = node.use_sim_time
         self._lock = threading.Lock()  # guards the queue, and taps against close
-        self._queue: collections.deque[tuple[int, int, Any, int]] = collections.deque()
+        self._queue: collections.deque[tuple[int, int, zenoh.Sample, int]] = collections.deque()
         self._queued_bytes = 0
         self._arrived = Signal()
         self._topic_list: list[BagTopic] = []  #: in recording order (the bag adds them so)
@@ -192,7 +194,7 @@ class Recorder:
 
     # --- on Zenoh's threads ---------------------------------------------------------------------
 
-    def _callback(self, index: int, topic: str) -> Callable[[Any], None]:
+    def _callback(self, index: int, topic: str) -> Callable[[zenoh.Sample], None]:
         clock = self.node.clock
         now: Callable[[], int] = (lambda: clock.now().nanoseconds) if self._sim else time.time_ns
         queue = self._queue
@@ -200,7 +202,7 @@ class Recorder:
         arrived = self._arrived
         drops = DropCounter(topic)
 
-        def on_sample(sample: Any) -> None:
+        def on_sample(sample: zenoh.Sample) -> None:
             if self._stopping:
                 return
             size = len(sample.payload)

@@ -23,11 +23,16 @@ import os
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
 from zros.bag.mcap_recover import LinearScan, is_mcap
 from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
+
+if TYPE_CHECKING:
+    from mcap.records import Channel, Message, Schema
+
+    from zros.bag.boundary import Untyped, YamlValue
 from zros.bag.rosbag2_source import storage_files
 from zros.bag.rosbag2_yaml import (
     FileEntry,
@@ -135,7 +140,7 @@ class _Bag:
             else:
                 known.count += channel.count
 
-    def metadata(self) -> dict[str, Any]:
+    def metadata(self) -> dict[str, YamlValue]:
         """The ``rosbag2_bagfile_information`` of the files added so far."""
         topics = [
             TopicEntry(
@@ -251,7 +256,7 @@ def _counted(file: Path) -> _FileSummary | None:
     return None if scan.stopped_at else stats.summary(file)
 
 
-def _schema_name(schemas: dict[int, Any], schema_id: int) -> str:
+def _schema_name(schemas: dict[int, Schema], schema_id: int) -> str:
     schema = schemas.get(schema_id)
     return schema.name if schema is not None else ''
 
@@ -264,13 +269,13 @@ class _Stats:
     """Counts and times of the records read so far."""
 
     def __init__(self) -> None:
-        self.schemas: dict[int, Any] = {}
+        self.schemas: dict[int, Schema] = {}
         self.channels: dict[int, _Channel] = {}
         self.count = 0
         self.start = 0
         self.end = 0
 
-    def add(self, record: Any) -> None:
+    def add(self, record: Schema | Channel | Message) -> None:
         from mcap.records import Channel, Schema
 
         if isinstance(record, Schema):
@@ -318,7 +323,7 @@ def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
     channels: dict[int, int] = {}
     try:
         with temporary.open('xb') as stream:
-            writer: Any = None
+            writer: Untyped = None  # mcap's Writer: ``finish`` has no annotations
             for record in records:
                 if writer is None:
                     kind = compression_type(scan.compression or 'none')

@@ -9,9 +9,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.bag.source_base import Connection, RawMessage, Source, normalise_type_name
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Connection as NativeConnection
+    from rosbags.interfaces.typing import Typesdict
+    from rosbags.rosbag1 import Reader
+    from rosbags.typesys.store import Typestore
 
 
 class Rosbag1Source(Source):
@@ -19,9 +25,9 @@ class Rosbag1Source(Source):
 
     def __init__(self, path: Path) -> None:
         super().__init__(path)
-        self._reader: Any = None
-        self._store: Any = None
-        self._native: dict[int, Any] = {}
+        self._reader: Reader | None = None
+        self._store: Typestore | None = None
+        self._native: dict[int, NativeConnection] = {}
 
     def open(self) -> None:
         from rosbags.rosbag1 import Reader
@@ -34,7 +40,7 @@ class Rosbag1Source(Source):
         self.files = [self.path]
         self.storage_id = 'rosbag1'
         self.ros_distro = None
-        types: dict[str, Any] = {}
+        types: Typesdict = {}
         for item in reader.connections:
             types.update(get_types_from_msg(item.msgdef.data, item.msgtype))
         # the ROS 2 header: rosbags' ROS 1 to CDR conversion drops seq
@@ -65,12 +71,13 @@ class Rosbag1Source(Source):
     def _messages(self, ids: set[int], start: int | None, end: int | None) -> Iterator[RawMessage]:
         by_native = {self._native[c.id].id: c for c in self.connections if c.id in ids}
         wanted = [self._native[c.id] for c in self.connections if c.id in ids]
+        assert self._reader is not None and self._store is not None, 'the source is not open'
         convert = self._store.ros1_to_cdr
         for item, timestamp, data in self._reader.messages(wanted, start, end):
             yield RawMessage(by_native[item.id], timestamp, convert(data, item.msgtype))
 
 
-def _ros1_qos(ext: Any) -> str:
+def _ros1_qos(ext: object) -> str:
     """A latched ROS 1 topic is offered as transient local, as rosbags-convert writes it."""
     if not getattr(ext, 'latching', 0):
         return ''

@@ -15,12 +15,18 @@ import sys
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
 from zros.bag.mcap_bulk import Unsupported, ordered_messages, read_blocks
 from zros.bag.mcap_recover import RecoveredMcap, is_mcap
 from zros.bag.source_base import Block, Connection, RawMessage, Source, normalise_type_name
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Connection as NativeConnection
+    from rosbags.interfaces import MessageDefinition
+
+    from zros.bag.boundary import Untyped
 
 _log = logging.getLogger('zros.bag')
 _SQL_BATCH = 16384
@@ -32,15 +38,17 @@ _FORMATS = {'MSG': 'ros2msg', 'IDL': 'ros2idl', 'NONE': ''}
 class _Stream:
     """One storage file's reader and how its connections map to the source's."""
 
-    reader: Any
+    #: a rosbags storage reader or a RecoveredMcap: untyped here, as the members used (``path``,
+    #: ``dbconn``, a folder's ``storages``) are not in rosbags' declared reader protocol
+    reader: Untyped
     mapping: dict[int, Connection] = field(default_factory=dict)
 
 
-def _format_name(msgdef: Any) -> str:
+def _format_name(msgdef: MessageDefinition) -> str:
     return _FORMATS.get(msgdef.format.name, '')
 
 
-def _qos_text(ext: Any) -> str:
+def _qos_text(ext: object) -> str:
     from rosbags.rosbag2.metadata import dump_qos_v8
 
     profiles = getattr(ext, 'offered_qos_profiles', None)
@@ -73,7 +81,7 @@ class Rosbag2Source(Source):
             self._open_files(files, 'its files do not open as complete MCAP files')
             return
         self._closers.append(reader.close)
-        storage: Any = reader.storage
+        storage: Untyped = reader.storage  # a folder's reader, or one file's (see _Stream)
         folder = self.path.is_dir()
         storages = list(storage.storages) if folder else [storage]
         self._streams = [_Stream(s) for s in storages]
@@ -113,7 +121,7 @@ class Rosbag2Source(Source):
             raise BagError(self.path, f'not a ROS 2 bag folder: {reason} and no .mcap or .db3 file')
         notes = []
         for path in paths:
-            storage: Any = Sqlite3Reader(path) if path.suffix == '.db3' else McapReader(path)
+            storage: Untyped = Sqlite3Reader(path) if path.suffix == '.db3' else McapReader(path)
             try:
                 storage.open()
             except Exception:  # whatever rosbags raised: raised again unless the MCAP recovers
@@ -149,9 +157,9 @@ class Rosbag2Source(Source):
         info = YAML(typ='safe').load(text)['rosbag2_bagfile_information']
         return [self.path / Path(name).name for name in info['relative_file_paths']]
 
-    def _build_connections(self, declared: list[Any]) -> None:
+    def _build_connections(self, declared: list[NativeConnection]) -> None:
         # counts and times come from the storage files: metadata.yaml can be wrong about them
-        items: dict[tuple[str, str], Any] = {}
+        items: dict[tuple[str, str], NativeConnection] = {}
         counts: dict[tuple[str, str], int] = {}
         for item in declared:
             items.setdefault((item.topic, item.msgtype), item)
@@ -174,7 +182,11 @@ class Rosbag2Source(Source):
             self.start_ns = min(meta.start_time for meta in metas)
             self.end_ns = max(meta.end_time for meta in metas) - 1
 
-    def _connection(self, index: int, item: Any, count: int) -> Connection:
+    def _connection(self, index: int, item: NativeConnection, count: int) -> Connection:
+        from rosbags.interfaces import ConnectionExtRosbag2
+
+        ext = item.ext
+        assert isinstance(ext, ConnectionExtRosbag2)  # rosbag2 storages make no other
         definition, form = self._definition(item)
         return Connection(
             id=index,
@@ -182,12 +194,12 @@ class Rosbag2Source(Source):
             type_name=normalise_type_name(item.msgtype),
             definition=definition,
             definition_format=form,
-            serialization=item.ext.serialization_format,
+            serialization=ext.serialization_format,
             count=count,
-            qos=_qos_text(item.ext),
+            qos=_qos_text(ext),
         )
 
-    def _definition(self, item: Any) -> tuple[str, str]:
+    def _definition(self, item: NativeConnection) -> tuple[str, str]:
         if _format_name(item.msgdef):
             return item.msgdef.data, _format_name(item.msgdef)
         for stream in self._streams:
@@ -214,7 +226,7 @@ class Rosbag2Source(Source):
         return heapq.merge(*iterators, key=_timestamp)
 
     def _stream(
-        self, stream: _Stream, wanted: list[Any], start: int | None, end: int | None
+        self, stream: _Stream, wanted: list[NativeConnection], start: int | None, end: int | None
     ) -> Iterator[RawMessage]:
         mapping = stream.mapping
         decompress = self._decompress

@@ -14,9 +14,14 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypeVar
 
 from zros.qos import Durability, History, QoS, Reliability
+
+if TYPE_CHECKING:
+    from zros.bag.boundary import YamlValue
+
+_P = TypeVar('_P')
 
 METADATA_VERSION = 8
 #: rmw's RMW_DURATION_INFINITE as rosbag2 writes it (Jazzy on)
@@ -56,7 +61,7 @@ class FileEntry:
 # --- QoS -------------------------------------------------------------------------------------
 
 
-def qos_profile(qos: QoS) -> dict[str, Any]:
+def qos_profile(qos: QoS) -> dict[str, YamlValue]:
     """A QoS as rosbag2 stores one offered profile (rmw numbers, infinite durations)."""
     return {
         'history': _HISTORY[qos.history],
@@ -76,7 +81,7 @@ def qos_profiles_text(profiles: Sequence[QoS]) -> str:
     return '\n'.join(line for qos in profiles for line in _list_item(qos_profile(qos), 0))
 
 
-def _policy(value: Any, names: Mapping[str, int], numbers: Mapping[int, Any]) -> Any:
+def _policy(value: object, names: Mapping[str, int], numbers: Mapping[int, _P]) -> _P | None:
     """A policy given as an rmw number (version 8) or name (version 9); None if unknown."""
     if isinstance(value, bool):
         return None
@@ -88,7 +93,7 @@ def _policy(value: Any, names: Mapping[str, int], numbers: Mapping[int, Any]) ->
     return None
 
 
-def parse_qos_profiles(profiles: str | Sequence[Mapping[str, Any]] | None) -> list[QoS]:
+def parse_qos_profiles(profiles: str | Sequence[Mapping[str, YamlValue]] | None) -> list[QoS]:
     """Offered profiles (a YAML string or a list of mappings) as zros QoS values.
 
     Unknown or system-default policies take ROS 2's defaults (reliable, volatile, keep last);
@@ -108,7 +113,7 @@ def parse_qos_profiles(profiles: str | Sequence[Mapping[str, Any]] | None) -> li
             return []
         if not isinstance(loaded, list):
             raise ValueError('offered_qos_profiles is not a list of profiles')
-        items: Sequence[Any] = loaded
+        items: Sequence[YamlValue] = loaded
     else:
         items = profiles
     result = []
@@ -149,7 +154,7 @@ _PLAIN = re.compile(r'[A-Za-z_/][A-Za-z0-9_/.\-]*')
 _RESERVED = {'true', 'false', 'yes', 'no', 'on', 'off', 'y', 'n', 'null', '~'}
 
 
-def _scalar(value: Any) -> str:
+def _scalar(value: object) -> str:
     if value is None:
         return '~'
     if isinstance(value, bool):
@@ -162,7 +167,7 @@ def _scalar(value: Any) -> str:
     return json.dumps(text)  # a JSON string is a YAML double-quoted scalar
 
 
-def _mapping(value: Mapping[str, Any], indent: int) -> list[str]:
+def _mapping(value: Mapping[str, YamlValue], indent: int) -> list[str]:
     """A mapping in block style, yaml-cpp's way (sequences indented under their key)."""
     lines: list[str] = []
     pad = ' ' * indent
@@ -183,7 +188,7 @@ def _mapping(value: Mapping[str, Any], indent: int) -> list[str]:
     return lines
 
 
-def _list_item(element: Any, indent: int) -> list[str]:
+def _list_item(element: object, indent: int) -> list[str]:
     if isinstance(element, Mapping) and element:
         lines = _mapping(element, indent + 2)
         lines[0] = ' ' * indent + '- ' + lines[0][indent + 2 :]
@@ -197,7 +202,7 @@ def bag_metadata(
     ros_distro: str = '',
     custom_data: Mapping[str, str] | None = None,
     storage_identifier: str = 'mcap',
-) -> dict[str, Any]:
+) -> dict[str, YamlValue]:
     """The ``rosbag2_bagfile_information`` mapping, in rosbag2's key order."""
     used = [f for f in files if f.message_count]
     start = min((f.start_ns for f in used), default=NO_START)
@@ -240,17 +245,17 @@ def bag_metadata(
     }
 
 
-def dump(value: Mapping[str, Any]) -> str:
+def dump(value: Mapping[str, YamlValue]) -> str:
     """A mapping as yaml-cpp dumps it (block style, two-space indents)."""
     return '\n'.join(_mapping(value, 0)) + '\n'
 
 
-def metadata_yaml(metadata: Mapping[str, Any]) -> str:
+def metadata_yaml(metadata: Mapping[str, YamlValue]) -> str:
     """The text of ``metadata.yaml`` for a ``rosbag2_bagfile_information`` mapping."""
     return dump({'rosbag2_bagfile_information': metadata})
 
 
-def write_metadata_yaml(folder: Path, metadata: Mapping[str, Any]) -> Path:
+def write_metadata_yaml(folder: Path, metadata: Mapping[str, YamlValue]) -> Path:
     """Write ``folder/metadata.yaml`` through a temporary file renamed over it, so a process
     killed meanwhile leaves the old file or the new one, never half of one."""
     path = folder / 'metadata.yaml'

@@ -5,10 +5,13 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.bag.reader import Bag
 from zros.cdr import Message
+
+if TYPE_CHECKING:
+    from zros.bag.reader import TimeLike
 
 
 @dataclass
@@ -24,7 +27,7 @@ class BagRead:
     def __len__(self) -> int:
         return len(self.topic)
 
-    def __getitem__(self, column: str) -> list[Any]:
+    def __getitem__(self, column: str) -> list[str] | list[int] | list[Message]:
         if column not in ('topic', 'data_type', 'time_stamp', 'message'):
             raise KeyError(f'{column!r}; the columns are topic, data_type, time_stamp, message')
         return getattr(self, column)  # type: ignore[no-any-return]
@@ -37,8 +40,8 @@ class BagRead:
 def bag_read(
     path: str | Path,
     topics: str | Iterable[str] | None = None,
-    start: Any = None,
-    end: Any = None,
+    start: TimeLike = None,
+    end: TimeLike = None,
 ) -> BagRead:
     """Read a recording's messages into memory (rosR: ``ros.BagRead(file, topics)``).
 

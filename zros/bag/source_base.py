@@ -11,12 +11,13 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
 from zros.bag.mcap_bulk import Unsupported
 
 if TYPE_CHECKING:
+    import numpy as np
     from typing_extensions import Self
 
 
@@ -54,8 +55,8 @@ class Block:
     """Messages of one connection read in bulk: receive times, file-order keys, CDR bytes."""
 
     connection: Connection
-    times: Any  #: int64 numpy array
-    keys: Any  #: int64 numpy array, ascending in file order
+    times: np.ndarray  #: int64
+    keys: np.ndarray  #: int64, ascending in file order
     data: list[bytes]
 
 

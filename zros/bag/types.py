@@ -13,7 +13,7 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
 from zros.bag.source import Connection, RawMessage
@@ -24,6 +24,8 @@ from zros.cdr.typestore import from_rosbags
 
 if TYPE_CHECKING:
     from typing_extensions import Self
+
+    from zros.bag.boundary import FieldValue
 
 _log = logging.getLogger('zros.bag')
 _EVENT = '_Event'
@@ -59,7 +61,7 @@ class UndecodedMessage(Message):
         """Another message with the same bytes."""
         return type(self)(self.data)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, FieldValue]:
         """Refused: without a definition there are no fields."""
         raise TypeError(
             f'{self.__msgtype__} has no definition: no fields, only its CDR bytes in .data'

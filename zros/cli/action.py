@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
     CommandError,
@@ -16,6 +16,9 @@ from zros.cli.shared import (
     parse_values,
     print_types,
 )
+
+if TYPE_CHECKING:
+    from zros.cdr import Message
 
 #: after the result, callbacks still arriving within this many seconds of each other run
 FEEDBACK_SETTLE = 0.2
@@ -69,7 +72,7 @@ def send_goal(args: argparse.Namespace) -> int:
         client = node.create_action_client(action, args.action)
         goal = build_message(client.Goal, values)
 
-        def on_feedback(feedback: Any) -> None:
+        def on_feedback(feedback: Message) -> None:
             out('Feedback:')
             out(_indented(message_to_yaml(feedback)))
             out()

@@ -15,11 +15,15 @@ import statistics
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.cli.shared import add_connection_options, out
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import zenoh
+
     from zros.graph import Graph
 
 SKEW_WARNING = 0.5  #: seconds between clocks that make header stamps misleading
@@ -47,7 +51,7 @@ def _version(text: str) -> tuple[int, ...]:
     return tuple(int(d) for d in digits if d.isdigit())
 
 
-def _routers(session: Any, report: Report, local: str) -> None:
+def _routers(session: zenoh.Session, report: Report, local: str) -> None:
     found = 0
     for reply in session.get('@/*/router', timeout=2.0):
         if reply.ok is None:
@@ -93,7 +97,7 @@ def _bridges(graph: Graph, report: Report) -> None:
             report.ok(text)
 
 
-def _clocks(session: Any, graph: Graph, listen: float, report: Report) -> None:
+def _clocks(session: zenoh.Session, graph: Graph, listen: float, report: Report) -> None:
     topics = graph.topics('/')
     if '/clock' in topics:
         report.warn('/clock is published: the robot runs on simulated time (use_sim_time)')
@@ -107,7 +111,7 @@ def _clocks(session: Any, graph: Graph, listen: float, report: Report) -> None:
     offsets: list[float] = []
     enough = threading.Event()
 
-    def on_sample(sample: Any) -> None:
+    def on_sample(sample: zenoh.Sample) -> None:
         try:
             stamp = decode(log_class, sample.payload.to_bytes()).stamp
         except CdrError:  # not a Log: nothing to compare
@@ -119,7 +123,8 @@ def _clocks(session: Any, graph: Graph, listen: float, report: Report) -> None:
     namespace = next((b.namespace for b in graph.bridges() if b.namespace), '/')
     subscriber = session.declare_subscriber(topic_key('/rosout', namespace), on_sample)
     enough.wait(listen)
-    subscriber.undeclare()
+    undeclare: Callable[[], object] = subscriber.undeclare  # untyped in zenoh's stubs
+    undeclare()
     if not offsets:
         report.ok(f'clock skew not measured (nothing on /rosout within {listen:g} s)')
         return

@@ -7,7 +7,9 @@ WebSocket).
 from __future__ import annotations
 
 import argparse
-from typing import Any
+import os
+from collections.abc import Iterable
+from typing import TypedDict
 
 from zros.cli.shared import (
     add_connection_options,
@@ -19,7 +21,20 @@ from zros.cli.shared import (
 )
 
 
-def _settings(args: argparse.Namespace) -> dict[str, Any]:
+class _Settings(TypedDict):
+    """The options of ``zros.foxglove.serve`` the command line gives in both modes."""
+
+    port: int
+    address: str
+    topics: Iterable[str] | None
+    exclude: Iterable[str] | None
+    asset_paths: Iterable[str | os.PathLike[str]]
+    tls_cert: str | None
+    tls_key: str | None
+    message_backlog: int
+
+
+def _settings(args: argparse.Namespace) -> _Settings:
     return {
         'port': args.port,
         'address': args.address,
@@ -33,7 +48,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from zros.gateway.foxglove import serve
+    from zros.gateway.foxglove import FoxgloveGateway, serve
     from zros.gateway.heap import keep_large_blocks
 
     keep_large_blocks()  # this process relays big messages: reuse their buffers
@@ -50,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
             sim_time=args.sim_time,
             **_settings(args),
         )
+        assert isinstance(gateway, FoxgloveGateway)  # not a bag: a live gateway
         with gateway:
             sim = ', sim time from /clock' if gateway.sim_time else ''
             out(f'Foxglove: {gateway.url} ({node.wire} wire{sim})')

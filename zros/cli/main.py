@@ -12,7 +12,7 @@ from zros.version import __version__
 
 TYPE_CHECKING = False  # not typing's: importing typing would slow ``zros --help``
 if TYPE_CHECKING:
-    from typing import Any
+    from zros.bag.boundary import Untyped
 
 #: every command, in the order ``zros --help`` lists them: its help line (written only here; the
 #: module gets it as an argument), and the function that adds its parser. That module is
@@ -65,10 +65,10 @@ def build_parser(full: Container[str] = COMMANDS) -> argparse.ArgumentParser:
     return parser
 
 
-def _function(target: str) -> Callable[..., Any]:
+def _function(target: str) -> Callable[..., Untyped]:
     """The function ``module:name`` names, importing its module."""
     module_name, function_name = target.split(':')
-    function: Callable[..., Any] = getattr(importlib.import_module(module_name), function_name)
+    function: Callable[..., Untyped] = getattr(importlib.import_module(module_name), function_name)
     return function
 
 

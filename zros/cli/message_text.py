@@ -10,9 +10,22 @@ from __future__ import annotations
 import io
 import math
 import sys
-from typing import Any
+from collections.abc import Iterable, Sized
+from typing import TYPE_CHECKING
 
 from zros.cdr.model import FieldType, Kind
+
+if TYPE_CHECKING:
+    import re
+    from typing import TypeAlias
+
+    from zros.bag.boundary import FieldValue, Untyped
+    from zros.cdr import Message
+
+#: a message as plain data (``to_plain``): what the YAML and CSV writers take
+PlainValue: TypeAlias = (
+    bool | int | float | str | list['PlainValue'] | dict[str, 'PlainValue'] | None
+)
 
 #: IDL names rosidl gives the .msg primitives (what ``--no-arr`` prints)
 _PRIMITIVE_NAMES = {
@@ -31,7 +44,7 @@ def _type_name(field_type: FieldType) -> str:
     return _PRIMITIVE_NAMES.get(element.base, element.base)
 
 
-def _abbreviate(value: Any, field_type: FieldType) -> str:
+def _abbreviate(value: Sized, field_type: FieldType) -> str:
     name = _type_name(field_type)
     if field_type.kind is Kind.ARRAY:
         return f'<array type: {name}[{field_type.length}]>'
@@ -40,7 +53,7 @@ def _abbreviate(value: Any, field_type: FieldType) -> str:
     return f'<sequence type: {name}, length: {len(value)}>'
 
 
-def _byte_text(value: Any, csv: bool) -> str:
+def _byte_text(value: FieldValue, csv: bool) -> str:
     """rclpy holds ``byte`` values as ``bytes``: ros2 prints them as characters in YAML and as
     ``b'\\xff'`` in CSV."""
     data = value if isinstance(value, bytes) else bytes([int(value)])
@@ -48,10 +61,10 @@ def _byte_text(value: Any, csv: bool) -> str:
 
 
 def _plain(
-    value: Any,
+    value: FieldValue,
     field_type: FieldType | None,
     options: tuple[int | None, bool, bool, bool],
-) -> Any:
+) -> PlainValue:
     import numpy as np
 
     truncate, no_arr, no_str, csv = options
@@ -77,15 +90,19 @@ def _plain(
             return value[:truncate] + '...'
         return value
     if isinstance(value, np.generic):
-        return value.item()
+        item: PlainValue = value.item()
+        return item
     if hasattr(value, '__msgtype__'):
         return _fields(value, options)
     if isinstance(value, (bytes, bytearray, np.ndarray, list, tuple)):  # a --field selection
-        return [_plain(item, None, options) for item in list(value)]
-    return value
+        return [_plain(element, None, options) for element in list(value)]
+    scalar: PlainValue = value  # a bool, int, float (or None) field
+    return scalar
 
 
-def _fields(message: Any, options: tuple[int | None, bool, bool, bool]) -> dict[str, Any]:
+def _fields(
+    message: Message, options: tuple[int | None, bool, bool, bool]
+) -> dict[str, PlainValue]:
     return {
         field.name: _plain(getattr(message, field.name), field.type, options)
         for field in message._definition.fields
@@ -93,13 +110,13 @@ def _fields(message: Any, options: tuple[int | None, bool, bool, bool]) -> dict[
 
 
 def to_plain(
-    message: Any,
+    message: Message,
     *,
     truncate: int | None = None,
     no_arr: bool = False,
     no_str: bool = False,
     csv: bool = False,
-) -> dict[str, Any]:
+) -> dict[str, PlainValue]:
     """A message as nested dicts and lists, fields in definition order, values as ros2 shows
     them (``csv`` for the forms of ``--csv``)."""
     return _fields(message, (truncate, no_arr, no_str, csv))
@@ -139,12 +156,14 @@ _IMPLICIT = (
 )
 
 
-def _resolver() -> Any:
+def _resolver() -> type:
     import re
 
     from ruamel.yaml.resolver import VersionedResolver
 
-    table: dict[str, list[tuple[str, Any]]] = {'': [('tag:yaml.org,2002:null', re.compile(''))]}
+    table: dict[str, list[tuple[str, re.Pattern[str]]]] = {
+        '': [('tag:yaml.org,2002:null', re.compile(''))]
+    }
     for tag, pattern, first in _IMPLICIT:
         regexp = re.compile(f'^(?:{pattern})$')
         for char in first:
@@ -152,13 +171,13 @@ def _resolver() -> Any:
 
     class PyYamlResolver(VersionedResolver):
         @property
-        def versioned_resolver(self) -> Any:
+        def versioned_resolver(self) -> dict[str, list[tuple[str, re.Pattern[str]]]]:
             return {char: list(rules) for char, rules in table.items()}
 
     return PyYamlResolver
 
 
-def _dumper(flow_style: bool) -> Any:
+def _dumper(flow_style: bool) -> Untyped:  # a ruamel.yaml YAML
     from ruamel.yaml import YAML
 
     yaml = YAML(typ='safe', pure=True)
@@ -167,7 +186,7 @@ def _dumper(flow_style: bool) -> Any:
     yaml.width = sys.maxsize
     yaml.allow_unicode = True
 
-    def represent_float(representer: Any, value: float) -> Any:
+    def represent_float(representer: Untyped, value: float) -> Untyped:
         if math.isnan(value):
             text = '.nan'
         elif math.isinf(value):
@@ -178,14 +197,14 @@ def _dumper(flow_style: bool) -> Any:
                 text = text.replace('e', '.0e', 1)
         return representer.represent_scalar('tag:yaml.org,2002:float', text)
 
-    def represent_dict(representer: Any, value: dict[str, Any]) -> Any:  # in field order
+    def represent_dict(representer: Untyped, value: dict[str, PlainValue]) -> Untyped:  # in order
         return representer.represent_mapping('tag:yaml.org,2002:map', list(value.items()))
 
-    def represent_list(representer: Any, value: list[Any]) -> Any:
+    def represent_list(representer: Untyped, value: list[PlainValue]) -> Untyped:
         # ros2's --flow-style makes sequences flow and leaves messages in block style
         return representer.represent_sequence('tag:yaml.org,2002:seq', value, flow_style=flow_style)
 
-    def represent_str(representer: Any, value: str) -> Any:
+    def represent_str(representer: Untyped, value: str) -> Untyped:
         if '\n' in value and all(c == '\n' or c.isprintable() for c in value):
             # PyYAML single-quotes multi-line text where ruamel would double-quote it
             return representer.represent_scalar('tag:yaml.org,2002:str', value, style="'")
@@ -198,7 +217,7 @@ def _dumper(flow_style: bool) -> Any:
     return yaml
 
 
-def to_yaml(value: Any, flow_style: bool = False) -> str:
+def to_yaml(value: PlainValue, flow_style: bool = False) -> str:
     """YAML text of plain data (``to_plain``'s result) as ros2 prints it."""
     buffer = io.StringIO()
     _dumper(flow_style).dump(value, buffer)
@@ -206,7 +225,7 @@ def to_yaml(value: Any, flow_style: bool = False) -> str:
 
 
 def message_to_yaml(
-    message: Any,
+    message: Message,
     *,
     truncate: int | None = None,
     no_arr: bool = False,
@@ -218,7 +237,7 @@ def message_to_yaml(
 
 
 def value_to_yaml(
-    value: Any,
+    value: FieldValue,
     *,
     truncate: int | None = None,
     no_arr: bool = False,
@@ -231,11 +250,11 @@ def value_to_yaml(
 
 
 def message_to_csv(
-    message: Any, *, truncate: int | None = None, no_arr: bool = False, no_str: bool = False
+    message: Message, *, truncate: int | None = None, no_arr: bool = False, no_str: bool = False
 ) -> str:
     """A message as ``ros2 topic echo --csv`` prints it: leaf values, comma separated."""
 
-    def join(items: Any) -> str:
+    def join(items: Iterable[PlainValue]) -> str:
         # ros2 adds a comma only after non-empty text: a leading '' element leaves no trace
         result = ''
         for item in items:
@@ -244,7 +263,7 @@ def message_to_csv(
             result += text(item)
         return result
 
-    def text(value: Any) -> str:
+    def text(value: PlainValue) -> str:
         if isinstance(value, dict):
             return join(value.values())
         if isinstance(value, list):
@@ -254,7 +273,7 @@ def message_to_csv(
     return text(to_plain(message, truncate=truncate, no_arr=no_arr, no_str=no_str, csv=True))
 
 
-def select(message: Any, path: str) -> Any:
+def select(message: Message, path: str) -> FieldValue:
     """The value at a dotted path (``pose.position``), for ``--field``."""
     value = message
     for part in path.strip('.').split('.'):

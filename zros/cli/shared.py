@@ -16,11 +16,12 @@ import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 # commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
 # `zros --help` loads none of them
 if TYPE_CHECKING:
+    from zros.bag.boundary import FieldValue, NodeSetting
     from zros.cdr.message import Message
     from zros.node import Node
 
@@ -70,12 +71,12 @@ def node_name(args: argparse.Namespace) -> str:
     return '_'.join(['zros', *(str(p).replace('-', '_') for p in parts if p)])
 
 
-def open_node(args: argparse.Namespace, **options: Any) -> Node:
+def open_node(args: argparse.Namespace, **options: NodeSetting) -> Node:
     """The command's node (:func:`node_name`): no /rosout, no parameter services, its own
     session; its publishers and subscriptions show on the graph as any node's."""
     import zros
 
-    settings: dict[str, Any] = {}
+    settings: dict[str, NodeSetting] = {}
     if getattr(args, 'mode', None):
         settings['mode'] = args.mode
     if getattr(args, 'wire', None):
@@ -128,7 +129,7 @@ def find_names(args: argparse.Namespace, kind: str, type_name: str) -> int:
     return 0
 
 
-def parse_values(text: str | None) -> dict[str, Any]:
+def parse_values(text: str | None) -> dict[str, FieldValue]:
     """Message fields from YAML text, as ``ros2 topic pub`` takes them: ``"{data: hi}"``."""
     if not text:
         return {}
@@ -192,7 +193,7 @@ def known_type(node: Node, topic: str, type_name: str) -> str:
     raise CommandError(f'{unknown}\nThe nodes on the network did not describe it ({asked}).')
 
 
-def build_message(cls: type[Message], values: dict[str, Any]) -> Message:
+def build_message(cls: type[Message], values: dict[str, FieldValue]) -> Message:
     """A message of ``cls`` with ``values`` (nested dicts for nested fields), checked before
     anything is sent: a wrong field name or value is a usage error naming the field."""
     from zros.cdr.errors import CdrError, FieldError

@@ -10,7 +10,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
     DISCOVERY,
@@ -26,6 +26,7 @@ from zros.cli.shared import (
 )
 
 if TYPE_CHECKING:
+    from zros.cdr import Message
     from zros.graph import Endpoint
     from zros.node import Node
 
@@ -124,7 +125,7 @@ def echo(args: argparse.Namespace) -> int:
 
     options = {'truncate': args.truncate_length, 'no_arr': args.no_arr, 'no_str': args.no_str}
 
-    def text_of(message: Any) -> str:
+    def text_of(message: Message) -> str:
         value = message
         if args.field:
             try:
@@ -255,7 +256,7 @@ def _measuring_subscription(
         'without announcing the subscription',
         file=sys.stderr,
     )
-    subscriber: Any = node.transport.session.declare_subscriber(
+    subscriber = node.transport.session.declare_subscriber(
         key, lambda sample: window.add(len(sample.payload))
     )
     undeclare: Callable[[], object] = subscriber.undeclare
@@ -348,7 +349,7 @@ def delay(args: argparse.Namespace) -> int:
             raise CommandError(f'{type_name} has no header: its delay cannot be measured')
         delays: deque[float] = deque(maxlen=args.window)
 
-        def on_message(message: Any) -> None:
+        def on_message(message: Message) -> None:
             delays.append((node.now() - Time.from_msg(message.header.stamp)).seconds)
 
         node.create_subscription(type_name, args.topic, on_message, qos='sensor_data')

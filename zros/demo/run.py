@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import zros
 from zros.bag import Player
@@ -39,6 +39,9 @@ from zros.demo.sensor import (
 )
 from zros.demo.tutorial_bag import ensure_bag
 from zros.transport import Transport, TransportConfig, start_router
+
+if TYPE_CHECKING:
+    from zros.bag.source import RawMessage
 
 DEFAULT_OUTPUT = 'zros-demo'
 DEFAULT_RATE = 10.0
@@ -182,12 +185,15 @@ def run_demo(
 
     with start_router() as router:
         out(f'  router   in this process, at {router.endpoint} (no network beyond loopback)')
-        settings: dict[str, Any] = {'connect': router.endpoint, 'shared_memory': False}
-        echo_session = Transport(TransportConfig.create(**settings))
-        player_session = Transport(TransportConfig.create(**settings))
+
+        def config() -> TransportConfig:
+            return TransportConfig.create(connect=router.endpoint, shared_memory=False)
+
+        echo_session = Transport(config())
+        player_session = Transport(config())
         echo = zros.Node('zros_demo_echo', transport=echo_session)
         player_node = zros.Node('rosbag2_player', transport=player_session)
-        zros.init('R_demo', config=TransportConfig.create(**settings))
+        zros.init('R_demo', config=config())
         live = LiveVoltagePlot(folder / PNG_NAMES['voltage'], gui=gui)
         try:
             node = RangeNode(zros.default_node(), calibration, log_every)
@@ -199,7 +205,7 @@ def run_demo(
             played = {VOLTAGE_TOPIC: 0, CALIBRATION_TOPIC: 0}
             stamps: list[int] = []  #: recorded times of the voltages played, in order
 
-            def count(message: Any) -> None:
+            def count(message: RawMessage) -> None:
                 played[message.connection.topic] += 1
                 if message.connection.topic == VOLTAGE_TOPIC:
                     stamps.append(message.timestamp)

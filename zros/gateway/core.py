@@ -25,7 +25,7 @@ import threading
 import time
 from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar
+from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 
 from zros.errors import ZrosError
 from zros.pubsub.taps import GraphTopic, RawTap, matched_qos
@@ -33,6 +33,9 @@ from zros.qos import Durability, QoS
 from zros.runtime.signal import Signal
 
 if TYPE_CHECKING:
+    import zenoh
+
+    from zros.bag.boundary import NodeSetting
     from zros.graph import Graph
     from zros.node import Node
 
@@ -208,11 +211,11 @@ class Taps:
 
     def _callback(
         self, tapped: _Tapped, deliver: Callable[[bytes, int], object]
-    ) -> Callable[[Any], None]:
+    ) -> Callable[[zenoh.Sample], None]:
         now = self._now
         latched = tapped.latched
 
-        def on_sample(sample: Any) -> None:
+        def on_sample(sample: zenoh.Sample) -> None:
             data = sample.payload.to_bytes()
             stamp = now()
             if latched is not None:
@@ -391,7 +394,7 @@ class ClientCache(Generic[C]):
             client.close()
 
 
-def gateway_node(name: str, settings: dict[str, Any]) -> Node:
+def gateway_node(name: str, settings: dict[str, NodeSetting]) -> Node:
     """A node of its own for a gateway, from the connection ``settings`` of :class:`zros.Node`
     (no /rosout and no parameter services unless asked)."""
     import zros

@@ -20,9 +20,9 @@ import logging
 import os
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypeVar
 
 from zros.errors import ZrosError
 from zros.gateway.assets import Assets
@@ -35,9 +35,16 @@ from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
 from zros.qos import QoS, Reliability
 
 if TYPE_CHECKING:
+    import foxglove
+    import zenoh
+    from foxglove.websocket import ChannelView, Client, ClientChannel, Parameter
+
+    from zros.bag.boundary import NodeSetting
+    from zros.gateway.foxglove_bag import BagGateway
     from zros.node import Node
 
 _log = logging.getLogger('zros.gateway')
+_T = TypeVar('_T')
 
 #: seconds the gateway gives the graph to show ``/clock`` when deciding on sim time
 SIM_TIME_DISCOVERY = 1.0
@@ -45,7 +52,7 @@ SIM_TIME_DISCOVERY = 1.0
 
 @dataclass
 class _Channel:
-    channel: Any  #: foxglove.Channel
+    channel: foxglove.Channel
     topic: GraphTopic
 
 
@@ -145,7 +152,7 @@ class FoxgloveGateway:
 
         cls = self.node.registry.get_class('rosgraph_msgs/msg/Clock')
 
-        def on_clock(sample: Any) -> None:
+        def on_clock(sample: zenoh.Sample) -> None:
             try:
                 clock = decode(cls, sample.payload.to_bytes()).clock
             except CdrError as exc:
@@ -346,7 +353,7 @@ class _Listener:
     def __init__(self, gateway: FoxgloveGateway) -> None:
         self._gateway = gateway
 
-    def _guard(self, what: str, call: Any, *args: Any) -> Any:
+    def _guard(self, what: str, call: Callable[..., _T], *args: object) -> _T | None:
         try:
             return call(*args)
         except Exception as exc:  # a client's request: logged and told, never raised into the SDK
@@ -354,31 +361,31 @@ class _Listener:
             self._gateway.status(f'{what} failed: {exc}', 'error')
             return None
 
-    def on_subscribe(self, client: Any, channel: Any) -> None:
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         self._guard(f'subscribing to {channel.topic}', self._gateway.watch, client.id, channel.id)
 
-    def on_unsubscribe(self, client: Any, channel: Any) -> None:
+    def on_unsubscribe(self, client: Client, channel: ChannelView) -> None:
         self._guard(f'unsubscribing {channel.topic}', self._gateway.unwatch, client.id, channel.id)
 
-    def on_client_advertise(self, client: Any, channel: Any) -> None:
+    def on_client_advertise(self, client: Client, channel: ClientChannel) -> None:
         self._guard(
             f'advertising {channel.topic}', self._gateway.clients.advertise, client.id, channel
         )
 
-    def on_client_unadvertise(self, client: Any, client_channel_id: int) -> None:
+    def on_client_unadvertise(self, client: Client, client_channel_id: int) -> None:
         self._gateway.clients.unadvertise(client.id, client_channel_id)
 
-    def on_message_data(self, client: Any, client_channel_id: int, data: bytes) -> None:
+    def on_message_data(self, client: Client, client_channel_id: int, data: bytes) -> None:
         self._guard('publishing', self._gateway.clients.message, client.id, client_channel_id, data)
 
     def on_get_parameters(
-        self, client: Any, param_names: list[str], request_id: str | None = None
-    ) -> list[Any]:
+        self, client: Client, param_names: list[str], request_id: str | None = None
+    ) -> list[Parameter]:
         return self._guard('getting parameters', self._gateway.parameters.get, param_names) or []
 
     def on_set_parameters(
-        self, client: Any, parameters: list[Any], request_id: str | None = None
-    ) -> list[Any]:
+        self, client: Client, parameters: list[Parameter], request_id: str | None = None
+    ) -> list[Parameter]:
         return self._guard('setting parameters', self._gateway.parameters.set, parameters) or []
 
     def on_parameters_subscribe(self, param_names: list[str]) -> None:
@@ -411,8 +418,8 @@ def serve(
     sim_time: bool | None = None,
     node: Node | None = None,
     name: str = 'zros_foxglove',
-    **settings: Any,
-) -> Any:
+    **settings: NodeSetting,
+) -> FoxgloveGateway | BagGateway:
     """Serve the robot (or, with ``bag``, a recording) to Foxglove at
     ``ws://address:port``; returns the running server (``close()`` it, or use ``with``).
 

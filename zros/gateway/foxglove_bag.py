@@ -17,7 +17,7 @@ import os
 import threading
 import time
 from collections.abc import Iterable, Iterator
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.bag.play_clock import PlayClock
 from zros.bag.rosbag2_yaml import parse_qos_profiles
@@ -29,6 +29,16 @@ from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk,
 from zros.pubsub.taps import matched_qos
 
 if TYPE_CHECKING:
+    import foxglove
+    from foxglove import Channel
+    from foxglove.websocket import (
+        ChannelView,
+        Client,
+        PlaybackControlRequest,
+        PlaybackState,
+        PlaybackStatus,
+    )
+
     from zros.bag.source import Connection, RawMessage
 
 _log = logging.getLogger('zros.gateway')
@@ -69,8 +79,8 @@ class BagGateway:
         assets = Assets(asset_paths) if asset_paths else None
         self.source = open_source(os.fspath(path))
         self._context = foxglove.Context()
-        self._channels: dict[int, Any] = {}  # connection id -> foxglove.Channel
-        by_topic: dict[str, Any] = {}
+        self._channels: dict[int, Channel] = {}  # by connection id
+        by_topic: dict[str, Channel] = {}
         latched: list[Connection] = []
         types = BagTypes(self.source.path, self.source.connections)
         for connection in self.source.connections:
@@ -120,7 +130,7 @@ class BagGateway:
         self._thread.start()
         _log.info('Foxglove server on %s playing %s', self.url, self.source.path)
 
-    def _schema(self, connection: Connection, types: BagTypes) -> Any:
+    def _schema(self, connection: Connection, types: BagTypes) -> foxglove.Schema | None:
         """The recording's own definition, unless its first message shows it wrong (as some
         recorders wrote them) and zros's registry has one that fits: then that one."""
         import foxglove
@@ -225,7 +235,9 @@ class BagGateway:
         self._server.broadcast_playback_state(self._state(PlaybackStatus.Ended, False, None))
         self.clock.sleep_until(self.end_ns + 1, self._interrupted)
 
-    def _state(self, status: Any, did_seek: bool, request_id: str | None) -> Any:
+    def _state(
+        self, status: PlaybackStatus, did_seek: bool, request_id: str | None
+    ) -> PlaybackState:
         from foxglove.websocket import PlaybackState
 
         return PlaybackState(
@@ -236,7 +248,7 @@ class BagGateway:
             request_id=request_id,
         )
 
-    def control(self, request: Any) -> Any:
+    def control(self, request: PlaybackControlRequest) -> PlaybackState:
         """Carry out a client's playback request (play, pause, speed, seek); the new state."""
         from foxglove.websocket import PlaybackCommand, PlaybackStatus
 
@@ -303,13 +315,15 @@ class _BagListener:
     def __init__(self, gateway: BagGateway) -> None:
         self._gateway = gateway
 
-    def on_subscribe(self, client: Any, channel: Any) -> None:
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         """Nothing to do: every channel is played."""
 
-    def on_unsubscribe(self, client: Any, channel: Any) -> None:
+    def on_unsubscribe(self, client: Client, channel: ChannelView) -> None:
         """Nothing to do: every channel is played."""
 
-    def on_playback_control_request(self, playback_control_request: Any) -> Any:
+    def on_playback_control_request(
+        self, playback_control_request: PlaybackControlRequest
+    ) -> PlaybackState | None:
         try:
             return self._gateway.control(playback_control_request)
         except Exception:  # a client's request: logged, never raised into the SDK

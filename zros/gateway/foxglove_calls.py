@@ -14,7 +14,7 @@ import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.cdr import CdrError
 from zros.cdr.message import decode, encode
@@ -24,6 +24,9 @@ from zros.gateway.foxglove_common import ros2msg_schema
 from zros.qos import QoS
 
 if TYPE_CHECKING:
+    import foxglove
+    from foxglove.websocket import ClientChannel, ServiceRequest, WebSocketServer
+
     from zros.cdr import Message
     from zros.node import Node
     from zros.pubsub import Publisher
@@ -62,7 +65,7 @@ class ClientChannels:
         self._lock = threading.Lock()
         self._channels: dict[tuple[int, int], _Advertised] = {}
 
-    def advertise(self, client: int, channel: Any) -> None:
+    def advertise(self, client: int, channel: ClientChannel) -> None:
         """A client announced a channel (the SDK's ``ClientChannel``): make its publisher
         (GatewayError says why not)."""
         from zros.pubsub import Publisher
@@ -142,7 +145,7 @@ class ClientChannels:
 class ServiceOffer:
     """The services of the graph, offered to Foxglove clients through the SDK's server."""
 
-    def __init__(self, node: Node, server: Any, allowed: NameFilter) -> None:
+    def __init__(self, node: Node, server: WebSocketServer, allowed: NameFilter) -> None:
         self._node = node
         self._server = server
         self._allowed = allowed
@@ -164,7 +167,7 @@ class ServiceOffer:
             self._server.add_services(added_services)
             self._offered.update({s.name: wanted[s.name] for s in added_services})
 
-    def _service(self, name: str, type_name: str) -> Any:
+    def _service(self, name: str, type_name: str) -> foxglove.Service | None:
         import foxglove
 
         registry = self._node.registry
@@ -186,8 +189,8 @@ class ServiceOffer:
         )
         return client
 
-    def _handler(self, name: str, type_name: str) -> Callable[[Any], bytes]:
-        def handle(request: Any) -> bytes:
+    def _handler(self, name: str, type_name: str) -> Callable[[ServiceRequest], bytes]:
+        def handle(request: ServiceRequest) -> bytes:
             client = self._client(name, type_name)
             try:
                 if request.encoding == 'json':

@@ -27,9 +27,17 @@ from zros.gateway.core import GatewayError
 from zros.gateway.listen import Listen
 
 if TYPE_CHECKING:
+    from types import ModuleType
+
+    import foxglove
+    from foxglove.websocket import WebSocketServer
+
     from zros.cdr import TypeRegistry
 
 _log = logging.getLogger('zros.gateway')
+
+#: a keyword option of ``foxglove.start_server`` (listener, capabilities...), checked by the SDK
+SdkOption = Any
 
 #: foxglove_bridge's port
 DEFAULT_PORT = 8765
@@ -42,7 +50,7 @@ _SDK_SEND_LOGGER = 'foxglove.websocket.connected_client.send_lossy'
 _OUTBOX_FULL = re.compile(r'outbox for client (\S+) full')
 
 
-def import_sdk() -> Any:
+def import_sdk() -> ModuleType:
     """The ``foxglove`` module of the SDK; GatewayError says how to install it."""
     try:
         import foxglove
@@ -86,14 +94,14 @@ class ServerOptions:
                 f'the message backlog must be at least 1, not {self.message_backlog}'
             )
 
-    def start(self, **settings: Any) -> Any:
+    def start(self, **settings: SdkOption) -> WebSocketServer:
         """Start the SDK's server with these options and ``settings`` (capabilities, listener,
         context...); GatewayError when it cannot listen."""
         foxglove = import_sdk()
         self.check()
         cert, key = self._listen().tls_files()
         try:
-            return foxglove.start_server(
+            server: WebSocketServer = foxglove.start_server(
                 name=self.name,
                 host=self.address,
                 port=self.port,
@@ -106,6 +114,7 @@ class ServerOptions:
             raise GatewayError(
                 f'cannot start the Foxglove server on {self.address}:{self.port}: {exc}'
             ) from None
+        return server
 
     def url(self, port: int) -> str:
         """The address clients open."""
@@ -131,7 +140,7 @@ class SlowClients:
 
     def __init__(self, backlog: int) -> None:
         self._backlog = backlog
-        self._server: Any = None
+        self._server: WebSocketServer | None = None
         self._found: queue.SimpleQueue[str | None] = queue.SimpleQueue()
         self._last: dict[str, float] = {}  # client address -> when last reported
         self.overflows = 0
@@ -143,7 +152,7 @@ class SlowClients:
         logger.addHandler(self._handler)
         self._thread = threading.Thread(target=self._run, name='zros foxglove status', daemon=True)
 
-    def attach(self, server: Any) -> None:
+    def attach(self, server: WebSocketServer) -> None:
         """Start reporting to the clients of ``server``."""
         self._server = server
         self._thread.start()
@@ -166,6 +175,7 @@ class SlowClients:
             )
             _log.warning(message)
             try:
+                assert self._server is not None  # reporting starts once attached
                 self._server.publish_status(
                     message, foxglove.StatusLevel.Warning, id=f'zros.slow.{address}'
                 )
@@ -180,7 +190,7 @@ class SlowClients:
             self._thread.join(5.0)
 
 
-def ros2msg_schema(registry: TypeRegistry, type_name: str) -> Any:
+def ros2msg_schema(registry: TypeRegistry, type_name: str) -> foxglove.Schema | None:
     """The Foxglove schema of a ROS type: the ``ros2msg`` text with its dependencies, as
     rosbag2 writes it into MCAP files; None when the registry does not know the type."""
     import foxglove

@@ -13,7 +13,7 @@ import concurrent.futures
 import logging
 import threading
 from collections.abc import Callable, Iterable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.errors import ZrosError
 from zros.gateway.core import ClientCache, NameFilter
@@ -21,6 +21,12 @@ from zros.params.values import ParameterType
 from zros.qos import PARAMETER_EVENTS
 
 if TYPE_CHECKING:
+    import foxglove
+    import zenoh
+
+    from zros.bag.boundary import ParamValue
+    from zros.cdr import Message
+    from zros.gateway.json_types import JsonValue
     from zros.node import Node
     from zros.params.client import ParameterClient
     from zros.pubsub.taps import RawTap
@@ -39,7 +45,9 @@ def split_name(full: str) -> tuple[str, str]:
     return node, name
 
 
-def to_foxglove(full: str, value: Any, kind: ParameterType | None = None) -> Any:
+def to_foxglove(
+    full: str, value: ParamValue, kind: ParameterType | None = None
+) -> foxglove.Parameter:
     """A foxglove.Parameter of a zros value (doubles keep their type hint, as
     foxglove_bridge sends them; an empty array takes its type from ``kind``)."""
     import foxglove
@@ -49,16 +57,16 @@ def to_foxglove(full: str, value: Any, kind: ParameterType | None = None) -> Any
     if kind is ParameterType.DOUBLE or isinstance(value, float):
         return foxglove.Parameter(full, value=float(value), type=foxglove.ParameterType.Float64)
     if kind is ParameterType.DOUBLE_ARRAY:
-        floats: list[Any] = [float(item) for item in value]
+        floats: list[ParamValue] = [float(item) for item in value]
         return foxglove.Parameter(full, value=floats, type=foxglove.ParameterType.Float64Array)
     return foxglove.Parameter(full, value=value)
 
 
-def from_foxglove(parameter: Any) -> tuple[Any, ParameterType | None]:
+def from_foxglove(parameter: foxglove.Parameter) -> tuple[ParamValue, ParameterType | None]:
     """The zros value and type of a foxglove.Parameter (None deletes)."""
     import foxglove
 
-    value = parameter.get_value()
+    value: JsonValue = parameter.get_value()  # a client's: converted as its type hint says
     hint = parameter.type
     if value is None:
         return None, ParameterType.NOT_SET
@@ -81,7 +89,7 @@ class Parameters:
         node: Node,
         allowed: NameFilter,
         nodes: Callable[[], list[str]],
-        publish: Callable[[list[Any]], object],
+        publish: Callable[[list[foxglove.Parameter]], object],
         status: Callable[[str], object],
     ) -> None:
         self._node = node
@@ -98,7 +106,7 @@ class Parameters:
     def _client(self, node_name: str) -> ParameterClient:
         return self._clients.get(node_name, lambda: self._node.parameter_client(node_name, TIMEOUT))
 
-    def _of_node(self, node_name: str, names: list[str] | None) -> list[Any]:
+    def _of_node(self, node_name: str, names: list[str] | None) -> list[foxglove.Parameter]:
         client = self._client(node_name)
         if names is None:
             names = client.list_parameters()
@@ -112,7 +120,7 @@ class Parameters:
                 found.append(to_foxglove(full, value, kinds.get(name)))
         return found
 
-    def _each_node(self, wanted: dict[str, list[str] | None]) -> list[Any]:
+    def _each_node(self, wanted: dict[str, list[str] | None]) -> list[foxglove.Parameter]:
         futures = {n: self._pool.submit(self._of_node, n, names) for n, names in wanted.items()}
         found = []
         for node_name, future in futures.items():
@@ -122,7 +130,7 @@ class Parameters:
                 _log.warning('no parameters from %s: %s', node_name, exc)
         return found
 
-    def get(self, names: Iterable[str]) -> list[Any]:
+    def get(self, names: Iterable[str]) -> list[foxglove.Parameter]:
         """The parameters named (``/node.param``), or every parameter when none is named."""
         names = list(names)
         wanted: dict[str, list[str] | None] = {}
@@ -136,7 +144,7 @@ class Parameters:
             wanted = dict.fromkeys(self._nodes())
         return self._each_node(wanted)
 
-    def set(self, parameters: Iterable[Any]) -> list[Any]:
+    def set(self, parameters: Iterable[foxglove.Parameter]) -> list[foxglove.Parameter]:
         """Set parameters, node by node; returns their values afterwards (a refused value
         stays as it was, and the clients are told why)."""
         from zros.params.descriptor import Parameter
@@ -194,12 +202,12 @@ class Parameters:
         if events is not None:
             events.close()
 
-    def _event_callback(self, cls: Any) -> Callable[[Any], None]:
+    def _event_callback(self, cls: type[Message]) -> Callable[[zenoh.Sample], None]:
         from zros.cdr import CdrError
         from zros.cdr.message import decode
         from zros.params.values import from_message
 
-        def on_event(sample: Any) -> None:
+        def on_event(sample: zenoh.Sample) -> None:
             try:
                 event = decode(cls, sample.payload.to_bytes())
             except CdrError as exc:

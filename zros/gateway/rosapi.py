@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.cdr.model import Kind, MessageDef
 from zros.errors import ZrosError
@@ -26,6 +26,7 @@ from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.taps import is_hidden
 
 if TYPE_CHECKING:
+    from zros.gateway.json_types import JsonObject
     from zros.node import Node
     from zros.params.client import ParameterClient
 
@@ -48,7 +49,7 @@ class Rosapi:
         self._services = services
         self._params = params
         self._parameter_clients: ClientCache[ParameterClient] = ClientCache()
-        self._handlers: dict[str, Callable[[dict[str, Any]], dict[str, Any]]] = {
+        self._handlers: dict[str, Callable[[JsonObject], JsonObject]] = {
             'topics': self._topics_and_types,
             'topics_for_type': self._topics_for_type,
             'topics_and_raw_types': self._raw_types,
@@ -79,7 +80,7 @@ class Rosapi:
         """Whether ``service`` (a resolved name) is one of rosapi's."""
         return service.startswith(PREFIX) and service[len(PREFIX) :] in self._handlers
 
-    def call(self, service: str, args: dict[str, Any]) -> dict[str, Any]:
+    def call(self, service: str, args: JsonObject) -> JsonObject:
         """The response values of a rosapi service (GatewayError says why there is none)."""
         return self._handlers[service[len(PREFIX) :]](args)
 
@@ -97,19 +98,19 @@ class Rosapi:
             if types and not is_hidden(name) and self._topics(name)
         }
 
-    def _topics_and_types(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _topics_and_types(self, args: JsonObject) -> JsonObject:
         found = self._topic_types()
         return {'topics': list(found), 'types': list(found.values())}
 
-    def _topics_for_type(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _topics_for_type(self, args: JsonObject) -> JsonObject:
         wanted = self._type_name(_text(args, 'type'))
         return {'topics': [n for n, t in self._topic_types().items() if t == wanted]}
 
-    def _topic_type(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _topic_type(self, args: JsonObject) -> JsonObject:
         name = self._resolve(_text(args, 'topic'))
         return {'type': self._topic_types().get(name, '')}
 
-    def _raw_types(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _raw_types(self, args: JsonObject) -> JsonObject:
         from zros.cdr.render import render_bundle
 
         found = self._topic_types()
@@ -125,11 +126,11 @@ class Rosapi:
         found = offered_services(self._node)
         return {name: t for name, t in found.items() if self._services(name)}
 
-    def _services_for_type(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _services_for_type(self, args: JsonObject) -> JsonObject:
         wanted = self._type_name(_text(args, 'type'))
         return {'services': [n for n, t in self._service_types().items() if t == wanted]}
 
-    def _endpoint_nodes(self, args: dict[str, Any], field: str, kind: str) -> list[str]:
+    def _endpoint_nodes(self, args: JsonObject, field: str, kind: str) -> list[str]:
         name = self._resolve(_text(args, field))
         if not self._topics(name):
             return []
@@ -147,10 +148,10 @@ class Rosapi:
         ]
         return owners(found, self._node.graph) if self._services(name) else []
 
-    def _service_providers(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _service_providers(self, args: JsonObject) -> JsonObject:
         return {'providers': self._servers(self._resolve(_text(args, 'service')))}
 
-    def _service_node(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _service_node(self, args: JsonObject) -> JsonObject:
         found = self._servers(self._resolve(_text(args, 'service')))
         return {'node': found[0] if found else ''}
 
@@ -164,7 +165,7 @@ class Rosapi:
         services = offered_services(self._node, include_hidden=True)
         return sorted(set(self._node.graph.nodes()) | set(parameter_nodes(services)))
 
-    def _node_details(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _node_details(self, args: JsonObject) -> JsonObject:
         node_name = self._resolve(_text(args, 'node'))
         graph = self._node.graph
         namespace = self._node.scheme.namespace
@@ -199,7 +200,7 @@ class Rosapi:
                 return str(getattr(found, attribute))
         return text
 
-    def typedefs(self, type_name: str) -> list[dict[str, Any]]:
+    def typedefs(self, type_name: str) -> list[JsonObject]:
         """rosapi's ``TypeDef`` list of a message type and every type in it (GatewayError for
         a type zros does not know)."""
         try:
@@ -208,8 +209,8 @@ class Rosapi:
             raise GatewayError(f'unknown type {type_name}: {exc}') from None
         return self._typedefs(definition)
 
-    def _typedefs(self, root: MessageDef) -> list[dict[str, Any]]:
-        found: list[dict[str, Any]] = []
+    def _typedefs(self, root: MessageDef) -> list[JsonObject]:
+        found: list[JsonObject] = []
         seen: set[str] = set()
         queue = [root]
         while queue:
@@ -222,7 +223,7 @@ class Rosapi:
                 queue.append(self._node.registry.message_definition(nested))
         return found
 
-    def _typedef(self, definition: MessageDef) -> dict[str, Any]:
+    def _typedef(self, definition: MessageDef) -> JsonObject:
         defaults = self._node.registry.get_class(definition.name)()
         names, types, lengths, examples = [], [], [], []
         for field in definition.fields:
@@ -251,7 +252,7 @@ class Rosapi:
             'constvalues': [str(c.value) for c in definition.constants],
         }
 
-    def _service_part(self, args: dict[str, Any], part: str) -> list[dict[str, Any]]:
+    def _service_part(self, args: JsonObject, part: str) -> list[JsonObject]:
         text = _text(args, 'type')
         try:
             service = self._node.registry.get_service(text)
@@ -262,7 +263,7 @@ class Rosapi:
 
     # --- parameters --------------------------------------------------------------------------
 
-    def _parameter(self, args: dict[str, Any]) -> tuple[str, str, str]:
+    def _parameter(self, args: JsonObject) -> tuple[str, str, str]:
         full = _text(args, 'name')
         node_name, _, name = full.partition(':')
         if not name or not node_name:
@@ -281,7 +282,7 @@ class Rosapi:
         )
         return client
 
-    def _get_param(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _get_param(self, args: JsonObject) -> JsonObject:
         default_text = args.get('default_value', args.get('default', ''))
         try:
             default = json.loads(default_text) if default_text else ''
@@ -301,7 +302,7 @@ class Rosapi:
             }
         return {'value': json.dumps(value), 'successful': True, 'reason': ''}
 
-    def _set_param(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _set_param(self, args: JsonObject) -> JsonObject:
         try:
             node_name, name, _ = self._parameter(args)
             try:
@@ -315,14 +316,14 @@ class Rosapi:
             return {'successful': False, 'reason': str(exc)}
         return {'successful': bool(result), 'reason': result.reason}
 
-    def _has_param(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _has_param(self, args: JsonObject) -> JsonObject:
         try:
             node_name, name, _ = self._parameter(args)
             return {'exists': self._client(node_name).get(name) is not None}
         except (GatewayError, ZrosError):
             return {'exists': False}
 
-    def _delete_param(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _delete_param(self, args: JsonObject) -> JsonObject:
         try:
             node_name, name, _ = self._parameter(args)
             (result,) = self._client(node_name).set_parameters({name: None})
@@ -330,7 +331,7 @@ class Rosapi:
             return {'successful': False, 'reason': str(exc)}
         return {'successful': bool(result), 'reason': result.reason}
 
-    def _param_names(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _param_names(self, args: JsonObject) -> JsonObject:
         own = self._node.fully_qualified_name
         names = []
         for node_name in parameter_nodes(offered_services(self._node, include_hidden=True)):
@@ -345,7 +346,7 @@ class Rosapi:
 
     # --- the rest ----------------------------------------------------------------------------
 
-    def _time(self, args: dict[str, Any]) -> dict[str, Any]:
+    def _time(self, args: JsonObject) -> JsonObject:
         sec, nanosec = divmod(self._node.now().nanoseconds, 1_000_000_000)
         return {'time': {'sec': sec, 'nanosec': nanosec}}
 
@@ -359,7 +360,7 @@ class Rosapi:
             raise GatewayError(f'{name!r} is not a valid name: {exc}') from None
 
 
-def _text(args: dict[str, Any], field: str) -> str:
+def _text(args: JsonObject, field: str) -> str:
     value = args.get(field, '')
     if not isinstance(value, str):
         raise GatewayError(f'the field {field} must be a string, not {value!r}')

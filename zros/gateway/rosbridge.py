@@ -22,7 +22,7 @@ import logging
 import os
 import threading
 from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.gateway.core import GatewayError, NameFilter, Taps, gateway_node
 from zros.gateway.listen import Listen
@@ -33,6 +33,11 @@ from zros.gateway.rosbridge_topics import Topics
 from zros.gateway.rosbridge_values import Values
 
 if TYPE_CHECKING:
+    from types import ModuleType
+
+    from websockets.sync.server import ServerConnection
+
+    from zros.bag.boundary import NodeSetting
     from zros.node import Node
 
 _log = logging.getLogger('zros.gateway')
@@ -49,7 +54,7 @@ QUEUE_BYTES = 100_000_000
 CLOSE_TIMEOUT = 2.0
 
 
-def import_websockets() -> Any:
+def import_websockets() -> ModuleType:
     """The websockets server module; GatewayError says how to install it."""
     try:
         from websockets.sync import server
@@ -139,7 +144,7 @@ class RosbridgeGateway:
         while not self._closed.is_set() and self.node.ok():
             self.node.spin_once(0.2)
 
-    def _serve_client(self, connection: Any) -> None:
+    def _serve_client(self, connection: ServerConnection) -> None:
         max_message_size, queue_items, queue_bytes = self._sizes
         client = ClientSession(
             next(self._ids),
@@ -222,7 +227,7 @@ def serve(
     queue_bytes: int = QUEUE_BYTES,
     node: Node | None = None,
     name: str = 'zros_rosbridge',
-    **settings: Any,
+    **settings: NodeSetting,
 ) -> RosbridgeGateway:
     """Serve the robot to rosbridge clients at ``ws://address:port``; returns the running
     server (``close()`` it, or use ``with``).

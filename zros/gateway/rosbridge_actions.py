@@ -26,15 +26,18 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, TypeAlias
+from typing import TYPE_CHECKING, TypeAlias
 
 from zros.actions import ActionError, GoalStatus
 from zros.errors import ZrosError
 from zros.gateway.core import GatewayError
 
 if TYPE_CHECKING:
+    from collections.abc import Awaitable
+
     from zros.actions import ActionServer, ServerGoalHandle
     from zros.cdr import Message
+    from zros.gateway.json_types import JsonObject, JsonValue
     from zros.gateway.rosbridge_topics import Peer
     from zros.gateway.rosbridge_values import Values
     from zros.node import Node
@@ -82,8 +85,8 @@ class ServedActions:
         self,
         node: Node,
         values: Values,
-        resolve: Callable[[Any, str], str],
-        convert: Callable[[type[Message], Any], Message],
+        resolve: Callable[[JsonValue, str], str],
+        convert: Callable[[type[Message], JsonValue], Message],
     ) -> None:
         self._node = node
         self._values = values
@@ -95,7 +98,7 @@ class ServedActions:
 
     # --- advertising -------------------------------------------------------------------------
 
-    def advertise_action(self, peer: Peer, op: dict[str, Any]) -> None:
+    def advertise_action(self, peer: Peer, op: JsonObject) -> None:
         """An ``advertise_action`` message: serve ``action`` by asking the client."""
         text = op['action']
         name = self._resolve(text, 'action')
@@ -132,7 +135,7 @@ class ServedActions:
             return
         _log.info('client %d serves action %s [%s]', peer.id, name, action_type.__actiontype__)
 
-    def unadvertise_action(self, peer: Peer, op: dict[str, Any]) -> None:
+    def unadvertise_action(self, peer: Peer, op: JsonObject) -> None:
         """An ``unadvertise_action`` message: running goals are aborted."""
         name = self._resolve(op['action'], 'action')
         if not self._withdraw(name, peer):
@@ -164,7 +167,7 @@ class ServedActions:
 
     # --- the graph's side --------------------------------------------------------------------
 
-    def _execute(self, advertised: _Advertised) -> Callable[[ServerGoalHandle], Any]:
+    def _execute(self, advertised: _Advertised) -> Callable[[ServerGoalHandle], Awaitable[Message]]:
         async def execute(handle: ServerGoalHandle) -> Message:
             goal_id = f'action_goal:{advertised.text}:{next(self._ids)}'
             running = _Running(handle)
@@ -216,7 +219,7 @@ class ServedActions:
 
     # --- the client's answers ----------------------------------------------------------------
 
-    def _goal(self, peer: Peer, op: dict[str, Any], pop: bool) -> tuple[_Advertised, str, _Running]:
+    def _goal(self, peer: Peer, op: JsonObject, pop: bool) -> tuple[_Advertised, str, _Running]:
         name = self._resolve(op['action'], 'action')
         goal_id = op['id']
         with self._lock:
@@ -228,13 +231,13 @@ class ServedActions:
             raise GatewayError(f'Received {op["op"]} for unrecognized id: {goal_id}')
         return advertised, goal_id, running
 
-    def action_feedback(self, peer: Peer, op: dict[str, Any]) -> None:
+    def action_feedback(self, peer: Peer, op: JsonObject) -> None:
         """An ``action_feedback`` message: feedback of a goal the client runs."""
         _, _, running = self._goal(peer, op, pop=False)
         handle = running.handle
         handle.publish_feedback(self._convert(handle.server.Feedback, op.get('values')))
 
-    def action_result(self, peer: Peer, op: dict[str, Any]) -> None:
+    def action_result(self, peer: Peer, op: JsonObject) -> None:
         """An ``action_result`` message: the end of a goal the client ran."""
         advertised, goal_id, running = self._goal(peer, op, pop=True)
         handle = running.handle
@@ -265,7 +268,7 @@ class ServedActions:
             self._withdraw(name, None)
 
 
-def _status(op: dict[str, Any], handle: ServerGoalHandle) -> tuple[GoalStatus, str]:
+def _status(op: JsonObject, handle: ServerGoalHandle) -> tuple[GoalStatus, str]:
     """How an ``action_result`` ends its goal, and what was wrong with it ('' if nothing)."""
     if op['result'] is False:
         return GoalStatus.ABORTED, ''

@@ -22,7 +22,7 @@ import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypeVar
 
 from zros.errors import ZrosError
 from zros.gateway.core import ClientCache, GatewayError, NameFilter
@@ -32,13 +32,17 @@ from zros.gateway.rosbridge_values import ConversionError, Values
 from zros.gateway.views import offered_services
 
 if TYPE_CHECKING:
-    from zros.actions import ActionClient
+    from collections.abc import Awaitable
+
+    from zros.actions import ActionClient, ClientGoalHandle
     from zros.cdr import Message
+    from zros.gateway.json_types import JsonObject, JsonValue
     from zros.gateway.rosbridge_topics import Peer
     from zros.node import Node
     from zros.services import Client, Service
 
 _log = logging.getLogger('zros.gateway')
+_T = TypeVar('_T')
 
 #: seconds a service call may take unless the client says (``timeout``)
 SERVICE_TIMEOUT = 10.0
@@ -75,13 +79,13 @@ class Calls:
         self._actions: ClientCache[ActionClient] = ClientCache()
         self._lock = threading.Lock()
         self._offered: dict[str, _Offered] = {}
-        self._goals: dict[tuple[int, Any], _Goal] = {}  # by (peer, id)
+        self._goals: dict[tuple[int, JsonValue], _Goal] = {}  # by (peer, id)
         self._ids = itertools.count(1)
         self._pool = concurrent.futures.ThreadPoolExecutor(workers, 'zros rosbridge calls')
         #: the actions clients serve
         self.served = ServedActions(node, values, self._name, self._request)
 
-    def _name(self, name: Any, what: str = 'service') -> str:
+    def _name(self, name: JsonValue, what: str = 'service') -> str:
         if not isinstance(name, str):
             raise GatewayError(f'the {what} name must be a string, not {name!r}')
         try:
@@ -92,7 +96,7 @@ class Calls:
             raise GatewayError(f'{resolved} is not allowed here (services glob)')
         return resolved
 
-    def _request(self, cls: type[Message], args: Any) -> Message:
+    def _request(self, cls: type[Message], args: JsonValue) -> Message:
         if isinstance(args, list):  # rosbridge takes the fields in order too
             args = dict(zip((f for f in cls.get_fields_and_field_types()), args, strict=False))
         try:
@@ -102,7 +106,7 @@ class Calls:
 
     # --- calling -----------------------------------------------------------------------------
 
-    def call_service(self, peer: Peer, op: dict[str, Any]) -> None:
+    def call_service(self, peer: Peer, op: JsonObject) -> None:
         """A ``call_service`` message; the answer comes later as a ``service_response``."""
         service = op['service']
         name = self._name(service)
@@ -134,7 +138,7 @@ class Calls:
 
     # --- serving -----------------------------------------------------------------------------
 
-    def advertise_service(self, peer: Peer, op: dict[str, Any]) -> None:
+    def advertise_service(self, peer: Peer, op: JsonObject) -> None:
         """An ``advertise_service`` message: serve ``service`` by asking the client."""
         name = self._name(op['service'])
         type_text = op['type']
@@ -149,7 +153,7 @@ class Calls:
             self._offered[name] = offered
         _log.info('client %d serves %s [%s]', peer.id, name, service_type.__srvtype__)
 
-    def _forward(self, offered: _Offered) -> Callable[[Any], Any]:
+    def _forward(self, offered: _Offered) -> Callable[[Message], Awaitable[Message]]:
         async def handle(request: Message) -> Message:
             request_id = f'service_request:{offered.name}:{next(self._ids)}'
             future: concurrent.futures.Future[Message] = concurrent.futures.Future()
@@ -169,7 +173,7 @@ class Calls:
 
         return handle
 
-    def service_response(self, peer: Peer, op: dict[str, Any]) -> None:
+    def service_response(self, peer: Peer, op: JsonObject) -> None:
         """A ``service_response`` message: the answer to a request the gateway forwarded."""
         name = self._name(op['service'])
         with self._lock:
@@ -190,7 +194,7 @@ class Calls:
             future.set_exception(exc)
             raise
 
-    def unadvertise_service(self, peer: Peer, op: dict[str, Any]) -> None:
+    def unadvertise_service(self, peer: Peer, op: JsonObject) -> None:
         """An ``unadvertise_service`` message."""
         name = self._name(op['service'])
         if not self._withdraw(name, peer):
@@ -213,7 +217,7 @@ class Calls:
 
     # --- actions -----------------------------------------------------------------------------
 
-    def send_action_goal(self, peer: Peer, op: dict[str, Any]) -> None:
+    def send_action_goal(self, peer: Peer, op: JsonObject) -> None:
         """A ``send_action_goal`` message: feedback (when asked) and the result follow."""
         action = op['action']
         name = self._name(action, 'action')
@@ -248,7 +252,7 @@ class Calls:
             peer.send(message, answer.compression, answer.fragment_size)
             sent.add()
 
-        def on_answer(future: concurrent.futures.Future[Any]) -> None:
+        def on_answer(future: concurrent.futures.Future[ClientGoalHandle]) -> None:
             try:
                 handle = future.result()
             except Exception as exc:  # no server, or it failed: the client is told why
@@ -262,7 +266,7 @@ class Calls:
             if cancel:  # asked for before the server accepted the goal
                 self._pool.submit(handle.cancel)
 
-            def send_result(result: concurrent.futures.Future[Any]) -> None:
+            def send_result(result: concurrent.futures.Future[Message]) -> None:
                 if feedback is not None:  # the feedback received before the result goes first
                     sent.wait_for(handle.feedback_count, FEEDBACK_WAIT)
                 with self._lock:
@@ -274,7 +278,7 @@ class Calls:
         feedback = on_feedback if op.get('feedback') else None
         client.send_goal_async(goal, feedback).add_done_callback(on_answer)
 
-    def cancel_action_goal(self, peer: Peer, op: dict[str, Any]) -> None:
+    def cancel_action_goal(self, peer: Peer, op: JsonObject) -> None:
         """A ``cancel_action_goal`` message (asked of the server on a thread of the pool)."""
         self._name(op['action'], 'action')
         with self._lock:
@@ -314,7 +318,7 @@ class Calls:
 class _Goal:
     """A goal a client sent: its handle once the server accepted it."""
 
-    handle: Any = None
+    handle: ClientGoalHandle | None = None
     cancel: bool = False  #: the client asked to cancel it
 
 
@@ -338,7 +342,7 @@ class _Count:
 class _Answer:
     """Sends the one ``service_response`` or ``action_result`` of a request."""
 
-    def __init__(self, peer: Peer, op: dict[str, Any], name: str, kind: str = 'service') -> None:
+    def __init__(self, peer: Peer, op: JsonObject, name: str, kind: str = 'service') -> None:
         self.peer = peer
         self.id = op.get('id')
         self.name = name
@@ -348,9 +352,9 @@ class _Answer:
         size = op.get('fragment_size')
         self.fragment_size = size if isinstance(size, int) and size > 0 else 0
 
-    def _send(self, values: Any, result: bool, status: int | None) -> None:
+    def _send(self, values: JsonValue, result: bool, status: int | None) -> None:
         if self.kind == 'service':
-            message: dict[str, Any] = {'op': 'service_response', 'service': self.name}
+            message: JsonObject = {'op': 'service_response', 'service': self.name}
         else:
             message = {'op': 'action_result', 'action': self.name, 'status': status}
         message.update(values=values, result=result)
@@ -364,8 +368,8 @@ class _Answer:
 
     def done(
         self,
-        future: concurrent.futures.Future[Any],
-        convert: Callable[[Any], Any],
+        future: concurrent.futures.Future[_T],
+        convert: Callable[[_T], JsonValue],
         status: int | None = None,
     ) -> None:
         """Send the outcome of ``future`` (its result converted, or its error)."""

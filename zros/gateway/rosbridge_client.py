@@ -19,13 +19,16 @@ import json
 import logging
 import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.errors import ZrosError
 from zros.gateway.core import GatewayError, SendQueue
 from zros.gateway.rosbridge_frames import Frames, encode
 
 if TYPE_CHECKING:
+    from websockets.sync.server import ServerConnection
+
+    from zros.gateway.json_types import JsonObject, JsonValue
     from zros.gateway.rosbridge_calls import Calls
     from zros.gateway.rosbridge_topics import Topics
 
@@ -65,7 +68,7 @@ _OPTIONAL: dict[str, type | tuple[type, ...]] = {
 }
 
 
-def check_fields(op: str, message: dict[str, Any]) -> None:
+def check_fields(op: str, message: JsonObject) -> None:
     """Refuse a message missing a field its op needs, or with a field of the wrong type."""
     for name, kind in _REQUIRED.get(op, ()):
         if name not in message:
@@ -88,7 +91,7 @@ class ClientSession:
     def __init__(
         self,
         client_id: int,
-        connection: Any,
+        connection: ServerConnection,
         topics: Topics,
         calls: Calls,
         *,
@@ -104,8 +107,10 @@ class ClientSession:
         self.level = LEVELS.index('error')
         self.outbox: SendQueue[Frames] = SendQueue(queue_items, queue_bytes, self._dropped)
         self._notice: Frames | None = None  #: the status of a burst of drops, to send first
-        self._partial: collections.OrderedDict[Any, dict[int, str]] = collections.OrderedDict()
-        self._ops: dict[str, Callable[[dict[str, Any]], object]] = {
+        self._partial: collections.OrderedDict[JsonValue, dict[int, str]] = (
+            collections.OrderedDict()
+        )
+        self._ops: dict[str, Callable[[JsonObject], object]] = {
             'advertise': lambda m: topics.advertise(self, m),
             'unadvertise': lambda m: topics.unadvertise(self, m),
             'publish': lambda m: topics.publish(self, m),
@@ -172,12 +177,12 @@ class ClientSession:
             _log.debug('client %d: %s failed', self.id, op, exc_info=True)
             self.status('error', f'{op}: {exc}', op_id)
 
-    def _set_level(self, message: dict[str, Any]) -> None:
+    def _set_level(self, message: JsonObject) -> None:
         level = message['level']
         if level in LEVELS:
             self.level = LEVELS.index(level)
 
-    def _fragment(self, message: dict[str, Any]) -> None:
+    def _fragment(self, message: JsonObject) -> None:
         """Put fragments back together (bounded by the message size and ``MAX_PARTIAL``)."""
         key, total, num = message['id'], message['total'], message['num']
         if not 0 <= num < total or total > self.max_message_size:  # a character each at least
@@ -196,9 +201,7 @@ class ClientSession:
 
     # --- out ---------------------------------------------------------------------------------
 
-    def send(
-        self, message: dict[str, Any], compression: str = 'none', fragment_size: int = 0
-    ) -> None:
+    def send(self, message: JsonObject, compression: str = 'none', fragment_size: int = 0) -> None:
         """Queue a protocol message (values in rosbridge's shapes) for the client."""
         size = min(fragment_size or self.max_message_size, self.max_message_size)
         try:
@@ -214,12 +217,12 @@ class ClientSession:
         """Queue encoded frames (dropped with the oldest when the client falls behind)."""
         self.outbox.put(frames, sum(len(frame) for frame in frames))
 
-    def status(self, level: str, text: str, op_id: Any = None) -> None:
+    def status(self, level: str, text: str, op_id: JsonValue = None) -> None:
         """A status message, if the client wants this level (and a log line here)."""
         prefix = f'[client {self.id}]' + (f' [id: {op_id}]' if op_id is not None else '')
         _log.log(logging.WARNING if level == 'error' else logging.INFO, '%s %s', prefix, text)
         if LEVELS.index(level) >= self.level:
-            status: dict[str, Any] = {'op': 'status', 'level': level, 'msg': text}
+            status: JsonObject = {'op': 'status', 'level': level, 'msg': text}
             if op_id is not None:
                 status['id'] = op_id
             self.send(status)

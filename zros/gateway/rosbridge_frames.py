@@ -19,12 +19,13 @@ import json
 import math
 import struct
 import zlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 if TYPE_CHECKING:
     from zros.cdr import Message
+    from zros.gateway.json_types import JsonObject, JsonValue
     from zros.gateway.rosbridge_values import Values
 
 #: what one protocol message becomes: its frames, sent in order (text or binary)
@@ -33,12 +34,12 @@ COMPRESSIONS = ('none', 'png', 'cbor', 'cbor-raw')
 _fragment_ids = itertools.count(1)
 
 
-def to_text(message: dict[str, Any]) -> str:
+def to_text(message: JsonObject) -> str:
     """A protocol message as JSON text (NaN is never written: values carry null instead)."""
     return json.dumps(message, separators=(',', ':'), allow_nan=False)
 
 
-def to_cbor(message: dict[str, Any]) -> bytes:
+def to_cbor(message: JsonObject) -> bytes:
     """A protocol message as CBOR."""
     import cbor2
 
@@ -70,7 +71,7 @@ def png_message(text: str) -> str:
     return to_text({'op': 'png', 'data': base64.b64encode(png).decode('ascii')})
 
 
-def fragments(text: str, size: int, message_id: Any = None) -> Frames:
+def fragments(text: str, size: int, message_id: JsonValue = None) -> Frames:
     """``text`` as one frame, or as fragment messages of ``size`` characters of it when
     longer."""
     if size <= 0 or len(text) <= size:
@@ -93,7 +94,7 @@ def fragments(text: str, size: int, message_id: Any = None) -> Frames:
 
 
 def encode(
-    message: dict[str, Any], compression: str = 'none', fragment_size: int | None = None
+    message: JsonObject, compression: str = 'none', fragment_size: int | None = None
 ) -> Frames:
     """The frames of a protocol message whose values are already in rosbridge's shapes."""
     if compression in ('cbor', 'cbor-raw'):
@@ -135,7 +136,7 @@ class Sample:
         found = self._cache.get(key)
         if found is not None:
             return found
-        head: dict[str, Any] = {'op': 'publish', 'topic': self.topic}
+        head: JsonObject = {'op': 'publish', 'topic': self.topic}
         if compression == 'cbor-raw':
             secs, nsecs = divmod(self.stamp, 1_000_000_000)
             frames: Frames = (
@@ -148,7 +149,7 @@ class Sample:
         self._cache[key] = frames
         return frames
 
-    def _text(self, head: dict[str, Any], png: bool) -> str:
+    def _text(self, head: JsonObject, png: bool) -> str:
         key = ('png' if png else 'json', -1)
         found = self._cache.get(key)
         if found is None:

@@ -21,7 +21,7 @@ import threading
 import time
 from collections.abc import Hashable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from zros.errors import ZrosError
 from zros.gateway.core import GatewayError, NameFilter, Taps, publisher_qos
@@ -31,6 +31,7 @@ from zros.pubsub.taps import GraphTopic, graph_topics
 
 if TYPE_CHECKING:
     from zros.cdr import Message
+    from zros.gateway.json_types import JsonObject, JsonValue
     from zros.node import Node
     from zros.pubsub import Publisher
 
@@ -43,12 +44,12 @@ class Peer(Protocol):
     id: int
 
     def send(
-        self, message: dict[str, Any], compression: str = 'none', fragment_size: int = 0
+        self, message: JsonObject, compression: str = 'none', fragment_size: int = 0
     ) -> None: ...
 
     def send_frames(self, frames: Frames) -> None: ...
 
-    def status(self, level: str, text: str, op_id: Any = None) -> None: ...
+    def status(self, level: str, text: str, op_id: JsonValue = None) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,7 @@ class Subscription:
         self.topic = topic
         self.type_name = type_name
         self._pacer = pacer
-        self.requests: dict[Any, _Request] = {}
+        self.requests: dict[JsonValue, _Request] = {}
         self.throttle = 0.0  #: seconds
         self.queue_length = 0
         self.fragment_size = 0
@@ -245,7 +246,7 @@ class Topics:
 
     # --- subscribing -------------------------------------------------------------------------
 
-    def subscribe(self, peer: Peer, op: dict[str, Any]) -> None:
+    def subscribe(self, peer: Peer, op: JsonObject) -> None:
         """A ``subscribe`` message (GatewayError says why it was refused)."""
         name = self._name(op['topic'])
         request = _Request(
@@ -281,7 +282,7 @@ class Topics:
         for data, stamp in latched:  # a latched topic others watch already: this one's copy
             subscription.offer(stream.sample(data, stamp))
 
-    def unsubscribe(self, peer: Peer, op: dict[str, Any]) -> None:
+    def unsubscribe(self, peer: Peer, op: JsonObject) -> None:
         """An ``unsubscribe`` message: its id's request ends, or all of the client's for the
         topic without an id."""
         name = self._name(op['topic'])
@@ -317,7 +318,7 @@ class Topics:
 
     # --- publishing --------------------------------------------------------------------------
 
-    def advertise(self, peer: Peer, op: dict[str, Any]) -> None:
+    def advertise(self, peer: Peer, op: JsonObject) -> None:
         """An ``advertise`` message: the topic's publisher exists and counts the client."""
         name = self._name(op['topic'])
         self._publisher(peer, name, op['type'], bool(op.get('latch')))
@@ -341,7 +342,7 @@ class Topics:
             published.peers.add(peer.id)
             return published
 
-    def unadvertise(self, peer: Peer, op: dict[str, Any]) -> None:
+    def unadvertise(self, peer: Peer, op: JsonObject) -> None:
         """An ``unadvertise`` message: the last client out closes the publisher."""
         name = self._name(op['topic'])
         self._release(peer.id, name)
@@ -357,7 +358,7 @@ class Topics:
             del self._publishers[name]
         published.publisher.close()
 
-    def publish(self, peer: Peer, op: dict[str, Any]) -> None:
+    def publish(self, peer: Peer, op: JsonObject) -> None:
         """A ``publish`` message (the topic is advertised on the way if it was not)."""
         name = self._name(op['topic'])
         published = self._publisher(peer, name, None, bool(op.get('latch')))

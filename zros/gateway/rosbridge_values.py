@@ -26,7 +26,7 @@ import base64
 import binascii
 import math
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -35,7 +35,9 @@ from zros.cdr.naming import attribute_name
 from zros.errors import ZrosError
 
 if TYPE_CHECKING:
+    from zros.bag.boundary import FieldValue
     from zros.cdr import Message, TypeRegistry
+    from zros.gateway.json_types import JsonObject, JsonValue
 
 TIME_TYPES = ('builtin_interfaces/msg/Time', 'builtin_interfaces/msg/Duration')
 HEADER = 'std_msgs/msg/Header'
@@ -84,22 +86,22 @@ class Values:
 
     # --- to the client -----------------------------------------------------------------------
 
-    def to_json(self, message: Message) -> dict[str, Any]:
+    def to_json(self, message: Message) -> JsonObject:
         """The JSON values of a message, as rosbridge's ``extract_values``."""
         return self._out(message, self.definition(message.__msgtype__), cbor=False)
 
-    def to_cbor(self, message: Message) -> dict[str, Any]:
+    def to_cbor(self, message: Message) -> JsonObject:
         """The CBOR values of a message (typed arrays as ``cbor2.CBORTag``)."""
         return self._out(message, self.definition(message.__msgtype__), cbor=True)
 
-    def _out(self, message: Any, definition: MessageDef, cbor: bool) -> dict[str, Any]:
+    def _out(self, message: Message, definition: MessageDef, cbor: bool) -> JsonObject:
         values = {}
         for field in definition.fields:
             value = getattr(message, attribute_name(field.name))
             values[field.name] = self._out_field(value, field.type, cbor)
         return values
 
-    def _out_field(self, value: Any, kind: FieldType, cbor: bool) -> Any:
+    def _out_field(self, value: FieldValue, kind: FieldType, cbor: bool) -> JsonValue:
         base = kind.base
         if kind.kind is Kind.SCALAR:
             if kind.is_nested:
@@ -118,7 +120,7 @@ class Values:
             if cbor:
                 return array.astype(np.uint8, copy=False).tobytes()
             if kind.kind is not Kind.BOUNDED:
-                data: Any = np.ascontiguousarray(array, np.uint8)  # a buffer: no copy
+                data = np.ascontiguousarray(array, np.uint8).data  # a buffer: no copy
                 return base64.b64encode(data).decode('ascii')
         if cbor and base in TYPED_ARRAY_TAGS:
             import cbor2
@@ -131,7 +133,7 @@ class Values:
 
     # --- from the client ---------------------------------------------------------------------
 
-    def from_json(self, cls: type[Message], values: Any) -> Message:
+    def from_json(self, cls: type[Message], values: JsonValue) -> Message:
         """A message of ``cls`` from a client's values (a dict; missing fields keep their
         defaults); ConversionError says what is wrong."""
         root = short_name(cls.__msgtype__)
@@ -146,10 +148,10 @@ class Values:
             raise ConversionError(f'{root}: {exc}') from None
 
     def _in(
-        self, values: Mapping[str, Any], definition: MessageDef, root: str, path: list[str]
-    ) -> dict[str, Any]:
+        self, values: Mapping[str, JsonValue], definition: MessageDef, root: str, path: list[str]
+    ) -> dict[str, FieldValue]:
         by_name = {field.name: field for field in definition.fields}
-        fields: dict[str, Any] = {}
+        fields: dict[str, FieldValue] = {}
         if definition.name == HEADER and 'stamp' not in values:
             sec, nanosec = self._now()
             fields['stamp'] = self.registry.get_class(TIME_TYPES[0])(sec=sec, nanosec=nanosec)
@@ -163,13 +165,15 @@ class Values:
             fields[attribute_name(name)] = self._in_field(value, field, root, where)
         return fields
 
-    def _mismatch(self, root: str, path: list[str], expected: str, value: Any) -> ConversionError:
+    def _mismatch(
+        self, root: str, path: list[str], expected: str, value: object
+    ) -> ConversionError:
         return ConversionError(
             f'{root} message requires a {expected} for field {".".join(path)}, '
             f'but got {_json_type(value)}'
         )
 
-    def _in_field(self, value: Any, field: Field, root: str, path: list[str]) -> Any:
+    def _in_field(self, value: JsonValue, field: Field, root: str, path: list[str]) -> FieldValue:
         kind = field.type
         if kind.kind is Kind.SCALAR:
             return self._in_scalar(value, kind, root, path)
@@ -195,7 +199,9 @@ class Values:
             return value
         return [self._in_scalar(item, element, root, path) for item in value]
 
-    def _in_scalar(self, value: Any, kind: FieldType, root: str, path: list[str]) -> Any:
+    def _in_scalar(
+        self, value: JsonValue, kind: FieldType, root: str, path: list[str]
+    ) -> FieldValue:
         base = kind.base
         if kind.is_primitive:
             return self._check_primitive(value, base, root, path)
@@ -210,7 +216,7 @@ class Values:
             raise self._mismatch(root, path, short_name(base), value)
         return cls(**self._in(value, self.definition(base), root, path))
 
-    def _time(self, value: Any, base: str, root: str, path: list[str]) -> dict[str, int]:
+    def _time(self, value: JsonValue, base: str, root: str, path: list[str]) -> dict[str, int]:
         if value == 'now' and base == TIME_TYPES[0]:
             sec, nanosec = self._now()
             return {'sec': sec, 'nanosec': nanosec}
@@ -227,7 +233,9 @@ class Values:
                     break
         return time
 
-    def _check_primitive(self, value: Any, base: str, root: str, path: list[str]) -> Any:
+    def _check_primitive(
+        self, value: JsonValue, base: str, root: str, path: list[str]
+    ) -> FieldValue:
         if base in _FLOATS:
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise self._mismatch(root, path, base, value)
@@ -247,7 +255,7 @@ class Values:
         return value
 
 
-def _json_type(value: Any) -> str:
+def _json_type(value: object) -> str:
     """The JSON kind of a value from ``json.loads``, with its article."""
     if value is None:
         return 'null'

@@ -14,9 +14,13 @@ import keyword
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from zros.bag.boundary import FieldValue
+    from zros.cdr import Message
 
 from zros.errors import ZrosError
 
@@ -50,9 +54,9 @@ class Series:
             part + '_' if keyword.iskeyword(part) else part for part in self.field.split('.')
         )
 
-    def value(self, message: Any) -> float:
+    def value(self, message: Message) -> float:
         """The value of this field in ``message`` as a float (NaN for a missing element)."""
-        value = message
+        value: FieldValue = message
         for name in self.attributes:
             value = getattr(value, name)
         if self.index is not None:
@@ -83,7 +87,7 @@ def _parse_type(text: str) -> tuple[str, int | None]:
     return match['base'], (int(size) if size and not match['bound'] else -1)
 
 
-def _fields(instance: Any) -> dict[str, str]:
+def _fields(instance: Message) -> dict[str, str]:
     found: dict[str, str] = instance.get_fields_and_field_types()
     return found
 
@@ -92,7 +96,7 @@ def _attribute(name: str) -> str:
     return name + '_' if keyword.iskeyword(name) else name
 
 
-def _leaves(instance: Any, prefix: str, skip_header: bool) -> list[str]:
+def _leaves(instance: Message, prefix: str, skip_header: bool) -> list[str]:
     """The numeric scalar fields under a message instance, as dotted ROS paths."""
     found = []
     for name, type_text in _fields(instance).items():
@@ -122,7 +126,7 @@ def _split_parts(field: str) -> list[str]:
 
 
 def field_series(
-    address: str, topic: str, type_name: str, field: str, cls: Callable[[], Any]
+    address: str, topic: str, type_name: str, field: str, cls: Callable[[], Message]
 ) -> list[Series]:
     """The series ``field`` names in messages of ``cls`` (``/``- or ``.``-separated).
 
@@ -190,7 +194,7 @@ def split_address(address: str, topics: Sequence[str]) -> list[tuple[str, str]]:
 def resolve(
     address: str,
     topic_types: Mapping[str, str],
-    message_class: Callable[[str, str], Callable[[], Any]],
+    message_class: Callable[[str, str], Callable[[], Message]],
 ) -> list[Series]:
     """The series an address names, given the topics known (name -> type).
 

@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,6 +29,7 @@ from zros.qos import QoS, Reliability
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from zros.cdr import Message
     from zros.node import Node
     from zros.pubsub import Subscriber
 
@@ -141,7 +142,7 @@ class LivePlot:
         qos = QoS(DEPTH, Reliability.RELIABLE if reliable else Reliability.BEST_EFFORT)
         chosen = [(n, self.series[n]) for n in numbers]
 
-        def on_message(message: Any) -> None:
+        def on_message(message: Message) -> None:
             stamp = (node.now().nanoseconds - self.start_ns) / 1e9
             values = []
             for _, item in chosen:
