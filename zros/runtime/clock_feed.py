@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 
 from zros.cdr import CdrError, decode
+from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS, Reliability
 from zros.runtime.clock import SimClock, Time
@@ -25,7 +26,7 @@ class ClockSubscription(Entity):
         qos = QoS(1, Reliability.BEST_EFFORT)
         # announced as the bridge's own subscriber: no zros node owns it
         wire = self._place(
-            EntityKind.SUBSCRIBER, '/clock', self._cls.__msgtype__, self._cls._registry,
+            EntityKind.SUBSCRIBER, '/clock', self._cls.__msgtype__, registry_of(self._cls),
             qos=qos, owned=False,
         )  # fmt: skip
         self.key = wire.key
