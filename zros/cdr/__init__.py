@@ -21,7 +21,15 @@ from zros.cdr.hashing import type_hash as _type_hash
 from zros.cdr.interfaces import ActionType, ServiceType
 from zros.cdr.message import Message, encode
 from zros.cdr.message import decode as _decode
-from zros.cdr.model import ActionDef, Definition, FieldValue, JsonValue, MessageDef, ServiceDef
+from zros.cdr.model import (
+    ActionDef,
+    Definition,
+    FieldValue,
+    JsonValue,
+    MessageDef,
+    ServiceDef,
+    Untyped,
+)
 from zros.cdr.registry import TypeRegistry, default_registry, set_default_registry
 from zros.cdr.struct_seq import StructSeq
 
@@ -97,6 +105,7 @@ __all__ = [
     'TypeNameError',
     'TypeRegistry',
     'UnknownTypeError',
+    'Untyped',
     'decode',
     'default_registry',
     'encode',
