@@ -15,6 +15,8 @@ import weakref
 from collections.abc import Callable
 from typing import Any
 
+from zenoh import Sample
+
 from zros.actions.common import (
     ActionError,
     CancelReturn,
@@ -33,7 +35,7 @@ from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
 from zros.runtime.clock import Time
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity, Sample
+from zros.runtime.entity import Entity
 from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal
 from zros.services import Client, ServiceError

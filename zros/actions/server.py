@@ -18,11 +18,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from zenoh import ZError
+from zenoh import Query, ZError
 
 from zros.actions.common import CancelReturn, GoalStatus, accepted, action_type, goal_id_of
 from zros.actions.goals import cancel_candidates, run_goal
-from zros.actions.server_goal import GoalRecord, Query, ServerGoalHandle
+from zros.actions.server_goal import GoalRecord, ServerGoalHandle
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode

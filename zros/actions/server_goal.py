@@ -15,12 +15,12 @@ import time
 from collections.abc import Callable
 from typing import Any, Protocol
 
+from zenoh import Query
+
 from zros.actions.common import ActionError, GoalHandle, GoalStatus
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message
 from zros.runtime.clock import Time
-
-Query = Any  #: a Zenoh query, on Zenoh's thread
 
 
 class GoalServer(Protocol):

@@ -14,6 +14,8 @@ import time
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
+from zenoh import Sample
+
 from zros.cdr import CdrError
 from zros.cdr.message import Message, decode
 from zros.cdr.registry import registry_of
@@ -22,7 +24,7 @@ from zros.pubsub.senders import describe_sender
 from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.drops import DropCounter, sender_key
-from zros.runtime.entity import Entity, Sample, message_class
+from zros.runtime.entity import Entity, message_class
 from zros.runtime.executor import Work
 from zros.runtime.sample_queue import KEEP_ALL_BYTES, SampleQueue
 from zros.runtime.signal import (

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import logging
 
+from zenoh import Sample
+
 from zros.cdr import CdrError, decode
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS, Reliability
 from zros.runtime.clock import SimClock, Time
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity, Sample
+from zros.runtime.entity import Entity
 
 _log = logging.getLogger('zros')
 

@@ -15,7 +15,7 @@ import logging
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from zenoh import ZError, ext
+from zenoh import Sample, ZError, ext
 
 from zros.cdr import Message
 from zros.keyexpr.kinds import EntityKind
@@ -29,8 +29,6 @@ if TYPE_CHECKING:
     from zros.wire import WireEntity
 
 _log = logging.getLogger('zros')
-
-Sample = Any  #: a Zenoh sample, on a delivery thread or Zenoh's
 
 
 def message_class(registry: TypeRegistry, msg_type: str | type[Message]) -> type[Message]:

@@ -16,6 +16,8 @@ import time
 from collections.abc import Callable, Coroutine
 from typing import Any
 
+from zenoh import Query
+
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
@@ -34,8 +36,6 @@ from zros.services.errors import (
 )
 
 _log = logging.getLogger('zros')
-
-Query = Any  #: a Zenoh query, received on Zenoh's thread
 
 
 def _takes_response(handler: Callable[..., Any]) -> bool:

@@ -20,11 +20,10 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from zenoh import ZError, handlers
+from zenoh import Sample, ZError, handlers
 
 _log = logging.getLogger('zros')
 
-Sample = Any  #: a Zenoh sample
 BatchCallback = Callable[[list[Sample]], None]
 
 #: samples the channel holds before Zenoh's delivery waits for the thread (Zenoh's own default)

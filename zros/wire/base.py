@@ -15,6 +15,8 @@ import abc
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
+from zenoh import Sample
+
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
 from zros.wire.requests import Requests
@@ -23,7 +25,6 @@ if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
     from zros.transport import Transport
 
-Sample = Any  #: a Zenoh sample (received on Zenoh's threads)
 SampleCallback = Callable[[Sample], None]
 BatchCallback = Callable[[list[Sample]], None]
 

@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from zenoh import ConsolidationMode, QueryTarget, ext
+from zenoh import ConsolidationMode, QueryTarget, Sample, ext
 
 from zros.cdr.hashing import type_hash
 from zros.keyexpr.attachment import GID_SIZE, SIZE, Attachment, AttachmentError
@@ -30,7 +30,7 @@ from zros.keyexpr.rmw_zenoh import IdCounter, NodeToken, RmwZenohScheme, gid
 from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
-from zros.wire.base import Sample, Wire, WireEntity
+from zros.wire.base import Wire, WireEntity
 from zros.wire.requests import Requests
 
 if TYPE_CHECKING:
