@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from zenoh import Sample, ZError, ext
 
@@ -29,6 +29,16 @@ if TYPE_CHECKING:
     from zros.wire import WireEntity
 
 _log = logging.getLogger('zros')
+
+
+class Undeclarable(Protocol):
+    """A Zenoh object an entity declared: subscriber, queryable, publisher, querier..."""
+
+    def undeclare(self) -> None:
+        """Withdraw it from the session."""
+
+
+D = TypeVar('D', bound=Undeclarable)
 
 
 def message_class(registry: TypeRegistry, msg_type: str | type[Message]) -> type[Message]:
@@ -64,7 +74,7 @@ class Entity:
         self.context.check_open()
         self.gid: bytes | None = None  #: its GID, on wires that give entities one
         self._tokens: tuple[str, ...] = ()
-        self._declared: list[Any] = []
+        self._declared: list[Undeclarable] = []
         self._parts: list[Entity] = []
         self._closed = False
 
@@ -92,7 +102,7 @@ class Entity:
         """More tokens announcing it (an action as a whole)."""
         self._tokens += tokens
 
-    def _keep(self, declared: Any) -> Any:
+    def _keep(self, declared: D) -> D:
         """Undeclare ``declared`` (a Zenoh subscriber, queryable...) when it closes."""
         self._declared.append(declared)
         return declared
