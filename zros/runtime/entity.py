@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Protocol, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
-from zenoh import Sample, ZError, ext
+from zenoh import Query, Sample, ZError, ext
 
 from zros.cdr import Message
 from zros.keyexpr.kinds import EntityKind
@@ -120,7 +120,7 @@ class Entity:
         batches: Callable[[list[Sample]], None] | None = None,
         rejected: Callable[[Sample], None] | None = None,
         late_publishers: bool = True,
-    ) -> Any:
+    ) -> Undeclarable:
         """Subscribe to ``wire.key``: ``callback(sample)`` for each sample the wire accepts
         (or ``batches(samples)`` for several at once), ``rejected(sample)`` for the others
         (default: a debug line), on a thread that is not the spinning one (zros's delivery
@@ -151,11 +151,12 @@ class Entity:
 
         return rejected
 
-    def _serve(self, wire: WireEntity, callback: Callable[[Any], None]) -> Any:
+    def _serve(self, wire: WireEntity, callback: Callable[[Query], None]) -> Undeclarable:
         """A queryable on ``wire.key`` calling ``callback(query)`` on Zenoh's thread."""
         session = self.context.transport.session
         options = self.context.wire.queryable_options()
-        return self._keep(session.declare_queryable(wire.key, callback, **options))
+        queryable: Undeclarable = session.declare_queryable(wire.key, callback, **options)
+        return self._keep(queryable)
 
     def _announce(self) -> None:
         """Declare its tokens (after its Zenoh objects) and have the node close it."""
