@@ -155,6 +155,12 @@ class SessionOptions(TypedDict, total=False):
     zenoh: dict[str, JsonValue]
 
 
+class TransportOptions(SessionOptions, total=False):
+    """Every keyword of :meth:`TransportConfig.create` but ``connect``."""
+
+    wire: str | None
+
+
 @dataclass(frozen=True, repr=False)
 class TransportConfig:
     """The Zenoh session settings of a zros process (see the module docstring for defaults).
