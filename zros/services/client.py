@@ -173,7 +173,7 @@ class Client(Entity):
                 arrived.notify()
 
         # on Zenoh's thread, which only hands the reply over
-        handler = Callback(on_reply, lambda: on_reply(None), indirect=False)
+        handler: Callback[Reply] = Callback(on_reply, lambda: on_reply(None), indirect=False)
         self._send(data, timeout, handler, sent)
         if not arrived.wait_for(lambda: bool(first), None):  # Zenoh ends every query in time
             raise KeyboardInterrupt
