@@ -36,6 +36,7 @@ from zros.keyexpr.rmw_zenoh import ALL_TOKENS as RMW_TOKENS
 from zros.keyexpr.rmw_zenoh import EndpointToken as RmwEndpoint
 from zros.keyexpr.rmw_zenoh import NodeToken, gid, name_key, parse_token
 from zros.qos import QoS
+from zros.runtime.entity import Undeclarable
 from zros.runtime.signal import Signal
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
@@ -102,7 +103,7 @@ class Graph:
         self.version = 0  #: bumped on every change
         self._closed = False
         liveliness = session.liveliness()
-        self._subscribers = [
+        self._subscribers: list[Undeclarable] = [
             liveliness.declare_subscriber(ENTITY_TOKENS, self._on_entity, history=True),
             liveliness.declare_subscriber(BRIDGE_TOKENS, self._on_entity, history=True),
             liveliness.declare_subscriber(ZROS_TOKENS, self._on_zros, history=True),

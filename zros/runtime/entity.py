@@ -133,6 +133,7 @@ class Entity:
         refuse = rejected or self._rejected(wire.rejection)
         on_samples = wire.admitting(batches, refuse)
         session = self.context.transport.session
+        subscriber: Undeclarable
         if qos.transient_local:
             history = ext.HistoryConfig(detect_late_publishers=late_publishers,
                                         max_samples=qos.depth)  # fmt: skip
@@ -141,8 +142,9 @@ class Entity:
                 **wire.subscriber_options(qos),
             )  # fmt: skip
         else:
-            subscriber = session.declare_subscriber(wire.key, delivery.channel())
-            delivery.deliver(subscriber, on_samples, wire.key)
+            plain = session.declare_subscriber(wire.key, delivery.channel())
+            delivery.deliver(plain, on_samples, wire.key)
+            subscriber = plain
         return self._keep(subscriber)
 
     def _rejected(self, reason: str) -> Callable[[Sample], None]:

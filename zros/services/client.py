@@ -76,7 +76,8 @@ class Client(Entity):
 
     def service_is_ready(self) -> bool:
         """Whether a server (a zros one, or a ROS one behind a bridge) is reachable now."""
-        return bool(self._querier.matching_status.matching)
+        status = self._querier.matching_status  # a MatchingStatus: the stub says bool
+        return bool(status.matching)  # type: ignore[attr-defined]
 
     def wait_for_service(self, timeout: float | None = 5.0) -> bool:
         """Wait until a server is reachable; returns whether one showed up in time (False once
