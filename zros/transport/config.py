@@ -129,8 +129,8 @@ class Tls:
         require_file(self.private_key, 'private key')
 
 
-class ConfigOptions(TypedDict, total=False):
-    """The settings of :meth:`TransportConfig.create` given by keyword, beyond the endpoints."""
+class SettingOptions(TypedDict, total=False):
+    """The settings of a session beyond its endpoints, mode and file (``TransportConfig``'s)."""
 
     multicast_scouting: bool
     shared_memory: bool | None
@@ -138,21 +138,20 @@ class ConfigOptions(TypedDict, total=False):
     user: str | None
     password: str | None
     zenoh: dict[str, JsonValue]
+
+
+class ConfigOptions(SettingOptions, total=False):
+    """The keywords of :meth:`TransportConfig.create` beyond its named parameters."""
+
     wire: str | None
 
 
-class SessionOptions(TypedDict, total=False):
+class SessionOptions(SettingOptions, total=False):
     """The session settings a node passes on to :meth:`TransportConfig.create`."""
 
     listen: str | Sequence[str] | None
     mode: str | None
     config_file: str | os.PathLike[str] | None
-    multicast_scouting: bool
-    shared_memory: bool | None
-    tls: Tls | None
-    user: str | None
-    password: str | None
-    zenoh: dict[str, JsonValue]
 
 
 class TransportOptions(SessionOptions, total=False):
