@@ -82,8 +82,6 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:
-    from typing import Any
-
     from zros.actions import (
         ActionClient,
         ActionError,
@@ -124,6 +122,7 @@ if TYPE_CHECKING:
         type_hash,
     )
     from zros.cdr.message import Message as _MessageBase
+    from zros.cdr.model import FieldValue
     from zros.errors import ZrosError
     from zros.keyexpr.names import InvalidNameError
     from zros.node import Node
@@ -152,7 +151,7 @@ if TYPE_CHECKING:
     from zros.transport import TransportConfig, TransportError, start_router
 
 
-def Message(type_name: str | type[_MessageBase], **fields: Any) -> _MessageBase:  # noqa: N802
+def Message(type_name: str | type[_MessageBase], **fields: FieldValue) -> _MessageBase:  # noqa: N802
     """A new message of a ROS type with its default values (rosR: ``ros.Message``).
 
     >>> import zros
@@ -164,7 +163,7 @@ def Message(type_name: str | type[_MessageBase], **fields: Any) -> _MessageBase:
     return new_message(type_name, **fields)
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     if name in _LAZY:
         module, attribute = _LAZY[name]
         value = getattr(importlib.import_module(module), attribute)

@@ -10,16 +10,23 @@ from __future__ import annotations
 import signal
 import threading
 import time
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from types import FrameType
+from typing import TYPE_CHECKING
 
 from zros.errors import ZrosError
 from zros.node import Node
-from zros.params import ParameterClient, ParameterError, ParameterNotDeclaredError, ParameterType
+from zros.params import (
+    ParameterClient,
+    ParameterError,
+    ParameterNotDeclaredError,
+    ParameterType,
+    ParamValue,
+)
 from zros.runtime.clock import Time
 from zros.runtime.defaults import NotInitializedError, set_default_node
 from zros.runtime.executor import wake_all
-from zros.runtime.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger
+from zros.runtime.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger, LogOptions
 from zros.runtime.signal import (
     clear_interrupt,
     interrupt,
@@ -29,12 +36,17 @@ from zros.runtime.signal import (
 )
 from zros.transport import TransportConfig, close_default_transport
 
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from zros.node.settings import NodeOptions
+
 _default: Node | None = None
-_previous_handler: Any = None
+_previous_handler: signal.Handlers | int | Callable[[int, FrameType | None], object] | None = None
 _lock = threading.Lock()
 
 
-def _on_sigint(signum: int, frame: Any) -> None:
+def _on_sigint(signum: int, frame: FrameType | None) -> None:
     if interrupted():  # a second Ctrl-C stops the program the usual way
         signal.signal(signal.SIGINT, signal.default_int_handler)
         raise KeyboardInterrupt
@@ -53,7 +65,7 @@ def init(
     args: Sequence[str] | None = None,
     bridge_namespace: str | None = None,
     handle_sigint: bool = True,
-    **options: Any,
+    **options: Unpack[NodeOptions],
 ) -> Node:
     """Create the default node (rosR: ``ros.Init``) and return it.
 
@@ -145,32 +157,32 @@ def get_logger() -> Logger:
 _console_logger: Logger | None = None
 
 
-def log(message: object, level: str | int = 'info', **options: Any) -> bool:
+def log(message: object, level: str | int = 'info', **options: Unpack[LogOptions]) -> bool:
     """Log ``message`` at ``level`` (``'debug'``...``'fatal'``) on the default node."""
     return get_logger().log(message, level, stacklevel=2, **options)
 
 
-def debug(message: object, **options: Any) -> bool:
+def debug(message: object, **options: Unpack[LogOptions]) -> bool:
     """Log at DEBUG (rosR: ``ros.Debug``); ``once=True``, ``throttle=seconds`` limit repeats."""
     return get_logger().log(message, DEBUG, stacklevel=2, **options)
 
 
-def info(message: object, **options: Any) -> bool:
+def info(message: object, **options: Unpack[LogOptions]) -> bool:
     """Log at INFO (rosR: ``ros.Info``): console, ``/rosout`` and Python logging."""
     return get_logger().log(message, INFO, stacklevel=2, **options)
 
 
-def warn(message: object, **options: Any) -> bool:
+def warn(message: object, **options: Unpack[LogOptions]) -> bool:
     """Log at WARN (rosR: ``ros.Warn``)."""
     return get_logger().log(message, WARN, stacklevel=2, **options)
 
 
-def error(message: object, **options: Any) -> bool:
+def error(message: object, **options: Unpack[LogOptions]) -> bool:
     """Log at ERROR (rosR: ``ros.Error``)."""
     return get_logger().log(message, ERROR, stacklevel=2, **options)
 
 
-def fatal(message: object, **options: Any) -> bool:
+def fatal(message: object, **options: Unpack[LogOptions]) -> bool:
     """Log at FATAL (rosR: ``ros.Fatal``)."""
     return get_logger().log(message, FATAL, stacklevel=2, **options)
 
@@ -184,7 +196,7 @@ def time_now() -> Time:
 
 # --- parameters (rosR: ros.ParamSet/Get/Type/Delete) ----------------------------------------
 
-_MISSING: Any = object()
+_MISSING = object()
 _clients: dict[tuple[int, str], ParameterClient] = {}
 
 
@@ -207,7 +219,9 @@ def _remote(node_name: str, timeout: float) -> ParameterClient:
     return client
 
 
-def param_set(name: str, value: Any, *, node: str | None = None, timeout: float = 5.0) -> None:
+def param_set(
+    name: str, value: ParamValue, *, node: str | None = None, timeout: float = 5.0
+) -> None:
     """Set a parameter (rosR: ``ros.ParamSet``): of the default node, declaring it if new, or of
     another node with ``'/other_node:name'`` or ``node='/other_node'``. Raises ParameterError
     with the reason when refused."""
@@ -225,8 +239,8 @@ def param_set(name: str, value: Any, *, node: str | None = None, timeout: float 
 
 
 def param_get(
-    name: str, default: Any = _MISSING, *, node: str | None = None, timeout: float = 5.0
-) -> Any:
+    name: str, default: ParamValue = _MISSING, *, node: str | None = None, timeout: float = 5.0
+) -> ParamValue:
     """A parameter's value (rosR: ``ros.ParamGet``); ``default`` when it is not set, else
     ParameterNotDeclaredError."""
     target, parameter = _target(name, node)

@@ -30,12 +30,18 @@ import contextlib
 import threading
 import time
 from collections.abc import Callable, Iterator
-from typing import Any
+from typing import TYPE_CHECKING
 
 import pytest
 
 from zros.node import Node
 from zros.transport import Router, Transport, TransportConfig, start_router
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from zros.node.settings import NodeOptions
+    from zros.transport.config import TransportOptions
 
 
 def wait_for(condition: Callable[[], object], timeout: float = 5.0) -> bool:
@@ -91,7 +97,7 @@ def zros_transport(zros_router: Router) -> Iterator[Callable[..., Transport]]:
     """``make(**settings)`` opens a client session to ``zros_router``."""
     opened: list[Transport] = []
 
-    def make(**settings: Any) -> Transport:
+    def make(**settings: Unpack[TransportOptions]) -> Transport:
         settings.setdefault('shared_memory', False)
         transport = Transport(TransportConfig.create(connect=zros_router.endpoint, **settings))
         opened.append(transport)
@@ -117,7 +123,7 @@ def zros_node(
     """``make(name, namespace='/', **options)``: a node on a session of its own."""
     made: list[Node] = []
 
-    def make(name: str = 'test_node', namespace: str = '/', **options: Any) -> Node:
+    def make(name: str = 'test_node', namespace: str = '/', **options: Unpack[NodeOptions]) -> Node:
         options.setdefault('wire', zros_wire)
         if 'transport' not in options:
             options['transport'] = zros_transport()

@@ -13,7 +13,8 @@ import threading
 import time
 import weakref
 from collections.abc import Callable
-from typing import Any
+
+from zenoh import Sample
 
 from zros.actions.common import (
     ActionError,
@@ -25,7 +26,7 @@ from zros.actions.common import (
     goal_id_of,
     new_goal_id,
 )
-from zros.cdr import CdrError
+from zros.cdr import CdrError, FieldValue
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode
 from zros.cdr.registry import registry_of
@@ -33,7 +34,7 @@ from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
 from zros.runtime.clock import Time
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity, Sample
+from zros.runtime.entity import Entity
 from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal
 from zros.services import Client, ServiceError
@@ -52,14 +53,14 @@ class ClientGoalHandle(GoalHandle):
         client: ActionClient,
         goal_id: bytes,
         goal: Message,
-        feedback_callback: Callable[[Any], object] | None,
+        feedback_callback: Callable[[Message], object] | None,
     ) -> None:
         super().__init__(goal_id, None)
         self._status = GoalStatus.UNKNOWN
         self.client = client
         self.goal = goal
         self.accepted = False
-        self.feedback: Any = None  #: the latest Feedback message
+        self.feedback: Message | None = None  #: the latest Feedback message
         self.feedback_count = 0
         self._feedback_callback = feedback_callback
         self._result: ServiceFuture = ServiceFuture()
@@ -85,12 +86,13 @@ class ClientGoalHandle(GoalHandle):
             self._status = status
         self._changed.notify()
 
-    def result(self, timeout: float | None = None) -> Any:
+    def result(self, timeout: float | None = None) -> Message:
         """Wait for the goal to end and return its Result message (``status`` says how it
         ended); raises TimeoutError, ActionError when the goal was rejected or lost, and
         KeyboardInterrupt after Ctrl-C."""
         try:
-            return self._result.result(timeout)
+            result: Message = self._result.result(timeout)
+            return result
         except concurrent.futures.TimeoutError:
             raise TimeoutError(
                 f'goal {self.goal_uuid} of {self.client.name} did not end within {timeout:g} s'
@@ -235,7 +237,7 @@ class ActionClient(Entity):
 
     # --- goals ---------------------------------------------------------------------------------
 
-    def _goal(self, goal: Message | None, fields: dict[str, Any]) -> Message:
+    def _goal(self, goal: Message | None, fields: dict[str, FieldValue]) -> Message:
         goal_class = self.action_type.Goal
         if goal is None:
             return goal_class(**fields)
@@ -249,9 +251,9 @@ class ActionClient(Entity):
     def send_goal_async(
         self,
         goal: Message | None = None,
-        feedback_callback: Callable[[Any], object] | None = None,
+        feedback_callback: Callable[[Message], object] | None = None,
         timeout: float | None = None,
-        **fields: Any,
+        **fields: FieldValue,
     ) -> ServiceFuture:
         """Send a goal; a future of its :class:`ClientGoalHandle` once the server answered."""
         if self._closed:
@@ -264,7 +266,7 @@ class ActionClient(Entity):
         request.goal_id.uuid = handle.goal_id
         answered = ServiceFuture()
 
-        def on_answer(future: concurrent.futures.Future[Any]) -> None:
+        def on_answer(future: concurrent.futures.Future[Message]) -> None:
             try:
                 response = future.result()
             except KeyboardInterrupt as exc:  # Ctrl-C: the handle fails with it too
@@ -294,9 +296,9 @@ class ActionClient(Entity):
     def send_goal(
         self,
         goal: Message | None = None,
-        feedback_callback: Callable[[Any], object] | None = None,
+        feedback_callback: Callable[[Message], object] | None = None,
         timeout: float | None = None,
-        **fields: Any,
+        **fields: FieldValue,
     ) -> ClientGoalHandle:
         """Send a goal and return its handle once the server accepted or rejected it (check
         ``handle.accepted``); raises ServiceError subclasses when no server answers, and
@@ -310,7 +312,7 @@ class ActionClient(Entity):
         request = self._get_result.Request()
         request.goal_id.uuid = handle.goal_id
 
-        def on_result(future: concurrent.futures.Future[Any]) -> None:
+        def on_result(future: concurrent.futures.Future[Message]) -> None:
             try:
                 response = future.result()
             except KeyboardInterrupt as exc:
@@ -342,7 +344,7 @@ class ActionClient(Entity):
 
         self._get_result.call_async(request, RESULT_TIMEOUT).add_done_callback(on_result)
 
-    def _cancel_goal(self, goal_id: bytes, timeout: float | None) -> Any:
+    def _cancel_goal(self, goal_id: bytes, timeout: float | None) -> Message:
         request = self._cancel.Request()
         request.goal_info.goal_id.uuid = goal_id
         return self._cancel.call(request, timeout)

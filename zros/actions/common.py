@@ -10,9 +10,8 @@ from __future__ import annotations
 import enum
 import os
 import uuid
-from typing import Any
 
-from zros.cdr import TypeRegistry
+from zros.cdr import Message, TypeRegistry
 from zros.cdr.interfaces import ActionType
 from zros.errors import ZrosError
 from zros.runtime.clock import Time
@@ -88,7 +87,7 @@ def new_goal_id() -> bytes:
     return uuid.UUID(bytes=os.urandom(16), version=4).bytes
 
 
-def goal_id_of(uuid_message: Any) -> bytes:
+def goal_id_of(uuid_message: Message) -> bytes:
     """The 16 bytes of a ``unique_identifier_msgs/msg/UUID``."""
     return bytes(uuid_message.uuid)
 

@@ -7,16 +7,19 @@ import concurrent.futures
 import inspect
 import threading
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from zros.actions.common import CancelReturn, GoalHandle, goal_id_of
 from zros.runtime.clock import Time
 from zros.runtime.executor import Executor
 
+if TYPE_CHECKING:
+    from zros.cdr import Message
+
 H = TypeVar('H', bound=GoalHandle)
 
 
-def cancel_candidates(goals: Sequence[H], request: Any) -> tuple[list[H], int | None]:
+def cancel_candidates(goals: Sequence[H], request: Message) -> tuple[list[H], int | None]:
     """The active goals an ``action_msgs/srv/CancelGoal`` request names, or the error code
     when none: by id, all goals accepted before its stamp, or (neither given) every goal."""
     info = request.goal_info
@@ -40,9 +43,9 @@ def cancel_candidates(goals: Sequence[H], request: Any) -> tuple[list[H], int | 
 
 def run_goal(
     handle: H,
-    execute: Callable[[H], Any],
+    execute: Callable[[H], object],
     executor: Executor,
-    finished: Callable[[H, concurrent.futures.Future[Any]], None],
+    finished: Callable[[H, concurrent.futures.Future[object]], None],
 ) -> None:
     """Run ``execute(handle)`` (a coroutine function on the executor's event loop, else on a
     thread of its own) and call ``finished(handle, future)`` with its outcome."""
@@ -52,7 +55,7 @@ def run_goal(
         return
 
     def run() -> None:
-        outcome: concurrent.futures.Future[Any] = concurrent.futures.Future()
+        outcome: concurrent.futures.Future[object] = concurrent.futures.Future()
         try:
             result = execute(handle)
             if inspect.iscoroutine(result):

@@ -16,14 +16,13 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
 
-from zenoh import ZError
+from zenoh import Query, ZError
 
 from zros.actions.common import CancelReturn, GoalStatus, accepted, action_type, goal_id_of
 from zros.actions.goals import cancel_candidates, run_goal
-from zros.actions.server_goal import GoalRecord, Query, ServerGoalHandle
-from zros.cdr import CdrError
+from zros.actions.server_goal import GoalRecord, ServerGoalHandle
+from zros.cdr import CdrError, FieldValue
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode
 from zros.cdr.registry import registry_of
@@ -57,9 +56,9 @@ class ActionServer(Entity):
         self,
         name: str,
         action: str | ActionType,
-        execute_callback: Callable[[ServerGoalHandle], Any],
+        execute_callback: Callable[[ServerGoalHandle], object],
         *,
-        goal_callback: Callable[[Any], object] | None = None,
+        goal_callback: Callable[[Message], object] | None = None,
         cancel_callback: Callable[[ServerGoalHandle], object] | None = None,
         node: NodeLike | None = None,
         result_timeout: float = 900.0,
@@ -138,19 +137,19 @@ class ActionServer(Entity):
             self._fail(query, reason)
             return None
 
-    def _admitted(self, handler: Callable[[Any], None]) -> Callable[[Any], None]:
+    def _admitted(self, handler: Callable[[Query], None]) -> Callable[[Query], None]:
         """``handler`` for the queries that pass the wire's rules (rmw_zenoh attachments)."""
 
-        def on_query(query: Any) -> None:
+        def on_query(query: Query) -> None:
             if self._requests.admit(query):
                 handler(query)
 
         return on_query
 
-    def _reply(self, query: Any, message: Message) -> None:
+    def _reply(self, query: Query, message: Message) -> None:
         self._requests.reply(query, encode(message))
 
-    def _fail(self, query: Any, reason: str) -> None:
+    def _fail(self, query: Query, reason: str) -> None:
         self._requests.fail(query, reason)
 
     def _goal_info(self, handle: ServerGoalHandle) -> Message:
@@ -210,7 +209,7 @@ class ActionServer(Entity):
 
     # --- send_goal -----------------------------------------------------------------------------
 
-    def _on_send_goal(self, query: Any) -> None:
+    def _on_send_goal(self, query: Query) -> None:
         request = self._decode(query, self._SendGoal.Request)
         if request is None:
             return
@@ -219,7 +218,7 @@ class ActionServer(Entity):
         else:
             self._in_spin(lambda: self._decide(query, request))
 
-    def _decide(self, query: Any, request: Any) -> None:
+    def _decide(self, query: Query, request: Message) -> None:
         goal_id = goal_id_of(request.goal_id)
         answer = True
         if self.goal_callback is not None:
@@ -256,7 +255,7 @@ class ActionServer(Entity):
             lambda _, future: self._finished(goal, future),
         )  # fmt: skip
 
-    def _finished(self, goal: GoalRecord, future: concurrent.futures.Future[Any]) -> None:
+    def _finished(self, goal: GoalRecord, future: concurrent.futures.Future[object]) -> None:
         result_class = self.action_type.Result
         try:
             result = future.result()
@@ -293,7 +292,7 @@ class ActionServer(Entity):
         self._start_expiry()
 
     def _publish_feedback(
-        self, handle: ServerGoalHandle, feedback: Message | None, fields: dict[str, Any]
+        self, handle: ServerGoalHandle, feedback: Message | None, fields: dict[str, FieldValue]
     ) -> None:
         feedback_class = self.action_type.Feedback
         if feedback is None:
@@ -311,7 +310,7 @@ class ActionServer(Entity):
 
     # --- get_result ----------------------------------------------------------------------------
 
-    def _on_get_result(self, query: Any) -> None:
+    def _on_get_result(self, query: Query) -> None:
         request = self._decode(query, self._GetResult.Request)
         if request is None:
             return
@@ -331,7 +330,7 @@ class ActionServer(Entity):
 
     # --- cancel_goal ---------------------------------------------------------------------------
 
-    def _on_cancel_goal(self, query: Any) -> None:
+    def _on_cancel_goal(self, query: Query) -> None:
         request = self._decode(query, self._CancelGoal.Request)
         if request is None:
             return
@@ -340,7 +339,7 @@ class ActionServer(Entity):
         else:
             self._in_spin(lambda: self._cancel(query, request))
 
-    def _cancel(self, query: Any, request: Any) -> None:
+    def _cancel(self, query: Query, request: Message) -> None:
         candidates, error = cancel_candidates(self.goals, request)
         canceling = []
         for handle in candidates:

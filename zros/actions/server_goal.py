@@ -13,14 +13,15 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Protocol
+
+from zenoh import Query
 
 from zros.actions.common import ActionError, GoalHandle, GoalStatus
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message
+from zros.cdr.model import FieldValue
 from zros.runtime.clock import Time
-
-Query = Any  #: a Zenoh query, on Zenoh's thread
 
 
 class GoalServer(Protocol):
@@ -48,7 +49,7 @@ class GoalServer(Protocol):
 
 
 #: how a handle sends feedback: ``send(handle, feedback message or None, fields)``
-SendFeedback = Callable[['ServerGoalHandle', Message | None, dict[str, Any]], None]
+SendFeedback = Callable[['ServerGoalHandle', Message | None, dict[str, FieldValue]], None]
 
 
 class GoalRecord:
@@ -77,7 +78,7 @@ class GoalRecord:
         self._waiters: list[Query] = []  #: get_result queries held until the result is known
         self.handle = ServerGoalHandle(server, goal_id, request, stamp, self)
 
-    def send_feedback(self, feedback: Message | None, fields: dict[str, Any]) -> None:
+    def send_feedback(self, feedback: Message | None, fields: dict[str, FieldValue]) -> None:
         """Send the handle's feedback through the server."""
         self._send_feedback(self.handle, feedback, fields)
 
@@ -176,7 +177,7 @@ class ServerGoalHandle(GoalHandle):
         """Whether a client asked to cancel (and the cancel callback agreed)."""
         return self._record.status is GoalStatus.CANCELING
 
-    def publish_feedback(self, feedback: Message | None = None, **fields: Any) -> None:
+    def publish_feedback(self, feedback: Message | None = None, **fields: FieldValue) -> None:
         """Send feedback to the clients (a Feedback message, or its fields)."""
         self._record.send_feedback(feedback, fields)
 

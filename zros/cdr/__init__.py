@@ -9,8 +9,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from zros.cdr import registry as _registry
 from zros.cdr.errors import (
     CdrError,
@@ -23,7 +21,15 @@ from zros.cdr.hashing import type_hash as _type_hash
 from zros.cdr.interfaces import ActionType, ServiceType
 from zros.cdr.message import Message, encode
 from zros.cdr.message import decode as _decode
-from zros.cdr.model import ActionDef, Definition, MessageDef, ServiceDef
+from zros.cdr.model import (
+    ActionDef,
+    Definition,
+    FieldValue,
+    JsonValue,
+    MessageDef,
+    ServiceDef,
+    Untyped,
+)
 from zros.cdr.registry import TypeRegistry, default_registry, set_default_registry
 from zros.cdr.struct_seq import StructSeq
 
@@ -48,7 +54,7 @@ def get_type(type_name: TypeLike) -> type[Message] | ServiceType | ActionType:
     return default_registry().get_type(type_name)
 
 
-def new_message(type_name: TypeLike, **fields: Any) -> Message:
+def new_message(type_name: TypeLike, **fields: FieldValue) -> Message:
     """A message of the given type with ROS default values, updated with ``fields``."""
     return get_class(type_name)(**fields)
 
@@ -88,7 +94,9 @@ __all__ = [
     'CdrError',
     'Definition',
     'FieldError',
+    'FieldValue',
     'InterfaceSyntaxError',
+    'JsonValue',
     'Message',
     'MessageDef',
     'ServiceDef',
@@ -97,6 +105,7 @@ __all__ = [
     'TypeNameError',
     'TypeRegistry',
     'UnknownTypeError',
+    'Untyped',
     'decode',
     'default_registry',
     'encode',

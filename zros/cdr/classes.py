@@ -9,19 +9,20 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from contextlib import AbstractContextManager
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from zros.cdr import codegen
 from zros.cdr.convert import Bad
+from zros.cdr.encode_buffer import Join
 from zros.cdr.layout import LayoutCache, StructInfo
 from zros.cdr.message import Message
-from zros.cdr.model import MessageDef
+from zros.cdr.model import Buffer, MessageDef
 from zros.cdr.naming import attribute_name
 
 #: a compiled decoder: ``decode(buf, strict) -> message``
-Decoder = Callable[[Any, bool], Message]
+Decoder = Callable[[Buffer, bool], Message]
 #: a compiled encoder: ``encode(message, join) -> bytes``
 Encoder = Callable[..., bytes]
 
@@ -54,7 +55,8 @@ class _Codecs:
     def __init__(self, source: ClassSource, cls: type[Message]) -> None:
         self.source = source
         self.message_class = cls
-        self._traced: dict[str, Callable[..., Any]] = {}
+        self._traced_decoders: dict[str, Decoder] = {}
+        self._traced_encoder: Encoder | None = None
 
     # the generators' Context
     def resolve(self, name: str) -> MessageDef:
@@ -81,7 +83,7 @@ class _Codecs:
             return current  # type: ignore[no-any-return]
         variants: dict[str, Decoder] = {}
 
-        def other(view: Any, strict: bool) -> Any:
+        def other(view: Buffer, strict: bool) -> Message:
             # big-endian data, or text read from a memoryview: compile on demand
             if type(view) is memoryview and (view.ndim != 1 or view.itemsize != 1):
                 view = view.cast('B')
@@ -108,27 +110,28 @@ class _Codecs:
 
     def traced_decoder(self, endian: str) -> Decoder:
         key = 'd' + endian
-        if key not in self._traced:
+        if key not in self._traced_decoders:
             definition = self.message_class._definition
-            self._traced[key] = codegen.generate_decoder(self, definition, endian, True, True)
-        return self._traced[key]
+            decoder = codegen.generate_decoder(self, definition, endian, True, True)
+            self._traced_decoders[key] = decoder
+        return self._traced_decoders[key]
 
     def traced_encoder(self) -> Encoder:
-        if 'e' not in self._traced:
+        if self._traced_encoder is None:
             definition = self.message_class._definition
-            self._traced['e'] = codegen.generate_encoder(self, definition, True)
-        return self._traced['e']
+            self._traced_encoder = codegen.generate_encoder(self, definition, True)
+        return self._traced_encoder
 
 
 def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
     """Give ``cls`` codec stubs that compile the real functions on their first call."""
     lock = codecs.source.lock
 
-    def decode_first(buf: Any, strict: bool = False) -> Any:
+    def decode_first(buf: Buffer, strict: bool = False) -> Message:
         compiled_decoder(cls)
         return cls._cdr_decode(buf, strict)
 
-    def encode_first(message: Any, join: Any = b''.join) -> bytes:
+    def encode_first(message: Message, join: Join = b''.join) -> bytes:  # type: ignore[assignment]
         with lock:
             if cls.__dict__['_cdr_encode'] is lazy_encode:
                 cls._cdr_encode = staticmethod(codecs.encoder())  # type: ignore[method-assign]
@@ -138,7 +141,7 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
     # a plain function, not a staticmethod: Python specialises calls of a function found on a
     # class (``cls._cdr_decode(...)``), not of a staticmethod; it is never read from instances
     cls._cdr_decode = decode_first  # type: ignore[method-assign]
-    cls._cdr_encode = lazy_encode  # type: ignore[method-assign]
+    cls._cdr_encode = lazy_encode  # type: ignore[method-assign,assignment]
 
 
 def compiled_decoder(cls: type[Message]) -> Decoder:
@@ -165,7 +168,7 @@ def build_message_class(
     """
     package, kind, short = definition.name.split('/')
     attributes = tuple(attribute_name(f.name) for f in definition.fields)
-    namespace: dict[str, Any] = {
+    namespace: dict[str, object] = {
         '__slots__': attributes,
         '__module__': f'zros.types.{package}.{kind}',
         '__qualname__': short,

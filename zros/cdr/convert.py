@@ -5,12 +5,15 @@ from __future__ import annotations
 import numbers
 import operator
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from zros.cdr.errors import FieldError
-from zros.cdr.model import INTEGER_RANGES
+from zros.cdr.model import INTEGER_RANGES, Buffer, FieldValue
+
+if TYPE_CHECKING:
+    from zros.cdr.message import Message
 
 
 class Bad(Exception):
@@ -21,7 +24,7 @@ def _kind_name(kind: str) -> str:
     return {'f': 'floats', 'i': 'integers', 'u': 'integers', 'b': 'bools'}.get(kind, 'values')
 
 
-def to_array(value: Any, dtype: np.dtype) -> np.ndarray:
+def to_array(value: FieldValue, dtype: np.dtype) -> np.ndarray:
     """A contiguous 1-D array of ``dtype`` from any sequence, refusing lossy conversions."""
     if type(value) is np.ndarray and value.dtype == dtype and value.ndim == 1:
         return value if value.flags.c_contiguous else np.ascontiguousarray(value)
@@ -69,7 +72,7 @@ def to_array(value: Any, dtype: np.dtype) -> np.ndarray:
     return np.ascontiguousarray(array.astype(dtype))
 
 
-def prim_array(value: Any, dtype: np.dtype, bound: int) -> np.ndarray:
+def prim_array(value: FieldValue, dtype: np.dtype, bound: int) -> np.ndarray:
     """An array for a sequence field, checked against its bound (-1: unbounded)."""
     if (
         type(value) is np.ndarray
@@ -85,7 +88,7 @@ def prim_array(value: Any, dtype: np.dtype, bound: int) -> np.ndarray:
     return array
 
 
-def fixed_array(value: Any, dtype: np.dtype, count: int) -> np.ndarray:
+def fixed_array(value: FieldValue, dtype: np.dtype, count: int) -> np.ndarray:
     """An array for a fixed-size array field; its length must be exactly ``count``."""
     if (
         type(value) is np.ndarray
@@ -107,7 +110,7 @@ Where = tuple[str, str]
 Shape = tuple[int, int]
 
 
-def init_array(value: Any, dtype: np.dtype, shape: Shape, where: Where) -> np.ndarray:
+def init_array(value: FieldValue, dtype: np.dtype, shape: Shape, where: Where) -> np.ndarray:
     """Convert a constructor argument for an array field, with the field name in errors."""
     try:
         array = to_array(value, dtype)
@@ -128,16 +131,16 @@ def _check_length(size: int, shape: Shape, where: Where) -> None:
 # --- constructor checks: called only when the generated fast check fails ------------------------
 
 
-def _shown(value: Any) -> str:
+def _shown(value: FieldValue) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + '...'
 
 
-def _wrong(where: Where, expected: str, value: Any) -> FieldError:
+def _wrong(where: Where, expected: str, value: FieldValue) -> FieldError:
     return FieldError(*where, f'expected {expected}, got {type(value).__name__} {_shown(value)}')
 
 
-def scalar(value: Any, primitive: str, bound: int, where: Where) -> Any:
+def scalar(value: FieldValue, primitive: str, bound: int, where: Where) -> float | bool | str:
     """The value a scalar field keeps for a constructor argument, or a FieldError.
 
     Floats take any real number but bools; integers take ints, numpy integers and bools, in range
@@ -171,7 +174,7 @@ def scalar(value: Any, primitive: str, bound: int, where: Where) -> Any:
     return int(number)
 
 
-def message(cls: Any, value: Any, where: Where) -> Any:
+def message(cls: type[Message], value: FieldValue, where: Where) -> FieldValue:
     """A nested message field from a constructor argument: a message of its type or a dict."""
     if isinstance(value, Mapping):
         try:
@@ -183,13 +186,15 @@ def message(cls: Any, value: Any, where: Where) -> Any:
     raise _wrong(where, f'a {cls.__msgtype__} or a dict', value)
 
 
-def _items(value: Any, what: str, where: Where) -> list[Any]:
+def _items(value: FieldValue, what: str, where: Where) -> list[FieldValue]:
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
         raise _wrong(where, f'a list of {what}', value)
     return list(value)
 
 
-def message_list(cls: Any, value: Any, shape: Shape, where: Where) -> list[Any]:
+def message_list(
+    cls: type[Message], value: FieldValue, shape: Shape, where: Where
+) -> list[FieldValue]:
     """A list of nested messages from a constructor argument (messages or dicts)."""
     items = _items(value, cls.__msgtype__, where)
     type_name, name = where
@@ -201,7 +206,7 @@ def message_list(cls: Any, value: Any, shape: Shape, where: Where) -> list[Any]:
 
 
 def string_list(
-    value: Any, primitive: str, string_bound: int, shape: Shape, where: Where
+    value: FieldValue, primitive: str, string_bound: int, shape: Shape, where: Where
 ) -> list[str]:
     """A list of strings from a constructor argument."""
     items = _items(value, 'str', where)
@@ -231,7 +236,7 @@ def wstring_encode(value: str) -> tuple[bytes, int]:
     return units.astype('<u4').tobytes(), len(units)
 
 
-def wstring_decode(buf: Any, pos: int, count: int, end: int, endian: str) -> tuple[str, int]:
+def wstring_decode(buf: Buffer, pos: int, count: int, end: int, endian: str) -> tuple[str, int]:
     """Decode ``count`` 4-byte code units at ``pos``; returns the text and the next offset."""
     stop = pos + 4 * count
     if stop > end:
@@ -246,7 +251,7 @@ def wstring_decode(buf: Any, pos: int, count: int, end: int, endian: str) -> tup
     return text, stop
 
 
-def check_scalar(primitive: str, value: Any, low: int | None, high: int | None) -> None:
+def check_scalar(primitive: str, value: FieldValue, low: int | None, high: int | None) -> None:
     """Explain why a scalar value cannot be encoded (used by the traced encoder only)."""
     if primitive in ('float32', 'float64'):
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):

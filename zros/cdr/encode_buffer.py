@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
 
 import numpy as np
+
+#: one piece of an encoded message: bytes-like, or a numpy array whose data is written as is
+Part = bytes | bytearray | memoryview | np.ndarray
+#: assembles the parts of an encoded message (``b''.join``, or ``EncodeBuffer.join``)
+Join = Callable[[list[Part]], bytes | bytearray]
 
 
 class EncodeBuffer:
@@ -21,12 +26,12 @@ class EncodeBuffer:
         self._buffer = bytearray()
         self.threshold = threshold
 
-    def join(self, parts: list[Any]) -> bytes | bytearray:
+    def join(self, parts: list[Part]) -> bytes | bytearray:
         """The parts (bytes-like objects and numpy arrays) one after another."""
         sizes = [part.nbytes if type(part) is np.ndarray else len(part) for part in parts]
         total = sum(sizes)
         if total < self.threshold:
-            return b''.join(parts)
+            return b''.join(parts)  # type: ignore[arg-type]  # arrays are buffers: stubs omit it
         buffer = self._buffer
         if len(buffer) < total:
             buffer = self._buffer = bytearray(total)
@@ -36,8 +41,8 @@ class EncodeBuffer:
         try:
             offset = 0
             for part, size in zip(parts, sizes, strict=True):
-                source: Any = part.view(np.uint8) if type(part) is np.ndarray else part
-                view[offset : offset + size] = source
+                source = part.view(np.uint8) if type(part) is np.ndarray else part
+                view[offset : offset + size] = source  # type: ignore[assignment]  # as above
                 offset += size
         finally:
             view.release()

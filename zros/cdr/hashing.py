@@ -14,7 +14,6 @@ import hashlib
 import json
 import threading
 import weakref
-from typing import Any
 
 from zros.cdr.errors import UnknownTypeError
 from zros.cdr.model import (
@@ -23,6 +22,7 @@ from zros.cdr.model import (
     Definition,
     Field,
     FieldType,
+    JsonValue,
     Kind,
     MessageDef,
     ServiceDef,
@@ -74,7 +74,7 @@ int64 sequence_number
 
 _PLACEHOLDER = Field(PLACEHOLDER_FIELD, FieldType('uint8'))
 
-Description = dict[str, Any]
+Description = dict[str, JsonValue]
 
 
 class _Entry:
@@ -143,7 +143,7 @@ def _default_text(value: DefaultValue | None) -> str:
     return str(value)
 
 
-def _field_type(ftype: FieldType) -> dict[str, Any]:
+def _field_type(ftype: FieldType) -> dict[str, JsonValue]:
     if ftype.is_nested:
         type_id = _NESTED_ID
     elif ftype.string_bound:
@@ -158,7 +158,9 @@ def _field_type(ftype: FieldType) -> dict[str, Any]:
     }
 
 
-def _field(name: str, ftype: FieldType, default: DefaultValue | None = None) -> dict[str, Any]:
+def _field(
+    name: str, ftype: FieldType, default: DefaultValue | None = None
+) -> dict[str, JsonValue]:
     return {'name': name, 'type': _field_type(ftype), 'default_value': _default_text(default)}
 
 
@@ -267,12 +269,12 @@ def _entry(registry: TypeRegistry, name: str) -> _Entry:
 # --- public API -----------------------------------------------------------------------------
 
 
-def type_description(registry: TypeRegistry, name: str) -> dict[str, Any]:
+def type_description(registry: TypeRegistry, name: str) -> dict[str, JsonValue]:
     """The full TypeDescription of a type as rosidl builds it, default values included."""
     return copy.deepcopy(_entry(registry, name).description)
 
 
-def hash_description(description: dict[str, Any]) -> str:
+def hash_description(description: dict[str, JsonValue]) -> str:
     """The RIHS01 hash of a full TypeDescription (its default values are ignored)."""
     stripped = {
         'type_description': _without_defaults(description['type_description']),

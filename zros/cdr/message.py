@@ -8,12 +8,13 @@ values, ``==``, a readable ``repr``, ``copy``, ``to_dict``/``from_dict`` and its
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol, TypeVar
+from typing import TYPE_CHECKING, ClassVar, Protocol, TypeVar
 
 import numpy as np
 
+from zros.cdr.encode_buffer import Join
 from zros.cdr.errors import CdrError, FieldError
-from zros.cdr.model import MessageDef
+from zros.cdr.model import Buffer, FieldValue, MessageDef
 from zros.cdr.naming import attribute_name
 
 if TYPE_CHECKING:
@@ -48,7 +49,7 @@ class Message:
     _definition: ClassVar[MessageDef]
     #: the TypeRegistry that built the class. The registry module sits above this one, so the
     #: type is not named here; ``zros.cdr.registry.registry_of(cls)`` returns it typed.
-    _registry: ClassVar[Any]
+    _registry: ClassVar[object]
     #: numpy dtype of one element when a sequence of this type is a structured array, else None
     _dtype: ClassVar[np.dtype | None] = None
     _zros_codecs: ClassVar[TracedCodecs]
@@ -56,37 +57,35 @@ class Message:
     _restore: ClassVar[Callable[[str, bytes], Message]]
 
     if TYPE_CHECKING:
-        # fields are generated at run time: to type checkers every field is Any
-        def __getattr__(self, name: str) -> Any: ...
+        # fields are generated at run time: to type checkers every field is a FieldValue
+        def __getattr__(self, name: str) -> FieldValue: ...
 
-        def __setattr__(self, name: str, value: Any) -> None: ...
+        def __setattr__(self, name: str, value: FieldValue) -> None: ...
 
     # generated per class
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(self, *args: FieldValue, **kwargs: FieldValue) -> None:
         raise TypeError('Message is abstract; use zros.Message(type) or a generated class')
 
     def copy(self) -> Self:
         """A deep copy; its arrays are writable even where this message's are views."""
         raise NotImplementedError
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, FieldValue]:
         """Nested dicts and lists of plain Python values (YAML and JSON friendly)."""
         raise NotImplementedError
 
     @staticmethod
-    def _cdr_encode(
-        message: Message, join: Callable[[list[Any]], bytes | bytearray] | None = None
-    ) -> bytes:
+    def _cdr_encode(message: Message, join: Join | None = None) -> bytes:
         raise NotImplementedError
 
     @staticmethod
-    def _cdr_decode(buf: Any, strict: bool = False) -> Any:
+    def _cdr_decode(buf: Buffer, strict: bool = False) -> Message:
         raise NotImplementedError
 
     # common API
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Self:
+    def from_dict(cls, data: Mapping[str, FieldValue]) -> Self:
         """Build a message from nested dicts, as ``to_dict`` returns them.
 
         Missing fields keep their defaults. Keys may be ROS names or attribute names (``from`` or
@@ -121,7 +120,7 @@ class Message:
     def __copy__(self) -> Self:
         return self.copy()
 
-    def __deepcopy__(self, memo: dict[int, Any]) -> Self:
+    def __deepcopy__(self, memo: dict[int, object]) -> Self:
         return self.copy()
 
     def __reduce__(self) -> tuple[Callable[[str, bytes], Message], tuple[str, bytes]]:
@@ -151,7 +150,7 @@ def decode(cls: type[M], buf: bytes | bytearray | memoryview, strict: bool = Fal
     (alignment padding), which tells whether the data really is of this type.
     """
     try:
-        return cls._cdr_decode(buf, strict)  # type: ignore[no-any-return]
+        return cls._cdr_decode(buf, strict)  # type: ignore[return-value]
     except CdrError:
         raise
     except Exception:  # malformed input: the traced decoder names the field and offset
@@ -171,7 +170,7 @@ def _explain_encode(cls: type[Message], message: Message) -> CdrError:
     return CdrError(f'cannot encode {cls.__msgtype__}', type_name=cls.__msgtype__)
 
 
-def _explain_decode(cls: type[Message], buf: Any, strict: bool) -> CdrError:
+def _explain_decode(cls: type[Message], buf: Buffer, strict: bool) -> CdrError:
     name = getattr(cls, '__msgtype__', '?')
     try:
         view = memoryview(buf)

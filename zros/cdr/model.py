@@ -10,8 +10,18 @@ from __future__ import annotations
 import enum
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 from zros.cdr.errors import TypeNameError
+
+#: A message field's value (boundary): its type is the message definition's, known at run time.
+FieldValue = Any
+#: An object of an untyped library (ruamel.yaml, rosbags, pycdr2) (boundary): checked where read.
+Untyped = Any
+#: The bytes a decoder reads: CDR from the network, a file or the user.
+Buffer = bytes | bytearray | memoryview
+#: A JSON value (boundary): nested dicts and lists whose shape the reader checks where it reads.
+JsonValue = Any
 
 #: Wire size (and CDR alignment) of every primitive type.
 PRIMITIVE_SIZES: dict[str, int] = {

@@ -23,15 +23,14 @@ from __future__ import annotations
 
 import threading
 import weakref
-from typing import Any
 
 import numpy as np
 
 from zros.cdr.layout import VALUE_CODES
 from zros.cdr.message import Message
-from zros.cdr.model import FieldType, Kind, MessageDef
+from zros.cdr.model import FieldType, FieldValue, Kind, MessageDef, Untyped
 from zros.cdr.naming import attribute_name
-from zros.cdr.registry import TypeRegistry, default_registry
+from zros.cdr.registry import TypeRegistry, default_registry, registry_of
 from zros.cdr.typestore import PLACEHOLDER_FIELD
 
 TypeLike = str | type[Message]
@@ -51,7 +50,7 @@ _origins: weakref.WeakKeyDictionary[type, tuple[weakref.ref[TypeRegistry], str]]
 )
 
 
-def _pycdr2() -> Any:
+def _pycdr2() -> Untyped:
     """The pycdr2 module, or ImportError with install instructions."""
     try:
         import pycdr2
@@ -66,7 +65,7 @@ def _pycdr2() -> Any:
 def _resolve(type_or_name: TypeLike, registry: TypeRegistry | None) -> tuple[TypeRegistry, str]:
     """The registry and full message name of a class or any accepted spelling of a name."""
     if isinstance(type_or_name, type):
-        chosen = registry if registry is not None else type_or_name._registry
+        chosen = registry if registry is not None else registry_of(type_or_name)
         return chosen, type_or_name.__msgtype__
     chosen = registry if registry is not None else default_registry()
     return chosen, chosen.message_definition(type_or_name).name
@@ -93,7 +92,7 @@ def _build(registry: TypeRegistry, name: str) -> type:
     if cached is not None and cached[0] is definition:
         return cached[1]
     pycdr2 = _pycdr2()
-    fields: dict[str, Any] = {}
+    fields: dict[str, Untyped] = {}
     for f in definition.fields:
         fields[attribute_name(f.name)] = _annotation(registry, definition.name, f.name, f.type)
     if not fields:
@@ -106,15 +105,15 @@ def _build(registry: TypeRegistry, name: str) -> type:
     return cls
 
 
-def _subscript(generic: Any, *args: Any) -> Any:
+def _subscript(generic: Untyped, *args: Untyped) -> Untyped:
     """``generic[args]`` for pycdr2's array, sequence and bounded_str (untyped for mypy)."""
     return generic[args if len(args) > 1 else args[0]]
 
 
-def _annotation(registry: TypeRegistry, owner: str, field: str, ftype: FieldType) -> Any:
+def _annotation(registry: TypeRegistry, owner: str, field: str, ftype: FieldType) -> Untyped:
     """The pycdr2 annotation of one field."""
     types = _pycdr2().types
-    element: Any
+    element: Untyped
     if ftype.base == 'wstring':
         raise NotImplementedError(
             f'{owner} field {field!r}: wstring has no ROS-compatible pycdr2 type'
@@ -142,15 +141,15 @@ def _annotation(registry: TypeRegistry, owner: str, field: str, ftype: FieldType
 # --- conversions ----------------------------------------------------------------------------
 
 
-def to_pycdr2(message: Message) -> Any:
+def to_pycdr2(message: Message) -> Untyped:
     """A pycdr2 instance of ``pycdr2_class(type(message))`` with equal content."""
     _pycdr2()
     cls = type(message)
-    return _Converter(cls._registry).to(cls.__msgtype__, message)
+    return _Converter(registry_of(cls)).to(cls.__msgtype__, message)
 
 
 def from_pycdr2(
-    obj: Any, type_or_name: TypeLike | None = None, registry: TypeRegistry | None = None
+    obj: Untyped, type_or_name: TypeLike | None = None, registry: TypeRegistry | None = None
 ) -> Message:
     """The zros message with the content of a pycdr2 instance.
 
@@ -192,13 +191,13 @@ class _Converter:
             self._types[name] = found
         return found
 
-    def to(self, name: str, message: Any) -> Any:
+    def to(self, name: str, message: Message) -> Untyped:
         target, _, fields = self._type(name)
         if not fields:
             return target(**{PLACEHOLDER_FIELD: 0})
         return target(**{attr: self.to_value(t, getattr(message, attr)) for attr, t in fields})
 
-    def to_value(self, ftype: FieldType, value: Any) -> Any:
+    def to_value(self, ftype: FieldType, value: FieldValue) -> Untyped:
         if ftype.kind is Kind.SCALAR:
             if ftype.is_nested:
                 return self.to(ftype.base, value)
@@ -214,11 +213,11 @@ class _Converter:
         # lists of messages and StructSeqs alike iterate over message objects
         return [self.to(ftype.base, item) for item in value]
 
-    def from_(self, name: str, obj: Any) -> Message:
+    def from_(self, name: str, obj: Untyped) -> Message:
         _, cls, fields = self._type(name)
         return cls(**{attr: self.from_value(t, getattr(obj, attr)) for attr, t in fields})
 
-    def from_value(self, ftype: FieldType, value: Any) -> Any:
+    def from_value(self, ftype: FieldType, value: Untyped) -> FieldValue:
         if ftype.kind is Kind.SCALAR:
             return self.from_(ftype.base, value) if ftype.is_nested else value
         if ftype.is_primitive:

@@ -15,7 +15,6 @@ import threading
 from collections.abc import Iterable, Mapping, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
-from typing import Any
 
 from zros.cdr.builtin import SHIPPED_PACKAGES, builtin_definition, builtin_names
 from zros.cdr.classes import Decoder, build_message_class, compiled_decoder
@@ -28,6 +27,7 @@ from zros.cdr.model import (
     Definition,
     MessageDef,
     ServiceDef,
+    Untyped,
     action_parts,
     service_messages,
     split_type_name,
@@ -99,7 +99,7 @@ class TypeRegistry:
         self._types: dict[str, ServiceType | ActionType] = {}
         #: compiled decoders by every spelling asked for (``zros.cdr.decode`` reads them)
         self._decoders: dict[str, Decoder] = {}
-        self._store: Any = None
+        self._store: Untyped = None
         self._lock = threading.RLock()
         #: layout facts of this registry's message types
         self.layout = LayoutCache(self.message_definition)
@@ -112,7 +112,7 @@ class TypeRegistry:
     # --- sources ---------------------------------------------------------------------------
 
     @property
-    def typestore(self) -> Any:
+    def typestore(self) -> Untyped:
         """The rosbags typestore of this distro (loaded on first use)."""
         if self._store is None:
             from rosbags.typesys import Stores, get_typestore

@@ -7,12 +7,13 @@ the received bytes, turned into message objects on first indexing or iteration.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping, MutableSequence
-from typing import Any, TypeVar, overload
+from typing import TypeVar, overload
 
 import numpy as np
 
 from zros.cdr.convert import Bad, Where, message_list
 from zros.cdr.message import Message
+from zros.cdr.model import FieldValue
 
 M = TypeVar('M', bound=Message)
 
@@ -113,8 +114,8 @@ class StructSeq(MutableSequence[M]):
     @overload
     def __setitem__(self, index: slice, value: Iterable[M]) -> None: ...
 
-    def __setitem__(self, index: int | slice, value: Any) -> None:
-        self._list()[index] = value
+    def __setitem__(self, index: int | slice, value: M | Iterable[M]) -> None:
+        self._list()[index] = value  # type: ignore[index,assignment]  # the overloads pair them
 
     def __delitem__(self, index: int | slice) -> None:
         del self._list()[index]
@@ -148,7 +149,9 @@ class StructSeq(MutableSequence[M]):
         return StructSeq(self._cls, [item.copy() for item in self._items or []])
 
 
-def pack_structs(cls: type[Message], items: Iterable[Any], writable: bool = True) -> np.ndarray:
+def pack_structs(
+    cls: type[Message], items: Iterable[FieldValue], writable: bool = True
+) -> np.ndarray:
     """A structured array of ``cls._dtype`` from message objects (or dicts)."""
     dtype = cls._dtype
     assert dtype is not None
@@ -174,7 +177,7 @@ def pack_structs(cls: type[Message], items: Iterable[Any], writable: bool = True
     return np.array(rows, dtype=dtype)
 
 
-def struct_array(value: Any, cls: type[Message], bound: int) -> np.ndarray:
+def struct_array(value: FieldValue, cls: type[Message], bound: int) -> np.ndarray:
     """The contiguous little-endian structured array to encode for a struct sequence field."""
     dtype = cls._dtype
     assert dtype is not None
@@ -201,7 +204,7 @@ def struct_array(value: Any, cls: type[Message], bound: int) -> np.ndarray:
     return array
 
 
-def struct_items(cls: type[Message], value: Any, bound: int, where: Where) -> Any:
+def struct_items(cls: type[Message], value: FieldValue, bound: int, where: Where) -> FieldValue:
     """The constructor argument of a struct sequence field: arrays and StructSeqs as they are,
     else a checked list of messages."""
     if isinstance(value, (np.ndarray, StructSeq)):

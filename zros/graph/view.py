@@ -24,9 +24,9 @@ import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TypeVar
 
-from zenoh import SampleKind, ZError
+from zenoh import Sample, SampleKind, ZError
 from zenoh.handlers import FifoChannel
 
 from zros.keyexpr.bridge import BRIDGE_TOKENS, ENTITY_TOKENS, EntityToken, bridge_zid, ros_name
@@ -36,6 +36,7 @@ from zros.keyexpr.rmw_zenoh import ALL_TOKENS as RMW_TOKENS
 from zros.keyexpr.rmw_zenoh import EndpointToken as RmwEndpoint
 from zros.keyexpr.rmw_zenoh import NodeToken, gid, name_key, parse_token
 from zros.qos import QoS
+from zros.runtime.entity import Undeclarable
 from zros.runtime.signal import Signal
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
@@ -48,6 +49,16 @@ REFRESH_CAPACITY = 1_000_000
 #: seconds a refresh's asks may wait for the network's answer: an answer ends an ask at once, so
 #: this only bounds a router slow to answer (a loaded machine took over 2 s)
 ANSWER_WITHIN = 15.0
+
+_T = TypeVar('_T')
+
+
+def _keep_token(table: dict[str, _T], key: str, token: _T, alive: bool) -> None:
+    """Add ``token`` under ``key`` while it is alive; remove it once it is gone."""
+    if alive:
+        table[key] = token
+    else:
+        table.pop(key, None)
 
 
 @dataclass(frozen=True)
@@ -92,7 +103,7 @@ class Graph:
         self.version = 0  #: bumped on every change
         self._closed = False
         liveliness = session.liveliness()
-        self._subscribers = [
+        self._subscribers: list[Undeclarable] = [
             liveliness.declare_subscriber(ENTITY_TOKENS, self._on_entity, history=True),
             liveliness.declare_subscriber(BRIDGE_TOKENS, self._on_entity, history=True),
             liveliness.declare_subscriber(ZROS_TOKENS, self._on_zros, history=True),
@@ -107,7 +118,7 @@ class Graph:
         if self._changed:
             self._changed.notify()
 
-    def _on_entity(self, sample: Any) -> None:
+    def _on_entity(self, sample: Sample) -> None:
         key = str(sample.key_expr)
         alive = sample.kind == SampleKind.PUT
         zid = bridge_zid(key)
@@ -135,7 +146,7 @@ class Graph:
                 self._entities.pop(key, None)
         self._bump()
 
-    def _on_zros(self, sample: Any) -> None:
+    def _on_zros(self, sample: Sample) -> None:
         key = str(sample.key_expr)
         alive = sample.kind == SampleKind.PUT
         token = parse_owner_token(key)
@@ -156,7 +167,7 @@ class Graph:
                 return
         self._bump()
 
-    def _on_rmw(self, sample: Any) -> None:
+    def _on_rmw(self, sample: Sample) -> None:
         key = str(sample.key_expr)
         alive = sample.kind == SampleKind.PUT
         try:
@@ -165,13 +176,10 @@ class Graph:
             _log.debug('ignoring a malformed rmw_zenoh token %s: %s', key, exc)
             return
         with self._lock:
-            table: dict[str, Any] = (
-                self._rmw_nodes if isinstance(token, NodeToken) else self._rmw_entities
-            )
-            if alive:
-                table[key] = token
+            if isinstance(token, NodeToken):
+                _keep_token(self._rmw_nodes, key, token, alive)
             else:
-                table.pop(key, None)
+                _keep_token(self._rmw_entities, key, token, alive)
         self._bump()
 
     def _ask_bridge(self, zid: str) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import concurrent.futures
 from collections.abc import Coroutine, Iterable, Mapping, Sequence
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from zros.cdr import TypeRegistry, default_registry
 from zros.keyexpr.names import Remapping
@@ -17,7 +17,7 @@ from zros.node.factories import EntityFactories
 from zros.node.graph_methods import GraphMethods
 from zros.node.parameter_methods import ParameterMethods
 from zros.node.settings import NodeSettings, PathLike, node_transport
-from zros.params import ParameterStore
+from zros.params import Parameter, ParameterStore, ParamValue
 from zros.params.server import ParameterServer
 from zros.pubsub.rosout import RosoutSink
 from zros.runtime.clock import Clock, SimClock, Time
@@ -26,6 +26,11 @@ from zros.runtime.context import NodeContext
 from zros.runtime.logger import Logger, logger_name
 from zros.transport import Transport, TransportConfig
 from zros.wire import KeyScheme, open_wire
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from zros.transport.config import SessionOptions
 
 T = TypeVar('T')
 
@@ -82,14 +87,14 @@ class Node(EntityFactories, ParameterMethods, GraphMethods):
         use_sim_time: bool | None = None,
         log_level: str | int | None = None,
         enable_rosout: bool = True,
-        parameters: Mapping[str, Any] | None = None,
+        parameters: Mapping[str, ParamValue] | None = None,
         params_file: PathLike | Sequence[PathLike] | None = None,
         allow_undeclared_parameters: bool = False,
         start_parameter_services: bool = True,
         wire: str | None = None,
         domain_id: int | None = None,
         immediate_callbacks: bool = False,
-        **settings: Any,
+        **settings: Unpack[SessionOptions],
     ) -> None:
         options = NodeSettings.parse(
             name, namespace, remap=remap, args=args, use_sim_time=use_sim_time,
@@ -132,7 +137,7 @@ class Node(EntityFactories, ParameterMethods, GraphMethods):
             self.parameters.declare('use_sim_time', options.use_sim_time)
         self.parameters.add_on_set_callback(self._refuse_sim_time_switch, internal=True)
 
-    def _refuse_sim_time_switch(self, changes: list[Any]) -> object:
+    def _refuse_sim_time_switch(self, changes: list[Parameter]) -> object:
         for change in changes:
             if change.name == 'use_sim_time' and change.value is not self.use_sim_time:
                 return (False, _SIM_TIME_SWITCH)
@@ -193,7 +198,7 @@ class Node(EntityFactories, ParameterMethods, GraphMethods):
         """Run callbacks and timers on the asyncio loop until the node stops being ok."""
         await self.context.executor.spin_async()
 
-    def run_coroutine(self, coroutine: Coroutine[Any, Any, T]) -> concurrent.futures.Future[T]:
+    def run_coroutine(self, coroutine: Coroutine[object, None, T]) -> concurrent.futures.Future[T]:
         """Run an async callback: on the loop of :meth:`spin_async` while one spins the node,
         else on an event loop thread of the node's own (started on first use)."""
         return self.context.executor.run_coroutine(coroutine)

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 from zros.actions import ActionClient, ActionServer, ServerGoalHandle
 from zros.cdr import Message
 from zros.cdr.interfaces import ActionType, ServiceType
 from zros.pubsub import Publisher, Subscriber
+from zros.pubsub.subscriber import Received
 from zros.qos import QoSLike
 from zros.runtime.clock import Clock
 from zros.runtime.context import NodeContext
@@ -33,7 +33,7 @@ class EntityFactories:
         self,
         msg_type: str | type[Message],
         topic: str,
-        callback: Callable[[Any], object] | None = None,
+        callback: Callable[[Received], object] | None = None,
         qos: QoSLike | None = None,
     ) -> Subscriber:
         """A subscriber on ``topic``; ``callback(message)`` runs when the node spins."""
@@ -43,7 +43,7 @@ class EntityFactories:
         self,
         srv_type: str | ServiceType,
         name: str,
-        handler: Callable[..., Any] | None = None,
+        handler: Callable[..., object] | None = None,
     ) -> Service:
         """A service server; ``handler(request)`` returns the response (see ``zros.Service``)."""
         return Service(name, srv_type, handler, node=self)
@@ -58,9 +58,9 @@ class EntityFactories:
         self,
         action_type: str | ActionType,
         name: str,
-        execute_callback: Callable[[ServerGoalHandle], Any],
+        execute_callback: Callable[[ServerGoalHandle], object],
         *,
-        goal_callback: Callable[[Any], object] | None = None,
+        goal_callback: Callable[[Message], object] | None = None,
         cancel_callback: Callable[[ServerGoalHandle], object] | None = None,
         result_timeout: float = 900.0,
     ) -> ActionServer:

@@ -3,10 +3,22 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING
 
-from zros.params import Descriptor, ParameterClient, ParameterError, ParameterStore, SetResult
+from zros.params import (
+    Descriptor,
+    DescriptorFields,
+    Parameter,
+    ParameterClient,
+    ParameterError,
+    ParameterStore,
+    ParamValue,
+    SetResult,
+)
 from zros.runtime.context import NodeContext
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 
 class ParameterMethods:
@@ -18,12 +30,12 @@ class ParameterMethods:
     def declare_parameter(
         self,
         name: str,
-        value: Any = None,
+        value: ParamValue = None,
         descriptor: Descriptor | None = None,
         *,
         ignore_override: bool = False,
-        **fields: Any,
-    ) -> Any:
+        **fields: Unpack[DescriptorFields],
+    ) -> ParamValue:
         """Declare a parameter and return its value (an override's, if one was given).
 
         ``fields`` are those of :class:`zros.params.Descriptor`: ``description``, ``read_only``,
@@ -33,7 +45,7 @@ class ParameterMethods:
             name, value, descriptor, ignore_override=ignore_override, **fields
         )
 
-    def declare_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
+    def declare_parameters(self, values: Mapping[str, ParamValue]) -> dict[str, ParamValue]:
         """Declare several parameters with their defaults; returns their values."""
         return {name: self.parameters.declare(name, value) for name, value in values.items()}
 
@@ -41,17 +53,17 @@ class ParameterMethods:
         """Whether the node has declared ``name``."""
         return self.parameters.has(name)
 
-    def get_parameter(self, name: str) -> Any:
+    def get_parameter(self, name: str) -> ParamValue:
         """A parameter's value; ParameterNotDeclaredError for an unknown name."""
         return self.parameters.get(name)
 
-    def set_parameter(self, name: str, value: Any) -> None:
+    def set_parameter(self, name: str, value: ParamValue) -> None:
         """Set a parameter; raises ParameterError with the reason when it is refused."""
         result = self.parameters.set(name, value)
         if not result:
             raise ParameterError(result.reason)
 
-    def set_parameters(self, values: Mapping[str, Any]) -> list[SetResult]:
+    def set_parameters(self, values: Mapping[str, ParamValue]) -> list[SetResult]:
         """Set parameters one by one; a result for each."""
         return self.parameters.set_many(values)
 
@@ -59,7 +71,7 @@ class ParameterMethods:
         """Remove a declared parameter (not a read-only one)."""
         self.parameters.undeclare(name)
 
-    def add_on_set_parameters_callback(self, callback: Callable[[list[Any]], object]) -> None:
+    def add_on_set_parameters_callback(self, callback: Callable[[list[Parameter]], object]) -> None:
         """``callback(parameters)`` may refuse changes (return False, ``(False, reason)`` or a
         SetResult); it runs where the node spins when the change comes from the network."""
         self.parameters.add_on_set_callback(callback)

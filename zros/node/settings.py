@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.keyexpr.names import (
     Remapping,
@@ -15,21 +15,44 @@ from zros.keyexpr.names import (
     validate_namespace,
     validate_node_name,
 )
+from zros.params import ParamValue
 from zros.params.files import load_file, parse_override, values_for
 from zros.runtime.clock import use_sim_time_from_environment
 from zros.runtime.logger import INFO, level_from_environment, parse_level
 from zros.transport import Transport, TransportConfig, default_transport
+from zros.transport.config import SessionOptions
 from zros.wire import check_wire
+
+if TYPE_CHECKING:
+    from zros.cdr import TypeRegistry
 
 PathLike = str | os.PathLike[str]
 
 
+class NodeOptions(SessionOptions, total=False):
+    """The keyword arguments of ``Node(...)`` that ``zros.init`` passes on."""
+
+    transport: Transport | None
+    registry: TypeRegistry | None
+    remap: Iterable[str] | dict[str, str] | None
+    use_sim_time: bool | None
+    log_level: str | int | None
+    enable_rosout: bool
+    parameters: Mapping[str, ParamValue] | None
+    params_file: PathLike | Sequence[PathLike] | None
+    allow_undeclared_parameters: bool
+    start_parameter_services: bool
+    wire: str | None
+    domain_id: int | None
+    immediate_callbacks: bool
+
+
 def parameter_overrides(
     node_fqn: str,
-    parameters: Mapping[str, Any] | None,
+    parameters: Mapping[str, ParamValue] | None,
     params_files: PathLike | Sequence[PathLike] | None,
     ros_args: RosArgs,
-) -> dict[str, Any]:
+) -> dict[str, ParamValue]:
     """A node's parameter values from code, files and ``-p`` (later ones win)."""
     overrides = dict(parameters or {})
     if params_files is None:
@@ -57,7 +80,7 @@ class NodeSettings:
     name: str
     namespace: str
     remapping: Remapping
-    overrides: dict[str, Any]
+    overrides: dict[str, ParamValue]
     use_sim_time: bool
     log_level: int
     wire: str
@@ -77,7 +100,7 @@ class NodeSettings:
         args: Sequence[str] | None,
         use_sim_time: bool | None,
         log_level: str | int | None,
-        parameters: Mapping[str, Any] | None,
+        parameters: Mapping[str, ParamValue] | None,
         params_file: PathLike | Sequence[PathLike] | None,
         wire: str | None,
     ) -> NodeSettings:
@@ -116,7 +139,7 @@ def node_transport(
     config: TransportConfig | None,
     wire: str,
     wire_given: bool,
-    settings: dict[str, Any],
+    settings: SessionOptions,
 ) -> Transport:
     """The session of a node: ``transport``, else the process's (opened with ``config`` or
     the settings of ``TransportConfig.create``)."""

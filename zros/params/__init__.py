@@ -7,14 +7,22 @@ from zros.params.client import (
     ParameterTimeoutError,
     subscribe_parameter_events,
 )
-from zros.params.descriptor import Descriptor, Parameter, ParameterNotDeclaredError, SetResult
+from zros.params.descriptor import (
+    Descriptor,
+    DescriptorFields,
+    Parameter,
+    ParameterNotDeclaredError,
+    SetResult,
+)
 from zros.params.files import dump, load_file, parse_file_text, parse_override, values_for
 from zros.params.store import ParameterStore
-from zros.params.values import ParameterError, ParameterType
+from zros.params.values import ParameterError, ParameterType, ParamValue
 
 __all__ = [
     'Descriptor',
+    'DescriptorFields',
     'NodeNotFoundError',
+    'ParamValue',
     'Parameter',
     'ParameterClient',
     'ParameterError',

@@ -4,12 +4,19 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any
 
+from zros.cdr import FieldValue, Message
 from zros.keyexpr.names import validate_full_name
 from zros.params.descriptor import Descriptor, Parameter, SetResult
 from zros.params.server import SERVICE_TYPES
-from zros.params.values import ParameterError, ParameterType, from_message, infer_type, to_message
+from zros.params.values import (
+    ParameterError,
+    ParameterType,
+    ParamValue,
+    from_message,
+    infer_type,
+    to_message,
+)
 from zros.pubsub import Subscriber
 from zros.qos import PARAMETER_EVENTS
 from zros.runtime.clock import Time
@@ -44,11 +51,12 @@ class ParameterClient:
         self._Value = registry.get_class('rcl_interfaces/msg/ParameterValue')
         self._Parameter = registry.get_class('rcl_interfaces/msg/Parameter')
 
-    def _call(self, service: str, timeout: float | None, **fields: Any) -> Any:
+    def _call(self, service: str, timeout: float | None, **fields: FieldValue) -> Message:
         client = self._clients[service]
         wait = self.timeout if timeout is None else timeout
         try:
-            return client.call(timeout=wait, **fields)
+            response: Message = client.call(timeout=wait, **fields)
+            return response
         except ServiceUnavailableError:
             raise NodeNotFoundError(
                 f'no node {self.target} serves parameters (nothing answers {client.name})'
@@ -69,7 +77,9 @@ class ParameterClient:
         response = self._call('list_parameters', timeout, prefixes=list(prefixes), depth=depth)
         return list(response.result.names)
 
-    def get_parameters(self, names: Iterable[str], timeout: float | None = None) -> dict[str, Any]:
+    def get_parameters(
+        self, names: Iterable[str], timeout: float | None = None
+    ) -> dict[str, ParamValue]:
         """Values by name; names the node does not have map to None."""
         names = list(names)
         response = self._call('get_parameters', timeout, names=names)
@@ -81,7 +91,7 @@ class ParameterClient:
             return {names[0]: None}
         return {name: self.get(name, timeout) for name in names}
 
-    def get(self, name: str, timeout: float | None = None) -> Any:
+    def get(self, name: str, timeout: float | None = None) -> ParamValue:
         """One parameter's value (None when the node does not have it)."""
         return self.get_parameters([name], timeout)[name]
 
@@ -109,7 +119,7 @@ class ParameterClient:
             name: dataclasses.replace(d, name=name) for name, d in zip(names, found, strict=True)
         }
 
-    def _messages(self, values: Mapping[str, Any] | Iterable[Parameter]) -> list[Any]:
+    def _messages(self, values: Mapping[str, ParamValue] | Iterable[Parameter]) -> list[Message]:
         items = (
             [Parameter(name, value) for name, value in values.items()]
             if isinstance(values, Mapping)
@@ -123,21 +133,21 @@ class ParameterClient:
         return messages
 
     def set_parameters(
-        self, values: Mapping[str, Any] | Iterable[Parameter], timeout: float | None = None
+        self, values: Mapping[str, ParamValue] | Iterable[Parameter], timeout: float | None = None
     ) -> list[SetResult]:
         """Set parameters one by one (each may fail on its own); None deletes a parameter."""
         response = self._call('set_parameters', timeout, parameters=self._messages(values))
         return [SetResult(r.successful, r.reason) for r in response.results]
 
     def set_parameters_atomically(
-        self, values: Mapping[str, Any] | Iterable[Parameter], timeout: float | None = None
+        self, values: Mapping[str, ParamValue] | Iterable[Parameter], timeout: float | None = None
     ) -> SetResult:
         """Set parameters all or none."""
         messages = self._messages(values)
         response = self._call('set_parameters_atomically', timeout, parameters=messages)
         return SetResult(response.result.successful, response.result.reason)
 
-    def set(self, name: str, value: Any, timeout: float | None = None) -> None:
+    def set(self, name: str, value: ParamValue, timeout: float | None = None) -> None:
         """Set one parameter; raises ParameterError with the node's reason if it refuses."""
         (result,) = self.set_parameters({name: value}, timeout)
         if not result:
@@ -158,15 +168,15 @@ class ParameterEvent:
 
     node: str
     stamp: Time
-    new: dict[str, Any]
-    changed: dict[str, Any]
+    new: dict[str, ParamValue]
+    changed: dict[str, ParamValue]
     deleted: list[str]
 
     @classmethod
-    def from_message(cls, message: Any) -> ParameterEvent:
+    def from_message(cls, message: Message) -> ParameterEvent:
         """The event of an ``rcl_interfaces/msg/ParameterEvent`` message."""
 
-        def values(items: Any) -> dict[str, Any]:
+        def values(items: Iterable[Message]) -> dict[str, ParamValue]:
             return {item.name: from_message(item.value)[0] for item in items}
 
         return cls(
@@ -184,7 +194,7 @@ def subscribe_parameter_events(
     """Call ``callback(event)`` (while ``node`` spins) for each parameter change on the network,
     or only those of ``node_name``."""
 
-    def on_message(message: Any) -> None:
+    def on_message(message: Message) -> None:
         if node_name is None or message.node == node_name:
             callback(ParameterEvent.from_message(message))
 

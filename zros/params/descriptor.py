@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
-from zros.params.values import ParameterError, ParameterType
+if TYPE_CHECKING:
+    from zros.cdr import Message, TypeRegistry
+
+from zros.params.values import ParameterError, ParameterType, ParamValue
 
 
 class ParameterNotDeclaredError(ParameterError, KeyError):
@@ -17,12 +20,24 @@ class ParameterNotDeclaredError(ParameterError, KeyError):
         return str(self.args[0])
 
 
+class DescriptorFields(TypedDict, total=False):
+    """``Descriptor`` fields given by keyword (``declare_parameter(..., read_only=True)``)."""
+
+    type: ParameterType
+    description: str
+    additional_constraints: str
+    read_only: bool
+    dynamic_typing: bool
+    integer_range: tuple[int, int, int] | None
+    floating_point_range: tuple[float, float, float] | None
+
+
 @dataclass(frozen=True)
 class Parameter:
     """A parameter's name, value and type."""
 
     name: str
-    value: Any
+    value: ParamValue
     type: ParameterType | None = None  #: None: inferred from the value
 
 
@@ -42,7 +57,7 @@ class Descriptor:
     integer_range: tuple[int, int, int] | None = None
     floating_point_range: tuple[float, float, float] | None = None
 
-    def to_message(self, registry: Any) -> Any:
+    def to_message(self, registry: TypeRegistry) -> Message:
         """This descriptor as an ``rcl_interfaces/msg/ParameterDescriptor``."""
         message = registry.get_class('rcl_interfaces/msg/ParameterDescriptor')(
             name=self.name,
@@ -65,7 +80,7 @@ class Descriptor:
         return message
 
     @classmethod
-    def from_message(cls, message: Any) -> Descriptor:
+    def from_message(cls, message: Message) -> Descriptor:
         """A descriptor from an ``rcl_interfaces/msg/ParameterDescriptor``."""
         integer = message.integer_range[0] if len(message.integer_range) else None
         floating = message.floating_point_range[0] if len(message.floating_point_range) else None

@@ -24,9 +24,12 @@ import math
 import os
 import re
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
-from zros.params.values import ParameterError, ParameterType, infer_type
+from zros.params.values import ParameterError, ParameterType, ParamValue, infer_type
+
+if TYPE_CHECKING:
+    from zros.cdr import Untyped
 
 PARAMETERS_KEY = 'ros__parameters'
 
@@ -41,7 +44,11 @@ _SPECIAL = re.compile(r'[+-]?(?:inf|infinity|nan)', re.IGNORECASE)
 _YAML_SPECIAL = re.compile(r'[+-]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)')
 
 
-def scalar(text: str, quoted: bool) -> Any:
+#: the (node pattern, values) entries of a parameter file, in file order
+Entries = list[tuple[str, dict[str, ParamValue]]]
+
+
+def scalar(text: str, quoted: bool) -> ParamValue:
     """The value of one YAML scalar, typed as rcl types parameter values."""
     if quoted:
         return text
@@ -72,18 +79,18 @@ def scalar(text: str, quoted: bool) -> Any:
     return text
 
 
-def _yaml() -> Any:
+def _yaml() -> Untyped:
     from ruamel.yaml import YAML
 
     return YAML(typ='safe', pure=True)
 
 
-def _where(origin: str, node: Any) -> str:
+def _where(origin: str, node: Untyped) -> str:
     mark = getattr(node, 'start_mark', None)
     return f'{origin}:{mark.line + 1}' if mark is not None else origin
 
 
-def _value(node: Any, origin: str, key: Any = None) -> Any:
+def _value(node: Untyped, origin: str, key: Untyped = None) -> ParamValue:
     from ruamel.yaml.nodes import MappingNode, ScalarNode, SequenceNode
 
     if isinstance(node, ScalarNode):
@@ -112,7 +119,7 @@ def _value(node: Any, origin: str, key: Any = None) -> Any:
     raise ParameterError(f'{_where(origin, node)}: unreadable value')
 
 
-def _flatten(node: Any, prefix: str, origin: str, into: dict[str, Any]) -> None:
+def _flatten(node: Untyped, prefix: str, origin: str, into: dict[str, ParamValue]) -> None:
     from ruamel.yaml.nodes import MappingNode
 
     for key_node, value_node in node.value:
@@ -123,7 +130,7 @@ def _flatten(node: Any, prefix: str, origin: str, into: dict[str, Any]) -> None:
             into[name] = _value(value_node, origin, key_node)
 
 
-def _walk(node: Any, path: str, origin: str, found: list[tuple[str, dict[str, Any]]]) -> None:
+def _walk(node: Untyped, path: str, origin: str, found: Entries) -> None:
     from ruamel.yaml.nodes import MappingNode
 
     if not isinstance(node, MappingNode):
@@ -136,14 +143,14 @@ def _walk(node: Any, path: str, origin: str, found: list[tuple[str, dict[str, An
                 raise ParameterError(f'{_where(origin, key_node)}: {PARAMETERS_KEY} needs a node')
             if not isinstance(value_node, MappingNode):
                 raise ParameterError(f'{_where(origin, value_node)}: expected name: value pairs')
-            values: dict[str, Any] = {}
+            values: dict[str, ParamValue] = {}
             _flatten(value_node, '', origin, values)
             found.append((path, values))
         else:
             _walk(value_node, f'{path}/{key.strip("/")}', origin, found)
 
 
-def parse_file_text(text: str, origin: str = '<parameters>') -> list[tuple[str, dict[str, Any]]]:
+def parse_file_text(text: str, origin: str = '<parameters>') -> Entries:
     """The (node pattern, parameters) entries of a parameter file, in file order."""
     from ruamel.yaml.error import YAMLError
 
@@ -151,13 +158,13 @@ def parse_file_text(text: str, origin: str = '<parameters>') -> list[tuple[str, 
         root = _yaml().compose(text)
     except YAMLError as exc:
         raise ParameterError(f'{origin}: not valid YAML: {exc}') from None
-    found: list[tuple[str, dict[str, Any]]] = []
+    found: Entries = []
     if root is not None:
         _walk(root, '', origin, found)
     return found
 
 
-def load_file(path: str | os.PathLike[str]) -> list[tuple[str, dict[str, Any]]]:
+def load_file(path: str | os.PathLike[str]) -> Entries:
     """The (node pattern, parameters) entries of a parameter file, in file order."""
     file = Path(path)
     try:
@@ -184,16 +191,16 @@ def node_matches(pattern: str, node_fqn: str) -> bool:
     return match(0, 0)
 
 
-def values_for(entries: list[tuple[str, dict[str, Any]]], node_fqn: str) -> dict[str, Any]:
+def values_for(entries: Entries, node_fqn: str) -> dict[str, ParamValue]:
     """The values the entries give one node, later entries overriding earlier ones."""
-    result: dict[str, Any] = {}
+    result: dict[str, ParamValue] = {}
     for pattern, values in entries:
         if node_matches(pattern, node_fqn):
             result.update(values)
     return result
 
 
-def parse_override(text: str) -> tuple[str, Any]:
+def parse_override(text: str) -> tuple[str, ParamValue]:
     """A ``-p name:=value`` command-line override (the value is YAML, typed as in files)."""
     name, separator, value = text.partition(':=')
     if not separator or not name:
@@ -210,7 +217,7 @@ def parse_override(text: str) -> tuple[str, Any]:
 # --- writing -----------------------------------------------------------------------------------
 
 
-def _format_scalar(value: Any) -> str:
+def _format_scalar(value: ParamValue) -> str:
     if isinstance(value, bool):
         return 'true' if value else 'false'
     if isinstance(value, int):
@@ -224,7 +231,7 @@ def _format_scalar(value: Any) -> str:
     return json.dumps(str(value), ensure_ascii=False)  # a JSON string is a YAML double-quoted one
 
 
-def _format(value: Any) -> str:
+def _format(value: ParamValue) -> str:
     if isinstance(value, (bytes, bytearray)):
         return f'!!binary {base64.b64encode(bytes(value)).decode()}'
     if isinstance(value, list):
@@ -232,8 +239,8 @@ def _format(value: Any) -> str:
     return _format_scalar(value)
 
 
-def _nest(values: dict[str, Any]) -> dict[str, Any]:
-    tree: dict[str, Any] = {}
+def _nest(values: dict[str, ParamValue]) -> dict[str, ParamValue]:
+    tree: dict[str, ParamValue] = {}
     for name, value in sorted(values.items()):
         parts = name.split('.')
         level = tree
@@ -248,11 +255,11 @@ def _nest(values: dict[str, Any]) -> dict[str, Any]:
     return tree
 
 
-def dump(node_fqn: str, values: dict[str, Any]) -> str:
+def dump(node_fqn: str, values: dict[str, ParamValue]) -> str:
     """The parameters of one node as a ROS 2 parameter file (``ros2 param dump`` layout)."""
     lines = [f'{node_fqn}:', f'  {PARAMETERS_KEY}:']
 
-    def emit(tree: dict[str, Any], indent: int) -> None:
+    def emit(tree: dict[str, ParamValue], indent: int) -> None:
         for key, value in tree.items():
             if isinstance(value, dict):
                 lines.append(f'{" " * indent}{key}:')

@@ -9,7 +9,10 @@ every user callback.
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from zros.cdr import Message
 
 from zenoh import ZError
 
@@ -81,13 +84,13 @@ class ParameterServer:
 
     # --- conversions -----------------------------------------------------------------------------
 
-    def _message(self, parameter: Parameter) -> Any:
+    def _message(self, parameter: Parameter) -> Message:
         kind = parameter.type or ParameterType.NOT_SET
         return self._Parameter(
             name=parameter.name, value=to_message(parameter.value, kind, self._Value)
         )
 
-    def _incoming(self, message: Any) -> Parameter | str:
+    def _incoming(self, message: Message) -> Parameter | str:
         try:
             value, kind = from_message(message.value)
         except ParameterError as exc:
@@ -96,31 +99,31 @@ class ParameterServer:
 
     # --- the services --------------------------------------------------------------------------
 
-    def _list(self, request: Any, response: Any) -> Any:
+    def _list(self, request: Message, response: Message) -> Message:
         names, prefixes = self.store.list_parameters(list(request.prefixes), request.depth)
         response.result.names = names
         response.result.prefixes = prefixes
         return response
 
-    def _get(self, request: Any, response: Any) -> Any:
+    def _get(self, request: Message, response: Message) -> Message:
         parameters = [self.store.parameter(name) for name in request.names]
         response.values = [
             to_message(p.value, p.type or ParameterType.NOT_SET, self._Value) for p in parameters
         ]
         return response
 
-    def _types(self, request: Any, response: Any) -> Any:
+    def _types(self, request: Message, response: Message) -> Message:
         response.types = [int(self.store.type_of(name)) for name in request.names]
         return response
 
-    def _describe(self, request: Any, response: Any) -> Any:
+    def _describe(self, request: Message, response: Message) -> Message:
         registry = self._context.registry
         response.descriptors = [
             self.store.describe(name).to_message(registry) for name in request.names
         ]
         return response
 
-    def _set(self, request: Any, response: Any) -> Any:
+    def _set(self, request: Message, response: Message) -> Message:
         results = []
         for message in request.parameters:
             parameter = self._incoming(message)
@@ -132,7 +135,7 @@ class ParameterServer:
         response.results = results
         return response
 
-    def _set_atomically(self, request: Any, response: Any) -> Any:
+    def _set_atomically(self, request: Message, response: Message) -> Message:
         parameters = []
         for message in request.parameters:
             parameter = self._incoming(message)

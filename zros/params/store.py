@@ -8,11 +8,15 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 from zros.params.descriptor import (
     OK,
     Descriptor,
+    DescriptorFields,
     Parameter,
     ParameterNotDeclaredError,
     SetResult,
@@ -23,13 +27,14 @@ from zros.params.files import dump as dump_file
 from zros.params.values import (
     ParameterError,
     ParameterType,
+    ParamValue,
     infer_type,
     normalize,
     same,
 )
 
 
-def _items(values: Mapping[str, Any] | Iterable[Parameter]) -> list[Parameter]:
+def _items(values: Mapping[str, ParamValue] | Iterable[Parameter]) -> list[Parameter]:
     if isinstance(values, Mapping):
         return [Parameter(name, value) for name, value in values.items()]
     return list(values)
@@ -55,7 +60,7 @@ def _callback_result(answer: object) -> SetResult:
 
 @dataclass
 class _Entry:
-    value: Any
+    value: ParamValue
     descriptor: Descriptor
     kind: ParameterType = field(default=ParameterType.NOT_SET)
 
@@ -71,11 +76,11 @@ class ParameterStore:
     def __init__(
         self,
         node_name: str,
-        overrides: Mapping[str, Any] | None = None,
+        overrides: Mapping[str, ParamValue] | None = None,
         allow_undeclared: bool = False,
     ) -> None:
         self.node_name = node_name
-        self.overrides: dict[str, Any] = dict(overrides or {})
+        self.overrides: dict[str, ParamValue] = dict(overrides or {})
         self.allow_undeclared = allow_undeclared
         self._entries: dict[str, _Entry] = {}
         self._callbacks: list[SetCallback] = []
@@ -94,12 +99,12 @@ class ParameterStore:
     def declare(
         self,
         name: str,
-        value: Any = None,
+        value: ParamValue = None,
         descriptor: Descriptor | None = None,
         *,
         ignore_override: bool = False,
-        **fields: Any,
-    ) -> Any:
+        **fields: Unpack[DescriptorFields],
+    ) -> ParamValue:
         """Declare a parameter; returns its value (the override's, if one was given)."""
         if not name:
             raise ParameterError('a parameter needs a name')
@@ -121,7 +126,7 @@ class ParameterStore:
         self._changed([parameter], [], [])
         return value
 
-    def _type_of(self, name: str, value: Any, descriptor: Descriptor) -> ParameterType:
+    def _type_of(self, name: str, value: ParamValue, descriptor: Descriptor) -> ParameterType:
         try:
             kind = infer_type(value, descriptor.type)
         except ParameterError as exc:
@@ -146,7 +151,7 @@ class ParameterStore:
         with self._lock:
             return name in self._entries
 
-    def get(self, name: str) -> Any:
+    def get(self, name: str) -> ParamValue:
         """The value of a parameter (None for an unknown one when undeclared ones are allowed)."""
         with self._lock:
             entry = self._entries.get(name)
@@ -183,7 +188,7 @@ class ParameterStore:
         with self._lock:
             return sorted(self._entries)
 
-    def values(self) -> dict[str, Any]:
+    def values(self) -> dict[str, ParamValue]:
         """Every parameter's value, by name."""
         with self._lock:
             return {name: entry.value for name, entry in sorted(self._entries.items())}
@@ -272,7 +277,7 @@ class ParameterStore:
         return None
 
     def _prepare(
-        self, name: str, value: Any, kind_hint: ParameterType | None
+        self, name: str, value: ParamValue, kind_hint: ParameterType | None
     ) -> tuple[Parameter, str | None, str]:
         """The parameter a set would make, a refusal reason, and what it does (new/changed/
         deleted)."""
@@ -324,7 +329,7 @@ class ParameterStore:
         problem = self._check_value(parameter, descriptor)
         return parameter, problem, 'changed' if entry is not None else 'new'
 
-    def set_atomically(self, values: Mapping[str, Any] | Iterable[Parameter]) -> SetResult:
+    def set_atomically(self, values: Mapping[str, ParamValue] | Iterable[Parameter]) -> SetResult:
         """Set several parameters, all or none."""
         items = _items(values)
         new: list[Parameter] = []
@@ -359,11 +364,11 @@ class ParameterStore:
         self._changed(new, changed, deleted)
         return OK
 
-    def set(self, name: str, value: Any) -> SetResult:
+    def set(self, name: str, value: ParamValue) -> SetResult:
         """Set one parameter (None undeclares a dynamically typed one)."""
         return self.set_atomically([Parameter(name, value)])
 
-    def set_many(self, values: Mapping[str, Any] | Iterable[Parameter]) -> list[SetResult]:
+    def set_many(self, values: Mapping[str, ParamValue] | Iterable[Parameter]) -> list[SetResult]:
         """Set parameters one by one: each succeeds or fails on its own."""
         return [self.set_atomically([item]) for item in _items(values)]
 

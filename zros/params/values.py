@@ -4,9 +4,16 @@ from __future__ import annotations
 
 import enum
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
+
+if TYPE_CHECKING:
+    from zros.cdr import Message
+
+#: A parameter's value (boundary): bool, int, float, str, bytes or a list of one of them, as the
+#: user or a remote node chose at run time; ``ParameterType`` says which.
+ParamValue = Any
 
 
 class ParameterError(ZrosError):
@@ -117,7 +124,7 @@ def infer_type(value: object, expected: ParameterType = ParameterType.NOT_SET) -
     raise ParameterError(f'{type(value).__name__} is not a parameter type')
 
 
-def normalize(value: object, kind: ParameterType) -> Any:
+def normalize(value: object, kind: ParameterType) -> ParamValue:
     """The canonical Python form of a value of type ``kind`` (lists, not arrays or tuples)."""
     if kind is ParameterType.NOT_SET:
         return None
@@ -138,7 +145,7 @@ def normalize(value: object, kind: ParameterType) -> Any:
     return [normalize(item, element) for item in value]  # type: ignore[attr-defined]
 
 
-def to_message(value: Any, kind: ParameterType, message_class: type[Any]) -> Any:
+def to_message(value: ParamValue, kind: ParameterType, message_class: type[Message]) -> Message:
     """An ``rcl_interfaces/msg/ParameterValue``."""
     message = message_class(type=int(kind))
     if kind is not ParameterType.NOT_SET:
@@ -146,7 +153,7 @@ def to_message(value: Any, kind: ParameterType, message_class: type[Any]) -> Any
     return message
 
 
-def from_message(message: Any) -> tuple[Any, ParameterType]:
+def from_message(message: Message) -> tuple[ParamValue, ParameterType]:
     """The Python value and type of an ``rcl_interfaces/msg/ParameterValue``."""
     try:
         kind = ParameterType(message.type)
@@ -162,7 +169,7 @@ def from_message(message: Any) -> tuple[Any, ParameterType]:
     return raw, kind
 
 
-def same(a: Any, b: Any) -> bool:
+def same(a: ParamValue, b: ParamValue) -> bool:
     """Whether two parameter values are equal (NaN equals NaN, as a change detector needs)."""
     if isinstance(a, float) and isinstance(b, float):
         return a == b or (math.isnan(a) and math.isnan(b))
@@ -171,7 +178,7 @@ def same(a: Any, b: Any) -> bool:
     return bool(type(a) is type(b) and a == b)
 
 
-def describe_value(value: Any, limit: int = 60) -> str:
+def describe_value(value: object, limit: int = 60) -> str:
     """A short ``repr`` of ``value`` for messages (cut at ``limit``)."""
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + '...'

@@ -6,7 +6,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zenoh import CongestionControl, Reliability, ext
 
@@ -20,6 +20,11 @@ from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity, message_class
 from zros.runtime.signal import sleep
+
+if TYPE_CHECKING:
+    from zenoh import Publisher as ZenohPublisher
+
+    from zros.wire import WireEntity
 
 
 class Publisher(Entity):
@@ -50,7 +55,7 @@ class Publisher(Entity):
         )  # fmt: skip
         self.key = wire.key
         self.gid = wire.gid  #: rmw_zenoh: the GID in its attachments (and its token's hash)
-        self._publisher: Any = self._keep(self._declare(wire))
+        self._publisher = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
         # types that can grow large (sequences) reuse one output buffer while their messages are
         # large; small ones are joined into fresh bytes (faster for them). Every put holds the
@@ -67,7 +72,7 @@ class Publisher(Entity):
             self._large = self._buffer.threshold
         self._announce()
 
-    def _declare(self, wire: Any) -> Any:
+    def _declare(self, wire: WireEntity) -> ZenohPublisher | ext.AdvancedPublisher:
         qos = self.qos
         congestion = CongestionControl.BLOCK if qos.reliable else CongestionControl.DROP
         reliability = Reliability.RELIABLE if qos.reliable else Reliability.BEST_EFFORT
@@ -78,9 +83,10 @@ class Publisher(Entity):
                 publisher_detection=True, congestion_control=congestion, reliability=reliability,
                 **wire.publisher_options(qos),
             )  # fmt: skip
-        return session.declare_publisher(
+        publisher: ZenohPublisher = session.declare_publisher(
             self.key, congestion_control=congestion, reliability=reliability
         )
+        return publisher
 
     def write(self, message: Message) -> None:
         """Publish a message (rosR: ``ros.WriteMessage``)."""

@@ -4,16 +4,19 @@ it, if the graph knows one, and its session."""
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.graph import graph_of
 from zros.keyexpr.kinds import EntityKind
 from zros.runtime.context import NodeContext
 
+if TYPE_CHECKING:
+    from zenoh import Sample
+
 _log = logging.getLogger('zros')
 
 
-def describe_sender(sample: Any, key: str, context: NodeContext, topic: str) -> str:
+def describe_sender(sample: Sample, key: str, context: NodeContext, topic: str) -> str:
     """A log-friendly name for the sender of ``sample`` (``key`` from
     ``zros.runtime.drops.sender_key``): with the node that announced it, if any, and its
     session."""
@@ -24,7 +27,7 @@ def describe_sender(sample: Any, key: str, context: NodeContext, topic: str) -> 
         return key
 
 
-def _describe(sample: Any, key: str, context: NodeContext, topic: str) -> str:
+def _describe(sample: Sample, key: str, context: NodeContext, topic: str) -> str:
     kind, _, ident = key.partition(':')
     publishers = graph_of(context.transport).endpoints((EntityKind.PUBLISHER,))
     if kind == 'gid':

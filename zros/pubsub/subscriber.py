@@ -14,6 +14,8 @@ import time
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
+from zenoh import Sample
+
 from zros.cdr import CdrError
 from zros.cdr.message import Message, decode
 from zros.cdr.registry import registry_of
@@ -22,7 +24,7 @@ from zros.pubsub.senders import describe_sender
 from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.drops import DropCounter, sender_key
-from zros.runtime.entity import Entity, Sample, message_class
+from zros.runtime.entity import Entity, message_class
 from zros.runtime.executor import Work
 from zros.runtime.sample_queue import KEEP_ALL_BYTES, SampleQueue
 from zros.runtime.signal import (
@@ -33,6 +35,10 @@ from zros.runtime.signal import (
 )
 
 _log = logging.getLogger('zros')
+
+#: what a subscriber hands over (boundary): a message of its type (chosen at run time), or its
+#: CDR bytes when ``raw``; None where a reader got nothing
+Received = Any
 
 
 class Subscriber(Entity):
@@ -54,7 +60,7 @@ class Subscriber(Entity):
         self,
         topic: str,
         msg_type: str | type[Message],
-        callback: Callable[[Any], object] | None = None,
+        callback: Callable[[Received], object] | None = None,
         qos: QoSLike | None = None,
         *,
         node: NodeLike | None = None,
@@ -81,13 +87,13 @@ class Subscriber(Entity):
             None if self.qos.keep_all else self.qos.depth, max_queue, max_queue_bytes
         )
         self._reading = threading.Lock()  #: one reader at a time
-        self._checked: Any = None  #: the sample has_new_message decoded, and its message
-        self._checked_message: Any = None
+        self._checked: Sample | None = None  #: the sample has_new_message decoded, and its message
+        self._checked_message: Received = None
         self._work = Work(self._dispatch)
         self._schedule = context.executor.schedule
         self._arrived = Signal()  #: threads waiting for a message
         self._async_wakers: list[Callable[[], None]] = []
-        self._last: Any = None
+        self._last: Received = None
         self.undecodable = 0  #: samples that did not decode as the type
         self._drops = DropCounter(self.topic)
         self._overflows = DropCounter(self.topic)
@@ -146,7 +152,7 @@ class Subscriber(Entity):
 
     # --- reading ---------------------------------------------------------------------------
 
-    def _convert(self, sample: Sample) -> Any:
+    def _convert(self, sample: Sample) -> Received:
         if sample is self._checked:
             message = self._checked_message
             self._checked = self._checked_message = None
@@ -161,13 +167,13 @@ class Subscriber(Entity):
             self._drop(sample, f'it does not decode as {self.type_name}: {exc}')
             return None
 
-    def _convert_all(self, samples: list[Sample]) -> list[Any]:
+    def _convert_all(self, samples: list[Sample]) -> list[Received]:
         """The messages of ``samples`` (under ``self._reading``), dropping the undecodable."""
         if self.raw:
             return [m for m in map(self._convert, samples) if m is not None]
         cls = self.msg_type
         checked = self._checked  # decoded already by has_new_message
-        messages: list[Any] = []
+        messages: list[Received] = []
         append = messages.append
         for sample in samples:
             if sample is checked:
@@ -203,7 +209,7 @@ class Subscriber(Entity):
                 queue.discard(sample)
             return False
 
-    def read_message(self) -> Any:
+    def read_message(self) -> Received:
         """The newest message (rosR: ``ros.ReadMessage``); unread older ones are discarded.
 
         Returns the last message read again when nothing new came, and None before the first.
@@ -217,9 +223,9 @@ class Subscriber(Entity):
             self._checked = self._checked_message = None
         return self._last
 
-    def take(self, max_messages: int | None = None) -> list[Any]:
+    def take(self, max_messages: int | None = None) -> list[Received]:
         """Every unread message, oldest first (up to ``max_messages``)."""
-        messages: list[Any] = []
+        messages: list[Received] = []
         with self._reading:
             while max_messages is None or len(messages) < max_messages:
                 samples = self._queue.pop(
@@ -237,7 +243,7 @@ class Subscriber(Entity):
     def _has_message(self) -> bool:
         return bool(self._queue) or self._closed
 
-    def wait_for_message(self, timeout: float | None = None) -> Any:
+    def wait_for_message(self, timeout: float | None = None) -> Received:
         """Block until a message is unread, then return the oldest one (None on timeout, once
         the subscriber is closed, and after Ctrl-C)."""
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -263,7 +269,7 @@ class Subscriber(Entity):
             done += 1
         return done
 
-    async def __aiter__(self) -> AsyncIterator[Any]:
+    async def __aiter__(self) -> AsyncIterator[Received]:
         """Messages as they arrive: ``async for message in subscriber`` (ends on close and
         on Ctrl-C)."""
         loop = asyncio.get_running_loop()

@@ -13,12 +13,14 @@ import logging
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
+from zenoh import Sample
+
 from zros.errors import ZrosError
 from zros.graph import Endpoint, graph_of
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, History, QoS, Reliability
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity, Sample
+from zros.runtime.entity import Entity
 from zros.wire import any_type_key, read_attachment
 
 _log = logging.getLogger('zros')

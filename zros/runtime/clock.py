@@ -13,9 +13,9 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import overload
 
-from zros.cdr import new_message
+from zros.cdr import Message, new_message
 from zros.runtime.signal import Signal
 
 _NS = 1_000_000_000
@@ -37,11 +37,11 @@ class Duration:
         return cls(_nanoseconds(seconds))
 
     @classmethod
-    def from_msg(cls, message: Any) -> Duration:
+    def from_msg(cls, message: Message) -> Duration:
         """From a ``builtin_interfaces/msg/Duration``."""
         return cls(message.sec * _NS + message.nanosec)
 
-    def to_msg(self) -> Any:
+    def to_msg(self) -> Message:
         """A ``builtin_interfaces/msg/Duration``."""
         sec, nanosec = divmod(self.nanoseconds, _NS)
         return new_message('builtin_interfaces/msg/Duration', sec=sec, nanosec=nanosec)
@@ -91,11 +91,11 @@ class Time:
         return cls(_nanoseconds(seconds))
 
     @classmethod
-    def from_msg(cls, message: Any) -> Time:
+    def from_msg(cls, message: Message) -> Time:
         """From a ``builtin_interfaces/msg/Time`` (e.g. ``msg.header.stamp``)."""
         return cls(message.sec * _NS + message.nanosec)
 
-    def to_msg(self) -> Any:
+    def to_msg(self) -> Message:
         """A ``builtin_interfaces/msg/Time``, ready for ``msg.header.stamp``."""
         sec, nanosec = divmod(self.nanoseconds, _NS)
         return new_message('builtin_interfaces/msg/Time', sec=sec, nanosec=nanosec)
@@ -130,7 +130,13 @@ class Time:
 
     __radd__ = __add__
 
-    def __sub__(self, other: Time | Duration) -> Any:
+    @overload
+    def __sub__(self, other: Time) -> Duration: ...
+
+    @overload
+    def __sub__(self, other: Duration) -> Time: ...
+
+    def __sub__(self, other: Time | Duration) -> Time | Duration:
         if isinstance(other, Time):
             return Duration(self.nanoseconds - other.nanoseconds)
         if isinstance(other, Duration):

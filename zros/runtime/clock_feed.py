@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import logging
 
+from zenoh import Sample
+
 from zros.cdr import CdrError, decode
+from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS, Reliability
 from zros.runtime.clock import SimClock, Time
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity, Sample
+from zros.runtime.entity import Entity
 
 _log = logging.getLogger('zros')
 
@@ -25,7 +28,7 @@ class ClockSubscription(Entity):
         qos = QoS(1, Reliability.BEST_EFFORT)
         # announced as the bridge's own subscriber: no zros node owns it
         wire = self._place(
-            EntityKind.SUBSCRIBER, '/clock', self._cls.__msgtype__, self._cls._registry,
+            EntityKind.SUBSCRIBER, '/clock', self._cls.__msgtype__, registry_of(self._cls),
             qos=qos, owned=False,
         )  # fmt: skip
         self.key = wire.key

@@ -16,9 +16,12 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.wire import read_attachment
+
+if TYPE_CHECKING:
+    from zenoh import Sample
 
 _log = logging.getLogger('zros')
 
@@ -29,7 +32,7 @@ MAX_SENDERS = 256
 OTHERS = 'other senders (too many to tell apart)'
 
 
-def sender_key(sample: Any) -> str:
+def sender_key(sample: Sample) -> str:
     """Who sent ``sample``, as precisely as it tells: the GID of its rmw_zenoh attachment, its
     Zenoh source info, else the id in its timestamp (the sending session's, or that of the
     first router on its way when the sender does not timestamp)."""

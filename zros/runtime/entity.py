@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
-from zenoh import ZError, ext
+from zenoh import Query, Sample, ZError, ext
 
 from zros.cdr import Message
 from zros.keyexpr.kinds import EntityKind
@@ -30,7 +30,15 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros')
 
-Sample = Any  #: a Zenoh sample, on a delivery thread or Zenoh's
+
+class Undeclarable(Protocol):
+    """A Zenoh object an entity declared: subscriber, queryable, publisher, querier..."""
+
+    def undeclare(self) -> None:
+        """Withdraw it from the session."""
+
+
+D = TypeVar('D', bound=Undeclarable)
 
 
 def message_class(registry: TypeRegistry, msg_type: str | type[Message]) -> type[Message]:
@@ -66,7 +74,7 @@ class Entity:
         self.context.check_open()
         self.gid: bytes | None = None  #: its GID, on wires that give entities one
         self._tokens: tuple[str, ...] = ()
-        self._declared: list[Any] = []
+        self._declared: list[Undeclarable] = []
         self._parts: list[Entity] = []
         self._closed = False
 
@@ -94,7 +102,7 @@ class Entity:
         """More tokens announcing it (an action as a whole)."""
         self._tokens += tokens
 
-    def _keep(self, declared: Any) -> Any:
+    def _keep(self, declared: D) -> D:
         """Undeclare ``declared`` (a Zenoh subscriber, queryable...) when it closes."""
         self._declared.append(declared)
         return declared
@@ -112,7 +120,7 @@ class Entity:
         batches: Callable[[list[Sample]], None] | None = None,
         rejected: Callable[[Sample], None] | None = None,
         late_publishers: bool = True,
-    ) -> Any:
+    ) -> Undeclarable:
         """Subscribe to ``wire.key``: ``callback(sample)`` for each sample the wire accepts
         (or ``batches(samples)`` for several at once), ``rejected(sample)`` for the others
         (default: a debug line), on a thread that is not the spinning one (zros's delivery
@@ -125,6 +133,7 @@ class Entity:
         refuse = rejected or self._rejected(wire.rejection)
         on_samples = wire.admitting(batches, refuse)
         session = self.context.transport.session
+        subscriber: Undeclarable
         if qos.transient_local:
             history = ext.HistoryConfig(detect_late_publishers=late_publishers,
                                         max_samples=qos.depth)  # fmt: skip
@@ -133,8 +142,9 @@ class Entity:
                 **wire.subscriber_options(qos),
             )  # fmt: skip
         else:
-            subscriber = session.declare_subscriber(wire.key, delivery.channel())
-            delivery.deliver(subscriber, on_samples, wire.key)
+            plain = session.declare_subscriber(wire.key, delivery.channel())
+            delivery.deliver(plain, on_samples, wire.key)
+            subscriber = plain
         return self._keep(subscriber)
 
     def _rejected(self, reason: str) -> Callable[[Sample], None]:
@@ -143,11 +153,12 @@ class Entity:
 
         return rejected
 
-    def _serve(self, wire: WireEntity, callback: Callable[[Any], None]) -> Any:
+    def _serve(self, wire: WireEntity, callback: Callable[[Query], None]) -> Undeclarable:
         """A queryable on ``wire.key`` calling ``callback(query)`` on Zenoh's thread."""
         session = self.context.transport.session
         options = self.context.wire.queryable_options()
-        return self._keep(session.declare_queryable(wire.key, callback, **options))
+        queryable: Undeclarable = session.declare_queryable(wire.key, callback, **options)
+        return self._keep(queryable)
 
     def _announce(self) -> None:
         """Declare its tokens (after its Zenoh objects) and have the node close it."""

@@ -17,7 +17,7 @@ import threading
 import time
 import weakref
 from collections.abc import Callable, Coroutine
-from typing import Any, Protocol, TypeVar
+from typing import Protocol, TypeVar
 
 from zros.runtime.clock import Clock
 from zros.runtime.signal import Signal, interrupted
@@ -234,7 +234,7 @@ class Executor:
             self._spin_loop = None
             self._async_wakers.remove(waker)
 
-    def run_coroutine(self, coroutine: Coroutine[Any, Any, T]) -> concurrent.futures.Future[T]:
+    def run_coroutine(self, coroutine: Coroutine[object, None, T]) -> concurrent.futures.Future[T]:
         """Run an async callback: on the loop of :meth:`spin_async` while one spins, else on
         an event loop thread of the executor's own (started on first use)."""
         loop = self._spin_loop

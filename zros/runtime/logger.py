@@ -19,7 +19,10 @@ import os
 import sys
 import threading
 import time
-from typing import Any, NamedTuple, Protocol
+from typing import TYPE_CHECKING, NamedTuple, Protocol, TypedDict
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 DEBUG, INFO, WARN, ERROR, FATAL = 10, 20, 30, 40, 50
 LEVELS = {'debug': DEBUG, 'info': INFO, 'warn': WARN, 'warning': WARN, 'error': ERROR,
@@ -28,6 +31,14 @@ _NAMES = {DEBUG: 'DEBUG', INFO: 'INFO', WARN: 'WARN', ERROR: 'ERROR', FATAL: 'FA
 
 #: the Python logger every ROS record goes through
 PY_LOGGER = 'ros'
+
+
+class LogOptions(TypedDict, total=False):
+    """What limits the repeats of a log call (see :meth:`Logger.log`)."""
+
+    once: bool
+    throttle: float | None
+    skip_first: bool
 
 
 class RosoutRecord(NamedTuple):
@@ -220,25 +231,25 @@ class Logger:
         record.ros_published = sink is not None
         self._py.handle(record)
 
-    def debug(self, message: object, **options: Any) -> bool:
+    def debug(self, message: object, **options: Unpack[LogOptions]) -> bool:
         """Log at DEBUG; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, DEBUG, stacklevel=2, **options)
 
-    def info(self, message: object, **options: Any) -> bool:
+    def info(self, message: object, **options: Unpack[LogOptions]) -> bool:
         """Log at INFO; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, INFO, stacklevel=2, **options)
 
-    def warn(self, message: object, **options: Any) -> bool:
+    def warn(self, message: object, **options: Unpack[LogOptions]) -> bool:
         """Log at WARN; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, WARN, stacklevel=2, **options)
 
     warning = warn
 
-    def error(self, message: object, **options: Any) -> bool:
+    def error(self, message: object, **options: Unpack[LogOptions]) -> bool:
         """Log at ERROR; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, ERROR, stacklevel=2, **options)
 
-    def fatal(self, message: object, **options: Any) -> bool:
+    def fatal(self, message: object, **options: Unpack[LogOptions]) -> bool:
         """Log at FATAL; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, FATAL, stacklevel=2, **options)
 

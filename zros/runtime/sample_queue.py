@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import collections
 import threading
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from zenoh import Sample
 
 #: a keep-all subscriber holds unread messages up to this many bytes, then drops new ones
 KEEP_ALL_BYTES = 256 * 1024 * 1024
@@ -19,7 +22,7 @@ KEEP_ALL_BYTES = 256 * 1024 * 1024
 SAMPLE_OVERHEAD = 384
 
 
-def _cost(sample: Any) -> int:
+def _cost(sample: Sample) -> int:
     return len(sample.payload) + SAMPLE_OVERHEAD
 
 
@@ -32,7 +35,7 @@ class SampleQueue:
             raise ValueError(f'max_queue must be at least 1, got {max_count}')
         if max_bytes is not None and max_bytes < 1:
             raise ValueError(f'max_queue_bytes must be at least 1, got {max_bytes}')
-        self._items: collections.deque[Any] = collections.deque(maxlen=depth)
+        self._items: collections.deque[Sample] = collections.deque(maxlen=depth)
         self.max_count = max_count if depth is None else None
         self.max_bytes = max_bytes if depth is None else None
         self._bytes = 0  #: keep-all: what the queue holds, overheads included
@@ -52,7 +55,7 @@ class SampleQueue:
         """Keep-all: the bytes held, overheads included (0 for keep-last)."""
         return self._bytes
 
-    def put(self, samples: list[Any]) -> int:
+    def put(self, samples: list[Sample]) -> int:
         """Queue ``samples`` in order; returns how many a keep-all queue refused at its bounds
         (they are dropped)."""
         limit = self.max_bytes
@@ -84,14 +87,14 @@ class SampleQueue:
             self.received += 1
             self.rejected += 1
 
-    def newest(self) -> Any:
+    def newest(self) -> Sample | None:
         """The newest unread sample, or None."""
         try:
             return self._items[-1]
         except IndexError:
             return None
 
-    def pop(self, limit: int | None = None) -> list[Any]:
+    def pop(self, limit: int | None = None) -> list[Sample]:
         """Up to ``limit`` (None: every) unread samples, oldest first."""
         with self._lock:
             items = self._items
@@ -105,7 +108,7 @@ class SampleQueue:
                 self._bytes -= sum(map(_cost, samples))
             return samples
 
-    def discard(self, sample: Any) -> None:
+    def discard(self, sample: Sample) -> None:
         """Take ``sample`` out, wherever it is (a keep-last queue may have pushed it out)."""
         with self._lock:
             items = self._items

@@ -9,11 +9,11 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
 
-from zenoh.handlers import Callback
+from zenoh import Reply
+from zenoh.handlers import Callback, Handler
 
-from zros.cdr import CdrError
+from zros.cdr import CdrError, FieldValue
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
 from zros.cdr.registry import registry_of
@@ -30,8 +30,6 @@ from zros.services.errors import (
     ServiceUnavailableError,
     service_type,
 )
-
-Reply = Any  #: a Zenoh reply, received on Zenoh's thread
 
 
 class Client(Entity):
@@ -78,7 +76,8 @@ class Client(Entity):
 
     def service_is_ready(self) -> bool:
         """Whether a server (a zros one, or a ROS one behind a bridge) is reachable now."""
-        return bool(self._querier.matching_status.matching)
+        status = self._querier.matching_status  # a MatchingStatus: the stub says bool
+        return bool(status.matching)  # type: ignore[attr-defined]
 
     def wait_for_service(self, timeout: float | None = 5.0) -> bool:
         """Wait until a server is reachable; returns whether one showed up in time (False once
@@ -86,7 +85,7 @@ class Client(Entity):
         self._matching.wait_for(lambda: self._closed or self.service_is_ready(), timeout)
         return not self._closed and self.service_is_ready()
 
-    def _request(self, request: Message | None, fields: dict[str, Any]) -> bytes:
+    def _request(self, request: Message | None, fields: dict[str, FieldValue]) -> bytes:
         if self._closed:
             raise ServiceError(f'the client of {self.name} was closed')
         if request is None:
@@ -98,16 +97,20 @@ class Client(Entity):
             raise TypeError(f'{self.name} takes {self.Request.__msgtype__}, not {got}')
         return encode(request)
 
-    def _send(self, data: bytes, timeout: float, handler: Any, attachment: bytes | None) -> Any:
-        """Send a request (with what the wire attaches); Zenoh's reply channel."""
-        return self._get(
+    def _send(
+        self, data: bytes, timeout: float, handler: Callback[Reply] | None, attachment: bytes | None
+    ) -> Handler[Reply] | None:
+        """Send a request (with what the wire attaches); Zenoh's reply channel (None when
+        ``handler`` takes the replies)."""
+        replies: Handler[Reply] | None = self._get(
             self.key, handler, payload=data, timeout=timeout,
             **self._wire.query_options(attachment),
         )  # fmt: skip
+        return replies
 
     def _outcome(
         self, reply: Reply, started: float, timeout: float, sent: bytes | None = None
-    ) -> Any:
+    ) -> Message | ServiceError:
         """The response of a reply, or the error to raise."""
         if reply.ok is not None:
             mismatch = self._wire.reply_problem(reply.ok, sent)
@@ -121,6 +124,8 @@ class Client(Entity):
                     f'the reply of {self.name} does not decode as '
                     f'{self.Response.__msgtype__}: {exc}'
                 )
+        if reply.err is None:  # Zenoh gives one of the two
+            return ServiceCallError(f'{self.name} replied with neither a response nor an error')
         text = reply.err.payload.to_string()
         if text.startswith(ERROR_PREFIX):
             return ServiceCallError(text[len(ERROR_PREFIX) :])
@@ -135,8 +140,8 @@ class Client(Entity):
         )
 
     def call(
-        self, request: Message | None = None, timeout: float | None = None, **fields: Any
-    ) -> Any:
+        self, request: Message | None = None, timeout: float | None = None, **fields: FieldValue
+    ) -> Message:
         """Call the service and return its response (see the class docstring for errors);
         Ctrl-C raises KeyboardInterrupt."""
         data = self._request(request, fields)
@@ -146,7 +151,8 @@ class Client(Entity):
         if threading.current_thread() is threading.main_thread():
             # Zenoh's reply channel runs the signal handler, which raises in this block
             with raises_on_interrupt():
-                reply = next(iter(self._send(data, timeout, None, sent)), None)
+                replies = self._send(data, timeout, None, sent)
+                reply = next(iter(replies), None) if replies is not None else None
         else:
             reply = self._first_reply(data, timeout, sent)
         if reply is None:
@@ -156,19 +162,19 @@ class Client(Entity):
             raise outcome
         return outcome
 
-    def _first_reply(self, data: bytes, timeout: float, sent: bytes | None) -> Reply:
+    def _first_reply(self, data: bytes, timeout: float, sent: bytes | None) -> Reply | None:
         """The first reply (None if none came) waited for where Ctrl-C can end the wait: a
         Rust channel cannot be interrupted from another thread, a Signal can."""
-        first: list[Any] = []
+        first: list[Reply | None] = []
         arrived = Signal()
 
-        def on_reply(reply: Reply) -> None:
+        def on_reply(reply: Reply | None) -> None:
             if not first:
                 first.append(reply)
                 arrived.notify()
 
         # on Zenoh's thread, which only hands the reply over
-        handler = Callback(on_reply, lambda: on_reply(None), indirect=False)
+        handler: Callback[Reply] = Callback(on_reply, lambda: on_reply(None), indirect=False)
         self._send(data, timeout, handler, sent)
         if not arrived.wait_for(lambda: bool(first), None):  # Zenoh ends every query in time
             raise KeyboardInterrupt
@@ -180,8 +186,8 @@ class Client(Entity):
         self,
         request: Message | None = None,
         timeout: float | None = None,
-        callback: Callable[[Any], object] | None = None,
-        **fields: Any,
+        callback: Callable[[ServiceFuture], object] | None = None,
+        **fields: FieldValue,
     ) -> ServiceFuture:
         """Send a request and return at once: a future to ``await`` or ``.result()``.
 

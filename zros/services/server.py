@@ -14,7 +14,8 @@ import inspect
 import logging
 import time
 from collections.abc import Callable, Coroutine
-from typing import Any
+
+from zenoh import Query
 
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
@@ -35,10 +36,8 @@ from zros.services.errors import (
 
 _log = logging.getLogger('zros')
 
-Query = Any  #: a Zenoh query, received on Zenoh's thread
 
-
-def _takes_response(handler: Callable[..., Any]) -> bool:
+def _takes_response(handler: Callable[..., object]) -> bool:
     """Whether ``handler`` has rclpy's form ``handler(request, response)``."""
     try:
         parameters = inspect.signature(handler).parameters.values()
@@ -71,7 +70,7 @@ class Service(Entity):
         self,
         name: str,
         srv_type: str | ServiceType,
-        handler: Callable[..., Any] | None = None,
+        handler: Callable[..., object] | None = None,
         *,
         node: NodeLike | None = None,
         announce: bool = True,
@@ -127,7 +126,7 @@ class Service(Entity):
 
     # --- answering ---------------------------------------------------------------------------
 
-    def _reply(self, query: Query, response: Message, arrived: float) -> None:
+    def _reply(self, query: Query, response: object, arrived: float) -> None:
         if type(response) is not self.Response:
             got = getattr(response, '__msgtype__', type(response).__name__)
             self._fail(
@@ -204,8 +203,10 @@ class Service(Entity):
                 self._reply(query, result, arrived)
         return done
 
-    def _await(self, coroutine: Coroutine[Any, Any, Any], query: Query, arrived: float) -> None:
-        def finished(future: concurrent.futures.Future[Any]) -> None:
+    def _await(
+        self, coroutine: Coroutine[object, None, object], query: Query, arrived: float
+    ) -> None:
+        def finished(future: concurrent.futures.Future[object]) -> None:
             try:
                 response = future.result()
             except BaseException as exc:  # CancelledError too: the query must be answered
@@ -223,7 +224,7 @@ class Service(Entity):
         """Whether a request waits to be taken."""
         return bool(self._pending)
 
-    def take_request(self) -> Any:
+    def take_request(self) -> Message | None:
         """The oldest waiting request (None when there is none); answer it with ``respond``."""
         while self._pending:
             query, arrived = self._pending.popleft()
@@ -233,7 +234,7 @@ class Service(Entity):
                 return request
         return None
 
-    def wait_for_request(self, timeout: float | None = None) -> Any:
+    def wait_for_request(self, timeout: float | None = None) -> Message | None:
         """Block until a request comes, then take it (None on timeout, once closed, and after
         Ctrl-C)."""
         deadline = None if timeout is None else time.monotonic() + timeout

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.cdr.errors import UnknownTypeError
 from zros.cdr.hashing import message_text, type_description, type_hash
@@ -28,6 +28,7 @@ from zros.services.errors import ServiceError
 from zros.services.server import Service
 
 if TYPE_CHECKING:
+    from zros.cdr import JsonValue
     from zros.cdr.message import Message
     from zros.cdr.registry import TypeRegistry
 
@@ -69,7 +70,7 @@ class TypeDescriptionService:
             return None
         return registry
 
-    def _answer(self, request: Any) -> Any:
+    def _answer(self, request: Message) -> Message:
         response = self._service.Response
         name = request.type_name
         registry = self._registry_for(name)
@@ -98,7 +99,7 @@ class TypeDescriptionService:
         self._service.close()
 
 
-def _sources(registry: TypeRegistry, description: dict[str, Any]) -> Iterable[dict[str, str]]:
+def _sources(registry: TypeRegistry, description: dict[str, JsonValue]) -> Iterable[dict[str, str]]:
     """TypeSource entries (``msg`` text with comments) for the types parsed from text."""
     individuals = [description['type_description'], *description['referenced_type_descriptions']]
     for individual in individuals:
@@ -111,7 +112,7 @@ def _sources(registry: TypeRegistry, description: dict[str, Any]) -> Iterable[di
             yield {'type_name': name, 'encoding': 'msg', 'raw_file_contents': definition.source}
 
 
-def register_description(registry: TypeRegistry, response: Any, origin: str) -> None:
+def register_description(registry: TypeRegistry, response: Message, origin: str) -> None:
     """Register the definitions of a successful answer: the sources' text where given (it has
     the constants and comments), else text rebuilt from the description."""
     texts = {

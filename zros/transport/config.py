@@ -25,13 +25,19 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
 from zros.errors import SettingError
 from zros.transport.credentials import HIDDEN, check_user, key_file_secrets, redact, secret_values
 from zros.transport.endpoints import normalize, parse_endpoint
 from zros.transport.errors import TransportError, zenoh_reason
 from zros.transport.tlsfiles import require_file
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+    from zenoh import Config as ZenohConfig
+
+    from zros.cdr.model import JsonValue
 
 #: zenoh-bridge-ros2dds and zenohd listen here by default
 DEFAULT_ENDPOINT = 'tcp/127.0.0.1:7447'
@@ -87,7 +93,7 @@ def _endpoints(value: str | Sequence[str] | None) -> tuple[str, ...] | None:
     return tuple(normalize(item) for item in items if item.strip())
 
 
-def listen_endpoints(config: Any) -> list[str]:
+def listen_endpoints(config: ZenohConfig) -> list[str]:
     """The endpoints a ``zenoh.Config`` listens on in its mode (per-mode lists resolved)."""
     mode = json.loads(config.get_json('mode')) or 'peer'
     endpoints = json.loads(config.get_json('listen/endpoints')) or []
@@ -96,7 +102,7 @@ def listen_endpoints(config: Any) -> list[str]:
     return [str(endpoint) for endpoint in endpoints]
 
 
-def _zenoh_default(config: Any, key: str) -> bool:
+def _zenoh_default(config: ZenohConfig, key: str) -> bool:
     """Whether ``config`` has Zenoh's default value for ``key`` (nobody set it)."""
     import zenoh
 
@@ -123,6 +129,37 @@ class Tls:
         require_file(self.private_key, 'private key')
 
 
+class SettingOptions(TypedDict, total=False):
+    """The settings of a session beyond its endpoints, mode and file (``TransportConfig``'s)."""
+
+    multicast_scouting: bool
+    shared_memory: bool | None
+    tls: Tls | None
+    user: str | None
+    password: str | None
+    zenoh: dict[str, JsonValue]
+
+
+class ConfigOptions(SettingOptions, total=False):
+    """The keywords of :meth:`TransportConfig.create` beyond its named parameters."""
+
+    wire: str | None
+
+
+class SessionOptions(SettingOptions, total=False):
+    """The session settings a node passes on to :meth:`TransportConfig.create`."""
+
+    listen: str | Sequence[str] | None
+    mode: str | None
+    config_file: str | os.PathLike[str] | None
+
+
+class TransportOptions(SessionOptions, total=False):
+    """Every keyword of :meth:`TransportConfig.create` but ``connect``."""
+
+    wire: str | None
+
+
 @dataclass(frozen=True, repr=False)
 class TransportConfig:
     """The Zenoh session settings of a zros process (see the module docstring for defaults).
@@ -140,7 +177,7 @@ class TransportConfig:
     tls: Tls | None = None
     user: str | None = None
     password: str | None = None
-    zenoh: dict[str, Any] = field(default_factory=dict)
+    zenoh: dict[str, JsonValue] = field(default_factory=dict)
     wire: str | None = None  #: 'rmw_zenoh': rmw_zenoh's session defaults (None: the bridge's)
 
     def __post_init__(self) -> None:
@@ -177,7 +214,7 @@ class TransportConfig:
         listen: str | Sequence[str] | None = None,
         mode: str | None = None,
         config_file: str | os.PathLike[str] | None = None,
-        **options: Any,
+        **options: Unpack[ConfigOptions],
     ) -> TransportConfig:
         """Settings from arguments, falling back on the environment for what is not given."""
         env = os.environ
@@ -202,7 +239,7 @@ class TransportConfig:
             raise SettingError(f'mode must be "client" or "peer", got {config.mode!r}')
         return config
 
-    def to_zenoh(self) -> Any:
+    def to_zenoh(self) -> ZenohConfig:
         """The ``zenoh.Config`` these settings describe (TransportError if Zenoh refuses one)."""
         import zenoh
 
@@ -211,7 +248,7 @@ class TransportConfig:
         def unset(key: str) -> bool:
             return json.loads(config.get_json(key)) in (None, [], '')
 
-        def put(key: str, value: Any, text: str | None = None) -> None:
+        def put(key: str, value: JsonValue, text: str | None = None) -> None:
             try:
                 config.insert_json5(key, json.dumps(value) if text is None else text)
             except zenoh.ZError as exc:
@@ -262,23 +299,26 @@ class TransportConfig:
                     put(key, value)
         return config
 
-    def _base(self) -> Any:
+    def _base(self) -> ZenohConfig:
         """The configuration file's settings, or Zenoh's defaults."""
         import zenoh
 
+        config: ZenohConfig  # the stubs' Self is lost on Python 3.10: name the type here
         if not self.config_file:
-            return zenoh.Config()
+            config = zenoh.Config()
+            return config
         path = Path(self.config_file)
         if not path.is_file():
             raise TransportError(f'the Zenoh configuration file {path} does not exist')
         try:
-            return zenoh.Config.from_file(str(path))
+            config = zenoh.Config.from_file(str(path))
         except zenoh.ZError as exc:
             reason = zenoh_reason(exc, self.secrets())
             message = f'the Zenoh configuration file {path} is invalid: {reason}'
             raise TransportError(message) from None
+        return config
 
-    def _tls_listener(self, listening: list[str]) -> dict[str, Any]:
+    def _tls_listener(self, listening: list[str]) -> dict[str, JsonValue]:
         """What a node with TLS needs to listen on ``listening``: TLS endpoints only, and its
         own certificate for them (the CA and ``enable_mtls`` verify the clients)."""
         if not listening or self.tls is None:

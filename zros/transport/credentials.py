@@ -15,9 +15,14 @@ import shutil
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.errors import SettingError
+
+if TYPE_CHECKING:
+    from zenoh import Config
+
+    from zros.cdr.model import JsonValue
 
 HIDDEN = '***'
 DICTIONARY = 'transport/auth/usrpwd/dictionary_file'
@@ -29,9 +34,9 @@ def secret_setting(path: str) -> bool:
     return 'password' in last or ('private_key' in last and last.endswith(('_base64', '_pem')))
 
 
-def redact(settings: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
+def redact(settings: Mapping[str, JsonValue], prefix: str = '') -> dict[str, JsonValue]:
     """``settings`` (Zenoh paths to values, nested or not) with every secret value hidden."""
-    shown: dict[str, Any] = {}
+    shown: dict[str, JsonValue] = {}
     for key, value in settings.items():
         path = f'{prefix}/{key}' if prefix else str(key)
         if isinstance(value, Mapping):
@@ -43,7 +48,7 @@ def redact(settings: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
     return shown
 
 
-def secret_values(settings: Mapping[str, Any], prefix: str = '') -> list[str]:
+def secret_values(settings: Mapping[str, JsonValue], prefix: str = '') -> list[str]:
     """The secret values in ``settings`` (see :func:`redact`), as text."""
     found: list[str] = []
     for key, value in settings.items():
@@ -84,7 +89,7 @@ def check_user(user: str, password: str | None) -> None:
 
 
 @contextlib.contextmanager
-def password_dictionary(config: Any, user: str | None, password: str | None) -> Iterator[None]:
+def password_dictionary(config: Config, user: str | None, password: str | None) -> Iterator[None]:
     """While open, ``config`` (a ``zenoh.Config``) names a private file that admits ``user``.
 
     Does nothing without a user, or when the settings name a dictionary file already.

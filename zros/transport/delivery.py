@@ -18,13 +18,11 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Callable
-from typing import Any
 
-from zenoh import ZError, handlers
+from zenoh import Sample, Subscriber, ZError, handlers
 
 _log = logging.getLogger('zros')
 
-Sample = Any  #: a Zenoh sample
 BatchCallback = Callable[[list[Sample]], None]
 
 #: samples the channel holds before Zenoh's delivery waits for the thread (Zenoh's own default)
@@ -35,12 +33,15 @@ BATCH = 256
 THREAD_SUFFIX = '(zros delivery)'
 
 
-def channel() -> Any:
+def channel() -> handlers.FifoChannel[Sample]:
     """The handler to declare a delivered subscription with."""
-    return handlers.FifoChannel(CHANNEL_SIZE)
+    fifo: handlers.FifoChannel[Sample] = handlers.FifoChannel(CHANNEL_SIZE)
+    return fifo
 
 
-def deliver(subscriber: Any, callback: BatchCallback, name: str) -> threading.Thread:
+def deliver(
+    subscriber: Subscriber[handlers.Handler[Sample]], callback: BatchCallback, name: str
+) -> threading.Thread:
     """Start the thread that hands the samples of ``subscriber`` (declared with :func:`channel`)
     to ``callback(samples)``, oldest first, in batches of up to :data:`BATCH`. Exceptions of
     ``callback`` are logged, and the thread goes on."""
@@ -52,7 +53,7 @@ def deliver(subscriber: Any, callback: BatchCallback, name: str) -> threading.Th
     return thread
 
 
-def _run(handler: Any, callback: BatchCallback, name: str) -> None:
+def _run(handler: handlers.Handler[Sample], callback: BatchCallback, name: str) -> None:
     recv, try_recv = handler.recv, handler.try_recv
     closed = False
     while not closed:

@@ -18,10 +18,16 @@ import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.errors import ZrosError
 from zros.transport.config import Tls
+
+if TYPE_CHECKING:
+    from cryptography import x509
+    from cryptography.hazmat.primitives.asymmetric.ec import EllipticCurvePrivateKey
+
+    from zros.cdr.model import JsonValue
 
 ROUTER = 'router'
 #: the names a client's certificate carries for peers on its own machine
@@ -75,9 +81,9 @@ class Certificates:
         name = name or self.clients[0]
         return Tls(str(self.ca), str(self.client_certificate(name)), str(self.client_key(name)))
 
-    def router_settings(self, mutual: bool = True) -> dict[str, Any]:
+    def router_settings(self, mutual: bool = True) -> dict[str, JsonValue]:
         """Zenoh settings of the router, by path (``start_router(..., zenoh=...)``)."""
-        settings: dict[str, Any] = {
+        settings: dict[str, JsonValue] = {
             'transport/link/tls/listen_certificate': str(self.router_certificate),
             'transport/link/tls/listen_private_key': str(self.router_key),
         }
@@ -92,7 +98,7 @@ class Certificates:
         The certificates are inlined (base64), so this one file is all the robot needs; it holds
         the router's private key.
         """
-        tls: dict[str, Any] = {}
+        tls: dict[str, JsonValue] = {}
         for key, value in self.router_settings(mutual).items():
             setting = key.rpartition('/')[2]
             if isinstance(value, str):
@@ -104,21 +110,21 @@ class Certificates:
         return json.dumps(config, indent=2) + '\n'
 
 
-def _crypto() -> Any:
+def _crypto() -> None:
+    """CertificateError unless the cryptography package is installed."""
     try:
         import cryptography  # noqa: F401
     except ImportError:
         raise CertificateError(
             "making certificates needs the cryptography package: pip install 'zros[tls]'"
         ) from None
+
+
+def _subject_names(hosts: Iterable[str]) -> list[x509.GeneralName]:
+    _crypto()
     from cryptography import x509
 
-    return x509
-
-
-def _subject_names(hosts: Iterable[str]) -> list[Any]:
-    x509 = _crypto()
-    names: list[Any] = []
+    names: list[x509.GeneralName] = []
     for host in hosts:
         try:
             names.append(x509.IPAddress(ipaddress.ip_address(host.strip('[]'))))
@@ -141,7 +147,8 @@ def make_certificates(
     ``hosts`` are the names and addresses clients dial (``tls/<host>:7447``): the router's
     certificate must name each. Private keys are written readable by their owner only.
     """
-    x509 = _crypto()
+    _crypto()
+    from cryptography import x509
     from cryptography.hazmat.primitives import hashes, serialization
     from cryptography.hazmat.primitives.asymmetric import ec
     from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
@@ -169,10 +176,12 @@ def make_certificates(
 
     now = datetime.datetime.now(datetime.timezone.utc)
 
-    def name(common_name: str) -> Any:
+    def name(common_name: str) -> x509.Name:
         return x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, common_name)])
 
-    def builder(subject: str, key: Any, issuer: Any) -> Any:
+    def builder(
+        subject: str, key: EllipticCurvePrivateKey, issuer: x509.Name
+    ) -> x509.CertificateBuilder:
         return (
             x509.CertificateBuilder()
             .subject_name(name(subject))
@@ -183,7 +192,7 @@ def make_certificates(
             .not_valid_after(now + datetime.timedelta(days=days))
         )
 
-    def write_key(path: Path, key: Any) -> None:
+    def write_key(path: Path, key: EllipticCurvePrivateKey) -> None:
         data = key.private_bytes(
             serialization.Encoding.PEM,
             serialization.PrivateFormat.PKCS8,
@@ -193,7 +202,7 @@ def make_certificates(
         with os.fdopen(descriptor, 'wb') as file:
             file.write(data)
 
-    def write_certificate(path: Path, certificate: Any) -> None:
+    def write_certificate(path: Path, certificate: x509.Certificate) -> None:
         path.write_bytes(certificate.public_bytes(serialization.Encoding.PEM))
 
     ca_key = ec.generate_private_key(ec.SECP256R1())
@@ -218,7 +227,12 @@ def make_certificates(
     write_certificate(result.ca, ca)
     write_key(result.folder / 'ca.key', ca_key)
 
-    def leaf(file_stem: str, subject: str, usages: list[Any], names: Any) -> None:
+    def leaf(
+        file_stem: str,
+        subject: str,
+        usages: list[x509.ObjectIdentifier],
+        names: x509.SubjectAlternativeName,
+    ) -> None:
         key = ec.generate_private_key(ec.SECP256R1())
         certificate = (
             builder(subject, key, ca.subject)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
 from zros.transport.credentials import check_user, password_dictionary, secret_values
 from zros.transport.endpoints import normalize, parse_endpoint
@@ -12,10 +12,15 @@ from zros.transport.errors import TransportError, zenoh_reason
 from zros.transport.session import _install_exit_hook, _open
 from zros.transport.tlsfiles import check_tls_files
 
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from zros.cdr.model import JsonValue
+
 
 def _tls_settings(
     listen: Sequence[str], certificate: str | None, private_key: str | None, client_ca: str | None
-) -> dict[str, Any]:
+) -> dict[str, JsonValue]:
     """Zenoh settings for TLS listeners with ``certificate``; clients verified by ``client_ca``."""
     if certificate is None and private_key is None and client_ca is None:
         return {}  # plain, or TLS by raw Zenoh settings
@@ -29,7 +34,7 @@ def _tls_settings(
             'could connect there without them'
         )
     check_tls_files(client_ca, certificate, private_key)
-    settings: dict[str, Any] = {
+    settings: dict[str, JsonValue] = {
         'transport/link/tls/listen_certificate': certificate,
         'transport/link/tls/listen_private_key': private_key,
     }
@@ -37,6 +42,18 @@ def _tls_settings(
         settings['transport/link/tls/root_ca_certificate'] = client_ca
         settings['transport/link/tls/enable_mtls'] = True
     return settings
+
+
+class RouterOptions(TypedDict, total=False):
+    """The keywords of :class:`Router` (for :func:`start_router`)."""
+
+    shared_memory: bool
+    zenoh: dict[str, JsonValue] | None
+    certificate: str | None
+    private_key: str | None
+    client_ca: str | None
+    user: str | None
+    password: str | None
 
 
 class Router:
@@ -53,7 +70,7 @@ class Router:
         listen: Sequence[str] = ('tcp/127.0.0.1:0',),
         *,
         shared_memory: bool = False,
-        zenoh: dict[str, Any] | None = None,
+        zenoh: dict[str, JsonValue] | None = None,
         certificate: str | None = None,
         private_key: str | None = None,
         client_ca: str | None = None,
@@ -65,7 +82,7 @@ class Router:
         listen = [normalize(endpoint) for endpoint in listen]
         if user is not None:
             check_user(user, password)
-        settings: dict[str, Any] = {
+        settings: dict[str, JsonValue] = {
             'mode': 'router',
             'listen': {'endpoints': list(listen)},
             'scouting': {'delay': 0, 'multicast': {'enabled': False}},
@@ -80,7 +97,7 @@ class Router:
             for key, value in extra.items():
                 config.insert_json5(key, json.dumps(value))
             with password_dictionary(config, user, password):
-                self.session: Any = z.open(config)
+                self.session: z.Session = z.open(config)
         except z.ZError as exc:
             reason = zenoh_reason(exc, secrets)
             if 'Address already in use' in reason:
@@ -114,7 +131,7 @@ class Router:
         if not self._closed:
             self._closed = True
             _open.discard(self)  # type: ignore[arg-type]
-            self.session.close()
+            self.session.close()  # type: ignore[no-untyped-call]  # untyped in zenoh's stub
 
     def __enter__(self) -> Router:
         return self
@@ -126,7 +143,9 @@ class Router:
         return f'<zros Router {self.endpoint}{" (closed)" if self._closed else ""}>'
 
 
-def start_router(listen: str | Sequence[str] = 'tcp/127.0.0.1:0', **options: Any) -> Router:
+def start_router(
+    listen: str | Sequence[str] = 'tcp/127.0.0.1:0', **options: Unpack[RouterOptions]
+) -> Router:
     """Start a router inside this process; ``router.endpoint`` is where clients connect.
 
     ``options``: those of :class:`Router` (TLS files, user and password, raw Zenoh settings).

@@ -16,7 +16,8 @@ import contextlib
 import logging
 import threading
 import weakref
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from zros.transport import delivery
 from zros.transport.config import TransportConfig, listen_endpoints
@@ -24,6 +25,9 @@ from zros.transport.credentials import password_dictionary
 from zros.transport.endpoints import parse_endpoint
 from zros.transport.errors import TransportError, zenoh_reason
 from zros.transport.tlsfiles import check_tls_files
+
+if TYPE_CHECKING:
+    import zenoh
 
 _log = logging.getLogger('zros.transport')
 
@@ -104,14 +108,14 @@ class Transport:
         user = self.config.user if listening else None
         try:
             with password_dictionary(zenoh_config, user, self.config.password):
-                self.session: Any = zenoh.open(zenoh_config)
+                self.session: zenoh.Session = zenoh.open(zenoh_config)
         except zenoh.ZError as exc:
             raise _explain(exc, self.config) from None
         self.zid = str(self.session.zid())
-        self._tokens: dict[str, tuple[Any, int]] = {}
+        self._tokens: dict[str, tuple[zenoh.LivelinessToken, int]] = {}
         self._token_lock = threading.Lock()
         self._closed = False
-        self._close_callbacks: list[Any] = []
+        self._close_callbacks: list[Callable[[], object]] = []
         self.links_lost = 0  #: how often a link to a router or peer went down
         self._links: set[str] = {str(z) for z in self.session.info.routers_zid()}
         self._link_listener = self.session.info.declare_transport_events_listener(
@@ -130,7 +134,7 @@ class Transport:
         """Whether the session has a link to a router or peer right now."""
         return bool(self._links)
 
-    def _on_transport_event(self, event: Any) -> None:
+    def _on_transport_event(self, event: zenoh.TransportEvent) -> None:
         import zenoh
 
         zid = str(event.transport.zid)
@@ -173,13 +177,13 @@ class Transport:
                 return
             del self._tokens[key]
         if not self._closed:
-            token.undeclare()
+            token.undeclare()  # type: ignore[no-untyped-call]  # untyped in zenoh's stub
 
-    def on_close(self, callback: Any) -> None:
+    def on_close(self, callback: Callable[[], object]) -> None:
         """Call ``callback()`` before the session closes (entities undeclare themselves)."""
         self._close_callbacks.append(callback)
 
-    def remove_on_close(self, callback: Any) -> None:
+    def remove_on_close(self, callback: Callable[[], object]) -> None:
         """Forget a callback given to :meth:`on_close` (its owner went first)."""
         with contextlib.suppress(ValueError):
             self._close_callbacks.remove(callback)
@@ -196,7 +200,7 @@ class Transport:
         self._closed = True
         _open.discard(self)
         self._tokens.clear()
-        self.session.close()
+        self.session.close()  # type: ignore[no-untyped-call]  # untyped in zenoh's stub
 
     def __enter__(self) -> Transport:
         return self

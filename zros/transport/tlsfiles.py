@@ -15,9 +15,12 @@ import re
 import ssl
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from zros.transport.errors import TlsFileError
+
+if TYPE_CHECKING:
+    from cryptography.x509 import Certificate
 
 FIX = 'make a matching set with `zros tls init FOLDER`'
 _BLOCK = re.compile(rb'-----BEGIN ([A-Z0-9 ]+)-----')
@@ -60,7 +63,7 @@ def _pem(path: str, role: str, wanted: str) -> bytes:
     raise TlsFileError(f'the {role} {path} is not a PEM file (no BEGIN {wanted} line); {FIX}')
 
 
-def _certificate(path: str, role: str) -> Any:
+def _certificate(path: str, role: str) -> Certificate | None:
     """Check a certificate file; its first certificate (a cryptography object) or None."""
     data = _pem(path, role, 'CERTIFICATE')
     try:
@@ -108,7 +111,7 @@ def _check_pair(certificate: str, key: str) -> None:
         ) from None
 
 
-def _can_serve(certificate: Any, path: str, hosts: Sequence[str]) -> None:
+def _can_serve(certificate: Certificate, path: str, hosts: Sequence[str]) -> None:
     """A peer's certificate must be a server certificate for the hosts other peers dial."""
     from cryptography import x509
     from cryptography.x509.oid import ExtendedKeyUsageOID

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+from typing import TYPE_CHECKING, ClassVar, Protocol, TypedDict
+
+from zenoh import ConsolidationMode, QueryTarget, Sample, ext
 
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
@@ -23,8 +25,36 @@ if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
     from zros.transport import Transport
 
-Sample = Any  #: a Zenoh sample (received on Zenoh's threads)
 SampleCallback = Callable[[Sample], None]
+
+
+class PublisherOptions(TypedDict, total=False):
+    """Extra options of a zenoh-ext advanced publisher."""
+
+    sample_miss_detection: ext.MissDetectionConfig
+
+
+class SubscriberOptions(TypedDict, total=False):
+    """Extra options of a zenoh-ext advanced subscriber."""
+
+    subscriber_detection: bool
+    recovery: ext.RecoveryConfig
+
+
+class QueryOptions(TypedDict, total=False):
+    """Extra options of ``session.get`` for a request."""
+
+    attachment: bytes | None
+    target: QueryTarget
+    consolidation: ConsolidationMode
+
+
+class QueryableOptions(TypedDict, total=False):
+    """Extra options of a server's queryable."""
+
+    complete: bool
+
+
 BatchCallback = Callable[[list[Sample]], None]
 
 
@@ -76,11 +106,11 @@ class WireEntity:
 
         return on_samples
 
-    def publisher_options(self, qos: QoS) -> dict[str, Any]:
+    def publisher_options(self, qos: QoS) -> PublisherOptions:
         """Extra options of a transient-local (zenoh-ext advanced) publisher."""
         return {}
 
-    def subscriber_options(self, qos: QoS) -> dict[str, Any]:
+    def subscriber_options(self, qos: QoS) -> SubscriberOptions:
         """Extra options of a transient-local (zenoh-ext advanced) subscriber."""
         return {}
 
@@ -92,7 +122,7 @@ class WireEntity:
         """What the next request of a client carries (None: nothing)."""
         return None
 
-    def query_options(self, attachment: bytes | None) -> dict[str, Any]:
+    def query_options(self, attachment: bytes | None) -> QueryOptions:
         """The options of ``session.get`` for a request carrying ``attachment``."""
         return {}
 
@@ -182,7 +212,7 @@ class Wire(abc.ABC):
     def any_type_key(key: str) -> str:
         """The key expression matching every type on a key the graph shows."""
 
-    def queryable_options(self) -> dict[str, Any]:
+    def queryable_options(self) -> QueryableOptions:
         """The options of a server's queryable: complete, so clients that ask only complete
         queryables find it."""
         return {'complete': True}

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import logging
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.cdr.hashing import type_hash
 from zros.keyexpr.bridge import CONFIG_SELECTOR, VERSION_SELECTOR, BridgeScheme, admin_key
@@ -22,7 +22,9 @@ from zros.transport.per_session import PerSession
 from zros.wire.base import Wire, WireEntity
 
 if TYPE_CHECKING:
-    from zros.cdr import TypeRegistry
+    from zenoh import Session
+
+    from zros.cdr import JsonValue, TypeRegistry
 
 _log = logging.getLogger('zros')
 
@@ -37,10 +39,10 @@ class BridgeInfo:
     nodename: str | None = None
 
     @classmethod
-    def from_admin(cls, zid: str, answers: dict[str, Any]) -> BridgeInfo:
+    def from_admin(cls, zid: str, answers: dict[str, JsonValue]) -> BridgeInfo:
         """A bridge from the JSON its admin space gave (``version`` and ``config``)."""
         config = answers.get('config')
-        settings: dict[str, Any] = config if isinstance(config, dict) else {}
+        settings: dict[str, JsonValue] = config if isinstance(config, dict) else {}
         version = answers.get('version')
         return cls(
             zid,
@@ -67,9 +69,11 @@ class BridgeInfo:
         return namespace.rstrip('/') + '/' + (self.nodename or 'zenoh_bridge_ros2dds')
 
 
-def _admin_answers(session: Any, selectors: tuple[str, ...], timeout: float) -> dict[str, Any]:
+def _admin_answers(
+    session: Session, selectors: tuple[str, ...], timeout: float
+) -> dict[str, dict[str, JsonValue]]:
     """``{zid: {item: json}}`` from the admin spaces answering ``selectors``."""
-    found: dict[str, dict[str, Any]] = {}
+    found: dict[str, dict[str, JsonValue]] = {}
     for selector in selectors:
         for reply in session.get(selector, timeout=timeout):
             if reply.ok is None:
@@ -85,13 +89,13 @@ def _admin_answers(session: Any, selectors: tuple[str, ...], timeout: float) -> 
     return found
 
 
-def query_bridges(session: Any, timeout: float = 1.0) -> dict[str, BridgeInfo]:
+def query_bridges(session: Session, timeout: float = 1.0) -> dict[str, BridgeInfo]:
     """Ask every reachable bridge for its version and configuration (ends at once without any)."""
     found = _admin_answers(session, (VERSION_SELECTOR, CONFIG_SELECTOR), timeout)
     return {zid: BridgeInfo.from_admin(zid, answers) for zid, answers in found.items()}
 
 
-def ask_bridge(session: Any, zid: str, timeout: float = 2.0) -> BridgeInfo:
+def ask_bridge(session: Session, zid: str, timeout: float = 2.0) -> BridgeInfo:
     """The version and configuration of the bridge ``zid`` (fields None where it is silent)."""
     selectors = (admin_key(zid, 'version'), admin_key(zid, 'config'))
     return BridgeInfo.from_admin(zid, _admin_answers(session, selectors, timeout).get(zid, {}))

@@ -7,7 +7,10 @@ servers only call :meth:`admit`, :meth:`reply` and :meth:`fail`.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from zenoh import Query
 
 
 class Requests:
@@ -18,28 +21,28 @@ class Requests:
         self.name = name
         self.error_prefix = error_prefix
 
-    def admit(self, query: Any) -> bool:
+    def admit(self, query: Query) -> bool:
         """Whether to handle ``query``; refused ones got their error reply already."""
         return True
 
-    def reply(self, query: Any, payload: bytes | bytearray) -> None:
+    def reply(self, query: Query, payload: bytes | bytearray) -> None:
         """Send the reply and end the query."""
         attachment = self._reply_attachment(query)
         self._finish(query, lambda: query.reply(query.key_expr, payload, attachment=attachment))
 
-    def fail(self, query: Any, reason: str) -> None:
+    def fail(self, query: Query, reason: str) -> None:
         """Send an error reply (``error_prefix`` + reason) and end the query."""
         self._finish(query, lambda: query.reply_err(self.error_prefix + reason))
 
-    def _reply_attachment(self, query: Any) -> bytes | None:
+    def _reply_attachment(self, query: Query) -> bytes | None:
         return None
 
-    def _forget(self, query: Any) -> None:
+    def _forget(self, query: Query) -> None:
         """The query is being answered: drop what was kept about it."""
 
-    def _finish(self, query: Any, answer: Callable[[], object]) -> None:
+    def _finish(self, query: Query, answer: Callable[[], object]) -> None:
         self._forget(query)
         try:
             answer()
         finally:
-            query.drop()
+            query.drop()  # type: ignore[no-untyped-call]  # untyped in zenoh's stub

@@ -19,9 +19,9 @@ import struct
 import threading
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Protocol
 
-from zenoh import ConsolidationMode, QueryTarget, ext
+from zenoh import ConsolidationMode, Query, QueryTarget, Sample, ZBytes, ext
 
 from zros.cdr.hashing import type_hash
 from zros.keyexpr.attachment import GID_SIZE, SIZE, Attachment, AttachmentError
@@ -30,7 +30,13 @@ from zros.keyexpr.rmw_zenoh import IdCounter, NodeToken, RmwZenohScheme, gid
 from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
-from zros.wire.base import Sample, Wire, WireEntity
+from zros.wire.base import (
+    PublisherOptions,
+    QueryOptions,
+    SubscriberOptions,
+    Wire,
+    WireEntity,
+)
 from zros.wire.requests import Requests
 
 if TYPE_CHECKING:
@@ -38,11 +44,20 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros')
 
+
 #: node and entity ids of a session's tokens: one counter for both, from 0 (as rmw_zenoh)
+class Attached(Protocol):
+    """A sample or query: what may carry an attachment."""
+
+    @property
+    def attachment(self) -> ZBytes | None:
+        """The attachment, if any."""
+
+
 entity_ids = PerSession(lambda transport: IdCounter())
 
 
-def has_attachment(carrier: Any) -> bool:
+def has_attachment(carrier: Attached) -> bool:
     """Whether a sample carries a valid rmw_zenoh attachment (fast for the 33-byte form)."""
     raw = carrier.attachment
     if raw is None:
@@ -57,7 +72,7 @@ def has_attachment(carrier: Any) -> bool:
     return True
 
 
-def read_attachment(carrier: Any) -> Attachment | None:
+def read_attachment(carrier: Attached) -> Attachment | None:
     """The rmw_zenoh attachment of a sample, query or reply; None if absent or malformed."""
     raw = carrier.attachment
     if raw is None:
@@ -104,7 +119,7 @@ class AttachedRequests(Requests):
         self._lock = threading.Lock()
         self._warned = False
 
-    def admit(self, query: Any) -> bool:
+    def admit(self, query: Query) -> bool:
         """Whether ``query`` passes rmw_zenoh's rules; refused ones got their error reply."""
         attachment = read_attachment(query)
         reason = None
@@ -131,13 +146,13 @@ class AttachedRequests(Requests):
         self.fail(query, reason)
         return False
 
-    def _reply_attachment(self, query: Any) -> bytes | None:
+    def _reply_attachment(self, query: Query) -> bytes | None:
         request = read_attachment(query)
         if request is None:
             return None
         return Attachment(request.sequence_number, time.time_ns(), request.gid).encode()
 
-    def _forget(self, query: Any) -> None:
+    def _forget(self, query: Query) -> None:
         with self._lock:
             key = self._pending.pop(id(query), None)
             if key is not None:
@@ -180,7 +195,7 @@ class RmwZenohEntity(WireEntity):
             return refuse
         return self._sequence().sender(put)
 
-    def publisher_options(self, qos: QoS) -> dict[str, Any]:
+    def publisher_options(self, qos: QoS) -> PublisherOptions:
         """Reliable ones send rmw_zenoh's sporadic heartbeat."""
         if not qos.reliable:
             return {}
@@ -188,9 +203,9 @@ class RmwZenohEntity(WireEntity):
             'sample_miss_detection': ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=0.5)
         }
 
-    def subscriber_options(self, qos: QoS) -> dict[str, Any]:
+    def subscriber_options(self, qos: QoS) -> SubscriberOptions:
         """Heartbeat recovery (reliable ones) and subscriber detection, as rmw_zenoh's."""
-        options: dict[str, Any] = {'subscriber_detection': True}
+        options: SubscriberOptions = {'subscriber_detection': True}
         if qos.reliable:
             options['recovery'] = ext.RecoveryConfig(periodic_queries=None, heartbeat=True)
         return options
@@ -203,7 +218,7 @@ class RmwZenohEntity(WireEntity):
         """The next request's attachment."""
         return self._next_attachment()
 
-    def query_options(self, attachment: bytes | None) -> dict[str, Any]:
+    def query_options(self, attachment: bytes | None) -> QueryOptions:
         """Every complete queryable, no consolidation, and the attachment."""
         return {
             'attachment': attachment,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable
 from contextlib import nullcontext
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,8 +30,11 @@ from zros.cdr.codegen.ops import (
 from zros.cdr.codegen.program import Program, path_literal
 from zros.cdr.errors import CdrError
 from zros.cdr.layout import numpy_dtype
-from zros.cdr.model import PRIMITIVE_SIZES, FieldType, Kind, MessageDef
+from zros.cdr.model import PRIMITIVE_SIZES, Buffer, FieldType, Kind, MessageDef
 from zros.cdr.struct_seq import StructSeq
+
+if TYPE_CHECKING:
+    from zros.cdr.message import Message
 
 
 def _dynamic_align(align: int) -> str:
@@ -379,8 +382,8 @@ def generate_decoder(
     text_from_memoryview: bool,
     trace: bool,
     *,
-    fallback: Callable[[Any, bool], Any] | None = None,
-) -> Callable[[Any, bool], Any]:
+    fallback: Callable[[Buffer, bool], Message] | None = None,
+) -> Callable[[Buffer, bool], Message]:
     """The function ``decode(buf, strict) -> message`` for the body after a valid header.
 
     It reads from offset 4 and ignores bytes left at the end, as DDS readers do (rclpy's

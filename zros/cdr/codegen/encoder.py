@@ -5,7 +5,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable
 from contextlib import nullcontext
-from typing import Any
+from dataclasses import dataclass
 
 from zros.cdr import convert
 from zros.cdr.codegen.ops import (
@@ -32,6 +32,14 @@ from zros.cdr.struct_seq import struct_array
 
 #: the CDR header of little-endian data
 HEADER_LE = b'\x00\x01\x00\x00'
+
+
+@dataclass
+class _Pack:
+    """One ``struct.pack`` call of a run: its format parts and the values' expressions."""
+
+    fmt: list[str]
+    values: list[str]
 
 
 class _EncoderBuilder:
@@ -264,40 +272,40 @@ class _EncoderBuilder:
     ) -> State:
         """Write a run: pack calls for scalars, array buffers between them."""
         src = self.src
-        segments: list[
-            tuple[str, Any]
-        ] = []  # ('pack', (fmt parts, values)) / ('array', ref) / ('zeros', n)
+        # a pack call (_Pack), an array's reference (str) or zero padding (a count of bytes)
+        segments: list[_Pack | str | int] = []
         position = 0
         for offset, op in run:
             pad = offset - position
             if isinstance(op, FixArr):
                 if pad:
-                    if segments and segments[-1][0] == 'pack':
-                        segments[-1][1][0].append(f'{pad}x')
+                    if segments and isinstance(segments[-1], _Pack):
+                        segments[-1].fmt.append(f'{pad}x')
                     else:
-                        segments.append(('zeros', pad))
-                segments.append(('array', op.ref))
+                        segments.append(pad)
+                segments.append(op.ref)
                 position = offset + PRIMITIVE_SIZES[op.primitive] * op.count
                 continue
-            if not segments or segments[-1][0] != 'pack':
-                segments.append(('pack', ([], [])))
-            fmt, values = segments[-1][1]
+            last = segments[-1] if segments else None
+            if not isinstance(last, _Pack):
+                last = _Pack([], [])
+                segments.append(last)
             if pad:
-                fmt.append(f'{pad}x')
-            fmt.append(op.code)
+                last.fmt.append(f'{pad}x')
+            last.fmt.append(op.code)
             if op.ref is not None:
-                values.append(op.ref)
+                last.values.append(op.ref)
             position = offset + op.size
         if total > position:
-            if segments[-1][0] == 'pack':
-                segments[-1][1][0].append(f'{total - position}x')
+            if isinstance(segments[-1], _Pack):
+                segments[-1].fmt.append(f'{total - position}x')
             else:
-                segments.append(('zeros', total - position))
-        for index, (kind, data) in enumerate(segments):
+                segments.append(total - position)
+        for index, data in enumerate(segments):
             first = index == 0
-            if kind == 'pack':
-                fmt, values = data
-                body = ''.join(fmt)
+            if isinstance(data, _Pack):
+                values = data.values
+                body = ''.join(data.fmt)
                 if first and dynamic:
                     variants = tuple(struct.Struct(f'<{k}x{body}') for k in range(dynamic))
                     packer = f'{src.ref(variants, "V")}[k]'
@@ -311,7 +319,7 @@ class _EncoderBuilder:
                 if not self.single_pack and self.appends == 0 and len(segments) == 1:
                     self.single_pack = expr
                 self.append(expr)
-            elif kind == 'array':
+            elif isinstance(data, str):
                 if first and dynamic:
                     with src.block('if k:'):
                         self.append(f'{src.ref(_ZEROS, "Z")}[k]')

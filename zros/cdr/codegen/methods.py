@@ -5,16 +5,15 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 from zros.cdr import convert
 from zros.cdr.codegen.ops import STRUCT_CODES, Context, value_dtype
-from zros.cdr.codegen.program import Program
+from zros.cdr.codegen.program import Generated, Program
 from zros.cdr.errors import FieldError
 from zros.cdr.message import Message
-from zros.cdr.model import PRIMITIVE_SIZES, Field, FieldType, Kind, MessageDef
+from zros.cdr.model import PRIMITIVE_SIZES, Field, FieldType, FieldValue, Kind, MessageDef
 from zros.cdr.naming import attribute_name
 from zros.cdr.struct_seq import StructSeq, struct_items
 
@@ -23,12 +22,14 @@ def _display_name(name: str) -> str:
     return name.replace('/', '.')
 
 
-def generate_methods(ctx: Context, msg: MessageDef) -> dict[str, Callable[..., Any]]:
+def generate_methods(
+    ctx: Context, msg: MessageDef
+) -> dict[str, Generated | staticmethod[..., Message]]:
     """``__init__``, ``__eq__``, ``__repr__``, ``copy`` and ``to_dict`` of a message class.
 
     For uniform structs also ``_from_tuple`` and ``_to_tuple`` (rows of its numpy dtype).
     """
-    result: dict[str, Callable[..., Any]] = {
+    result: dict[str, Generated | staticmethod[..., Message]] = {
         '__init__': _gen_init(ctx, msg),
         '_zros_default': staticmethod(_gen_default(ctx, msg)),
         '__eq__': _gen_eq(ctx, msg),
@@ -200,7 +201,7 @@ def _gen_eq(ctx: Context, msg: MessageDef) -> Callable[[Message, object], bool]:
     return src.compile('self, other', '__eq__')
 
 
-def _array_equal(a: Any, b: Any) -> bool:
+def _array_equal(a: FieldValue, b: FieldValue) -> bool:
     return bool(np.array_equal(a, b))
 
 
@@ -235,11 +236,11 @@ def _gen_copy(ctx: Context, msg: MessageDef) -> Callable[[Message], Message]:
     return src.compile('self', 'copy')
 
 
-def _to_list(value: Any) -> list[Any]:
+def _to_list(value: FieldValue) -> list[FieldValue]:
     return value.tolist() if isinstance(value, np.ndarray) else list(value)
 
 
-def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str, Any]]:
+def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str, FieldValue]]:
     src = Program()
     to_list = src.ref(_to_list, 'tolist')
     items = []
@@ -300,7 +301,7 @@ def _tuple_pattern(ctx: Context, msg: MessageDef, src: Program, var: str, lines:
     return '(' + ''.join(n + ', ' for n in names) + ')'
 
 
-def _gen_from_tuple(ctx: Context, msg: MessageDef) -> Callable[[tuple[Any, ...]], Message]:
+def _gen_from_tuple(ctx: Context, msg: MessageDef) -> Callable[[tuple[FieldValue, ...]], Message]:
     src = Program()
     lines: list[str] = []
     pattern = _tuple_pattern(ctx, msg, src, 'o', lines)
@@ -326,7 +327,7 @@ def _tuple_expr(ctx: Context, msg: MessageDef, var: str) -> str:
     return '(' + ''.join(item + ', ' for item in items) + ')'
 
 
-def _gen_to_tuple(ctx: Context, msg: MessageDef) -> Callable[[Message], tuple[Any, ...]]:
+def _gen_to_tuple(ctx: Context, msg: MessageDef) -> Callable[[Message], tuple[FieldValue, ...]]:
     src = Program()
     src.add(f'return {_tuple_expr(ctx, msg, "o")}')
     return src.compile('o', '_to_tuple')

@@ -6,6 +6,10 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
+#: a function compiled from generated source (boundary): its signature is the source text's,
+#: and each generator states it in its own return type
+Generated = Callable[..., Any]
+
 
 class Program:
     """Python source under construction plus the objects it refers to.
@@ -62,15 +66,15 @@ class Program:
             self.objects[name] = obj
         return self._ids[key]
 
-    def compile(self, signature: str, name: str) -> Callable[..., Any]:
+    def compile(self, signature: str, name: str) -> Generated:
         """The function ``name(signature)`` with these lines as its body."""
         params = ', '.join(self.objects)
         text = f'def _factory({params}):\n    def {name}({signature}):\n'
         text += '\n'.join('    ' + line for line in self.lines)
         text += f'\n    return {name}\n'
-        scope: dict[str, Any] = {}
+        scope: dict[str, Generated] = {}
         exec(compile(text, f'<zros codec {name}>', 'exec'), scope)
-        function: Callable[..., Any] = scope['_factory'](**self.objects)
+        function: Generated = scope['_factory'](**self.objects)
         function.__zros_source__ = text  # type: ignore[attr-defined]
         return function
 
@@ -80,6 +84,6 @@ def path_literal(path: str) -> str:
     return 'f' + repr(path) if '{' in path else repr(path)
 
 
-def source_of(function: Callable[..., Any]) -> str:
+def source_of(function: Callable[..., object]) -> str:
     """The generated source of a codec or method (for debugging)."""
     return str(getattr(function, '__zros_source__', ''))
