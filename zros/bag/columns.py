@@ -22,7 +22,7 @@ import numpy as np
 from zros.bag.column_plan import Leaf, Plan, Step, plan, select
 
 if TYPE_CHECKING:
-    from zros.bag.boundary import FieldValue, Untyped
+    from zros.cdr import FieldValue, Untyped
 from zros.bag.errors import BagError
 from zros.bag.mcap_bulk import Unsupported
 from zros.bag.source import Block, Connection, RawMessage, Source

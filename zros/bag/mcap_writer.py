@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from mcap.writer import CompressionType
 
-    from zros.bag.boundary import Untyped
+    from zros.cdr import Untyped
 
 #: bytes a Message record adds to its data (opcode, length, channel, sequence, two times)
 MESSAGE_OVERHEAD = 1 + 8 + 2 + 4 + 8 + 8

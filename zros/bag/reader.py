@@ -17,8 +17,7 @@ if TYPE_CHECKING:
     import numpy as np
     from typing_extensions import Self
 
-    from zros.bag.boundary import Untyped
-    from zros.cdr import Message, TypeRegistry
+    from zros.cdr import Message, TypeRegistry, Untyped
 
 
 class HasNanoseconds(Protocol):

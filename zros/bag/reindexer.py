@@ -32,7 +32,8 @@ from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
 if TYPE_CHECKING:
     from mcap.records import Channel, Message, Schema
 
-    from zros.bag.boundary import Untyped, YamlValue
+    from zros.bag.boundary import YamlValue
+    from zros.cdr import Untyped
 from zros.bag.rosbag2_source import storage_files
 from zros.bag.rosbag2_yaml import (
     FileEntry,

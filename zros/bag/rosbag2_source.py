@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from rosbags.interfaces import Connection as NativeConnection
     from rosbags.interfaces import MessageDefinition
 
-    from zros.bag.boundary import Untyped
+    from zros.cdr import Untyped
 
 _log = logging.getLogger('zros.bag')
 _SQL_BATCH = 16384

@@ -25,7 +25,7 @@ from zros.cdr.typestore import from_rosbags
 if TYPE_CHECKING:
     from typing_extensions import Self
 
-    from zros.bag.boundary import FieldValue
+    from zros.cdr import FieldValue
 
 _log = logging.getLogger('zros.bag')
 _EVENT = '_Event'

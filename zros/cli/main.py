@@ -12,7 +12,7 @@ from zros.version import __version__
 
 TYPE_CHECKING = False  # not typing's: importing typing would slow ``zros --help``
 if TYPE_CHECKING:
-    from zros.bag.boundary import Untyped
+    from zros.cdr import Untyped
 
 #: every command, in the order ``zros --help`` lists them: its help line (written only here; the
 #: module gets it as an argument), and the function that adds its parser. That module is

@@ -19,8 +19,7 @@ if TYPE_CHECKING:
     import re
     from typing import TypeAlias
 
-    from zros.bag.boundary import FieldValue, Untyped
-    from zros.cdr import Message
+    from zros.cdr import FieldValue, Message, Untyped
 
 #: a message as plain data (``to_plain``): what the YAML and CSV writers take
 PlainValue: TypeAlias = (

@@ -21,9 +21,10 @@ from typing import TYPE_CHECKING
 # commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
 # `zros --help` loads none of them
 if TYPE_CHECKING:
-    from zros.bag.boundary import FieldValue, NodeSetting
+    from zros.cdr import FieldValue
     from zros.cdr.message import Message
     from zros.node import Node
+    from zros.node.settings import NodeSetting
 
 
 DISCOVERY = 2.0  #: seconds a one-shot command gives the graph to show itself

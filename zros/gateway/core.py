@@ -35,9 +35,9 @@ from zros.runtime.signal import Signal
 if TYPE_CHECKING:
     import zenoh
 
-    from zros.bag.boundary import NodeSetting
     from zros.graph import Graph
     from zros.node import Node
+    from zros.node.settings import NodeSetting
 
 _log = logging.getLogger('zros.gateway')
 

@@ -39,9 +39,9 @@ if TYPE_CHECKING:
     import zenoh
     from foxglove.websocket import ChannelView, Client, ClientChannel, Parameter
 
-    from zros.bag.boundary import NodeSetting
     from zros.gateway.foxglove_bag import BagGateway
     from zros.node import Node
+    from zros.node.settings import NodeSetting
 
 _log = logging.getLogger('zros.gateway')
 _T = TypeVar('_T')

@@ -24,10 +24,9 @@ if TYPE_CHECKING:
     import foxglove
     import zenoh
 
-    from zros.bag.boundary import ParamValue
-    from zros.cdr import Message
-    from zros.gateway.json_types import JsonValue
+    from zros.cdr import JsonValue, Message
     from zros.node import Node
+    from zros.params import ParamValue
     from zros.params.client import ParameterClient
     from zros.pubsub.taps import RawTap
 

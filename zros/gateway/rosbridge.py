@@ -37,8 +37,8 @@ if TYPE_CHECKING:
 
     from websockets.sync.server import ServerConnection
 
-    from zros.bag.boundary import NodeSetting
     from zros.node import Node
+    from zros.node.settings import NodeSetting
 
 _log = logging.getLogger('zros.gateway')
 

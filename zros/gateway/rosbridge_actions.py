@@ -36,8 +36,8 @@ if TYPE_CHECKING:
     from collections.abc import Awaitable
 
     from zros.actions import ActionServer, ServerGoalHandle
-    from zros.cdr import Message
-    from zros.gateway.json_types import JsonObject, JsonValue
+    from zros.cdr import JsonValue, Message
+    from zros.gateway.json_types import JsonObject
     from zros.gateway.rosbridge_topics import Peer
     from zros.gateway.rosbridge_values import Values
     from zros.node import Node

@@ -35,8 +35,8 @@ if TYPE_CHECKING:
     from collections.abc import Awaitable
 
     from zros.actions import ActionClient, ClientGoalHandle
-    from zros.cdr import Message
-    from zros.gateway.json_types import JsonObject, JsonValue
+    from zros.cdr import JsonValue, Message
+    from zros.gateway.json_types import JsonObject
     from zros.gateway.rosbridge_topics import Peer
     from zros.node import Node
     from zros.services import Client, Service

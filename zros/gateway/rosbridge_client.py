@@ -28,7 +28,8 @@ from zros.gateway.rosbridge_frames import Frames, encode
 if TYPE_CHECKING:
     from websockets.sync.server import ServerConnection
 
-    from zros.gateway.json_types import JsonObject, JsonValue
+    from zros.cdr import JsonValue
+    from zros.gateway.json_types import JsonObject
     from zros.gateway.rosbridge_calls import Calls
     from zros.gateway.rosbridge_topics import Topics
 

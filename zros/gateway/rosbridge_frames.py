@@ -24,8 +24,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from zros.cdr import Message
-    from zros.gateway.json_types import JsonObject, JsonValue
+    from zros.cdr import JsonValue, Message
+    from zros.gateway.json_types import JsonObject
     from zros.gateway.rosbridge_values import Values
 
 #: what one protocol message becomes: its frames, sent in order (text or binary)

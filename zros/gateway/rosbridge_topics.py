@@ -30,8 +30,8 @@ from zros.gateway.rosbridge_values import ConversionError, Values, short_name
 from zros.pubsub.taps import GraphTopic, graph_topics
 
 if TYPE_CHECKING:
-    from zros.cdr import Message
-    from zros.gateway.json_types import JsonObject, JsonValue
+    from zros.cdr import JsonValue, Message
+    from zros.gateway.json_types import JsonObject
     from zros.node import Node
     from zros.pubsub import Publisher
 

@@ -35,9 +35,8 @@ from zros.cdr.naming import attribute_name
 from zros.errors import ZrosError
 
 if TYPE_CHECKING:
-    from zros.bag.boundary import FieldValue
-    from zros.cdr import Message, TypeRegistry
-    from zros.gateway.json_types import JsonObject, JsonValue
+    from zros.cdr import FieldValue, JsonValue, Message, TypeRegistry
+    from zros.gateway.json_types import JsonObject
 
 TIME_TYPES = ('builtin_interfaces/msg/Time', 'builtin_interfaces/msg/Duration')
 HEADER = 'std_msgs/msg/Header'

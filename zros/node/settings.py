@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from zros.keyexpr.names import (
     Remapping,
@@ -27,6 +27,8 @@ if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
 
 PathLike = str | os.PathLike[str]
+#: a setting handed on to :class:`zros.Node` by the CLI and the gateways, checked by Node
+NodeSetting = Any
 
 
 class NodeOptions(SessionOptions, total=False):

@@ -19,8 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from zros.bag.boundary import FieldValue
-    from zros.cdr import Message
+    from zros.cdr import FieldValue, Message
 
 from zros.errors import ZrosError
 
