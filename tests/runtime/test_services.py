@@ -409,3 +409,37 @@ def test_the_default_node_offers_rosr_shaped_classes(zros_router: Any) -> None:
         assert server.node is client.node is zros.default_node()
     finally:
         zros.shutdown()
+
+
+def poll_until_closed(
+    client: zros.Client, started: threading.Event, errors: list[Exception]
+) -> None:
+    """Ask ``client.service_is_ready()`` until it is closed; ``errors`` gets what was raised."""
+    started.set()
+    try:
+        while not client.closed:
+            client.service_is_ready()
+        if client.service_is_ready():
+            errors.append(AssertionError('a closed client says its service is ready'))
+    except Exception as error:
+        errors.append(error)
+
+
+def test_closing_a_client_while_another_thread_asks_for_its_server(
+    zros_node: Callable[..., Node],
+) -> None:
+    """close() waits for a readiness check in progress on another thread (zenoh-python refuses
+    to undeclare a querier in use); a closed client is never ready."""
+    node = zros_node('caller')
+    for _ in range(30):
+        client = node.create_client(ADD, 'race')
+        started = threading.Event()
+        errors: list[Exception] = []
+        poller = threading.Thread(
+            target=poll_until_closed, args=(client, started, errors), daemon=True
+        )
+        poller.start()
+        assert started.wait(10)
+        client.close()
+        poller.join(10)
+        assert not poller.is_alive() and errors == []

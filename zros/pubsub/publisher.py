@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-import threading
 import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -58,10 +57,9 @@ class Publisher(Entity):
         self._publisher = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
         # types that can grow large (sequences) reuse one output buffer while their messages are
-        # large; small ones are joined into fresh bytes (faster for them). Every put holds the
-        # lock, so that close() never undeclares the Zenoh publisher in the middle of one.
+        # large; small ones are joined into fresh bytes (faster for them). Every put holds
+        # _in_use (which also guards the buffer): close() never undeclares in the middle of one.
         self._buffer: EncodeBuffer | None = None
-        self._lock = threading.Lock()
         self._large = sys.maxsize  #: messages from this size on go through the buffer
         self._small = True  #: the last message was small
         definition = self.msg_type._definition
@@ -99,12 +97,12 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) >= self._large:
                 self._small = False  # the next ones go through the buffer
-            with self._lock:
+            with self._in_use:
                 self._put(data)
             return
         buffer = self._buffer
         assert buffer is not None
-        with self._lock:
+        with self._in_use:
             try:
                 data = message._cdr_encode(message, buffer.join)
             except Exception:  # the fast encoder failed: the checked one names the field
@@ -117,14 +115,8 @@ class Publisher(Entity):
 
     def write_raw(self, data: bytes | bytearray) -> None:
         """Publish CDR bytes (4-byte header included) as they are."""
-        with self._lock:
+        with self._in_use:
             self._put(bytes(data) if isinstance(data, memoryview) else data)
-
-    def close(self) -> None:
-        """Withdraw it from the network (after a write in progress on another thread ends: Zenoh
-        cannot undeclare a publisher in use); writes after it raise ``zenoh.ZError``."""
-        with self._lock:
-            super().close()
 
     def _check_type(self, message: object) -> None:
         if getattr(message, '__msgtype__', None) != self.type_name:
@@ -135,10 +127,13 @@ class Publisher(Entity):
     def has_subscribers(self) -> bool:
         """Whether a subscriber (or a bridge route) currently matches this publisher's key.
 
-        Transient-local publishers cannot tell: they report True.
+        Transient-local publishers cannot tell: they report True. A closed one reports False.
         """
-        status = getattr(self._publisher, 'matching_status', None)
-        return True if status is None else bool(status.matching)
+        with self._in_use:
+            if self._closed:
+                return False
+            status = getattr(self._publisher, 'matching_status', None)
+            return True if status is None else bool(status.matching)
 
     def wait_for_subscribers(self, timeout: float | None = 5.0) -> bool:
         """Wait until ``has_subscribers`` (a message put right after a subscriber appears may
@@ -146,6 +141,8 @@ class Publisher(Entity):
         deadline = None if timeout is None else time.monotonic() + timeout
         delay = 0.0005
         while not self.has_subscribers:
+            if self._closed:
+                return False
             remaining = None if deadline is None else deadline - time.monotonic()
             if remaining is not None and remaining <= 0:
                 return False

@@ -12,6 +12,7 @@ thread (``zros.transport.delivery``), or Zenoh's for transient local.
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Protocol, TypeVar
 
@@ -77,6 +78,9 @@ class Entity:
         self._declared: list[Undeclarable] = []
         self._parts: list[Entity] = []
         self._closed = False
+        #: held around calls into its Zenoh objects from other threads: zenoh-python refuses to
+        #: undeclare an object another thread is using ('Already borrowed'), so close() waits
+        self._in_use = threading.Lock()
 
     # --- while it is made ----------------------------------------------------------------
 
@@ -183,15 +187,19 @@ class Entity:
         for token in reversed(self._tokens):
             transport.release_token(token)
         if not transport.closed:
-            for declared in self._declared:
-                try:
-                    declared.undeclare()
-                except ZError:  # the session closes under it
-                    _log.debug('undeclaring on %s failed', self, exc_info=True)
+            with self._in_use:
+                self._undeclare_all()
         for part in self._parts:
             part.close()
         self._on_close()
         self.context.remove(self)
+
+    def _undeclare_all(self) -> None:
+        for declared in self._declared:
+            try:
+                declared.undeclare()
+            except ZError:  # the session closes under it
+                _log.debug('undeclaring on %s failed', self, exc_info=True)
 
     def _on_close(self) -> None:
         """What a kind of entity does once withdrawn (wake its waiters, fail its requests)."""

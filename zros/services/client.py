@@ -76,8 +76,11 @@ class Client(Entity):
 
     def service_is_ready(self) -> bool:
         """Whether a server (a zros one, or a ROS one behind a bridge) is reachable now."""
-        status = self._querier.matching_status  # a MatchingStatus: the stub says bool
-        return bool(status.matching)  # type: ignore[attr-defined]
+        with self._in_use:  # close() cannot undeclare the querier while it is read
+            if self._closed:
+                return False
+            status = self._querier.matching_status  # a MatchingStatus: the stub says bool
+            return bool(status.matching)  # type: ignore[attr-defined]
 
     def wait_for_service(self, timeout: float | None = 5.0) -> bool:
         """Wait until a server is reachable; returns whether one showed up in time (False once
