@@ -1,18 +1,15 @@
 """``zros foxglove``: the ROS graph reached over Zenoh, served to the Foxglove app.
 
 A zros node follows the graph; each topic becomes a channel of the Foxglove SDK's WebSocket
-server with its ``ros2msg`` schema (the definition with its dependencies, as rosbag2 writes it
-into MCAP files) and ``cdr`` encoding. A topic gets a Zenoh subscription only while a client
-watches it (:class:`~zros.gateway.core.Taps`), with its publishers' QoS, and the CDR bytes go
-to the SDK as they arrive, never decoded. Clients also publish (``clientPublish``), call
-services, get, set and follow parameters, see the connection graph, fetch ``package://``
-assets and, with ``/clock`` on the graph, follow sim time.
+server with its ``ros2msg`` schema (with its dependencies, as in rosbag2's MCAP files) and
+``cdr`` encoding. A topic gets a Zenoh subscription, with its publishers' QoS, only while a
+client watches it (:class:`~zros.gateway.core.Taps`); its CDR bytes go to the SDK undecoded.
+Clients also publish (``clientPublish``), call services, get, set and follow parameters, see
+the connection graph, fetch ``package://`` assets and, with ``/clock``, follow sim time.
 
-One SDK limit shapes latched topics: the Python SDK cannot send to one client only, so a
-client that starts watching a latched topic others already watch gets the kept latched
-messages sent to every watcher of that topic (again, for those already watching); only
-shallow latched topics (state such as ``/tf_static``) are kept for that.
-"""
+The Python SDK cannot send to one client only: a client that starts watching a latched topic
+others watch makes the kept latched messages go to every watcher again, so only shallow latched
+topics (state such as ``/tf_static``) are kept."""
 
 from __future__ import annotations
 

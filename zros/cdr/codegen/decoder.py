@@ -55,9 +55,8 @@ class _DecoderBuilder:
         self.bad = self.src.ref(convert.Bad, 'Bad')
         self.new = self.src.ref(object.__new__, 'new')
         self.frombuffer = self.src.ref(np.frombuffer, 'fb')
-        #: the read offset while it is known when generating (the fast decoder reads the fixed
-        #: fields before the first variable-size one at constant offsets); None once ``pos``
-        #: holds it
+        #: the read offset while known when generating (the fast decoder reads the fixed fields
+        #: before the first variable-size one at constant offsets); None once ``pos`` holds it
         self.static: int | None = None if trace else 4
         #: the buffer's size: the traced decoder keeps it in ``end`` for its messages
         self.end = 'end' if trace else 'len(buf)'
@@ -386,14 +385,13 @@ def generate_decoder(
 ) -> Callable[[Buffer, bool], Message]:
     """The function ``decode(buf, strict) -> message`` for the body after a valid header.
 
-    It reads from offset 4 and ignores bytes left at the end, as DDS readers do (rclpy's
-    serializer leaves up to 4 stray bytes per empty 8-byte sequence and per wstring). With
-    ``strict`` at most 3 may be left (any number for types with a wstring): bag readers use that
-    to tell whether an embedded definition matches its data.
+    It reads from offset 4 and ignores bytes left at the end, as DDS readers do (rclpy leaves
+    up to 4 stray bytes per empty 8-byte sequence and per wstring). ``strict`` allows at most 3
+    (any number with a wstring): bag readers check an embedded definition against its data so.
 
-    With a ``fallback`` it checks the header itself: it decodes ``bytes`` (or ``bytearray``)
-    with the little-endian header ``00 01`` and hands anything else to ``fallback(buf,
-    strict)``. Data shorter than the header raises IndexError.
+    With a ``fallback`` it checks the header itself: it decodes ``bytes`` or ``bytearray`` with
+    the little-endian header ``00 01``, hands the rest to ``fallback(buf, strict)``; data shorter
+    than the header raises IndexError.
     """
     builder = _DecoderBuilder(ctx, endian, text_from_memoryview, trace)
     src = builder.src
