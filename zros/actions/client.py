@@ -63,7 +63,7 @@ class ClientGoalHandle(GoalHandle):
         self.feedback: Message | None = None  #: the latest Feedback message
         self.feedback_count = 0
         self._feedback_callback = feedback_callback
-        self._result: ServiceFuture = ServiceFuture()
+        self._result: ServiceFuture[Message] = ServiceFuture()
         self._changed = Signal()
         self._lock = threading.Lock()
 
@@ -98,7 +98,7 @@ class ClientGoalHandle(GoalHandle):
                 f'goal {self.goal_uuid} of {self.client.name} did not end within {timeout:g} s'
             ) from None
 
-    def result_async(self) -> ServiceFuture:
+    def result_async(self) -> ServiceFuture[Message]:
         """A future of the Result message, to ``await`` or ``.result()``."""
         return self._result
 
@@ -254,7 +254,7 @@ class ActionClient(Entity):
         feedback_callback: Callable[[Message], object] | None = None,
         timeout: float | None = None,
         **fields: FieldValue,
-    ) -> ServiceFuture:
+    ) -> ServiceFuture[ClientGoalHandle]:
         """Send a goal; a future of its :class:`ClientGoalHandle` once the server answered."""
         if self._closed:
             raise ActionError(f'the action client of {self.name} was closed')
@@ -264,7 +264,7 @@ class ActionClient(Entity):
             self._handles[handle.goal_id] = handle
         request = self._send_goal.Request(goal=goal_message)
         request.goal_id.uuid = handle.goal_id
-        answered = ServiceFuture()
+        answered: ServiceFuture[ClientGoalHandle] = ServiceFuture()
 
         def on_answer(future: concurrent.futures.Future[Message]) -> None:
             try:

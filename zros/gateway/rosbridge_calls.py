@@ -133,8 +133,8 @@ class Calls:
         timeout = op.get('timeout')
         if not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or timeout <= 0:
             timeout = SERVICE_TIMEOUT
-        future = client.call_async(request, float(timeout))
-        future.add_done_callback(lambda f: answer.done(f, self._values.to_json))
+        call = client.call_async(request, float(timeout))
+        call.add_done_callback(lambda f: answer.done(f, self._values.to_json))
 
     # --- serving -----------------------------------------------------------------------------
 

@@ -12,12 +12,14 @@ import concurrent.futures
 import contextlib
 import weakref
 from collections.abc import Generator
-from typing import Any
+from typing import Any, TypeVar
 
 from zros.runtime.signal import add_interrupt_listener, interrupted
 
+T = TypeVar('T')
 
-class ServiceFuture(concurrent.futures.Future[Any]):
+
+class ServiceFuture(concurrent.futures.Future[T]):
     """The pending result of ``call_async``: ``result(timeout)``, or ``await`` it.
 
     After Ctrl-C (with ``zros.init``'s handler) every pending one fails with KeyboardInterrupt,
@@ -32,7 +34,7 @@ class ServiceFuture(concurrent.futures.Future[Any]):
         if interrupted():
             self.settle(KeyboardInterrupt())
 
-    def settle(self, outcome: Any) -> None:
+    def settle(self, outcome: T | BaseException) -> None:
         """Finish with ``outcome`` (a BaseException fails it), unless already finished."""
         with contextlib.suppress(concurrent.futures.InvalidStateError):
             if isinstance(outcome, BaseException):
@@ -40,11 +42,11 @@ class ServiceFuture(concurrent.futures.Future[Any]):
             else:
                 self.set_result(outcome)
 
-    def __await__(self) -> Generator[Any, None, Any]:
+    def __await__(self) -> Generator[Any, None, T]:
         return asyncio.wrap_future(self).__await__()
 
 
-_unfinished: weakref.WeakSet[ServiceFuture] = weakref.WeakSet()
+_unfinished: weakref.WeakSet[ServiceFuture[Any]] = weakref.WeakSet()
 
 
 def _forget(future: concurrent.futures.Future[Any]) -> None:

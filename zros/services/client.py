@@ -189,16 +189,16 @@ class Client(Entity):
         self,
         request: Message | None = None,
         timeout: float | None = None,
-        callback: Callable[[ServiceFuture], object] | None = None,
+        callback: Callable[[ServiceFuture[Message]], object] | None = None,
         **fields: FieldValue,
-    ) -> ServiceFuture:
+    ) -> ServiceFuture[Message]:
         """Send a request and return at once: a future to ``await`` or ``.result()``.
 
         ``callback(future)``, if given, runs on the node's spinning thread once it is done.
         """
         data = self._request(request, fields)
         timeout = self.timeout if timeout is None else timeout
-        future = ServiceFuture()
+        future: ServiceFuture[Message] = ServiceFuture()
         started = time.monotonic()
         executor = self.context.executor
         sent = self._wire.request_attachment()
