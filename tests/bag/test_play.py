@@ -129,13 +129,14 @@ def test_order_and_timing(zros_node: Node, player_node: Any, tmp_path: Path, rat
     assert [key for _, key, _ in listener.got] == [t[1:] for t, _, _ in messages]
     errors = gap_errors_ms(listener, messages, rate)
     assert statistics.median(errors) < 5.0, sorted(errors)[-10:]
-    # no drift: each arrival's lag behind its due time is the same at the end as at the start
-    # (medians of 30, so one message held up by a loaded machine does not count as drift)
+    # no drift: each arrival's lag behind its due time is the same at the end as at the start.
+    # A loaded machine only ever delays arrivals (a player on time catches up after a stall),
+    # so the least lag of the first and of the last 30 messages is what the player kept
     lags = [
         (got[0] - listener.got[0][0]) / MS - (sent[1] - messages[0][1]) / MS / rate
         for got, sent in zip(listener.got, messages, strict=True)
     ]
-    drift = statistics.median(lags[-30:]) - statistics.median(lags[:30])
+    drift = min(lags[-30:]) - min(lags[:30])
     assert abs(drift) < 50, (drift, sorted(lags)[:3], sorted(lags)[-3:])
 
 

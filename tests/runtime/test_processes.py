@@ -137,3 +137,39 @@ def test_no_router_is_a_clear_error_not_a_hang() -> None:
     assert 'cannot reach a Zenoh router or bridge at tcp/127.0.0.1:1' in result.stderr
     assert 'ZROS_CONNECT' in result.stderr
     assert zros  # the module is importable without a router
+
+
+def test_a_goal_still_running_when_the_script_ends_gets_to_finish(zros_router: Router) -> None:
+    """The exit hook waits (up to 5 s) for an action goal's thread: it replies and publishes the
+    goal's status once the callback returns, and a thread stopped inside Zenoh's Rust code as
+    the interpreter finalizes aborts the process ('FATAL: exception not rethrown')."""
+    script = launch(
+        """
+        import threading, time, zros
+        zros.init('leaving')
+        started, release = threading.Event(), threading.Event()
+
+        def execute(goal):
+            started.set()
+            release.wait(30)
+            deadline = time.monotonic() + 1.0
+            while time.monotonic() < deadline:  # the last second of the goal's work
+                pass
+            print('goal finished', flush=True)
+            return goal.server.Result()
+
+        zros.ActionServer('work', 'example_interfaces/action/Fibonacci', execute)
+        client = zros.ActionClient('work', 'example_interfaces/action/Fibonacci')
+        assert client.wait_for_server(10)
+        client.send_goal_async(order=1)
+        assert started.wait(30)
+        print('leaving', flush=True)
+        release.set()
+        # the script ends while the goal works
+        """,
+        zros_router,
+    )
+    out, err = script.communicate(timeout=60)
+    assert script.returncode == 0, err
+    assert out.splitlines() == ['leaving', 'goal finished'], (out, err)
+    assert 'FATAL' not in err

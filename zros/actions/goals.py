@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, TypeVar
 from zros.actions.common import CancelReturn, GoalHandle, goal_id_of
 from zros.runtime.clock import Time
 from zros.runtime.executor import Executor
+from zros.transport.session import join_at_exit
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -65,5 +66,6 @@ def run_goal(
             outcome.set_exception(exc)
         finished(handle, outcome)
 
-    name = f'zros goal {handle.goal_uuid}'
-    threading.Thread(target=run, name=name, daemon=True).start()
+    thread = threading.Thread(target=run, name=f'zros goal {handle.goal_uuid}', daemon=True)
+    join_at_exit(thread)  # it replies and publishes the status once ``execute`` returns
+    thread.start()

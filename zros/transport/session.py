@@ -6,8 +6,10 @@ therefore closed from a ``threading`` exit hook, which runs before those joins. 
 daemon when the thread that declared the subscriber was one (a recorder's discovery thread, say),
 and Python does not join daemons: one still on its way out when the interpreter finalizes is
 stopped inside Zenoh's Rust code, which aborts the process (``FATAL: exception not rethrown``).
-The hook therefore also waits for those threads, which end once their sessions are closed, and
-for zros's own delivery threads (``zros.transport.delivery``, daemons too), which end the same way.
+The hook therefore also waits for those threads, which end once their sessions are closed, for
+zros's own delivery threads (``zros.transport.delivery``, daemons too), which end the same way,
+and for the threads given to :func:`join_at_exit` (an action goal's, which replies and publishes
+its status once its callback returns, maybe as the script ends).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
+import time
 import weakref
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -39,16 +42,32 @@ _hook_installed = False
 
 #: how Python names the thread Zenoh starts for a callback (its target is a PyO3 closure)
 _CALLBACK_THREAD = '(pyo3-closure)'
-#: how long the exit hook waits for one such thread (a callback still running user code)
+#: how long the exit hook waits for such threads, all together (one may still run user code)
 _CALLBACK_JOIN_TIMEOUT = 5.0
+
+
+#: daemon threads of zros that call into Zenoh (goals' threads, say): the exit hook waits for them
+_joined_at_exit: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
+
+
+def join_at_exit(thread: threading.Thread) -> None:
+    """Have the exit hook wait (up to a few seconds, once the sessions are closed) for
+    ``thread``, a daemon that calls into Zenoh: one still inside Zenoh's Rust code when the
+    interpreter finalizes aborts the process (``FATAL: exception not rethrown``)."""
+    _install_exit_hook()
+    _joined_at_exit.add(thread)
 
 
 def _close_all() -> None:
     for transport in list(_open):
         transport.close()
+    deadline = time.monotonic() + _CALLBACK_JOIN_TIMEOUT
     for thread in threading.enumerate():
-        if thread.daemon and thread.name.endswith((_CALLBACK_THREAD, delivery.THREAD_SUFFIX)):
-            thread.join(_CALLBACK_JOIN_TIMEOUT)
+        if thread.daemon and (
+            thread in _joined_at_exit
+            or thread.name.endswith((_CALLBACK_THREAD, delivery.THREAD_SUFFIX))
+        ):
+            thread.join(max(0.0, deadline - time.monotonic()))
 
 
 def _install_exit_hook() -> None:
