@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import threading
 import time
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 import pytest
@@ -14,6 +14,7 @@ import zenoh
 
 import zros
 from tests.runtime.wire_support import put_options
+from tests.support.races import close_while_used
 from zros.node import Node
 from zros.qos import LATCHED, QoS
 from zros.testing import wait_for
@@ -313,19 +314,6 @@ def test_destroyed_nodes_refuse_new_entities(zros_node: Callable[..., Node]) -> 
     node.destroy()  # twice is fine
 
 
-def write_until_it_fails(
-    pub: zros.Publisher, started: threading.Event, errors: list[Exception]
-) -> None:
-    """Write to ``pub`` until a write raises; ``errors`` gets what it raised."""
-    message = text('x' * 100)
-    started.set()
-    try:
-        while True:
-            pub.write(message)
-    except Exception as error:
-        errors.append(error)
-
-
 @pytest.mark.parametrize('qos', [10, LATCHED], ids=['volatile', 'transient_local'])
 def test_closing_a_publisher_while_another_thread_writes(
     zros_node: Callable[..., Node], qos: int | QoS
@@ -334,16 +322,8 @@ def test_closing_a_publisher_while_another_thread_writes(
     undeclare a publisher while another thread is inside its put); writes after it raise
     zenoh.ZError, as they do when nothing races."""
     node = zros_node('talker')
+    message = text('x' * 100)
     for _ in range(20):
         pub = node.create_publisher(String, 'race', qos)
-        started = threading.Event()
-        errors: list[Exception] = []
-        writer = threading.Thread(
-            target=write_until_it_fails, args=(pub, started, errors), daemon=True
-        )
-        writer.start()
-        assert started.wait(10)
-        pub.close()
-        writer.join(10)
-        assert not writer.is_alive()
+        _, errors = close_while_used(pub, partial(pub.write, message))
         assert len(errors) == 1 and isinstance(errors[0], zenoh.ZError), errors

@@ -13,6 +13,7 @@ import pytest
 
 import zros
 from tests.runtime.wire_support import reply_options, request_options
+from tests.support.races import close_while_used
 from zros.node import Node
 from zros.services import (
     ServiceCallError,
@@ -411,20 +412,6 @@ def test_the_default_node_offers_rosr_shaped_classes(zros_router: Any) -> None:
         zros.shutdown()
 
 
-def poll_until_closed(
-    client: zros.Client, started: threading.Event, errors: list[Exception]
-) -> None:
-    """Ask ``client.service_is_ready()`` until it is closed; ``errors`` gets what was raised."""
-    started.set()
-    try:
-        while not client.closed:
-            client.service_is_ready()
-        if client.service_is_ready():
-            errors.append(AssertionError('a closed client says its service is ready'))
-    except Exception as error:
-        errors.append(error)
-
-
 def test_closing_a_client_while_another_thread_asks_for_its_server(
     zros_node: Callable[..., Node],
 ) -> None:
@@ -433,13 +420,5 @@ def test_closing_a_client_while_another_thread_asks_for_its_server(
     node = zros_node('caller')
     for _ in range(30):
         client = node.create_client(ADD, 'race')
-        started = threading.Event()
-        errors: list[Exception] = []
-        poller = threading.Thread(
-            target=poll_until_closed, args=(client, started, errors), daemon=True
-        )
-        poller.start()
-        assert started.wait(10)
-        client.close()
-        poller.join(10)
-        assert not poller.is_alive() and errors == []
+        ready_after_close, errors = close_while_used(client, client.service_is_ready)
+        assert errors == [] and ready_after_close is False
