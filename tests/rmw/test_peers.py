@@ -180,13 +180,15 @@ def test_sdk_departures_from_the_spec(
     ours = node.create_publisher(String, 'numbers')
     samples, raw = capture(observer, ours.key)
     try:
-        assert wait_for(lambda: tokens_of(observer, 'sdk_pub') and tokens_of(observer, 'zros_pub'))
-        (sdk_token,) = [
-            t for t in tokens_of(observer, 'sdk_pub') if '/MP/' in t and '/%numbers/' in t
-        ]
-        (zros_token,) = [
-            t for t in tokens_of(observer, 'zros_pub') if '/MP/' in t and '/%numbers/' in t
-        ]
+
+        def publisher_tokens(node_name: str) -> list[str]:
+            tokens = tokens_of(observer, node_name)
+            return [t for t in tokens if '/MP/' in t and '/%numbers/' in t]
+
+        # the node's own token can arrive before its publisher's: wait for the publishers'
+        assert wait_for(lambda: publisher_tokens('sdk_pub') and publisher_tokens('zros_pub'))
+        (sdk_token,) = publisher_tokens('sdk_pub')
+        (zros_token,) = publisher_tokens('zros_pub')
 
         def both_sent() -> bool:
             publisher.publish(data='sdk')
