@@ -39,7 +39,13 @@ class Attacker:
     attachment with a GID of its own (garbage that passes the attachment check)."""
 
     def __init__(self, session: Any, subscriber: zros.Subscriber, gid: bytes) -> None:
-        self.publisher = session.declare_publisher(subscriber.key)
+        # reliable and blocking: Zenoh's default (drop when congested) loses some of a flood
+        # on a loaded machine, and the tests count what arrived
+        self.publisher = session.declare_publisher(
+            subscriber.key,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            reliability=zenoh.Reliability.RELIABLE,
+        )
         self.attached = subscriber.node.scheme.attachments
         self.gid = gid
         assert wait_for(lambda: self.publisher.matching_status.matching)
