@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import os
 import queue
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -18,6 +20,7 @@ from typing import Any
 
 import pytest
 
+from tests.support.streams import Drained
 from zros.transport import Router
 
 ZROS = shutil.which('zros', path=str(Path(sys.executable).parent))
@@ -29,6 +32,7 @@ class Running:
     """A ``zros`` command still running; its output lines arrive in ``lines``."""
 
     process: subprocess.Popen[str]
+    errors: Drained  #: what it writes on stderr
     lines: queue.Queue[str | None] = field(default_factory=queue.Queue)
     seen: list[str] = field(default_factory=list)
 
@@ -44,15 +48,26 @@ class Running:
             except queue.Empty:
                 continue
             if line is None:
-                error = self.process.stderr.read() if self.process.stderr else ''
+                error = self.errors.text()
                 raise AssertionError(f'the command ended; output: {self.seen}; stderr: {error}')
             self.seen.append(line)
             if predicate(line):
                 return line
 
     def finish(self, timeout: float = TIMEOUT) -> tuple[int, str]:
-        """Wait for the end; exit code and the output lines not read yet."""
-        code = self.process.wait(timeout)
+        """Wait for the end; exit code and the output lines not read yet. A command still
+        running after ``timeout`` is aborted, and the failure shows where its threads were."""
+        try:
+            code = self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.process.send_signal(signal.SIGABRT)  # faulthandler prints every thread's stack
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.process.wait(10)
+            self.process.kill()
+            raise AssertionError(
+                f'{self.process.args!r} did not end within {timeout} s; output: {self.seen}; '
+                f'stderr and stacks:\n{self.errors.text()[-8000:]}'
+            ) from None
         rest: list[str] = []
         while (line := self.lines.get(timeout=timeout)) is not None:
             rest.append(line)
@@ -67,7 +82,10 @@ class Cli:
     started: list[Running] = field(default_factory=list)
 
     def env(self, extra: dict[str, str] | None = None) -> dict[str, str]:
-        env = dict(os.environ, ZROS_CONNECT=self.endpoint, PYTHONUNBUFFERED='1')
+        # faulthandler: a command that hangs shows its threads' stacks when aborted
+        env = dict(
+            os.environ, ZROS_CONNECT=self.endpoint, PYTHONUNBUFFERED='1', PYTHONFAULTHANDLER='1'
+        )
         env.pop('ZENOH_CONFIG', None)
         return {**env, **(extra or {})}
 
@@ -97,7 +115,7 @@ class Cli:
             text=True,
             env=self.env(env),
         )
-        running = Running(process)
+        running = Running(process, Drained(process.stderr))
 
         def pump() -> None:
             assert process.stdout is not None

@@ -88,5 +88,4 @@ def test_hz_of_a_type_without_definition_measures_unannounced(
         hz.wait_line(lambda line: line.startswith('average rate'))
         code, _ = hz.finish()
     assert code == 0
-    assert hz.process.stderr is not None
-    assert 'no definition of zros_cli_test_msgs/msg/Probe' in hz.process.stderr.read()
+    assert 'no definition of zros_cli_test_msgs/msg/Probe' in hz.errors.text()

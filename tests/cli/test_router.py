@@ -24,8 +24,7 @@ def stopped(router: Running, how: signal.Signals = signal.SIGINT) -> tuple[int, 
     """Stop the router; its exit code and what it wrote on stderr."""
     router.process.send_signal(how)
     code, _ = router.finish()
-    assert router.process.stderr is not None
-    return code, router.process.stderr.read()
+    return code, router.errors.text()
 
 
 def one_line_error(result: subprocess.CompletedProcess[str], code: int, *words: str) -> None:

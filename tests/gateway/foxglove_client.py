@@ -20,6 +20,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from tests.support.streams import Drained
+
 NODE_DIR = Path(__file__).with_name('node')
 SCRIPT = NODE_DIR / 'client.js'
 #: set in CI: a missing node or npm fails the tests instead of skipping them
@@ -76,6 +78,7 @@ class NodeProcess:
             text=True,
             bufsize=1,
         )
+        self.errors = Drained(self.process.stderr)
         self.events: list[dict[str, Any]] = []
         self._arrived = threading.Condition()
         self._ids = itertools.count(1)
@@ -114,8 +117,7 @@ class NodeProcess:
                     if predicate(event):
                         return event
                     if event['ev'] == 'exit':
-                        error = self.process.stderr.read() if self.process.stderr else ''
-                        raise AssertionError(f'the node client ended: {error}')
+                        raise AssertionError(f'the node client ended: {self.errors.text()}')
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:
                     recent = [str(e)[:200] for e in self.events[-5:]]

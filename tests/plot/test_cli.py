@@ -79,7 +79,7 @@ def test_plot_live_until_ctrl_c(cli: Cli, signal: Any, tmp_path: Path) -> None:
     assert wait_for(lambda: len(list(frames.glob('*.png'))) >= 3, timeout=20)  # data came
     running.process.send_signal(signal_module.SIGINT)
     code, rest = running.finish()
-    assert code == 0, running.process.stderr.read() if running.process.stderr else ''
+    assert code == 0, running.errors.text()
     summary, wrote_png, wrote_frames = rest.splitlines()
     values = re.fullmatch(r'/signal/y: (\d+) values, min \S+, max \S+', summary)
     assert values is not None and int(values[1]) >= 10

@@ -10,6 +10,7 @@ import textwrap
 import threading
 import time
 
+from tests.support.streams import Drained
 from zros.transport import Router
 
 
@@ -31,6 +32,7 @@ class Script:
 
     def __init__(self, code: str, router: Router, **extra_env: str) -> None:
         self.process = launch(code, router, **extra_env)
+        self._errors = Drained(self.process.stderr)
         self._lines: queue.Queue[tuple[float, str] | None] = queue.Queue()
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -66,5 +68,4 @@ class Script:
         if self.process.poll() is None:
             self.process.kill()
         self.process.wait(30)
-        assert self.process.stderr is not None
-        return self.process.stderr.read()
+        return self._errors.text()
