@@ -94,6 +94,7 @@ class Subscriber(Entity):
         self._schedule = context.executor.schedule
         #: immediate callbacks: samples are decoded and handed to the callback as they arrive
         self._now = callback is not None and context.executor.immediate
+        self._depth = None if self.qos.keep_all else self.qos.depth
         self._arrived = Signal()  #: threads waiting for a message
         self._async_wakers: list[Callable[[], None]] = []
         self._last: Received = None
@@ -139,7 +140,9 @@ class Subscriber(Entity):
     def _on_samples(self, samples: list[Sample]) -> None:
         if self._now and not self._executor.stopped:
             self._queue.count(len(samples))
-            self._call(samples)
+            depth = self._depth
+            # keep-last: of samples that waited together, the newest ``depth`` (as the queue would)
+            self._call(samples if depth is None or len(samples) <= depth else samples[-depth:])
             return
         refused = self._queue.put(samples)
         for _ in range(refused):

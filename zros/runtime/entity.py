@@ -127,9 +127,9 @@ class Entity:
     ) -> Undeclarable:
         """Subscribe to ``wire.key``: ``callback(sample)`` for each sample the wire accepts
         (or ``batches(samples)`` for several at once), ``rejected(sample)`` for the others
-        (default: a debug line), on a thread that is not the spinning one: zros's delivery
-        thread, or Zenoh's for transient local (which fetches the publishers' caches, of
-        ``late_publishers`` too) and for nodes with immediate callbacks."""
+        (default: a debug line), on a thread that is not the spinning one (zros's delivery
+        thread, or Zenoh's for transient local, which fetches the publishers' caches, of
+        ``late_publishers`` too)."""
         if batches is None:
             if callback is None:
                 raise TypeError('_subscribe needs a callback or batches')
@@ -145,8 +145,6 @@ class Entity:
                 session, wire.key, lambda sample: on_samples([sample]), history=history,
                 **wire.subscriber_options(qos),
             )  # fmt: skip
-        elif self.context.executor.immediate:  # callbacks run as samples arrive: no hand-over
-            subscriber = session.declare_subscriber(wire.key, lambda sample: on_samples([sample]))
         else:
             plain = session.declare_subscriber(wire.key, delivery.channel())
             delivery.deliver(plain, on_samples, wire.key)
