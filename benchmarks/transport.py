@@ -10,7 +10,10 @@ rmw_zenoh's (attachments on every message). Rows, all reliable and keep-all:
   (b) sensor_msgs/Image 1920x1080 rgb8 throughput in MB/s;
   (c) uint8[] messages (std_msgs/UInt8MultiArray) of 10 B to 10 MB: messages/s and MB/s;
   (d) ping-pong round trip of std_msgs/Float64 (median and p99), through the router, and between
-      peers that met at the router and then talk directly (as DDS nodes do).
+      peers that met at the router and then talk directly (as DDS nodes do);
+  (e) the same round trip through the router with zros on one side only, and raw zenoh-python
+      variants (a ping that waits in Rust, an echo that hands over to a spinning thread): where
+      zros's extra time goes, side by side.
 
 Competitors alternate within each repeat, and the median run is reported: the machine's load
 drifts more than the differences being measured. The roles are in ``transport_roles.py``.
@@ -36,6 +39,16 @@ STRING_IMPLS = ('zenoh', 'zenoh_decode', 'zros', 'zros_rmw', 'zros_poll', 'zros_
 IMAGE_IMPLS = ('zenoh', 'zros', 'zros_rmw')
 SIZE_IMPLS = ('zenoh', 'zros')
 RTT_IMPLS = ('zenoh', 'zros', 'zros_rmw', 'zros_now')
+#: row e: (echo, ping)
+RTT_SPLIT = (
+    ('zenoh', 'zenoh'),
+    ('zenoh', 'zenoh_fifo'),
+    ('zenoh_spin', 'zenoh'),
+    ('zros', 'zenoh'),
+    ('zros_now', 'zenoh'),
+    ('zenoh', 'zros'),
+    ('zros_now', 'zros'),
+)
 #: uint8[] sizes of row (c), and how many messages each run sends (full run)
 SIZES = {
     10: 200_000,
@@ -60,10 +73,11 @@ def throughput(impl: str, kind: str, count: int, endpoint: str, shm: bool) -> di
 
 
 def round_trip(
-    impl: str, count: int, endpoint: str, shm: bool, peer: bool = False
+    impl: str, count: int, endpoint: str, shm: bool, *, peer: bool = False, echo_impl: str = ''
 ) -> dict[str, Any]:
-    """``count`` ping-pongs between two processes of ``impl``."""
-    echo = spawn_role('echo', impl, endpoint, ['--timeout', '300'], shm, peer=peer)
+    """``count`` ping-pongs between two processes of ``impl`` (the echo's: ``echo_impl``)."""
+    echo_role = echo_impl or impl
+    echo = spawn_role('echo', echo_role, endpoint, ['--timeout', '300'], shm, peer=peer)
     wait_ready(echo)
     pinger = spawn_role('ping', impl, endpoint, ['--count', str(count)], shm, peer=peer)
     result = read_result(pinger, 300)
@@ -77,7 +91,7 @@ def parse() -> argparse.Namespace:
     parser.add_argument('--quick', action='store_true', help='fewer messages, one run per row')
     parser.add_argument('--shm', action='store_true', help='allow shared memory (one host)')
     parser.add_argument('--repeats', type=int, default=0, help='runs per row (default 3, 1 quick)')
-    parser.add_argument('--rows', default='a,b,c,d', help='which rows to run (default all)')
+    parser.add_argument('--rows', default='a,b,c,d,e', help='which rows to run (default all)')
     parser.add_argument(
         '--skip', default='', help='competitors to leave out, e.g. zros_now (for older zros)'
     )
@@ -143,6 +157,10 @@ def main() -> None:
                     run('rtt', impl, round_trip(impl, pings, endpoint, args.shm))
                 for impl in chosen(RTT_IMPLS):
                     run('rtt_peer', impl, round_trip(impl, pings, endpoint, args.shm, peer=True))
+            if 'e' in rows:
+                for echo, ping in RTT_SPLIT:
+                    found = round_trip(ping, pings, endpoint, args.shm, echo_impl=echo)
+                    run('split', f'{echo}:{ping}', found)
     finally:
         router.close()
     medians = {key: _median_run(found) for key, found in runs.items()}

@@ -134,6 +134,33 @@ def _print_round_trips(rows: Rows, goals: list[tuple[str, float, str, bool]]) ->
                 goals.append((f'RTT p99, {where}: {name} / raw', ratio, '<= 1.00', ratio <= 1.0))
 
 
+#: row e: what each (echo, ping) pair shows
+SPLIT_NAMES = {
+    'zenoh:zenoh': 'raw both (row d)',
+    'zenoh:zenoh_fifo': 'raw, ping waits in Rust',
+    'zenoh_spin:zenoh': 'raw, echo on a spinning thread',
+    'zros:zenoh': 'zros echo (spin)',
+    'zros_now:zenoh': 'zros echo (immediate)',
+    'zenoh:zros': 'zros ping',
+    'zros_now:zros': 'zros both (immediate echo)',
+}
+
+
+def _print_split(rows: Rows) -> None:
+    base = rows.get('split/zenoh:zenoh')
+    if base is None:
+        return
+    print(f'(e) round trip split, router, us {"median":>10} {"p99":>8} {"- raw":>8}')
+    for pair, name in SPLIT_NAMES.items():
+        found = rows.get(f'split/{pair}')
+        if found is None:
+            continue
+        over = _us(found, 'median') - _us(base, 'median')
+        print(
+            f'    {name:28} {_us(found, "median"):>10,.0f} {_us(found, "p99"):>8,.0f} {over:>+8,.0f}'
+        )
+
+
 def report(rows: Rows, rclpy: dict[str, dict[str, Any]] | None = None) -> None:
     """Print every row measured, then the goals."""
     goals: list[tuple[str, float, str, bool]] = []
@@ -142,6 +169,7 @@ def report(rows: Rows, rclpy: dict[str, dict[str, Any]] | None = None) -> None:
     _print_images(rows, goals)
     _print_sizes(rows, goals)
     _print_round_trips(rows, goals)
+    _print_split(rows)
     if rclpy is not None:
         print(
             f'rclpy over Fast DDS: String {rclpy["string"]["rate"]:,.0f} msgs/s, Image '

@@ -12,6 +12,11 @@ Implementations (``--impl``):
   * ``zros_now``: a zros node with ``immediate_callbacks`` (callbacks run on the delivery
     thread as messages arrive, not inside ``spin``).
 
+Two more take part in the split round trip (row e) only: ``zenoh_spin``, an echo whose
+callback hands each ping to the main thread, which sends the pong (what running callbacks
+inside ``spin`` costs raw zenoh-python), and ``zenoh_fifo``, a ping that waits for its pong
+in a FIFO channel's ``recv`` (no Python thread in between: the fastest raw ping).
+
 Payloads (``--kind``): ``string`` (std_msgs/String), ``image`` (sensor_msgs/Image 1080p rgb8),
 ``bytes<N>`` (std_msgs/UInt8MultiArray with N bytes of data).
 """
@@ -215,7 +220,9 @@ def role_subscribe(args: argparse.Namespace) -> None:
 
 def role_echo(args: argparse.Namespace) -> None:
     """Send every ping back as a pong."""
-    if args.impl.startswith('zenoh'):
+    if args.impl == 'zenoh_spin':
+        _raw_spinning_echo(args)
+    elif args.impl.startswith('zenoh'):
         session = raw_session(args.endpoint, args.shm, args.peer)
         pong = session.declare_publisher('bench/pong')
         subscriber = session.declare_subscriber('bench/ping', lambda s: pong.put(s.payload))
@@ -232,6 +239,34 @@ def role_echo(args: argparse.Namespace) -> None:
         node.transport.close()
 
 
+def _raw_spinning_echo(args: argparse.Namespace) -> None:
+    """zenoh-python's callback hands the ping to the main thread (the least a Python hand-over
+    takes: a deque and a lock released), which sends the pong."""
+    import _thread
+    import collections
+
+    session = raw_session(args.endpoint, args.shm, args.peer)
+    pong = session.declare_publisher('bench/pong')
+    pings: collections.deque[Any] = collections.deque()
+    arrived = _thread.allocate_lock()
+    arrived.acquire()
+
+    def on_ping(sample: Any) -> None:
+        pings.append(sample.payload)
+        if arrived.locked():
+            arrived.release()
+
+    subscriber = session.declare_subscriber('bench/ping', on_ping)
+    print('ready', flush=True)
+    deadline = time.monotonic() + args.timeout
+    while time.monotonic() < deadline:
+        arrived.acquire(True, 0.1)
+        while pings:
+            pong.put(pings.popleft())
+    subscriber.undeclare()
+    session.close()
+
+
 def role_ping(args: argparse.Namespace) -> None:
     """Measure ``count`` round trips after a warm-up of 100."""
     import zros
@@ -243,16 +278,26 @@ def role_ping(args: argparse.Namespace) -> None:
 
         got = threading.Event()
         session = raw_session(args.endpoint, args.shm, args.peer)
-        session.declare_subscriber('bench/pong', lambda s: got.set())
+        if args.impl == 'zenoh_fifo':
+            import zenoh
+
+            pongs = session.declare_subscriber('bench/pong', zenoh.handlers.FifoChannel(16))
+            wait = pongs.handler.recv
+        else:
+            session.declare_subscriber('bench/pong', lambda s: got.set())
+
+            def wait() -> None:
+                got.wait(2)
+                got.clear()
+
         ping = session.declare_publisher('bench/ping')
         while not ping.matching_status.matching:
             time.sleep(0.001)
         data = encode(message)
         for i in range(args.count + 100):
-            got.clear()
             start = time.perf_counter()
             ping.put(data)
-            got.wait(2)
+            wait()
             if i >= 100:
                 times.append(time.perf_counter() - start)
         session.close()

@@ -183,6 +183,34 @@ def test_callbacks_and_async_iteration_never_see_garbage(
     assert [m.linear.x for m in asyncio.run(attack_and_read())] == [3.0, 4.0]
 
 
+def test_immediate_callbacks_never_see_garbage_nor_stop_at_one_that_raises(
+    zros_node: Callable[..., Node],
+    zros_transport: Callable[..., Transport],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Immediate callbacks decode on the delivering thread: garbage is counted and dropped there,
+    and a callback that raises is logged while the next messages still reach it."""
+    got: list[float] = []
+
+    def on_message(message: Any) -> None:
+        got.append(message.linear.x)
+        if message.linear.x == 1.0:
+            raise RuntimeError('a callback that fails once')
+
+    def immediate(name: str) -> Node:
+        return zros_node(name, immediate_callbacks=True)
+
+    sub, attacker = listener_and_attacker(immediate, zros_transport, callback=on_message)
+    with caplog.at_level(logging.ERROR, logger='zros'):
+        for payload in (GARBAGE[0], good(1.0), GARBAGE[1], good(2.0), GARBAGE[2], good(3.0)):
+            attacker.put(payload)
+        assert wait_for(lambda: sub.received == 6 and len(got) == 3)  # nobody spins the node
+    assert 'a callback that fails once' in caplog.text
+    assert got == [1.0, 2.0, 3.0]
+    assert sub.dropped == sub.undecodable == 3
+    assert sub.read_message().linear.x == 3.0  # the last message the callback had
+
+
 def test_each_attacker_is_named_and_counted(
     zros_node: Callable[..., Node],
     zros_transport: Callable[..., Transport],

@@ -134,6 +134,33 @@ def test_immediate_callbacks_run_as_messages_arrive_without_spin(
     assert all(name.endswith(delivery.THREAD_SUFFIX) for name in threads)
 
 
+def test_immediate_keep_last_callbacks_get_the_newest_of_what_waited(
+    zros_node: Callable[..., Node],
+) -> None:
+    """A callback that falls behind gets, of the messages that waited meanwhile, the newest
+    ``depth`` (as a polled keep-last subscriber would), never the whole backlog."""
+    talker, listener = zros_node('talker'), zros_node('listener', immediate_callbacks=True)
+    release = threading.Event()
+    got: list[int] = []
+
+    def on_message(message: Any) -> None:
+        got.append(int(message.data))
+        release.wait(30)
+
+    listener.create_subscription(String, 'chatter', on_message, qos=2)
+    witness = listener.create_subscription(String, 'chatter', qos='keep_all')  # all arrived?
+    publisher = talker.create_publisher(String, 'chatter', qos='keep_all')
+    assert publisher.wait_for_subscribers(30)
+    publisher.write(zros.Message(String, data='0'))
+    assert wait_for(lambda: got == [0], 30)
+    for i in range(1, 50):
+        publisher.write(zros.Message(String, data=str(i)))
+    assert wait_for(lambda: witness.received == 50, 30)
+    release.set()
+    assert wait_for(lambda: got[-1:] == [49], 30)
+    assert got == [0, 48, 49]
+
+
 def test_immediate_callbacks_answer_service_requests_without_spin(
     zros_node: Callable[..., Node],
 ) -> None:

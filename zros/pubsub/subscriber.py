@@ -90,7 +90,11 @@ class Subscriber(Entity):
         self._checked: Sample | None = None  #: the sample has_new_message decoded, and its message
         self._checked_message: Received = None
         self._work = Work(self._dispatch)
+        self._executor = context.executor
         self._schedule = context.executor.schedule
+        #: immediate callbacks: samples are decoded and handed to the callback as they arrive
+        self._now = callback is not None and context.executor.immediate
+        self._depth = None if self.qos.keep_all else self.qos.depth
         self._arrived = Signal()  #: threads waiting for a message
         self._async_wakers: list[Callable[[], None]] = []
         self._last: Received = None
@@ -134,6 +138,12 @@ class Subscriber(Entity):
         self._drop(sample, self._rejection)
 
     def _on_samples(self, samples: list[Sample]) -> None:
+        if self._now and not self._executor.stopped:
+            self._queue.count(len(samples))
+            depth = self._depth
+            # keep-last: of samples that waited together, the newest ``depth`` (as the queue would)
+            self._call(samples if depth is None or len(samples) <= depth else samples[-depth:])
+            return
         refused = self._queue.put(samples)
         for _ in range(refused):
             self._overflows.add('queue', lambda: '', self._queue.describe_full)
@@ -257,11 +267,22 @@ class Subscriber(Entity):
             self._arrived.wait(self._has_message, remaining, interruptible=True)
 
     def _dispatch(self) -> int:
+        return self._call(None)
+
+    def _call(self, samples: list[Sample] | None) -> int:
+        """Run the callback on ``samples`` (None: the unread ones); returns how many ran."""
         callback = self._callback
         if callback is None:
             return 0
+        if samples is None:
+            messages = self.take()
+        else:
+            with self._reading:
+                messages = self._convert_all(samples)
+            if messages:
+                self._last = messages[-1]
         done = 0
-        for message in self.take():
+        for message in messages:
             try:
                 callback(message)
             except Exception:  # a user callback: logged, the others still run

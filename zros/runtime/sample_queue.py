@@ -81,6 +81,11 @@ class SampleQueue:
             self.overflowed += refused
         return refused
 
+    def count(self, samples: int) -> None:
+        """Count ``samples`` received and handled without queueing (immediate callbacks)."""
+        with self._lock:
+            self.received += samples
+
     def reject(self) -> None:
         """Count a sample turned away before queueing (received, and lost)."""
         with self._lock:
