@@ -13,6 +13,10 @@ latency of std_msgs/Header messages sent 200 times a second (stamp to arrival, w
 one machine), each through the gateway and to the zros subscriber, with their ratios. The
 gateway's per-client outbox is made large enough that nothing is dropped.
 
+One more row is the ceiling of any gateway built on foxglove-sdk here: a process that logs the
+same image's CDR bytes on an SDK channel as fast as it takes them, with no Zenoh, no router and
+no copy of its own, to the same node client.
+
     python benchmarks/gateway.py [--quick]
 """
 
@@ -61,6 +65,27 @@ def role_stamps(args: argparse.Namespace) -> None:
     node.transport.close()
 
 
+def role_sdk(args: argparse.Namespace) -> None:
+    """foxglove-sdk alone: log one image's CDR bytes ``count`` times once a client subscribes."""
+    import foxglove
+
+    from zros.cdr import default_registry, encode
+    from zros.gateway.foxglove_common import ros2msg_schema
+
+    image = bench.payload('image')
+    data = encode(image)
+    schema = ros2msg_schema(default_registry(), image.__msgtype__)
+    server = foxglove.start_server(host='127.0.0.1', port=0, message_backlog_size=1_000_000)
+    channel = foxglove.Channel(TOPIC, schema=schema, message_encoding='cdr')
+    print(f'Foxglove: ws://127.0.0.1:{server.port}', flush=True)
+    deadline = time.monotonic() + args.timeout
+    while not channel.has_sinks() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    for _ in range(args.count):
+        channel.log(data)
+    time.sleep(args.timeout)  # the client reads the backlog; the driver ends this process
+
+
 def role_latency(args: argparse.Namespace) -> None:
     """Receive stamped headers with a zros subscriber; print the latencies (ns)."""
     node = bench.zros_node('bench_latency', args.endpoint, False)
@@ -84,12 +109,12 @@ def role_latency(args: argparse.Namespace) -> None:
 class Gateway:
     """``zros foxglove`` in a process of its own, and a node client subscribed to TOPIC."""
 
-    def __init__(self, endpoint: str) -> None:
+    def __init__(self, endpoint: str, command: list[str] | None = None) -> None:
         zros = shutil.which('zros', path=str(Path(sys.executable).parent))
         assert zros is not None, 'the zros command is not installed beside this Python'
         self.process = subprocess.Popen(
-            [zros, 'foxglove', '--connect', endpoint, '--port', '0', '--no-sim-time',
-             '--message-backlog', '1000000'],
+            command or [zros, 'foxglove', '--connect', endpoint, '--port', '0', '--no-sim-time',
+                        '--message-backlog', '1000000'],
             stdout=subprocess.PIPE,
             text=True,
         )  # fmt: skip
@@ -148,6 +173,19 @@ def gateway_throughput(kind: str, count: int, endpoint: str) -> dict[str, Any]:
     return {'received': found['count'], 'rate': rate, 'size': found['bytes'] / found['count']}
 
 
+def sdk_throughput(count: int) -> dict[str, Any]:
+    """Images logged by foxglove-sdk alone (``role_sdk``) as the node client counts them."""
+    command = [sys.executable, str(HERE), '--role', 'sdk', '--count', str(count)]
+    gateway = Gateway('', [*command, '--timeout', '300'])
+    try:
+        subscription = gateway.subscribe()
+        found = gateway.counted(subscription, count, 20)
+    finally:
+        gateway.close()
+    rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
+    return {'received': found['count'], 'rate': rate, 'size': found['bytes'] / found['count']}
+
+
 def _spawn_here(role: str, endpoint: str, count: int) -> subprocess.Popen[str]:
     command = [sys.executable, str(HERE), '--role', role, '--endpoint', endpoint]
     return subprocess.Popen([*command, '--count', str(count)], stdout=subprocess.PIPE, text=True)
@@ -191,7 +229,7 @@ def main() -> None:
     parser.add_argument('--timeout', type=float, default=120, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.role:
-        {'stamps': role_stamps, 'latency': role_latency}[args.role](args)
+        {'stamps': role_stamps, 'latency': role_latency, 'sdk': role_sdk}[args.role](args)
         return
     reason = install()
     if reason is not None:
@@ -215,11 +253,13 @@ def main() -> None:
     runs: dict[str, dict[str, list[dict[str, Any]]]] = {
         'zros': {'string': [], 'image': []},
         'gateway': {'string': [], 'image': []},
+        'sdk': {'image': []},
     }
     for _ in range(repeats):
         for kind, count in (('string', strings), ('image', images)):
             runs['zros'][kind].append(bench.throughput('zros', kind, count, endpoint, False))
             runs['gateway'][kind].append(gateway_throughput(kind, count, endpoint))
+        runs['sdk']['image'].append(sdk_throughput(images))
     latency = {'zros': zros_latency(stamps, endpoint), 'gateway': gateway_latency(stamps, endpoint)}
     router.close()
     report(
@@ -242,6 +282,11 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
     ]
     for label, ours, theirs in lines:
         print(f'{label:36} {ours:>10,.1f} {theirs:>10,.1f} {theirs / ours:>8.2f}')
+    ceiling = mbs(rows['sdk']['image'])
+    print(
+        f'{"Image MB/s, foxglove-sdk alone":36} {"":>10} {ceiling:>10,.1f} '
+        f'{ceiling / mbs(z["image"]):>8.2f}   (gateway / it: {mbs(g["image"]) / ceiling:.2f})'
+    )
     medians = {name: statistics.median(found) / 1e3 for name, found in latency.items()}
     p99 = {name: sorted(found)[int(len(found) * 0.99)] / 1e3 for name, found in latency.items()}
     print(

@@ -8,7 +8,8 @@ rmw_zenoh's (attachments on every message). Rows, all reliable and keep-all:
       the bytes, one that also decodes them with zros's codec; zros with a callback run by
       ``spin_once`` (both wires) and read the rosR way (``spin_once`` + ``take()``);
   (b) sensor_msgs/Image 1920x1080 rgb8 throughput in MB/s;
-  (c) uint8[] messages (std_msgs/UInt8MultiArray) of 10 B to 10 MB: messages/s and MB/s;
+  (c) uint8[] messages (std_msgs/UInt8MultiArray) of 10 B to 10 MB: messages/s and MB/s, raw
+      taking the bytes and raw also decoding them (what a subscriber that decodes can reach);
   (d) ping-pong round trip of std_msgs/Float64 (median and p99), through the router, and between
       peers that met at the router and then talk directly (as DDS nodes do);
   (e) the same round trip through the router with zros on one side only, and raw zenoh-python
@@ -37,7 +38,7 @@ __all__ = ['read_result', 'round_trip', 'spawn_role', 'throughput', 'wait_ready'
 
 STRING_IMPLS = ('zenoh', 'zenoh_decode', 'zros', 'zros_rmw', 'zros_poll', 'zros_now')
 IMAGE_IMPLS = ('zenoh', 'zros', 'zros_rmw')
-SIZE_IMPLS = ('zenoh', 'zros')
+SIZE_IMPLS = ('zenoh', 'zenoh_decode', 'zros')
 RTT_IMPLS = ('zenoh', 'zros', 'zros_rmw', 'zros_now')
 #: row e: (echo, ping)
 RTT_SPLIT = (

@@ -90,7 +90,7 @@ def _print_sizes(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
         return
     print(
         f'(c) uint8[]   {"raw msgs/s":>12} {"raw MB/s":>9} {"zros msgs/s":>12} {"zros MB/s":>9}'
-        f' {"zros/raw":>9}'
+        f' {"zros/raw":>9} {"raw+dec/raw":>11} {"zros/raw+dec":>12}'
     )
     worst: tuple[float, int] | None = None
     for size in sizes:
@@ -99,9 +99,12 @@ def _print_sizes(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
             continue
         ratio = zros['rate'] / raw['rate']
         worst = min(worst or (ratio, size), (ratio, size))
+        decoded = rows.get(f'bytes{size}/zenoh_decode')
+        floor = f'{decoded["rate"] / raw["rate"]:>11.2f}' if decoded else ' ' * 11
+        over_floor = f'{zros["rate"] / decoded["rate"]:>12.2f}' if decoded else ' ' * 12
         print(
             f'    {_size(size):>7} {raw["rate"]:>12,.0f} {_mbs(raw):>9,.1f} {zros["rate"]:>12,.0f}'
-            f' {_mbs(zros):>9,.1f} {ratio:>9.2f}'
+            f' {_mbs(zros):>9,.1f} {ratio:>9.2f} {floor} {over_floor}'
         )
     if worst is not None:
         text = f'uint8[] 10 B-10 MB, zros / raw (worst: {_size(worst[1])})'
