@@ -13,9 +13,10 @@ latency of std_msgs/Header messages sent 200 times a second (stamp to arrival, w
 one machine), each through the gateway and to the zros subscriber, with their ratios. The
 gateway's per-client outbox is made large enough that nothing is dropped.
 
-One more row is the ceiling of any gateway built on foxglove-sdk here: a process that logs the
+Two more rows bound what a gateway on foxglove-sdk can do here: a process that logs the
 same image's CDR bytes on an SDK channel as fast as it takes them, with no Zenoh, no router and
-no copy of its own, to the same node client.
+no copy of its own, to the same node client; and raw zenoh-python logging each sample's bytes
+into the SDK from its callback (the gateway's work without zros).
 
     python benchmarks/gateway.py [--quick]
 """
@@ -68,11 +69,12 @@ def role_stamps(args: argparse.Namespace) -> None:
 def role_sdk(args: argparse.Namespace) -> None:
     """foxglove-sdk alone: log one image's CDR bytes ``count`` times once a client subscribes."""
     import foxglove
+    from transport_roles import payload
 
     from zros.cdr import default_registry, encode
     from zros.gateway.foxglove_common import ros2msg_schema
 
-    image = bench.payload('image')
+    image = payload('image')
     data = encode(image)
     schema = ros2msg_schema(default_registry(), image.__msgtype__)
     server = foxglove.start_server(host='127.0.0.1', port=0, message_backlog_size=1_000_000)
@@ -84,6 +86,32 @@ def role_sdk(args: argparse.Namespace) -> None:
     for _ in range(args.count):
         channel.log(data)
     time.sleep(args.timeout)  # the client reads the backlog; the driver ends this process
+
+
+def role_zenoh_sdk(args: argparse.Namespace) -> None:
+    """Raw zenoh-python into foxglove-sdk: each sample's bytes logged on an SDK channel from
+    Zenoh's callback (what the gateway does, without zros)."""
+    import foxglove
+    from transport_roles import raw_session
+
+    from zros.cdr import default_registry
+    from zros.gateway.foxglove_common import ros2msg_schema
+
+    schema = ros2msg_schema(default_registry(), 'sensor_msgs/msg/Image')
+    server = foxglove.start_server(host='127.0.0.1', port=0, message_backlog_size=1_000_000)
+    channel = foxglove.Channel(TOPIC, schema=schema, message_encoding='cdr')
+    log = channel.base.log
+    session = raw_session(args.endpoint, False)
+    print(f'Foxglove: ws://127.0.0.1:{server.port}', flush=True)
+    deadline = time.monotonic() + args.timeout
+    while not channel.has_sinks() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    subscriber = session.declare_subscriber(  # once watched, as the gateway taps a topic
+        TOPIC.lstrip('/'), lambda sample: log(sample.payload.to_bytes(), time.time_ns())
+    )
+    time.sleep(args.timeout)  # the driver ends this process
+    subscriber.undeclare()
+    session.close()
 
 
 def role_latency(args: argparse.Namespace) -> None:
@@ -186,6 +214,22 @@ def sdk_throughput(count: int) -> dict[str, Any]:
     return {'received': found['count'], 'rate': rate, 'size': found['bytes'] / found['count']}
 
 
+def zenoh_sdk_throughput(count: int, endpoint: str) -> dict[str, Any]:
+    """Images through raw zenoh-python into foxglove-sdk (``role_zenoh_sdk``)."""
+    command = [sys.executable, str(HERE), '--role', 'zenoh_sdk', '--endpoint', endpoint]
+    gateway = Gateway(endpoint, [*command, '--timeout', '300'])
+    try:
+        extra = ['--kind', 'image', '--count', str(count)]
+        publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False)  # waits for us
+        subscription = gateway.subscribe()
+        found = gateway.counted(subscription, count, 20)
+        publisher.communicate(timeout=120)
+    finally:
+        gateway.close()
+    rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
+    return {'received': found['count'], 'rate': rate, 'size': found['bytes'] / found['count']}
+
+
 def _spawn_here(role: str, endpoint: str, count: int) -> subprocess.Popen[str]:
     command = [sys.executable, str(HERE), '--role', role, '--endpoint', endpoint]
     return subprocess.Popen([*command, '--count', str(count)], stdout=subprocess.PIPE, text=True)
@@ -229,7 +273,9 @@ def main() -> None:
     parser.add_argument('--timeout', type=float, default=120, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.role:
-        {'stamps': role_stamps, 'latency': role_latency, 'sdk': role_sdk}[args.role](args)
+        roles = {'stamps': role_stamps, 'latency': role_latency, 'sdk': role_sdk}
+        roles['zenoh_sdk'] = role_zenoh_sdk
+        roles[args.role](args)
         return
     reason = install()
     if reason is not None:
@@ -254,12 +300,14 @@ def main() -> None:
         'zros': {'string': [], 'image': []},
         'gateway': {'string': [], 'image': []},
         'sdk': {'image': []},
+        'zenoh_sdk': {'image': []},
     }
     for _ in range(repeats):
         for kind, count in (('string', strings), ('image', images)):
             runs['zros'][kind].append(bench.throughput('zros', kind, count, endpoint, False))
             runs['gateway'][kind].append(gateway_throughput(kind, count, endpoint))
         runs['sdk']['image'].append(sdk_throughput(images))
+        runs['zenoh_sdk']['image'].append(zenoh_sdk_throughput(images, endpoint))
     latency = {'zros': zros_latency(stamps, endpoint), 'gateway': gateway_latency(stamps, endpoint)}
     router.close()
     report(
@@ -282,11 +330,15 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
     ]
     for label, ours, theirs in lines:
         print(f'{label:36} {ours:>10,.1f} {theirs:>10,.1f} {theirs / ours:>8.2f}')
-    ceiling = mbs(rows['sdk']['image'])
-    print(
-        f'{"Image MB/s, foxglove-sdk alone":36} {"":>10} {ceiling:>10,.1f} '
-        f'{ceiling / mbs(z["image"]):>8.2f}   (gateway / it: {mbs(g["image"]) / ceiling:.2f})'
-    )
+    for name, label in (
+        ('sdk', 'Image MB/s, foxglove-sdk alone'),
+        ('zenoh_sdk', 'Image MB/s, raw zenoh into the SDK'),
+    ):
+        other = mbs(rows[name]['image'])
+        print(
+            f'{label:36} {"":>10} {other:>10,.1f} {other / mbs(z["image"]):>8.2f}'
+            f'   (gateway / it: {mbs(g["image"]) / other:.2f})'
+        )
     medians = {name: statistics.median(found) / 1e3 for name, found in latency.items()}
     p99 = {name: sorted(found)[int(len(found) * 0.99)] / 1e3 for name, found in latency.items()}
     print(
