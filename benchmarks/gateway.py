@@ -187,14 +187,19 @@ class Gateway:
         self.process.wait(30)
 
 
-def gateway_throughput(kind: str, count: int, endpoint: str) -> dict[str, Any]:
-    gateway = Gateway(endpoint)
+def gateway_throughput(
+    kind: str, count: int, endpoint: str, command: list[str] | None = None, publish: bool = True
+) -> dict[str, Any]:
+    """``count`` messages of ``kind`` through ``zros foxglove`` (or ``command``, a server that
+    prints its URL as it does), sent by a zros publisher unless ``publish`` is False."""
+    gateway = Gateway(endpoint, command)
     try:
         extra = ['--kind', kind, '--count', str(count)]
-        publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False)  # waits for us
-        subscription = gateway.subscribe()
+        publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False) if publish else None
+        subscription = gateway.subscribe()  # the publisher waits for the tap this makes
         found = gateway.counted(subscription, count, 20)
-        publisher.communicate(timeout=120)
+        if publisher is not None:
+            publisher.communicate(timeout=120)
     finally:
         gateway.close()
     rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
@@ -204,30 +209,13 @@ def gateway_throughput(kind: str, count: int, endpoint: str) -> dict[str, Any]:
 def sdk_throughput(count: int) -> dict[str, Any]:
     """Images logged by foxglove-sdk alone (``role_sdk``) as the node client counts them."""
     command = [sys.executable, str(HERE), '--role', 'sdk', '--count', str(count)]
-    gateway = Gateway('', [*command, '--timeout', '300'])
-    try:
-        subscription = gateway.subscribe()
-        found = gateway.counted(subscription, count, 20)
-    finally:
-        gateway.close()
-    rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
-    return {'received': found['count'], 'rate': rate, 'size': found['bytes'] / found['count']}
+    return gateway_throughput('image', count, '', [*command, '--timeout', '300'], publish=False)
 
 
 def zenoh_sdk_throughput(count: int, endpoint: str) -> dict[str, Any]:
     """Images through raw zenoh-python into foxglove-sdk (``role_zenoh_sdk``)."""
     command = [sys.executable, str(HERE), '--role', 'zenoh_sdk', '--endpoint', endpoint]
-    gateway = Gateway(endpoint, [*command, '--timeout', '300'])
-    try:
-        extra = ['--kind', 'image', '--count', str(count)]
-        publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False)  # waits for us
-        subscription = gateway.subscribe()
-        found = gateway.counted(subscription, count, 20)
-        publisher.communicate(timeout=120)
-    finally:
-        gateway.close()
-    rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
-    return {'received': found['count'], 'rate': rate, 'size': found['bytes'] / found['count']}
+    return gateway_throughput('image', count, endpoint, [*command, '--timeout', '300'])
 
 
 def _spawn_here(role: str, endpoint: str, count: int) -> subprocess.Popen[str]:

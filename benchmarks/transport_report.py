@@ -117,15 +117,8 @@ def _print_round_trips(rows: Rows, goals: list[tuple[str, float, str, bool]]) ->
     print(f'(d) Float64 round trip, us       {"median":>10} {"p99":>8} {"- raw":>8}')
     for row, where in (('rtt', 'router'), ('rtt_peer', 'peer to peer')):
         raw = rows[f'{row}/zenoh']
-        for impl, name in RTT_NAMES.items():
-            found = rows.get(f'{row}/{impl}')
-            if found is None:
-                continue
-            over = _us(found, 'median') - _us(raw, 'median')
-            label = f'{name}, {where}'
-            print(
-                f'    {label:28} {_us(found, "median"):>10,.0f} {_us(found, "p99"):>8,.0f} {over:>+8,.0f}'
-            )
+        names = {f'{row}/{impl}': f'{name}, {where}' for impl, name in RTT_NAMES.items()}
+        _print_times(rows, names, raw)
         for impl, name in (('zros', 'zros'), ('zros_now', 'zros immediate')):
             zros = rows.get(f'{row}/{impl}')
             if zros is None:
@@ -149,19 +142,24 @@ SPLIT_NAMES = {
 }
 
 
+def _print_times(rows: Rows, names: dict[str, str], base: dict[str, Any]) -> None:
+    """A line per round-trip row of ``names`` measured: median, p99, median - ``base``'s."""
+    for key, label in names.items():
+        found = rows.get(key)
+        if found is None:
+            continue
+        over = _us(found, 'median') - _us(base, 'median')
+        print(
+            f'    {label:28} {_us(found, "median"):>10,.0f} {_us(found, "p99"):>8,.0f} {over:>+8,.0f}'
+        )
+
+
 def _print_split(rows: Rows) -> None:
     base = rows.get('split/zenoh:zenoh')
     if base is None:
         return
     print(f'(e) round trip split, router, us {"median":>10} {"p99":>8} {"- raw":>8}')
-    for pair, name in SPLIT_NAMES.items():
-        found = rows.get(f'split/{pair}')
-        if found is None:
-            continue
-        over = _us(found, 'median') - _us(base, 'median')
-        print(
-            f'    {name:28} {_us(found, "median"):>10,.0f} {_us(found, "p99"):>8,.0f} {over:>+8,.0f}'
-        )
+    _print_times(rows, {f'split/{pair}': name for pair, name in SPLIT_NAMES.items()}, base)
 
 
 def report(rows: Rows, rclpy: dict[str, dict[str, Any]] | None = None) -> None:
