@@ -66,23 +66,32 @@ def role_stamps(args: argparse.Namespace) -> None:
     node.transport.close()
 
 
-def role_sdk(args: argparse.Namespace) -> None:
-    """foxglove-sdk alone: log one image's CDR bytes ``count`` times once a client subscribes."""
+def _watched_image_channel(timeout: float) -> tuple[Any, Any]:
+    """An SDK server and an Image channel on TOPIC (cdr), its URL printed as ``zros foxglove``
+    prints it; returns once a client subscribed (or after ``timeout`` s)."""
     import foxglove
-    from transport_roles import payload
 
-    from zros.cdr import default_registry, encode
+    from zros.cdr import default_registry
     from zros.gateway.foxglove_common import ros2msg_schema
 
-    image = payload('image')
-    data = encode(image)
-    schema = ros2msg_schema(default_registry(), image.__msgtype__)
+    schema = ros2msg_schema(default_registry(), 'sensor_msgs/msg/Image')
     server = foxglove.start_server(host='127.0.0.1', port=0, message_backlog_size=1_000_000)
     channel = foxglove.Channel(TOPIC, schema=schema, message_encoding='cdr')
     print(f'Foxglove: ws://127.0.0.1:{server.port}', flush=True)
-    deadline = time.monotonic() + args.timeout
+    deadline = time.monotonic() + timeout
     while not channel.has_sinks() and time.monotonic() < deadline:
         time.sleep(0.01)
+    return server, channel
+
+
+def role_sdk(args: argparse.Namespace) -> None:
+    """foxglove-sdk alone: log one image's CDR bytes ``count`` times once a client subscribes."""
+    from transport_roles import payload
+
+    from zros.cdr import encode
+
+    data = encode(payload('image'))
+    _server, channel = _watched_image_channel(args.timeout)
     for _ in range(args.count):
         channel.log(data)
     time.sleep(args.timeout)  # the client reads the backlog; the driver ends this process
@@ -91,21 +100,11 @@ def role_sdk(args: argparse.Namespace) -> None:
 def role_zenoh_sdk(args: argparse.Namespace) -> None:
     """Raw zenoh-python into foxglove-sdk: each sample's bytes logged on an SDK channel from
     Zenoh's callback (what the gateway does, without zros)."""
-    import foxglove
     from transport_roles import raw_session
 
-    from zros.cdr import default_registry
-    from zros.gateway.foxglove_common import ros2msg_schema
-
-    schema = ros2msg_schema(default_registry(), 'sensor_msgs/msg/Image')
-    server = foxglove.start_server(host='127.0.0.1', port=0, message_backlog_size=1_000_000)
-    channel = foxglove.Channel(TOPIC, schema=schema, message_encoding='cdr')
-    log = channel.base.log
     session = raw_session(args.endpoint, False)
-    print(f'Foxglove: ws://127.0.0.1:{server.port}', flush=True)
-    deadline = time.monotonic() + args.timeout
-    while not channel.has_sinks() and time.monotonic() < deadline:
-        time.sleep(0.01)
+    _server, channel = _watched_image_channel(args.timeout)
+    log = channel.base.log
     subscriber = session.declare_subscriber(  # once watched, as the gateway taps a topic
         TOPIC.lstrip('/'), lambda sample: log(sample.payload.to_bytes(), time.time_ns())
     )

@@ -94,7 +94,6 @@ class Subscriber(Entity):
         self._schedule = context.executor.schedule
         #: immediate callbacks: samples are decoded and handed to the callback as they arrive
         self._now = callback is not None and context.executor.immediate
-        self._depth = None if self.qos.keep_all else self.qos.depth
         self._arrived = Signal()  #: threads waiting for a message
         self._async_wakers: list[Callable[[], None]] = []
         self._last: Received = None
@@ -139,10 +138,7 @@ class Subscriber(Entity):
 
     def _on_samples(self, samples: list[Sample]) -> None:
         if self._now and not self._executor.stopped:
-            self._queue.count(len(samples))
-            depth = self._depth
-            # keep-last: of samples that waited together, the newest ``depth`` (as the queue would)
-            self._call(samples if depth is None or len(samples) <= depth else samples[-depth:])
+            self._call(self._read(self._queue.passing(samples)))
             return
         refused = self._queue.put(samples)
         for _ in range(refused):
@@ -233,6 +229,14 @@ class Subscriber(Entity):
             self._checked = self._checked_message = None
         return self._last
 
+    def _read(self, samples: list[Sample]) -> list[Received]:
+        """The messages of ``samples`` that decode; the last becomes ``read_message``'s."""
+        with self._reading:
+            messages = self._convert_all(samples)
+        if messages:
+            self._last = messages[-1]
+        return messages
+
     def take(self, max_messages: int | None = None) -> list[Received]:
         """Every unread message, oldest first (up to ``max_messages``)."""
         messages: list[Received] = []
@@ -267,20 +271,12 @@ class Subscriber(Entity):
             self._arrived.wait(self._has_message, remaining, interruptible=True)
 
     def _dispatch(self) -> int:
-        return self._call(None)
+        return 0 if self._callback is None else self._call(self.take())
 
-    def _call(self, samples: list[Sample] | None) -> int:
-        """Run the callback on ``samples`` (None: the unread ones); returns how many ran."""
+    def _call(self, messages: list[Received]) -> int:
+        """Run the callback on each of ``messages``; returns how many ran."""
         callback = self._callback
-        if callback is None:
-            return 0
-        if samples is None:
-            messages = self.take()
-        else:
-            with self._reading:
-                messages = self._convert_all(samples)
-            if messages:
-                self._last = messages[-1]
+        assert callback is not None
         done = 0
         for message in messages:
             try:

@@ -81,10 +81,13 @@ class SampleQueue:
             self.overflowed += refused
         return refused
 
-    def count(self, samples: int) -> None:
-        """Count ``samples`` received and handled without queueing (immediate callbacks)."""
+    def passing(self, samples: list[Sample]) -> list[Sample]:
+        """Count ``samples`` received without queueing them (immediate callbacks); returns
+        those the queue would have kept: all of them, or keep-last's newest ``depth``."""
         with self._lock:
-            self.received += samples
+            self.received += len(samples)
+        depth = self._items.maxlen
+        return samples if depth is None or len(samples) <= depth else samples[-depth:]
 
     def reject(self) -> None:
         """Count a sample turned away before queueing (received, and lost)."""
