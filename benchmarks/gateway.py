@@ -154,13 +154,12 @@ class Gateway:
     def subscribe(self, latency: bool = False) -> int:
         """Subscribe to TOPIC once a publisher made it appear, and return once its first
         message came (a channel left over from the previous run's publisher may vanish:
-        then the new one is subscribed). Messages are counted, not shown."""
+        then the new one is subscribed). Messages are counted from the first, not shown."""
         client = self.client
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             channel = client.channel(TOPIC, 60)['id']
-            subscription = client.subscribe(TOPIC, 60)
-            client.send('quiet', subscriptionId=subscription, latency=latency)
+            subscription = client.subscribe(TOPIC, 60, quiet=True, latency=latency)
             while time.monotonic() < deadline:
                 if any(channel in e['channelIds'] for e in client.of('unadvertise')):
                     break

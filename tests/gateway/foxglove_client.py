@@ -174,8 +174,11 @@ class FoxgloveClient(NodeProcess):
         self.wait(lambda e: topic in self.channels(), timeout)
         return self.channels()[topic]
 
-    def subscribe(self, topic: str, timeout: float = TIMEOUT) -> int:
-        """Subscribe to the channel of ``topic``; its subscription id.
+    def subscribe(
+        self, topic: str, timeout: float = TIMEOUT, quiet: bool = False, latency: bool = False
+    ) -> int:
+        """Subscribe to the channel of ``topic``; its subscription id. ``quiet``: its messages
+        are counted from the first (:meth:`stats`), not reported; ``latency``: with their delays.
 
         The SDK records a channel as advertised to a client just after sending the
         advertisement, so a client that subscribes at once can be refused ("Unknown channel
@@ -186,7 +189,7 @@ class FoxgloveClient(NodeProcess):
         for fence in range(2**31, 2**31 + 10):
             channel = self.channel(topic, timeout)
             start = self.mark()
-            self.send('subscribe', channelId=channel['id'])
+            self.send('subscribe', channelId=channel['id'], quiet=quiet, latency=latency)
             event = self.wait(lambda e: e['ev'] == 'subscribed', start=start)
             self.send('subscribe', channelId=fence)
             self.wait(lambda e, f=fence: self._refused(e, f), start=start)

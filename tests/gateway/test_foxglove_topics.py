@@ -72,6 +72,30 @@ def test_a_client_gets_the_cdr_bytes_a_zros_publisher_sent(
     assert before - 10**10 < stamp < time.time_ns()  # receive time (wall clock, ns)
 
 
+def test_a_burst_reaches_a_client_whole_from_its_first_message(
+    gateway: Make, foxglove_client: Make, zros_node: Make
+) -> None:
+    """A reliable keep_all publisher's burst, sent the moment the gateway taps the topic,
+    reaches a client whose outbox holds it: every message, counted from the first."""
+    count = 5000
+    talker = zros_node('talker')
+    pub = talker.create_publisher('std_msgs/msg/String', '/burst', qos='keep_all')
+    server = gateway(message_backlog=2 * count)
+    client: FoxgloveClient = foxglove_client(server.url)
+    subscription = client.subscribe('/burst', quiet=True)
+    assert pub.wait_for_subscribers(TIMEOUT)
+    message = zros.Message('std_msgs/msg/String', data='x' * 30)
+    for _ in range(count):
+        pub.write(message)
+
+    def counted() -> int:
+        return int(client.stats()[str(subscription)]['count'])
+
+    assert wait_for(lambda: counted() >= count, TIMEOUT * 3)
+    assert server.forwarded('/burst')[0] == count
+    assert counted() == count  # and not one more
+
+
 def test_channels_come_and_go_with_the_graph(
     gateway: Make, foxglove_client: Make, zros_node: Make
 ) -> None:

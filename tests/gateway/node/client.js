@@ -6,9 +6,10 @@
 //
 //   node client.js URL [CA_FILE]
 //
-// Commands: subscribe {channelId}, unsubscribe {subscriptionId}, quiet {subscriptionId, latency}
-// (count its messages, the seconds from the first to the last and, with latency, how long
-// after the stamp at bytes 4-12 each arrived, instead of reporting each), stats, advertise
+// Commands: subscribe {channelId, quiet?, latency?}, unsubscribe {subscriptionId}, quiet
+// {subscriptionId, latency} (count its messages, the seconds from the first to the last and,
+// with latency, how long after the stamp at bytes 4-12 each arrived, instead of reporting
+// each; subscribe's quiet does so from the subscription's first message), stats, advertise
 // {topic, encoding, schemaName, schema?, schemaEncoding?}, publish {channelId, data},
 // callService {serviceId, callId, encoding, data}, getParameters {names, id},
 // setParameters {parameters, id}, subscribeParameterUpdates {names},
@@ -138,7 +139,13 @@ function playback(command) {
 }
 
 const commands = {
-  subscribe: (c) => emit({ ev: 'subscribed', channelId: c.channelId, subscriptionId: client.subscribe(c.channelId) }),
+  subscribe: (c) => {
+    const subscriptionId = client.subscribe(c.channelId);
+    if (c.quiet) { // counted from its first message on
+      commands.quiet({ subscriptionId, latency: c.latency });
+    }
+    emit({ ev: 'subscribed', channelId: c.channelId, subscriptionId });
+  },
   unsubscribe: (c) => client.unsubscribe(c.subscriptionId),
   quiet: (c) => quiet.set(c.subscriptionId, { count: 0, bytes: 0, first: 0, last: 0, latency: !!c.latency, latencies: [] }),
   stats: () => {
