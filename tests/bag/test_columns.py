@@ -260,7 +260,7 @@ def test_a_message_index_that_does_not_match_is_refused() -> None:
     record += bytes(4) + (50).to_bytes(8, 'little') * 2 + b'abc'
     entries = np.array([(50, 0)], mcap_bulk._INDEX)
     block = mcap_bulk._block(record, 1, entries)
-    assert block.data == [b'abc'] and block.times.tolist() == [50]
+    assert list(block.data) == [b'abc'] and block.times.tolist() == [50]
     for wrong in (np.array([(50, 3)], mcap_bulk._INDEX), np.array([(51, 0)], mcap_bulk._INDEX)):
         with pytest.raises(mcap_bulk.Unsupported):
             mcap_bulk._block(record, 1, wrong)
@@ -268,3 +268,43 @@ def test_a_message_index_that_does_not_match_is_refused() -> None:
         mcap_bulk._block(record, 2, entries)
     with pytest.raises(mcap_bulk.Unsupported):
         mcap_bulk._block(record[:-1], 1, entries)
+
+
+@pytest.mark.parametrize('compression', ['none', 'zstd', 'lz4'])
+def test_a_mapped_file_gives_the_payloads_a_read_one_does(
+    tmp_path: Path, compression: str
+) -> None:
+    from zros.bag import mcap_bulk
+
+    path = make_points_mcap(tmp_path / 'points.mcap', 300, compression, True, shuffle=False)
+
+    def payloads(mapped: bool) -> list[list[bytes]]:
+        found = mcap_bulk.read_blocks(path, {1}, None, None, mapped=mapped)
+        return [list(block.data) for blocks in found for block in blocks]
+
+    read = payloads(False)
+    assert sum(map(len, read)) == 300
+    assert payloads(True) == read
+
+
+def test_a_damaged_chunk_in_a_mapped_file_is_refused(tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+
+    from zros.bag import mcap_bulk
+
+    path = make_points_mcap(tmp_path / 'points.mcap', 300, 'none', True, shuffle=False)
+    with path.open('rb') as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    at = min(index.chunk_start_offset for index in summary.chunk_indexes)
+    data = bytearray(path.read_bytes())
+    data[at] = 0x05  # a message record's opcode where a chunk should begin
+    path.write_bytes(bytes(data))
+    with pytest.raises(mcap_bulk.Unsupported, match='no chunk where'):
+        list(mcap_bulk.read_blocks(path, {1}, None, None, mapped=True))
+    view = memoryview(bytes([0x06]) + bytes(20))  # cut inside the chunk's header
+    with pytest.raises(mcap_bulk.Unsupported, match='damaged chunk record'):
+        mcap_bulk._mapped_chunk(view, 0)
+    header = bytes([0x06]) + bytes(8) + bytes(24) + bytes(4) + bytes(4) + (99).to_bytes(8, 'little')
+    with pytest.raises(mcap_bulk.Unsupported, match='beyond the end'):
+        mcap_bulk._mapped_chunk(memoryview(header + bytes(10)), 0)

@@ -12,7 +12,7 @@ which also gives the reader's definition fallback and errors.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from zros.cdr import FieldValue, Untyped
 from zros.bag.errors import BagError
 from zros.bag.mcap_bulk import Unsupported
+from zros.bag.payloads import Payloads, Rows, gather
 from zros.bag.source import Block, Connection, RawMessage, Source
 from zros.bag.types import BagTypes
 from zros.cdr.message import Message
@@ -44,7 +45,7 @@ class _Unplannable(Exception):
 class _Part:
     """Rows of one length group that reached the same offset."""
 
-    rows: np.ndarray  #: (m, length) uint8, a row per message
+    rows: Rows  #: a row per message
     where: np.ndarray  #: positions of the rows in the batch
     offset: int  #: current offset relative to the CDR body
 
@@ -70,31 +71,34 @@ def _run(plan_: Plan, leaves: list[Leaf], parts: list[_Part], pieces: Pieces) ->
         parts = following
         todo -= {leaf.path for _, leaf in step.leaves if leaf is not None}
     for part in parts:
-        left = part.rows.shape[1] - 4 - part.offset
+        left = part.rows.length - 4 - part.offset
         if not 0 <= left <= 3:
             raise _Unplannable(f'{left} bytes left after the message')
 
 
 def _step(step: Step, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Part]:
     rows, offset = part.rows, part.offset
-    body = rows.shape[1] - 4
+    body = rows.length - 4
     offset += -offset % step.align
     if step.kind == 'block':
         if offset + step.size > body:
             raise _Unplannable('short message')
-        start = 4 + offset
-        for at, leaf in step.leaves:
-            if leaf.path in wanted:
-                width = leaf.wire.itemsize * max(leaf.length, 1)
-                values = rows[:, start + at : start + at + width].view(leaf.wire)
-                if not leaf.length:
-                    values = values[:, 0]
-                pieces[leaf.path].append((part.where, values))
+        spans = [
+            (at, at + leaf.wire.itemsize * max(leaf.length, 1), leaf)
+            for at, leaf in step.leaves
+            if leaf.path in wanted
+        ]
+        if spans:  # one copy of the bytes from the first wanted field to the end of the last
+            first = min(begin for begin, _, _ in spans)
+            taken = rows.take(4 + offset + first, 4 + offset + max(end for _, end, _ in spans))
+            for begin, end, leaf in spans:
+                values = taken[:, begin - first : end - first].view(leaf.wire)
+                pieces[leaf.path].append((part.where, values if leaf.length else values[:, 0]))
         part.offset = offset + step.size
         return [part]
     if offset + 4 > body:
         raise _Unplannable('short message')
-    counts = rows[:, 4 + offset : 8 + offset].view('<u4')[:, 0]
+    counts = rows.take(4 + offset, 8 + offset).view('<u4')[:, 0]
     offset += 4
     if step.kind == 'string':
         return _split(part, counts, lambda count: offset + int(count) * step.size)
@@ -106,10 +110,13 @@ def _step(step: Step, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Pa
         if end > body:
             raise _Unplannable('short message')
         chosen = _subset(part, counts, count)
-        for _, leaf in step.leaves:
-            if leaf.path in wanted:
-                values = chosen.rows[:, 4 + first : 4 + end].view(leaf.wire)
-                pieces[leaf.path].append((chosen.where, values))
+        leaves = [leaf for _, leaf in step.leaves if leaf.path in wanted]
+        at = 0
+        for taken in chosen.rows.take_each(4 + first, 4 + end) if leaves else ():
+            where = chosen.where[at : at + len(taken)]  # arrays: pieces of rows, not one copy
+            at += len(taken)
+            for leaf in leaves:
+                pieces[leaf.path].append((where, taken.view(leaf.wire)))
         chosen.offset = end
         parts.append(chosen)
     return parts
@@ -119,7 +126,7 @@ def _subset(part: _Part, counts: np.ndarray, count: int) -> _Part:
     if len(counts) and counts[0] == count and (counts == count).all():
         return _Part(part.rows, part.where, part.offset)
     mask = counts == count
-    return _Part(part.rows[mask], part.where[mask], part.offset)
+    return _Part(part.rows.subset(mask), part.where[mask], part.offset)
 
 
 def _split(part: _Part, counts: np.ndarray, offset_of: Callable[[int], int]) -> list[_Part]:
@@ -127,34 +134,35 @@ def _split(part: _Part, counts: np.ndarray, offset_of: Callable[[int], int]) -> 
     for count in np.unique(counts).tolist():
         chosen = _subset(part, counts, count)
         chosen.offset = offset_of(count)
-        if chosen.offset > chosen.rows.shape[1] - 4:
+        if chosen.offset > chosen.rows.length - 4:
             raise _Unplannable('short message')
         parts.append(chosen)
     return parts
 
 
-def _groups(datas: list[bytes]) -> list[_Part]:
+def _groups(batch: list[Payloads]) -> list[_Part]:
     """Messages grouped by length, each group one 2-D array."""
-    lengths = np.fromiter(map(len, datas), np.int64, len(datas))
-    everything = np.arange(len(datas), dtype=np.int64)
+    lengths = np.concatenate([payloads.lengths() for payloads in batch])
     parts = []
-    distinct = np.unique(lengths).tolist()
-    for length in distinct:
+    for length in np.unique(lengths).tolist():
         if length < 4:
             raise _Unplannable('shorter than a CDR header')
-        chosen = everything if len(distinct) == 1 else everything[lengths == length]
-        data = b''.join(datas) if len(distinct) == 1 else b''.join([datas[i] for i in chosen])
-        rows = np.frombuffer(data, np.uint8).reshape(len(chosen), length)
-        if rows[:, 0].any() or (rows[:, 1] != 1).any():
+        rows, chosen = gather(batch, length)
+        head = rows.take(0, 2)
+        if head[:, 0].any() or (head[:, 1] != 1).any():
             raise _Unplannable('not little-endian CDR')
         parts.append(_Part(rows, chosen, 0))
     return parts
 
 
-def _fast(plan_: Plan, leaves: list[Leaf], datas: list[bytes]) -> Pieces:
+def _fast(plan_: Plan, leaves: list[Leaf], batch: list[Payloads]) -> Pieces:
     pieces: Pieces = {leaf.path: [] for leaf in leaves}
-    _run(plan_, leaves, _groups(datas), pieces)
+    _run(plan_, leaves, _groups(batch), pieces)
     return pieces
+
+
+def _payloads(data: Sequence[bytes]) -> Payloads:
+    return data if isinstance(data, Payloads) else Payloads.joined(data)
 
 
 def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
@@ -169,7 +177,7 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
             for part in parts:
                 value = getattr(value, part if hasattr(value, part) else part + '_')
             values[leaf.path].append(value)
-    where = np.arange(len(block.data), dtype=np.int64)
+    where = np.arange(len(block.times), dtype=np.int64)
     pieces: Pieces = {}
     for leaf in leaves:
         column = values[leaf.path]
@@ -282,7 +290,7 @@ class _Extraction:
         for block in blocks:
             queue = self.pending.setdefault(block.connection.id, [])
             queue.append(block)
-            if sum(len(b.data) for b in queue) >= BATCH:
+            if sum(len(b.times) for b in queue) >= BATCH:
                 self._flush(block.connection.id)
 
     def finish(self, connections: list[Connection]) -> dict[str, np.ndarray]:
@@ -318,28 +326,23 @@ class _Extraction:
         queue = self.pending.pop(cid, [])
         if not queue:
             return
-        if len(queue) == 1:
-            block = queue[0]
-        else:
-            block = Block(
-                queue[0].connection,
-                np.concatenate([b.times for b in queue]),
-                np.concatenate([b.keys for b in queue]),
-                [data for b in queue for data in b.data],
-            )
+        batch = [_payloads(b.data) for b in queue]
+        times = np.concatenate([b.times for b in queue])
+        keys = np.concatenate([b.keys for b in queue])
         known = self.plans.get(cid)
         if known is None:
-            known = self.plans[cid] = self._settle(block)
+            known = self.plans[cid] = self._settle(queue[0])
         plan_, own = known
         try:
-            found = _fast(plan_, own, block.data)
+            found = _fast(plan_, own, batch)
         except _Unplannable:
-            found = _slow(self.types, block, own)
+            datas = [data for payloads in batch for data in payloads]
+            found = _slow(self.types, Block(queue[0].connection, times, keys, datas), own)
         for leaf in own:
-            column = _assemble(leaf, found[leaf.path], len(block.data))
+            column = _assemble(leaf, found[leaf.path], len(times))
             self.chunks.setdefault(leaf.path, []).append(column)
-        self.times.append(block.times)
-        self.keys.append(block.keys)
+        self.times.append(times)
+        self.keys.append(keys)
 
 
 def extract(

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import io
 import itertools
+import mmap
+import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,10 +21,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from zros.bag.payloads import Payloads
+
 if TYPE_CHECKING:
     from mcap.records import Chunk
 
 #: opcodes of the MCAP records this module reads
+_CHUNK = 0x06
 _MESSAGE = 0x05
 _MESSAGE_INDEX = 0x07
 #: a message record before its data: opcode, length, channel, sequence, log and publish time
@@ -43,15 +48,41 @@ class Block:
     channel: int
     times: np.ndarray  #: int64 log times
     offsets: np.ndarray  #: int64 record offsets in the chunk (ascending)
-    data: list[bytes]
+    data: Payloads
     order: np.ndarray | None = None  #: int64 rank of each message in its chunk (file order)
 
 
-def _decompress(chunk: Chunk) -> bytes:
+def _mapped_chunk(view: memoryview, at: int) -> Chunk:
+    """The Chunk record at ``at`` of a mapped file, its records a view of the map."""
+    from mcap.records import Chunk
+
+    try:
+        if view[at] != _CHUNK:
+            raise Unsupported('no chunk where the chunk index says')
+        head = at + 1 + 8  # past the opcode and the record's length
+        first, last, size, crc, name_length = struct.unpack_from('<QQQII', view, head)
+        compression = bytes(view[head + 32 : head + 32 + name_length]).decode()
+        (length,) = struct.unpack_from('<Q', view, head + 32 + name_length)
+    except (IndexError, struct.error, UnicodeDecodeError) as exc:
+        raise Unsupported(f'damaged chunk record: {exc}') from None
+    begin = head + 32 + name_length + 8
+    if begin + length > len(view):
+        raise Unsupported('chunk beyond the end of the file')
+    return Chunk(
+        compression=compression,
+        data=view[begin : begin + length],  # type: ignore[arg-type]  # read as bytes-like
+        message_start_time=first,
+        message_end_time=last,
+        uncompressed_crc=crc,
+        uncompressed_size=size,
+    )
+
+
+def _decompress(chunk: Chunk) -> bytes | memoryview:
     if chunk.uncompressed_size > _MAX_CHUNK:
         raise Unsupported('chunk too large')
     if chunk.compression == '':
-        data = bytes(chunk.data)
+        data = chunk.data  # bytes, or a view of a mapped file
     elif chunk.compression == 'zstd':
         import zstandard
 
@@ -88,10 +119,13 @@ def read_blocks(
     end: int | None,
     *,
     ordered: bool = False,
+    mapped: bool = False,
 ) -> Iterator[list[Block]]:
     """The blocks of each chunk holding messages of ``channels`` with ``start <= log time < end``,
     in file order (chunks may overlap in time: the caller sorts). ``ordered`` refuses (before
-    the first block) files whose chunks of those messages overlap in time."""
+    the first block) files whose chunks of those messages overlap in time. ``mapped``: the file
+    is memory-mapped and the payloads of uncompressed chunks stay in the map (no copy: for
+    readers that copy out a few fields of each message)."""
     from mcap.data_stream import ReadDataStream
     from mcap.reader import make_reader
     from mcap.records import Chunk
@@ -116,13 +150,20 @@ def read_blocks(
             for earlier, later in itertools.pairwise(indexes)
         ):
             raise Unsupported('chunks overlap in time')
+        # the map closes when the last payload in it is gone
+        view = (
+            memoryview(mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ)) if mapped else None
+        )
         for index in indexes:
             wanted = channels & set(index.message_index_offsets)
             limit = index.chunk_start_offset + index.chunk_length + index.message_index_length
             if limit > size:
                 raise Unsupported('chunk beyond the end of the file')
-            stream.seek(index.chunk_start_offset + 1 + 8)
-            chunk = Chunk.read(ReadDataStream(stream))
+            if view is not None:
+                chunk = _mapped_chunk(view, index.chunk_start_offset)
+            else:
+                stream.seek(index.chunk_start_offset + 1 + 8)
+                chunk = Chunk.read(ReadDataStream(stream))
             data = _decompress(chunk)
             blocks = [
                 _block(data, channel, _index(stream, index.message_index_offsets[channel], limit))
@@ -170,11 +211,10 @@ def _window(block: Block, start: int | None, end: int | None) -> Block:
         keep &= block.times < end
     if keep.all():
         return block
-    data = [payload for payload, kept in zip(block.data, keep.tolist(), strict=True) if kept]
-    return Block(block.channel, block.times[keep], block.offsets[keep], data)
+    return Block(block.channel, block.times[keep], block.offsets[keep], block.data.select(keep))
 
 
-def _block(data: bytes, channel: int, entries: np.ndarray) -> Block:
+def _block(data: bytes | memoryview, channel: int, entries: np.ndarray) -> Block:
     times = entries['time'].astype(np.int64)
     offsets = entries['offset'].astype(np.int64)
     order = np.argsort(offsets, kind='stable')
@@ -194,6 +234,4 @@ def _block(data: bytes, channel: int, entries: np.ndarray) -> Block:
         or (recorded != times).any()
     ):
         raise Unsupported('message index does not match the chunk')
-    begins = (offsets + _HEAD).tolist()
-    payloads = [data[b:e] for b, e in zip(begins, ends.tolist(), strict=True)]
-    return Block(channel, times, offsets, payloads)
+    return Block(channel, times, offsets, Payloads(data, offsets + _HEAD, ends))

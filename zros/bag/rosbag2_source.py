@@ -267,7 +267,7 @@ class Rosbag2Source(Source):
             if self.storage_id == 'sqlite3':
                 yield from _sqlite_blocks(stream, channels, start, end)
                 continue
-            for found in read_blocks(Path(stream.reader.path), channels, start, end):
+            for found in read_blocks(Path(stream.reader.path), channels, start, end, mapped=True):
                 blocks = [
                     Block(stream.mapping[b.channel], b.times, base + b.order, b.data)
                     for b in found

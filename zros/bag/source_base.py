@@ -7,7 +7,7 @@
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -57,7 +57,7 @@ class Block:
     connection: Connection
     times: np.ndarray  #: int64
     keys: np.ndarray  #: int64, ascending in file order
-    data: list[bytes]
+    data: Sequence[bytes]  #: (a Payloads where the storage gives whole chunks)
 
 
 def normalise_type_name(name: str) -> str:
