@@ -271,9 +271,7 @@ def test_a_message_index_that_does_not_match_is_refused() -> None:
 
 
 @pytest.mark.parametrize('compression', ['none', 'zstd', 'lz4'])
-def test_a_mapped_file_gives_the_payloads_a_read_one_does(
-    tmp_path: Path, compression: str
-) -> None:
+def test_a_mapped_file_gives_the_payloads_a_read_one_does(tmp_path: Path, compression: str) -> None:
     from zros.bag import mcap_bulk
 
     path = make_points_mcap(tmp_path / 'points.mcap', 300, compression, True, shuffle=False)

@@ -49,7 +49,7 @@ def test_rows_gather_the_messages_of_one_length_across_buffers() -> None:
     assert where.tolist() == [0, 2, 3]  # positions across the batch, in order
     assert rows.take(0, 4).tobytes() == b'AAAACCCCDDDD'
     assert rows.take(1, 3).tolist() == [list(b'AA'), list(b'CC'), list(b'DD')]
-    assert [part.shape for part in rows.take_each(0, 2)] == [(2, 2), (1, 2)]
+    assert [part.take(0, 4).tobytes() for part in rows.segments()] == [b'AAAACCCC', b'DDDD']
     assert rows.take(2, 2).shape == (3, 0)
     kept = rows.subset(np.array([False, True, True]))
     assert kept.take(0, 4).tobytes() == b'CCCCDDDD'

@@ -50,7 +50,22 @@ class _Part:
     offset: int  #: current offset relative to the CDR body
 
 
-Pieces = dict[str, list[tuple[np.ndarray, np.ndarray]]]  # leaf path -> (positions, values)
+class _Later:
+    """The values of a sequence field in rows of one buffer, copied out when the column is
+    assembled: each copy is gone before the next is made, so a long column's copies reuse one
+    another's memory instead of all being alive at once (fresh memory is slow to fault in)."""
+
+    def __init__(self, rows: Rows, start: int, stop: int, wire: np.dtype) -> None:
+        self._rows, self._start, self._stop, self._wire = rows, start, stop, wire
+        self.shape = (len(rows), (stop - start) // wire.itemsize)
+
+    def __array__(self, dtype: np.dtype | None = None, copy: bool | None = None) -> np.ndarray:
+        values = self._rows.take(self._start, self._stop).view(self._wire)
+        return values if dtype is None else values.astype(dtype)
+
+
+Values = np.ndarray | _Later
+Pieces = dict[str, list[tuple[np.ndarray, Values]]]  # leaf path -> (positions, values)
 
 
 def _run(plan_: Plan, leaves: list[Leaf], parts: list[_Part], pieces: Pieces) -> None:
@@ -112,11 +127,11 @@ def _step(step: Step, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Pa
         chosen = _subset(part, counts, count)
         leaves = [leaf for _, leaf in step.leaves if leaf.path in wanted]
         at = 0
-        for taken in chosen.rows.take_each(4 + first, 4 + end) if leaves else ():
-            where = chosen.where[at : at + len(taken)]  # arrays: pieces of rows, not one copy
-            at += len(taken)
+        for rows in chosen.rows.segments() if leaves else ():
+            where = chosen.where[at : at + len(rows)]
+            at += len(rows)
             for leaf in leaves:
-                pieces[leaf.path].append((where, taken.view(leaf.wire)))
+                pieces[leaf.path].append((where, _Later(rows, 4 + first, 4 + end, leaf.wire)))
         chosen.offset = end
         parts.append(chosen)
     return parts
@@ -200,7 +215,7 @@ def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> np.ndarray:
     return np.asarray(values, dtype=leaf.value)
 
 
-def _assemble(leaf: Leaf, pieces: list[tuple[np.ndarray, np.ndarray]], size: int) -> np.ndarray:
+def _assemble(leaf: Leaf, pieces: list[tuple[np.ndarray, Values]], size: int) -> np.ndarray:
     """One column of a block from pieces of rows."""
     shapes = {values.shape[1:] for _, values in pieces}
     if len(shapes) <= 1:
@@ -213,7 +228,7 @@ def _assemble(leaf: Leaf, pieces: list[tuple[np.ndarray, np.ndarray]], size: int
         return out
     ragged = np.empty(size, object)
     for where, values in pieces:
-        converted = values.astype(leaf.value)
+        converted = np.asarray(values).astype(leaf.value)
         for row, index in enumerate(where.tolist()):
             ragged[index] = converted[row]
     return ragged

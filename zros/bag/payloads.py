@@ -86,25 +86,21 @@ class Rows:
 
     def take(self, start: int, stop: int) -> np.ndarray:
         """Bytes ``start:stop`` of every row, as a C-contiguous (rows, stop - start) array."""
-        parts = self.take_each(start, stop)
-        if not parts:
-            return np.empty((0, stop - start), np.uint8)
-        return parts[0] if len(parts) == 1 else np.concatenate(parts)
-
-    def take_each(self, start: int, stop: int) -> list[np.ndarray]:
-        """:meth:`take` in one array per segment (no copy to join them), in order."""
         if not 0 <= start <= stop <= self.length:
             raise ValueError(f'columns {start}:{stop} of rows of {self.length} bytes')
         width = stop - start
+        if width == 0 or not self._segments:
+            return np.empty((len(self), width), np.uint8)
         parts = []
         for raw, begins in self._segments:
-            if width == 0:
-                parts.append(np.empty((len(begins), 0), np.uint8))
-                continue
             # every window of ``width`` bytes of the buffer, as a view: row i starts at byte i
             windows = np.ndarray((len(raw) - width + 1, width), np.uint8, raw, 0, (1, 1))
             parts.append(windows[begins + start])
-        return parts
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+    def segments(self) -> list[Rows]:
+        """The rows of each buffer, in order."""
+        return [Rows([segment], self.length) for segment in self._segments]
 
     def subset(self, keep: np.ndarray) -> Rows:
         """The rows where the boolean mask ``keep`` is true."""
