@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import statistics
 import subprocess
@@ -185,23 +186,37 @@ class Gateway:
         self.process.wait(30)
 
 
+def cpu_seconds(pid: int) -> float:
+    """CPU seconds a process has used so far, all threads (Linux; NaN elsewhere)."""
+    try:
+        fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    except OSError:
+        return float('nan')
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
 def gateway_throughput(
     kind: str, count: int, endpoint: str, command: list[str] | None = None, publish: bool = True
 ) -> dict[str, Any]:
     """``count`` messages of ``kind`` through ``zros foxglove`` (or ``command``, a server that
-    prints its URL as it does), sent by a zros publisher unless ``publish`` is False."""
+    prints its URL as it does), sent by a zros publisher unless ``publish`` is False; with the
+    CPU seconds the server and the client used from their start (once idle) to the last."""
     gateway = Gateway(endpoint, command)
+    pids = {'cpu': gateway.process.pid, 'cpu_client': gateway.client.process.pid}
+    before = {name: cpu_seconds(pid) for name, pid in pids.items()}  # both started, idle
     try:
         extra = ['--kind', kind, '--count', str(count)]
         publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False) if publish else None
         subscription = gateway.subscribe()  # the publisher waits for the tap this makes
         found = gateway.counted(subscription, count, 20)
+        cpu = {name: cpu_seconds(pid) - before[name] for name, pid in pids.items()}
         if publisher is not None:
             publisher.communicate(timeout=120)
     finally:
         gateway.close()
     rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
-    return {'received': found['count'], 'rate': rate, 'size': found['bytes'] / found['count']}
+    size = found['bytes'] / found['count']
+    return {'received': found['count'], 'rate': rate, 'size': size, **cpu}
 
 
 def sdk_throughput(count: int) -> dict[str, Any]:
@@ -325,6 +340,21 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
             f'{label:36} {"":>10} {other:>10,.1f} {other / mbs(z["image"]):>8.2f}'
             f'   (gateway / it: {mbs(g["image"]) / other:.2f})'
         )
+    print()
+    print(f'{"CPU per message, us":36} {"String":>10} {"Image":>10}')
+    cpu_rows = [
+        ('zros subscriber process', 'zros', 'cpu'),
+        ('zros foxglove process', 'gateway', 'cpu'),
+        ('  its node client process', 'gateway', 'cpu_client'),
+        ('foxglove-sdk alone, its process', 'sdk', 'cpu'),
+        ('raw zenoh into the SDK, its process', 'zenoh_sdk', 'cpu'),
+    ]
+    for label, name, key in cpu_rows:
+        cells = [
+            f'{1e6 * row[key] / row["received"]:>10,.1f}' if row and key in row else f'{"":>10}'
+            for row in (rows[name].get('string'), rows[name].get('image'))
+        ]
+        print(f'{label:36} {" ".join(cells)}')
     medians = {name: statistics.median(found) / 1e3 for name, found in latency.items()}
     p99 = {name: sorted(found)[int(len(found) * 0.99)] / 1e3 for name, found in latency.items()}
     print(

@@ -149,6 +149,7 @@ class Counter:
         self.count = count
         self.received = 0
         self.first = self.last = 0.0
+        self.cpu_first = self.cpu_last = 0.0  # this process's CPU seconds (all threads)
         self.done = threading.Event()
 
     def add(self, messages: int = 1) -> None:
@@ -156,18 +157,25 @@ class Counter:
         now = time.perf_counter()
         if self.received == 0:
             self.first = now
+            self.cpu_first = time.process_time()
             messages -= 1  # the clock starts at the first one
             self.received = 1
         self.received += messages
         self.last = now
-        if self.received >= self.count:
+        if self.received >= self.count and not self.done.is_set():
+            self.cpu_last = time.process_time()
             self.done.set()
 
     def result(self, size: int) -> dict[str, Any]:
-        """The JSON line of the subscriber."""
+        """The JSON line of the subscriber (``cpu``: its CPU seconds from the first message to
+        the last)."""
         elapsed = max(self.last - self.first, 1e-9)
         rate = (self.received - 1) / elapsed
-        return {'received': self.received, 'expected': self.count, 'rate': rate, 'size': size}
+        cpu = self.cpu_last - self.cpu_first
+        return {
+            'received': self.received, 'expected': self.count, 'rate': rate, 'size': size,
+            'cpu': cpu,
+        }  # fmt: skip
 
 
 def role_subscribe(args: argparse.Namespace) -> None:
