@@ -204,6 +204,7 @@ def gateway_throughput(
     gateway = Gateway(endpoint, command)
     pids = {'cpu': gateway.process.pid, 'cpu_client': gateway.client.process.pid}
     before = {name: cpu_seconds(pid) for name, pid in pids.items()}  # both started, idle
+    router = time.process_time()  # this process's: the router's
     try:
         extra = ['--kind', kind, '--count', str(count)]
         publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False) if publish else None
@@ -211,7 +212,8 @@ def gateway_throughput(
         found = gateway.counted(subscription, count, 20)
         cpu = {name: cpu_seconds(pid) - before[name] for name, pid in pids.items()}
         if publisher is not None:
-            publisher.communicate(timeout=120)
+            cpu['cpu_publisher'] = bench.read_result(publisher, 120)['cpu']
+            cpu['cpu_router'] = time.process_time() - router
     finally:
         gateway.close()
     rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
@@ -343,8 +345,12 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
     print()
     print(f'{"CPU per message, us":36} {"String":>10} {"Image":>10}')
     cpu_rows = [
-        ('zros subscriber process', 'zros', 'cpu'),
-        ('zros foxglove process', 'gateway', 'cpu'),
+        ('to zros: publisher process', 'zros', 'cpu_publisher'),
+        ('  router (in this process)', 'zros', 'cpu_router'),
+        ('  zros subscriber process', 'zros', 'cpu'),
+        ('to the gateway: publisher process', 'gateway', 'cpu_publisher'),
+        ('  router (in this process)', 'gateway', 'cpu_router'),
+        ('  zros foxglove process', 'gateway', 'cpu'),
         ('  its node client process', 'gateway', 'cpu_client'),
         ('foxglove-sdk alone, its process', 'sdk', 'cpu'),
         ('raw zenoh into the SDK, its process', 'zenoh_sdk', 'cpu'),

@@ -28,6 +28,7 @@ inside a private network namespace (``transport_rclpy.py``).
 from __future__ import annotations
 
 import argparse
+import time
 from typing import Any
 
 from transport_rclpy import rclpy_rows
@@ -67,9 +68,11 @@ def throughput(impl: str, kind: str, count: int, endpoint: str, shm: bool) -> di
     extra = ['--kind', kind, '--count', str(count)]
     subscriber = spawn_role('subscribe', impl, endpoint, extra, shm)
     wait_ready(subscriber)
+    cpu = time.process_time()  # this process's: the router's, when it runs one
     publisher = spawn_role('publish', impl, endpoint, extra, shm)
     result = read_result(subscriber, 300)
-    publisher.communicate(timeout=60)
+    result['cpu_publisher'] = read_result(publisher, 60)['cpu']
+    result['cpu_router'] = time.process_time() - cpu
     return result
 
 
