@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 #: one piece of an encoded message: bytes-like, or a numpy array whose data is written as is
 Part = bytes | bytearray | memoryview | np.ndarray
 #: assembles the parts of an encoded message (``b''.join``, or ``EncodeBuffer.join``)
-Join = Callable[[list[Part]], bytes | bytearray]
+Join = Callable[[Sequence[Part]], bytes | bytearray]
 
 
 class EncodeBuffer:
@@ -26,7 +26,7 @@ class EncodeBuffer:
         self._buffer = bytearray()
         self.threshold = threshold
 
-    def join(self, parts: list[Part]) -> bytes | bytearray:
+    def join(self, parts: Sequence[Part]) -> bytes | bytearray:
         """The parts (bytes-like objects and numpy arrays) one after another."""
         sizes = [part.nbytes if type(part) is np.ndarray else len(part) for part in parts]
         total = sum(sizes)

@@ -363,6 +363,32 @@ class _EncoderBuilder:
 
 
 _ZEROS = tuple(bytes(k) for k in range(8))
+_BASE = '    '  # the indentation of the encoder's body
+
+
+def _parts_in_locals(lines: list[str]) -> list[str] | None:
+    """The body with its parts in locals joined once, where every part is appended outside
+    loops and branches (a list and its appends are a third of a small message's encode), and
+    without the position count when nothing reads it; None where parts are appended in blocks."""
+    appended = {i for i, line in enumerate(lines) if '_p(' in line}
+    if len(appended) < 2 or any(not lines[i].startswith(_BASE + '_p(') for i in appended):
+        return None
+    counted = any('-r &' in line for line in lines)
+    names: list[str] = []
+    body = []
+    for i, line in enumerate(lines):
+        if i in appended:
+            names.append(f'q{len(names)}')
+            body.append(f'{_BASE}{names[-1]} = {line[len(_BASE) + 3 : -1]}')
+        elif line == _BASE + 'parts = []; _p = parts.append; r = 0':
+            body += [_BASE + 'r = 0'] if counted else []
+        elif line.startswith(_BASE + 'r += ') and not counted:
+            continue
+        elif line == _BASE + 'return join(parts)':
+            body.append(f'{_BASE}return join(({", ".join(names)},))')
+        else:
+            body.append(line)
+    return body
 
 
 def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[..., bytes]:
@@ -384,6 +410,8 @@ def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[...
         lines = src.lines[: builder.last_append]
         del lines[0]
         src.lines = [*lines, f'    return {builder.single_pack}']
+    elif not trace:
+        src.lines = _parts_in_locals(src.lines) or src.lines
     join_default = src.ref(b''.join, 'join')
     return src.compile(f'o, join={join_default}', 'encode')
 
