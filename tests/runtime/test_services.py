@@ -21,6 +21,7 @@ from zros.services import (
     ServiceTimeoutError,
     ServiceUnavailableError,
 )
+from zros.services import client as client_module
 from zros.services import errors as service_errors
 from zros.services import server as server_module
 from zros.testing import spinning, wait_for
@@ -246,6 +247,28 @@ def test_a_foreign_error_reply(zros_node: Callable[..., Node]) -> None:
             client.call(a=1, b=2)
     finally:
         queryable.undeclare()
+
+
+def test_a_call_whose_server_went_away_without_answering_ends(
+    zros_node: Callable[..., Node],
+) -> None:
+    """A server that disappears while holding a call (as a queryable undeclared while the
+    query was on its way, which Zenoh does not always end) leaves no call waiting for its
+    timeout (an action's result waits 30 days): the call ends as unavailable once no server
+    matches for GONE_GRACE seconds."""
+    rogue = zros_node('rogue').transport.session
+    held: list[Any] = []
+    client = zros_node('caller').create_client(ADD, 'vanishing')
+    queryable = rogue.declare_queryable(client.key, held.append, complete=True)
+    assert client.wait_for_service()
+    future = client.call_async(a=1, b=2, timeout=3600)
+    assert wait_for(lambda: len(held) == 1)
+    queryable.undeclare()  # the query stays open: nobody answers or drops it
+    began = time.monotonic()
+    with pytest.raises(ServiceUnavailableError, match='went away before it replied'):
+        future.result(30)
+    assert time.monotonic() - began >= client_module.GONE_GRACE * 0.9
+    held.clear()
 
 
 def test_bytes_on_the_wire_match_the_bridge_spec(zros_node: Callable[..., Node]) -> None:

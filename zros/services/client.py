@@ -6,6 +6,7 @@ never deadlocks inside a callback; ``call_async`` resolves a future that is also
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 from collections.abc import Callable
@@ -30,6 +31,10 @@ from zros.services.errors import (
     ServiceUnavailableError,
     service_type,
 )
+
+#: seconds a call may still wait for its answer once no server matches any more (the answer
+#: may be in transit: declarations can overtake replies); then it ends as unavailable
+GONE_GRACE = 2.0
 
 
 class Client(Entity):
@@ -66,9 +71,12 @@ class Client(Entity):
         session = context.transport.session
         self._get = session.get
         self._matching = Signal()
+        #: calls in flight that Zenoh may never end, by number: what ends each as unavailable
+        self._calls: dict[int, Callable[[], None]] = {}
+        self._call_numbers = itertools.count()
         self._querier = session.declare_querier(self.key)
         self._listener = self._querier.declare_matching_listener(
-            lambda _status: self._matching.notify()
+            lambda status: self._on_matching(bool(status.matching))
         )
         self._keep(self._listener)
         self._keep(self._querier)
@@ -203,18 +211,52 @@ class Client(Entity):
         executor = self.context.executor
         sent = self._wire.request_attachment()
 
+        ended = threading.Lock()
+
         def on_reply(reply: Reply) -> None:
             if not future.done():
                 future.settle(self._outcome(reply, started, timeout, sent))
 
-        def on_end() -> None:
+        def end(error: Callable[[], ServiceError]) -> None:
+            if not ended.acquire(False):  # Zenoh's end, or the server went away: once
+                return
+            self._calls.pop(number, None)
             if not future.done():
-                future.settle(self._unavailable())
+                future.settle(error())
             if callback is not None:
                 executor.call_soon(lambda: callback(future))
 
-        self._send(data, timeout, Callback(on_reply, on_end), sent)
+        number = next(self._call_numbers)
+        self._calls[number] = lambda: end(self._gone)
+        try:
+            self._send(data, timeout, Callback(on_reply, lambda: end(self._unavailable)), sent)
+        except BaseException:
+            self._calls.pop(number, None)
+            raise
         return future
+
+    def _on_matching(self, matching: bool) -> None:
+        """The querier's matching status changed (on Zenoh's thread)."""
+        self._matching.notify()
+        if not matching and self._calls:
+            check = threading.Timer(GONE_GRACE, self._end_calls_if_gone)
+            check.daemon = True
+            check.start()
+
+    def _end_calls_if_gone(self) -> None:
+        """End the calls in flight as unavailable when still no server matches: a query whose
+        queryable went away while it was on its way is not always ended by Zenoh (seen under
+        load, rmw_zenoh wire), and an action's result waits for 30 days."""
+        if self._closed or self.service_is_ready():  # a closed client's calls end as they come
+            return
+        for end in list(self._calls.values()):
+            end()
+
+    def _gone(self) -> ServiceUnavailableError:
+        return ServiceUnavailableError(
+            f'no server for {self.name} [{self.type_name}] answered: the server went away '
+            'before it replied'
+        )
 
     def close(self) -> None:
         """Withdraw the client; calls in flight still end (with their reply or error)."""
