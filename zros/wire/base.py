@@ -75,8 +75,6 @@ class WireEntity:
 
     #: why :meth:`admitting` turns a sample away (for the drop counters)
     rejection = ''
-    #: which samples a subscriber of this wire accepts (None: every sample)
-    accepts: Callable[[Sample], bool] | None = None
 
     def __init__(self, key: str, tokens: tuple[str, ...] = (), gid: bytes | None = None) -> None:
         self.key = key  #: the Zenoh key to declare on
@@ -89,22 +87,9 @@ class WireEntity:
 
     def admitting(self, callback: BatchCallback, rejected: SampleCallback) -> BatchCallback:
         """A subscriber's batch callback: ``callback(samples)`` with the samples this wire
-        accepts (never an empty list), ``rejected(sample)`` for each of the others."""
-        accepts = self.accepts
-        if accepts is None:
-            return callback
-
-        def on_samples(samples: list[Sample]) -> None:
-            admitted = []
-            for sample in samples:
-                if accepts(sample):
-                    admitted.append(sample)
-                else:
-                    rejected(sample)
-            if admitted:
-                callback(admitted)
-
-        return on_samples
+        accepts (never an empty list), ``rejected(sample)`` for each of the others. The plain
+        form accepts every sample."""
+        return callback
 
     def publisher_options(self, qos: QoS) -> PublisherOptions:
         """Extra options of a transient-local (zenoh-ext advanced) publisher."""

@@ -31,8 +31,10 @@ from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
 from zros.wire.base import (
+    BatchCallback,
     PublisherOptions,
     QueryOptions,
+    SampleCallback,
     SubscriberOptions,
     Wire,
     WireEntity,
@@ -163,8 +165,26 @@ class RmwZenohEntity(WireEntity):
     """An entity on the rmw_zenoh wire: what it sends carries its GID and a number."""
 
     rejection = 'it has no valid rmw_zenoh attachment (rmw_zenoh drops such messages)'
-    #: only samples with a valid attachment, as rmw_zenoh
-    accepts = staticmethod(has_attachment)
+
+    def admitting(self, callback: BatchCallback, rejected: SampleCallback) -> BatchCallback:
+        """Only samples with a valid attachment, as rmw_zenoh (:func:`has_attachment`, its
+        test of the usual 33-byte form inlined: a call per sample cost 150 ns, a twentieth of
+        a small message's way through a subscriber)."""
+
+        def on_samples(samples: list[Sample]) -> None:
+            admitted = []
+            for sample in samples:
+                raw = sample.attachment
+                if raw is not None and (
+                    raw.to_bytes()[16] == GID_SIZE if len(raw) == SIZE else has_attachment(sample)
+                ):
+                    admitted.append(sample)
+                else:
+                    rejected(sample)
+            if admitted:
+                callback(admitted)
+
+        return on_samples
 
     def __init__(self, key: str, tokens: tuple[str, ...] = (), gid: bytes | None = None) -> None:
         super().__init__(key, tokens, gid)
