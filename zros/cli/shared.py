@@ -212,10 +212,14 @@ def build_message(cls: type[Message], values: dict[str, FieldValue]) -> Message:
 
 @contextmanager
 def stop_on_signals(stop: threading.Event) -> Iterator[None]:
-    """SIGINT and SIGTERM set ``stop`` instead of killing the process (restored after)."""
+    """SIGINT and SIGTERM set ``stop`` instead of killing the process (restored after).
+
+    The handler runs on the main thread between two bytecodes, possibly inside ``stop.wait()``
+    while that holds the event's lock: setting the event there would wait for that lock for
+    ever. A thread of its own sets it, once the main thread lets go."""
 
     def handler(signum: int, frame: FrameType | None) -> None:
-        stop.set()
+        threading.Thread(target=stop.set, name='zros stop signal', daemon=True).start()
 
     saved = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
