@@ -19,7 +19,27 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 
-_interrupted = threading.Event()
+
+class _Flag:
+    """A flag without a lock (``threading.Event`` takes one): the SIGINT handler sets it on the
+    main thread between two bytecodes, possibly while that thread is inside ``clear()``."""
+
+    __slots__ = ('_value',)
+
+    def __init__(self) -> None:
+        self._value = False
+
+    def set(self) -> None:
+        self._value = True
+
+    def clear(self) -> None:
+        self._value = False
+
+    def is_set(self) -> bool:
+        return self._value
+
+
+_interrupted = _Flag()
 #: the locks of the interruptible waits sleeping now
 _sleeping: set[_thread.LockType] = set()
 _listeners: list[Callable[[], object]] = []
