@@ -1,13 +1,13 @@
 """Numeric fields of a topic as numpy columns, read straight from the CDR bytes.
 
-Messages of one connection are grouped by byte length; each group is one 2-D uint8 array (a row
-per message), so a field at the same offset in every row is a column slice, viewed with its
-dtype without a copy. Strings and sequences move the offset by their length: rows are split
-into parts by the offset they reach, and each part goes on alone. Recorded sensor data has few
-parts (the frame id and array lengths rarely change), so a topic costs a handful of numpy calls
-per field. Messages the plan cannot read (big-endian, sequences of strings before the fields,
-too many distinct layouts, data that does not fit the type) are decoded one by one instead,
-which also gives the reader's definition fallback and errors.
+Messages of one connection are grouped by byte length into rows that stay in their buffers
+(:class:`~zros.bag.payloads.Rows`), so a field at the same offset in every row is gathered in
+one numpy copy and viewed with its dtype. Strings and sequences move the offset by their length:
+rows are split into parts by the offset they reach, and each part goes on alone. Recorded sensor
+data has few parts (the frame id and array lengths rarely change), so a topic costs a handful of
+numpy calls per field. Messages the plan cannot read (big-endian, sequences of strings before
+the fields, too many distinct layouts, data that does not fit the type) are decoded one by one
+instead, which also gives the reader's definition fallback and errors.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from zros.bag.types import BagTypes
 from zros.cdr.message import Message
 
 TIME = 'time'
-#: messages read per batch (bounds the memory of the joined bytes)
+#: messages read per batch (bounds the chunk buffers held at once)
 BATCH = 65536
 #: beyond this many distinct layouts in a batch, decoding one by one is faster
 MAX_PARTS = 64
@@ -156,7 +156,7 @@ def _split(part: _Part, counts: np.ndarray, offset_of: Callable[[int], int]) -> 
 
 
 def _groups(batch: list[Payloads]) -> list[_Part]:
-    """Messages grouped by length, each group one 2-D array."""
+    """Messages grouped by length, each group one :class:`Rows`."""
     lengths = np.concatenate([payloads.lengths() for payloads in batch])
     parts = []
     for length in np.unique(lengths).tolist():

@@ -3,9 +3,9 @@ per message record.
 
 The mcap library reads the summary and the chunk records; each chunk's message index gives the
 offset of every message of a channel, so times, lengths and positions of its messages are numpy
-arrays and the payloads are slices of the decompressed chunk. Files without a summary or message
-indexes, or whose indexes do not add up, are refused with :class:`Unsupported`: the caller then
-reads them record by record through rosbags.
+arrays and the payloads are offsets into the decompressed chunk (or the file's map). Files
+without a summary or message indexes, or whose indexes do not add up, are refused with
+:class:`Unsupported`: the caller then reads them record by record through rosbags.
 """
 
 from __future__ import annotations
