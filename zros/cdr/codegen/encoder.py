@@ -364,6 +364,9 @@ class _EncoderBuilder:
 
 _ZEROS = tuple(bytes(k) for k in range(8))
 _BASE = '    '  # the indentation of the encoder's body
+#: the first and the last line of an encoder's body (``_parts_in_locals`` rewrites both)
+_PARTS = 'parts = []; _p = parts.append; r = 0'
+_JOIN = 'return join(parts)'
 
 
 def _parts_in_locals(lines: list[str]) -> list[str] | None:
@@ -380,11 +383,11 @@ def _parts_in_locals(lines: list[str]) -> list[str] | None:
         if i in appended:
             names.append(f'q{len(names)}')
             body.append(f'{_BASE}{names[-1]} = {line[len(_BASE) + 3 : -1]}')
-        elif line == _BASE + 'parts = []; _p = parts.append; r = 0':
+        elif line == _BASE + _PARTS:
             body += [_BASE + 'r = 0'] if counted else []
         elif line.startswith(_BASE + 'r += ') and not counted:
             continue
-        elif line == _BASE + 'return join(parts)':
+        elif line == _BASE + _JOIN:
             body.append(f'{_BASE}return join(({", ".join(names)},))')
         else:
             body.append(line)
@@ -398,13 +401,13 @@ def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[...
     src = builder.src
     ops: list[Op] = []
     builder.struct_ops(msg, 'o', '', ops)
-    src.add('parts = []; _p = parts.append; r = 0')
+    src.add(_PARTS)
     if trace:
         src.add("_f = ''")
     with src.guarded(_encode_error, f'{msg.name!r}, _f, exc') if trace else nullcontext():
         builder.emit(ops, START)
         builder.ensure_header()
-        src.add('return join(parts)')
+        src.add(_JOIN)
     if not trace and builder.appends == 1 and builder.single_pack:
         # the whole message is one pack call: return its bytes, no parts list
         lines = src.lines[: builder.last_append]
