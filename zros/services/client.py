@@ -6,7 +6,6 @@ never deadlocks inside a callback; ``call_async`` resolves a future that is also
 
 from __future__ import annotations
 
-import itertools
 import threading
 import time
 from collections.abc import Callable
@@ -71,9 +70,8 @@ class Client(Entity):
         session = context.transport.session
         self._get = session.get
         self._matching = Signal()
-        #: calls in flight that Zenoh may never end, by number: what ends each as unavailable
-        self._calls: dict[int, Callable[[], None]] = {}
-        self._call_numbers = itertools.count()
+        #: calls in flight that Zenoh may never end: what ends each as unavailable
+        self._calls: set[Callable[[], None]] = set()
         self._querier = session.declare_querier(self.key)
         self._listener = self._querier.declare_matching_listener(
             lambda status: self._on_matching(bool(status.matching))
@@ -220,18 +218,20 @@ class Client(Entity):
         def end(error: Callable[[], ServiceError]) -> None:
             if not ended.acquire(False):  # Zenoh's end, or the server went away: once
                 return
-            self._calls.pop(number, None)
+            self._calls.discard(gone)
             if not future.done():
                 future.settle(error())
             if callback is not None:
                 executor.call_soon(lambda: callback(future))
 
-        number = next(self._call_numbers)
-        self._calls[number] = lambda: end(self._gone)
+        def gone() -> None:
+            end(self._gone)
+
+        self._calls.add(gone)
         try:
             self._send(data, timeout, Callback(on_reply, lambda: end(self._unavailable)), sent)
         except BaseException:
-            self._calls.pop(number, None)
+            self._calls.discard(gone)
             raise
         return future
 
@@ -249,8 +249,8 @@ class Client(Entity):
         load, rmw_zenoh wire), and an action's result waits for 30 days."""
         if self._closed or self.service_is_ready():  # a closed client's calls end as they come
             return
-        for end in list(self._calls.values()):
-            end()
+        for gone in list(self._calls):
+            gone()
 
     def _gone(self) -> ServiceUnavailableError:
         return ServiceUnavailableError(
