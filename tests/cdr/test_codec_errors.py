@@ -312,6 +312,25 @@ def test_decoding_something_that_is_not_a_buffer() -> None:
         cdr.decode(cls('std_msgs/msg/String'), 'text')  # type: ignore[arg-type]
 
 
+def test_decoding_by_something_that_names_no_type() -> None:
+    data = cdr.encode(cls('std_msgs/msg/String')(data='a'))
+    for wrong in (123, None, b'std_msgs/msg/String', dict):
+        with pytest.raises(TypeError, match='decode takes a type name or a message class'):
+            cdr.decode(wrong, data)  # type: ignore[arg-type]
+
+
+def test_decoding_by_name_reads_the_name_however_it_is_spelled() -> None:
+    class Name(str):
+        pass
+
+    data = cdr.encode(cls('std_msgs/msg/String')(data='spelled'))
+    for name in ('std_msgs/msg/String', 'std_msgs/String', Name('std_msgs/msg/String')):
+        assert cdr.decode(name, data).data == 'spelled'
+        assert cdr.decode(name, data).data == 'spelled'  # the second time from the cache
+    with pytest.raises(CdrError, match='std_msgs/msg/String'):
+        cdr.decode('std_msgs/String', data[:9])  # cut short: the explained error, by name too
+
+
 def test_trailing_padding_is_accepted_and_its_content_ignored() -> None:
     String = cls('std_msgs/msg/String')
     for pad in (b'\x00', b'\x55\x00', b'\xaa\xbb\xcc'):

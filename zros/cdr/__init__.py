@@ -66,11 +66,27 @@ def decode(
 
     Trailing bytes are ignored unless ``strict``, which allows at most 3 (alignment padding).
     """
-    decoder = _registry.default_decoders.get(type_name)  # type: ignore[arg-type]
-    if decoder is None:
-        if isinstance(type_name, type):
-            return _decode(type_name, buf, strict)
-        decoder = default_registry().decoder(type_name)
+    if type(type_name) is not str:
+        return _decode_other(type_name, buf, strict)
+    try:  # a name decoded before: one dict look-up and the compiled decoder
+        return _registry.default_decoders[type_name](buf, strict)
+    except Exception:
+        return _decode_first(type_name, buf, strict)
+
+
+def _decode_other(type_name: object, buf: bytes | bytearray | memoryview, strict: bool) -> Message:
+    """:func:`decode` given a message class (or a subclass of ``str``)."""
+    if isinstance(type_name, type) and issubclass(type_name, Message):
+        return _decode(type_name, buf, strict)
+    if isinstance(type_name, str):
+        return _decode_first(str(type_name), buf, strict)
+    kind = type(type_name).__name__
+    raise TypeError(f'decode takes a type name or a message class, not {kind}')
+
+
+def _decode_first(type_name: str, buf: bytes | bytearray | memoryview, strict: bool) -> Message:
+    """:func:`decode` of a name not decoded before, or of malformed data."""
+    decoder = default_registry().decoder(type_name)
     try:
         return decoder(buf, strict)
     except Exception:  # malformed input: decoding again raises the CdrError that explains it

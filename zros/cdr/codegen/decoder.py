@@ -239,7 +239,8 @@ class _DecoderBuilder:
             self.src.add(f'{span} = {self.array_expr(primitive, str(count), self.where(first))}')
             for offset, array in group:
                 lo = (offset - first) // size
-                self.src.add(f'{array.ref} = {span}[{lo}:{lo + array.count}]')
+                part = self.src.ref(slice(lo, lo + array.count), 's')  # not built per call
+                self.src.add(f'{array.ref} = {span}[{part}]')
 
     def array_expr(self, primitive: str, count: str, where: str) -> str:
         dtype = self.src.ref(numpy_dtype(primitive, self.endian), 'D')
@@ -251,6 +252,28 @@ class _DecoderBuilder:
             self.src.add(f'if {condition}: raise {self.bad}(f{message!r})')
         else:
             self.src.add(f'if {condition}: raise {self.bad}')
+
+    def string_at(self, op: Str, start: int) -> State:
+        """A string at an offset known when generating (the fast decoder's first one): ``e``
+        holds the offset of its NUL byte."""
+        assert not self.trace  # the traced decoder keeps the offset in ``pos`` from the start
+        src = self.src
+        self.static = None
+        with src.block(f'if {op.count}:'):
+            src.add(f'e = {start - 1} + {op.count}')
+            self.fail('buf[e]', 'string does not end with a NUL byte')
+            if self.mv:
+                src.add(f"{op.ref} = str(buf[{start}:e], 'utf-8')")
+            else:
+                src.add(f'{op.ref} = buf[{start}:e].decode()')
+            if op.bound:
+                too_long = f'{op.count} > {op.bound + 1} and len({op.ref}) > {op.bound}'
+                src.add(f'if {too_long}: raise {self.bad}')
+            src.add('pos = e + 1')
+        with src.block('else:'):
+            src.add(f"{op.ref} = ''")
+            src.add(f'pos = {start}')
+        return UNKNOWN
 
     def emit_one(self, op: Op, state: State) -> State:
         src = self.src
@@ -276,6 +299,8 @@ class _DecoderBuilder:
             src.add(f'{op.ref} = {self.array_expr(op.primitive, str(op.count), "pos")}')
             src.add(f'pos += {size * op.count}')
             return state.advance(size * op.count)
+        if isinstance(op, Str) and not op.wide and self.static is not None:
+            return self.string_at(op, self.static)
         self.materialize()  # the operations below move the offset at run time
         if isinstance(op, Str):
             # the count before it was marked with this path: the offset stays at the field start
