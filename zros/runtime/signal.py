@@ -229,5 +229,7 @@ class Signal:
     def notify(self) -> None:
         """Wake every waiting thread."""
         for lock in tuple(self._waiters):
-            with contextlib.suppress(RuntimeError):  # already released by an earlier notify
+            try:  # noqa: SIM105 (contextlib.suppress costs 3x the release, once per message)
                 lock.release()
+            except RuntimeError:  # already released by an earlier notify
+                pass
