@@ -6,7 +6,8 @@ rmw_zenoh's (attachments on every message). Rows, all reliable and keep-all:
 
   (a) std_msgs/String messages per second, against two raw subscribers: one that only takes
       the bytes, one that also decodes them with zros's codec; zros with a callback run by
-      ``spin_once`` (both wires) and read the rosR way (``spin_once`` + ``take()``);
+      ``spin_once`` (both wires), with a callback that takes the bytes (``raw=True``: what
+      zros adds besides decoding), and read the rosR way (``spin_once`` + ``take()``);
   (b) sensor_msgs/Image 1920x1080 rgb8 throughput in MB/s;
   (c) uint8[] messages (std_msgs/UInt8MultiArray) of 10 B to 10 MB: messages/s and MB/s, raw
       taking the bytes and raw also decoding them (what a subscriber that decodes can reach);
@@ -37,7 +38,7 @@ from transport_roles import ROLES, read_result, spawn_role, wait_ready, zros_nod
 
 __all__ = ['read_result', 'round_trip', 'spawn_role', 'throughput', 'wait_ready', 'zros_node']
 
-STRING_IMPLS = ('zenoh', 'zenoh_decode', 'zros', 'zros_rmw', 'zros_poll', 'zros_now')
+STRING_IMPLS = ('zenoh', 'zenoh_decode', 'zros', 'zros_bytes', 'zros_rmw', 'zros_poll', 'zros_now')
 IMAGE_IMPLS = ('zenoh', 'zros', 'zros_rmw')
 SIZE_IMPLS = ('zenoh', 'zenoh_decode', 'zros')
 RTT_IMPLS = ('zenoh', 'zros', 'zros_rmw', 'zros_now')

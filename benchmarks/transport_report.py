@@ -11,6 +11,7 @@ STRING_NAMES = {
     'zenoh': 'raw zenoh, bytes only',
     'zenoh_decode': 'raw zenoh + zros decode',
     'zros': 'zros callback (bridge)',
+    'zros_bytes': 'zros callback, bytes only',
     'zros_rmw': 'zros callback (rmw_zenoh)',
     'zros_poll': 'zros spin_once + take',
     'zros_now': 'zros immediate callbacks',
@@ -32,6 +33,11 @@ RTT_NAMES = {
 }
 
 
+def _cpu_per_message(row: dict[str, Any]) -> float:
+    """Microseconds of the subscriber's CPU per message, from the first to the last."""
+    return float(row['cpu']) / max(row['received'] - 1, 1) * 1e6
+
+
 def _mbs(row: dict[str, Any]) -> float:
     return float(row['rate'] * row['size'] / 1e6)
 
@@ -51,7 +57,10 @@ def _print_strings(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> Non
     raw, decoded = rows.get('string/zenoh'), rows.get('string/zenoh_decode')
     if not any(key.startswith('string/') for key in rows):
         return
-    print(f'(a) std_msgs/String msgs/s       {"msgs/s":>10} {"/ bytes":>8} {"/ decode":>8}  runs')
+    print(
+        f'(a) std_msgs/String msgs/s       {"msgs/s":>10} {"/ bytes":>8} {"/ decode":>8}'
+        f' {"sub CPU us":>10}  runs'
+    )
     for impl, name in STRING_NAMES.items():
         found = rows.get(f'string/{impl}')
         if found is None:
@@ -59,8 +68,13 @@ def _print_strings(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> Non
         rate = found['rate']
         over_raw = f'{rate / raw["rate"]:8.2f}' if raw else ' ' * 8
         over_decoded = f'{rate / decoded["rate"]:8.2f}' if decoded else ' ' * 8
+        cpu = _cpu_per_message(found)
         runs = ' '.join(f'{r / 1000:.0f}k' for r in found['runs'])
-        print(f'    {name:28} {rate:>10,.0f} {over_raw} {over_decoded}  {runs}')
+        print(f'    {name:28} {rate:>10,.0f} {over_raw} {over_decoded} {cpu:>10.2f}  {runs}')
+    print(
+        "    sub CPU us: the subscriber process's CPU per message (all its threads), steadier "
+        'than the rates here'
+    )
     for ours, theirs, text, target in STRING_GOALS:
         found, reference = rows.get(f'string/{ours}'), rows.get(f'string/{theirs}')
         if found and reference:

@@ -211,6 +211,7 @@ def role_subscribe(args: argparse.Namespace) -> None:
         subscriber.undeclare()
         session.close()
     else:
+        import zros
         from zros.qos import KEEP_ALL
 
         node = zros_node('bench_sub', args.endpoint, args.shm, impl=args.impl)
@@ -222,8 +223,11 @@ def role_subscribe(args: argparse.Namespace) -> None:
                 node.spin_once(POLL_PERIOD)
                 if subscriber.has_new_message():
                     counter.add(len(subscriber.take()))
-        else:
-            node.create_subscription(cls, '/bench/data', lambda _: counter.add(), qos=KEEP_ALL)
+        else:  # zros_bytes: the messages' bytes, not decoded (what zros adds besides decoding)
+            raw = args.impl == 'zros_bytes'
+            zros.Subscriber(
+                '/bench/data', cls, lambda _: counter.add(), KEEP_ALL, node=node, raw=raw
+            )
             print('ready', flush=True)
             while counter.received < args.count and time.monotonic() < deadline:
                 node.spin_once(0.5)
