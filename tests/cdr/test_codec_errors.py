@@ -312,6 +312,16 @@ def test_decoding_something_that_is_not_a_buffer() -> None:
         cdr.decode(cls('std_msgs/msg/String'), 'text')  # type: ignore[arg-type]
 
 
+def test_a_string_counted_zero_reads_as_empty_and_the_fields_after_it_in_place() -> None:
+    # writers put at least the NUL (count 1); a count of 0 is read as '' (no bytes to skip),
+    # in the first field (read at constant offsets) and later ones, from bytes or a view
+    Bounded = cls('err_msgs/msg/Bounded')
+    data = HEADER + _u32(0) + _u32(2) + b'\x05\x00\x06\x00' + b'\x07'
+    for buf in (data, memoryview(data), bytearray(data)):
+        decoded = cdr.decode(Bounded, buf, strict=True)
+        assert (decoded.name, list(decoded.values), decoded.tail) == ('', [5, 6], 7)
+
+
 def test_decoding_by_something_that_names_no_type() -> None:
     data = cdr.encode(cls('std_msgs/msg/String')(data='a'))
     for wrong in (123, None, b'std_msgs/msg/String', dict):
