@@ -5,6 +5,7 @@ from __future__ import annotations
 import struct
 import tracemalloc
 
+import numpy as np
 import pytest
 
 from zros import cdr
@@ -14,6 +15,7 @@ from zros.cdr.registry import TypeRegistry
 REGISTRY = TypeRegistry('jazzy', paths=[], ament=False)
 REGISTRY.register_text('err_msgs/msg/Bounded', 'string<=3 name\nint16[<=2] values\nuint8 tail')
 REGISTRY.register_text('err_msgs/msg/Wide', 'wstring text\nwstring<=2 short')
+REGISTRY.register_text('err_msgs/msg/Corners', 'geometry_msgs/Point32[<=2] corners\nuint8 tail')
 
 
 def cls(name: str) -> type[cdr.Message]:
@@ -122,6 +124,18 @@ def cls(name: str) -> type[cdr.Message]:
             'points',
             'element 0: expected geometry_msgs/msg/Point32, got object',
         ),
+        (
+            'geometry_msgs/msg/Polygon',
+            lambda m: setattr(m, 'points', [cls('geometry_msgs/msg/Point32')(), 5]),
+            'points',
+            'element 1: expected geometry_msgs/msg/Point32, got int',
+        ),
+        (
+            'err_msgs/msg/Corners',
+            lambda m: setattr(m, 'corners', [cls('geometry_msgs/msg/Point32')()] * 3),
+            'corners',
+            '3 elements exceed the bound of 2',
+        ),
     ],
 )
 def test_encode_errors(name: str, setup: object, field: str, reason: str) -> None:
@@ -133,6 +147,29 @@ def test_encode_errors(name: str, setup: object, field: str, reason: str) -> Non
     assert info.value.type_name == name
     assert reason in str(info.value)
     assert str(info.value).startswith(f'cannot encode {name}: field {field!r}: ')
+
+
+def test_a_struct_sequence_encodes_the_same_from_every_form_it_takes() -> None:
+    Point32, Polygon = cls('geometry_msgs/msg/Point32'), cls('geometry_msgs/msg/Polygon')
+    rows = [(1.0, 2.0, 3.0), (4.0, 5.0, 6.0), (7.0, 8.0, 9.0)]
+    objects = [Point32(x=x, y=y, z=z) for x, y, z in rows]
+    expected = HEADER + _u32(3) + struct.pack('<9f', *[v for row in rows for v in row])
+    table = np.array(rows, dtype=[('x', '<f4'), ('y', '<f4'), ('z', '<f4')])
+    forms = {
+        'objects': objects,
+        'tuple': tuple(objects),
+        'generator': (p for p in objects),
+        'dicts': [{'x': x, 'y': y, 'z': z} for x, y, z in rows],
+        'mixed': [objects[0], {'x': 4.0, 'y': 5.0, 'z': 6.0}, objects[2]],
+        'array': table,
+        'float64 array': table.astype([('x', '<f8'), ('y', '<f8'), ('z', '<f8')]),
+    }
+    for form, value in forms.items():
+        message = Polygon()
+        message.points = value
+        assert cdr.encode(message) == expected, form
+    assert cdr.encode(Polygon(points=objects)) == expected
+    assert cdr.encode(Polygon(points=[])) == HEADER + _u32(0)
 
 
 def test_encoding_something_that_is_not_a_message() -> None:

@@ -177,6 +177,31 @@ def pack_structs(
     return np.array(rows, dtype=dtype)
 
 
+def struct_rows(
+    value: FieldValue, cls: type[Message], bound: int
+) -> tuple[int, bytes | np.ndarray]:
+    """The element count and what to encode of a struct sequence field. A sequence of message
+    objects is packed row by row into bytes (building an array for a few elements cost more
+    than packing them); arrays, and elements the packer refuses, go through
+    :func:`struct_array`."""
+    if type(value) is StructSeq and value._arr is None:
+        items: object = value._items or []
+    else:
+        items = value
+    fast = getattr(cls, '_pack_rows', None)
+    if fast is not None and type(items) is list:
+        if not items:
+            return 0, b''
+        if bound >= 0 and len(items) > bound:
+            raise Bad(f'{len(items)} elements exceed the bound of {bound}')
+        try:
+            return len(items), fast(items)
+        except Exception:  # a wrong element (or a dict): the checked path below says which
+            pass
+    array = struct_array(value, cls, bound)
+    return len(array), array
+
+
 def struct_array(value: FieldValue, cls: type[Message], bound: int) -> np.ndarray:
     """The contiguous little-endian structured array to encode for a struct sequence field."""
     dtype = cls._dtype

@@ -28,7 +28,7 @@ from zros.cdr.codegen.ops import (
 from zros.cdr.codegen.program import Program, path_literal
 from zros.cdr.errors import CdrError
 from zros.cdr.model import INTEGER_RANGES, PRIMITIVE_SIZES, FieldType, Kind, MessageDef
-from zros.cdr.struct_seq import struct_array
+from zros.cdr.struct_seq import struct_rows
 
 #: the CDR header of little-endian data
 HEADER_LE = b'\x00\x01\x00\x00'
@@ -96,20 +96,17 @@ class _EncoderBuilder:
                     convert_to = src.ref(convert.prim_array, 'prim')
                     target = src.ref(value_dtype(t.base), 'D')
                     align = size = PRIMITIVE_SIZES[t.base]
-                else:
-                    convert_to = src.ref(struct_array, 'sarr')
+                    lines = [
+                        f'{array} = {convert_to}({expr}, {target}, {bound})',
+                        f'{count} = len({array})',
+                    ]
+                else:  # packed rows (bytes) or a structured array, and how many elements
+                    convert_to = src.ref(struct_rows, 'srows')
                     target = src.ref(self.ctx.cls(t.base), 'C')
                     info = self.ctx.info(t.base)
                     align, size = info.first_align, info.size
-                ops.append(
-                    Pre(
-                        [
-                            *self.mark_lines(fpath),
-                            f'{array} = {convert_to}({expr}, {target}, {bound})',
-                            f'{count} = len({array})',
-                        ]
-                    )
-                )
+                    lines = [f'{count}, {array} = {convert_to}({expr}, {target}, {bound})']
+                ops.append(Pre([*self.mark_lines(fpath), *lines]))
                 ops.append(Fix('I', 4, count, fpath))
                 total = count if size == 1 else f'{count} * {size}'
                 ops.append(Blob(array, total, align, count, False, True))

@@ -381,8 +381,6 @@ def _gen_pack_rows(ctx: Context, msg: MessageDef) -> Callable[[list[Message]], b
         fmt.append(f'{size - position}x')
     src = Program()
     pack = src.ref(struct.Struct(''.join(fmt)).pack, 'pack')
-    src.add('out = []; ap = out.append')
-    with src.block('for o in items:'):
-        src.add(f'ap({pack}({", ".join(values)}))')
-    src.add(f'return {src.ref(b"".join, "join")}(out)')
+    join = src.ref(b''.join, 'join')
+    src.add(f'return {join}([{pack}({", ".join(values)}) for o in items])')
     return src.compile('items', '_pack_rows')
