@@ -7,6 +7,8 @@ from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass
 
+import numpy as np
+
 from zros.cdr import convert
 from zros.cdr.codegen.ops import (
     START,
@@ -96,10 +98,8 @@ class _EncoderBuilder:
                     convert_to = src.ref(convert.prim_array, 'prim')
                     target = src.ref(value_dtype(t.base), 'D')
                     align = size = PRIMITIVE_SIZES[t.base]
-                    lines = [
-                        f'{array} = {convert_to}({expr}, {target}, {bound})',
-                        f'{count} = len({array})',
-                    ]
+                    lines = self.prim_lines(array, expr, convert_to, target, bound)
+                    lines.append(f'{count} = len({array})')
                 else:  # packed rows (bytes) or a structured array, and how many elements
                     convert_to = src.ref(struct_rows, 'srows')
                     target = src.ref(self.ctx.cls(t.base), 'C')
@@ -123,6 +123,27 @@ class _EncoderBuilder:
                 ops.append(Pre(lines))
                 ops.append(Fix('I', 4, count, fpath))
                 ops.append(self.loop(t, items, fpath))
+
+    def prim_lines(
+        self, array: str, expr: str, convert_to: str, dtype: str, bound: int
+    ) -> list[str]:
+        """``array`` = the value of a primitive sequence as an array to write. The fast encoder
+        tests the usual case (a contiguous 1-D array of the field's dtype) inline: the call
+        it saves is a tenth of a small message's encoding."""
+        if self.trace:
+            return [f'{array} = {convert_to}({expr}, {dtype}, {bound})']
+        ndarray = self.src.ref(np.ndarray, 'nd')
+        usual = (
+            f'type({array}) is {ndarray} and {array}.dtype is {dtype} and {array}.ndim == 1 '
+            f'and {array}.flags.c_contiguous'
+        )
+        lines = [f'{array} = {expr}']
+        if bound >= 0:
+            lines.append(f'if not ({usual}) or len({array}) > {bound}:')
+        else:
+            lines.append(f'if not ({usual}):')
+        lines.append(f'    {array} = {convert_to}({array}, {dtype}, {bound})')
+        return lines
 
     def refuse(self, condition: str, reason: str) -> str:
         """A line raising ``Bad`` when ``condition`` holds (with ``reason``, an f-string body
@@ -391,6 +412,42 @@ def _parts_in_locals(lines: list[str]) -> list[str] | None:
     return body
 
 
+def _indent(line: str) -> int:
+    return len(line) - len(line.lstrip())
+
+
+def _without_dead_counts(lines: list[str]) -> list[str]:
+    """The body without the updates of the position count ``r`` that nothing reads after
+    them (those after the last alignment, unless a loop holding it reads them again)."""
+    reads = [i for i, line in enumerate(lines) if '-r &' in line]
+    start = 0
+    if reads:
+        start = reads[-1] + 1
+        depth = _indent(lines[reads[-1]])
+        for j in range(reads[-1] - 1, -1, -1):  # the loops around the last read
+            if _indent(lines[j]) < depth:
+                depth = _indent(lines[j])
+                if lines[j].lstrip().startswith(('for ', 'while ')):
+                    end = next(
+                        (k for k in range(reads[-1] + 1, len(lines)) if _indent(lines[k]) <= depth),
+                        len(lines),
+                    )
+                    start = max(start, end)
+    body = lines[:start]
+    for i in range(start, len(lines)):
+        line = lines[i]
+        alone = (
+            bool(body)
+            and body[-1].endswith(':')
+            and (  # a block's only statement stays (it must have one)
+                i + 1 == len(lines) or _indent(lines[i + 1]) < _indent(line)
+            )
+        )
+        if alone or not line.lstrip().startswith('r += '):
+            body.append(line)
+    return body
+
+
 def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[..., bytes]:
     """The function ``encode(message, join=b''.join) -> bytes`` (little-endian, header included,
     no padding). ``join`` assembles the parts; publishers pass one that reuses a buffer."""
@@ -411,6 +468,7 @@ def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[...
         del lines[0]
         src.lines = [*lines, f'    return {builder.single_pack}']
     elif not trace:
+        src.lines = _without_dead_counts(src.lines)
         src.lines = _parts_in_locals(src.lines) or src.lines
     join_default = src.ref(b''.join, 'join')
     return src.compile(f'o, join={join_default}', 'encode')
