@@ -253,26 +253,39 @@ class _DecoderBuilder:
         else:
             self.src.add(f'if {condition}: raise {self.bad}')
 
-    def string_at(self, op: Str, start: int) -> State:
-        """A string at an offset known when generating (the fast decoder's first one): ``e``
-        holds the offset of its NUL byte."""
-        assert not self.trace  # the traced decoder keeps the offset in ``pos`` from the start
+    def string(self, op: Str, start: int | None) -> State:
+        """A string after its count: read at ``start`` where the offset is known when
+        generating (the fast decoder's first string), else at ``pos``. ``e`` holds the offset
+        of its NUL byte."""
         src = self.src
-        self.static = None
+        at = 'pos' if start is None else str(start)
         with src.block(f'if {op.count}:'):
-            src.add(f'e = {start - 1} + {op.count}')
+            src.add(
+                f'e = pos - 1 + {op.count}' if start is None else f'e = {start - 1} + {op.count}'
+            )
+            if self.trace:  # the fast decoder's NUL check below raises IndexError then
+                self.fail(
+                    'e >= end',
+                    f'string of {{{op.count} - 1}} bytes runs past the end of the buffer '
+                    '({end} bytes)',
+                )
             self.fail('buf[e]', 'string does not end with a NUL byte')
-            if self.mv:
-                src.add(f"{op.ref} = str(buf[{start}:e], 'utf-8')")
+            if self.mv or self.trace:
+                src.add(f"{op.ref} = str(buf[{at}:e], 'utf-8')")
             else:
-                src.add(f'{op.ref} = buf[{start}:e].decode()')
+                src.add(f'{op.ref} = buf[{at}:e].decode()')
             if op.bound:
-                too_long = f'{op.count} > {op.bound + 1} and len({op.ref}) > {op.bound}'
-                src.add(f'if {too_long}: raise {self.bad}')
+                # the bound counts bytes (C++ readers check that), but rclpy checks characters
+                # and writes longer strings: accept them when the characters fit
+                self.fail(
+                    f'{op.count} > {op.bound + 1} and len({op.ref}) > {op.bound}',
+                    f'string of {{len({op.ref})}} characters exceeds its bound {op.bound}',
+                )
             src.add('pos = e + 1')
         with src.block('else:'):
             src.add(f"{op.ref} = ''")
-            src.add(f'pos = {start}')
+            if start is not None:
+                src.add(f'pos = {start}')
         return UNKNOWN
 
     def emit_one(self, op: Op, state: State) -> State:
@@ -300,7 +313,8 @@ class _DecoderBuilder:
             src.add(f'pos += {size * op.count}')
             return state.advance(size * op.count)
         if isinstance(op, Str) and not op.wide and self.static is not None:
-            return self.string_at(op, self.static)
+            start, self.static = self.static, None
+            return self.string(op, start)
         self.materialize()  # the operations below move the offset at run time
         if isinstance(op, Str):
             # the count before it was marked with this path: the offset stays at the field start
@@ -315,30 +329,7 @@ class _DecoderBuilder:
                     f'{op.ref}, pos = {decode}(buf, pos, {op.count}, {self.end}, {self.endian!r})'
                 )
                 return State(0, 4)
-            with src.block(f'if {op.count}:'):
-                src.add(f'e = pos + {op.count}')
-                if self.trace:  # the fast decoder's NUL check below raises IndexError then
-                    self.fail(
-                        'e > end',
-                        f'string of {{{op.count} - 1}} bytes runs past the end of the buffer '
-                        '({end} bytes)',
-                    )
-                self.fail('buf[e - 1]', 'string does not end with a NUL byte')
-                if self.mv or self.trace:
-                    src.add(f"{op.ref} = str(buf[pos:e - 1], 'utf-8')")
-                else:
-                    src.add(f'{op.ref} = buf[pos:e - 1].decode()')
-                if op.bound:
-                    # the bound counts bytes (C++ readers check that), but rclpy checks characters
-                    # and writes longer strings: accept them when the characters fit
-                    self.fail(
-                        f'{op.count} > {op.bound + 1} and len({op.ref}) > {op.bound}',
-                        f'string of {{len({op.ref})}} characters exceeds its bound {op.bound}',
-                    )
-                src.add('pos = e')
-            with src.block('else:'):
-                src.add(f"{op.ref} = ''")
-            return UNKNOWN
+            return self.string(op, None)
         if isinstance(op, Seq):
             if op.bound >= 0:
                 self.fail(

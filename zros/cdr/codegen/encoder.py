@@ -390,7 +390,8 @@ _JOIN = 'return join(parts)'
 def _parts_in_locals(lines: list[str]) -> list[str] | None:
     """The body with its parts in locals joined once, where every part is appended outside
     loops and branches (a list and its appends are a third of a small message's encode), and
-    without the position count when nothing reads it; None where parts are appended in blocks."""
+    without the position count when nothing reads it (:func:`_without_dead_counts` dropped
+    its updates); None where parts are appended in blocks."""
     appended = {i for i, line in enumerate(lines) if '_p(' in line}
     if len(appended) < 2 or any(not lines[i].startswith(_BASE + '_p(') for i in appended):
         return None
@@ -403,8 +404,6 @@ def _parts_in_locals(lines: list[str]) -> list[str] | None:
             body.append(f'{_BASE}{names[-1]} = {line[len(_BASE) + 3 : -1]}')
         elif line == _BASE + _PARTS:
             body += [_BASE + 'r = 0'] if counted else []
-        elif line.startswith(_BASE + 'r += ') and not counted:
-            continue
         elif line == _BASE + _JOIN:
             body.append(f'{_BASE}return join(({", ".join(names)},))')
         else:
