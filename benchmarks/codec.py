@@ -209,13 +209,14 @@ def mcap_fast_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callabl
 
 
 def pycdr2_codec(name: str, message: Any) -> tuple[Callable[[], Any], Callable[[], Any]] | None:
-    try:
-        from zros.cdr.pycdr2 import pycdr2_class, to_pycdr2
-    except ImportError:
-        return None
+    from zros.cdr.pycdr2 import pycdr2_class, to_pycdr2
+
     if 'Image 1920' in name or 'PointCloud2' in name:
         return None  # minutes per message: pycdr2 handles byte sequences element by element
-    cls = pycdr2_class(type(message))
+    try:
+        cls = pycdr2_class(type(message))  # imports pycdr2, an optional package
+    except ImportError:
+        return None
     obj = to_pycdr2(message)
     data = obj.serialize()
     return (obj.serialize, lambda: cls.deserialize(data))
