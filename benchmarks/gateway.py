@@ -13,10 +13,15 @@ latency of std_msgs/Header messages sent 200 times a second (stamp to arrival, w
 one machine), each through the gateway and to the zros subscriber, with their ratios. The
 gateway's per-client outbox is made large enough that nothing is dropped.
 
-Two more rows bound what a gateway on foxglove-sdk can do here: a process that logs the
-same image's CDR bytes on an SDK channel as fast as it takes them, with no Zenoh, no router and
-no copy of its own, to the same node client; and raw zenoh-python logging each sample's bytes
-into the SDK from its callback (the gateway's work without zros).
+Two more rows per kind bound what a gateway on foxglove-sdk can do here: a process that logs
+the same message's CDR bytes on an SDK channel as fast as it takes them, with no Zenoh, no
+router and no copy of its own, to the same node client; and raw zenoh-python logging each
+sample's bytes into the SDK from its callback (the gateway's work without zros).
+
+On two cores every process competes for the same CPU, so the rates follow the CPU each path
+spends per message, which the second table gives per process. Its last rows give each
+receiver's busiest thread (ticks of /proc, 10 ms): where every thread has a core of its own,
+the busiest thread of a path's slowest stage bounds its rate.
 
     python benchmarks/gateway.py [--quick]
 """
@@ -39,6 +44,7 @@ HERE = Path(__file__).resolve()
 sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
 
 import transport as bench  # noqa: E402  (the publisher and the zros subscriber roles)
+from transport_roles import busiest_thread, thread_seconds  # noqa: E402
 
 from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
 
@@ -67,15 +73,16 @@ def role_stamps(args: argparse.Namespace) -> None:
     node.transport.close()
 
 
-def _watched_image_channel(timeout: float) -> tuple[Any, Any]:
-    """An SDK server and an Image channel on TOPIC (cdr), its URL printed as ``zros foxglove``
-    prints it; returns once a client subscribed (or after ``timeout`` s)."""
+def _watched_channel(kind: str, timeout: float) -> tuple[Any, Any]:
+    """An SDK server and a channel on TOPIC (cdr) of ``kind``'s type, its URL printed as
+    ``zros foxglove`` prints it; returns once a client subscribed (or after ``timeout`` s)."""
     import foxglove
+    from transport_roles import type_of
 
     from zros.cdr import default_registry
     from zros.gateway.foxglove_common import ros2msg_schema
 
-    schema = ros2msg_schema(default_registry(), 'sensor_msgs/msg/Image')
+    schema = ros2msg_schema(default_registry(), type_of(kind))
     server = foxglove.start_server(host='127.0.0.1', port=0, message_backlog_size=1_000_000)
     channel = foxglove.Channel(TOPIC, schema=schema, message_encoding='cdr')
     print(f'Foxglove: ws://127.0.0.1:{server.port}', flush=True)
@@ -86,15 +93,17 @@ def _watched_image_channel(timeout: float) -> tuple[Any, Any]:
 
 
 def role_sdk(args: argparse.Namespace) -> None:
-    """foxglove-sdk alone: log one image's CDR bytes ``count`` times once a client subscribes."""
+    """foxglove-sdk alone: log one message's CDR bytes ``count`` times once a client
+    subscribes (with a stamp, as the gateway logs them)."""
     from transport_roles import payload
 
     from zros.cdr import encode
 
-    data = encode(payload('image'))
-    _server, channel = _watched_image_channel(args.timeout)
+    data = encode(payload(args.kind))
+    _server, channel = _watched_channel(args.kind, args.timeout)
+    log = channel.base.log
     for _ in range(args.count):
-        channel.log(data)
+        log(data, time.time_ns())
     time.sleep(args.timeout)  # the client reads the backlog; the driver ends this process
 
 
@@ -104,7 +113,7 @@ def role_zenoh_sdk(args: argparse.Namespace) -> None:
     from transport_roles import raw_session
 
     session = raw_session(args.endpoint, False)
-    _server, channel = _watched_image_channel(args.timeout)
+    _server, channel = _watched_channel(args.kind, args.timeout)
     log = channel.base.log
     subscriber = session.declare_subscriber(  # once watched, as the gateway taps a topic
         TOPIC.lstrip('/'), lambda sample: log(sample.payload.to_bytes(), time.time_ns())
@@ -204,6 +213,7 @@ def gateway_throughput(
     gateway = Gateway(endpoint, command)
     pids = {'cpu': gateway.process.pid, 'cpu_client': gateway.client.process.pid}
     before = {name: cpu_seconds(pid) for name, pid in pids.items()}  # both started, idle
+    threads = {name: thread_seconds(pid) for name, pid in pids.items()}
     router = time.process_time()  # this process's: the router's
     try:
         extra = ['--kind', kind, '--count', str(count)]
@@ -211,6 +221,8 @@ def gateway_throughput(
         subscription = gateway.subscribe()  # the publisher waits for the tap this makes
         found = gateway.counted(subscription, count, 20)
         cpu = {name: cpu_seconds(pid) - before[name] for name, pid in pids.items()}
+        for name, pid in pids.items():
+            cpu[f'{name}_thread'] = busiest_thread(threads[name], thread_seconds(pid))
         if publisher is not None:
             cpu['cpu_publisher'] = bench.read_result(publisher, 120)['cpu']
             cpu['cpu_router'] = time.process_time() - router
@@ -221,16 +233,17 @@ def gateway_throughput(
     return {'received': found['count'], 'rate': rate, 'size': size, **cpu}
 
 
-def sdk_throughput(count: int) -> dict[str, Any]:
-    """Images logged by foxglove-sdk alone (``role_sdk``) as the node client counts them."""
-    command = [sys.executable, str(HERE), '--role', 'sdk', '--count', str(count)]
-    return gateway_throughput('image', count, '', [*command, '--timeout', '300'], publish=False)
+def sdk_throughput(kind: str, count: int) -> dict[str, Any]:
+    """Messages logged by foxglove-sdk alone (``role_sdk``) as the node client counts them."""
+    command = [sys.executable, str(HERE), '--role', 'sdk', '--kind', kind, '--count', str(count)]
+    return gateway_throughput(kind, count, '', [*command, '--timeout', '300'], publish=False)
 
 
-def zenoh_sdk_throughput(count: int, endpoint: str) -> dict[str, Any]:
-    """Images through raw zenoh-python into foxglove-sdk (``role_zenoh_sdk``)."""
-    command = [sys.executable, str(HERE), '--role', 'zenoh_sdk', '--endpoint', endpoint]
-    return gateway_throughput('image', count, endpoint, [*command, '--timeout', '300'])
+def zenoh_sdk_throughput(kind: str, count: int, endpoint: str) -> dict[str, Any]:
+    """Messages through raw zenoh-python into foxglove-sdk (``role_zenoh_sdk``)."""
+    command = [sys.executable, str(HERE), '--role', 'zenoh_sdk', '--kind', kind]
+    command += ['--endpoint', endpoint, '--timeout', '300']
+    return gateway_throughput(kind, count, endpoint, command)
 
 
 def _spawn_here(role: str, endpoint: str, count: int) -> subprocess.Popen[str]:
@@ -273,6 +286,7 @@ def main() -> None:
     parser.add_argument('--role', help=argparse.SUPPRESS)
     parser.add_argument('--endpoint', help=argparse.SUPPRESS)
     parser.add_argument('--count', type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument('--kind', default='image', help=argparse.SUPPRESS)
     parser.add_argument('--timeout', type=float, default=120, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.role:
@@ -302,15 +316,15 @@ def main() -> None:
     runs: dict[str, dict[str, list[dict[str, Any]]]] = {
         'zros': {'string': [], 'image': []},
         'gateway': {'string': [], 'image': []},
-        'sdk': {'image': []},
-        'zenoh_sdk': {'image': []},
+        'sdk': {'string': [], 'image': []},
+        'zenoh_sdk': {'string': [], 'image': []},
     }
     for _ in range(repeats):
         for kind, count in (('string', strings), ('image', images)):
             runs['zros'][kind].append(bench.throughput('zros', kind, count, endpoint, False))
             runs['gateway'][kind].append(gateway_throughput(kind, count, endpoint))
-        runs['sdk']['image'].append(sdk_throughput(images))
-        runs['zenoh_sdk']['image'].append(zenoh_sdk_throughput(images, endpoint))
+            runs['sdk'][kind].append(sdk_throughput(kind, count))
+            runs['zenoh_sdk'][kind].append(zenoh_sdk_throughput(kind, count, endpoint))
     latency = {'zros': zros_latency(stamps, endpoint), 'gateway': gateway_latency(stamps, endpoint)}
     router.close()
     report(
@@ -333,15 +347,18 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
     ]
     for label, ours, theirs in lines:
         print(f'{label:36} {ours:>10,.1f} {theirs:>10,.1f} {theirs / ours:>8.2f}')
-    for name, label in (
-        ('sdk', 'Image MB/s, foxglove-sdk alone'),
-        ('zenoh_sdk', 'Image MB/s, raw zenoh into the SDK'),
-    ):
-        other = mbs(rows[name]['image'])
-        print(
-            f'{label:36} {"":>10} {other:>10,.1f} {other / mbs(z["image"]):>8.2f}'
-            f'   (gateway / it: {mbs(g["image"]) / other:.2f})'
-        )
+
+    def amount(row: dict[str, Any], kind: str) -> float:  # what the rows above compare
+        return float(row['rate']) if kind == 'string' else mbs(row)
+
+    for name, label in (('sdk', 'foxglove-sdk alone'), ('zenoh_sdk', 'raw zenoh into the SDK')):
+        for kind, unit in (('string', 'String msgs/s'), ('image', 'Image MB/s')):
+            other = amount(rows[name][kind], kind)
+            print(
+                f'{unit + ", " + label:36} {"":>10} {other:>10,.1f} '
+                f'{other / amount(z[kind], kind):>8.2f}'
+                f'   (gateway / it: {amount(g[kind], kind) / other:.2f})'
+            )
     print()
     print(f'{"CPU per message, us":36} {"String":>10} {"Image":>10}')
     cpu_rows = [
@@ -353,7 +370,13 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
         ('  zros foxglove process', 'gateway', 'cpu'),
         ('  its node client process', 'gateway', 'cpu_client'),
         ('foxglove-sdk alone, its process', 'sdk', 'cpu'),
+        ('  its node client process', 'sdk', 'cpu_client'),
         ('raw zenoh into the SDK, its process', 'zenoh_sdk', 'cpu'),
+        ('  its node client process', 'zenoh_sdk', 'cpu_client'),
+        ('busiest thread: zros subscriber', 'zros', 'cpu_thread'),
+        ('  zros foxglove', 'gateway', 'cpu_thread'),
+        ('  its node client', 'gateway', 'cpu_client_thread'),
+        ('  foxglove-sdk alone', 'sdk', 'cpu_thread'),
     ]
     for label, name, key in cpu_rows:
         cells = [

@@ -31,6 +31,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 #: the script that plays the roles (``--role``)
@@ -147,6 +148,27 @@ def role_publish(args: argparse.Namespace) -> None:
     print(json.dumps({'cpu': cpu}))  # its CPU seconds while it sent (all threads)
 
 
+def thread_seconds(pid: int) -> dict[int, float]:
+    """CPU seconds each thread of a process has used so far (Linux; empty elsewhere)."""
+    found: dict[int, float] = {}
+    try:
+        tasks = list(Path(f'/proc/{pid}/task').iterdir())
+    except OSError:
+        return {}
+    for task in tasks:
+        try:
+            fields = (task / 'stat').read_text().rsplit(')', 1)[1].split()
+        except OSError:  # the thread ended
+            continue
+        found[int(task.name)] = (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+    return found
+
+
+def busiest_thread(before: dict[int, float], after: dict[int, float]) -> float:
+    """The most CPU seconds one thread used between two ``thread_seconds`` readings."""
+    return max((cpu - before.get(tid, 0.0) for tid, cpu in after.items()), default=float('nan'))
+
+
 class Counter:
     """Arrival times of the first and the last message, and how many came."""
 
@@ -155,6 +177,8 @@ class Counter:
         self.received = 0
         self.first = self.last = 0.0
         self.cpu_first = self.cpu_last = 0.0  # this process's CPU seconds (all threads)
+        self.threads_first: dict[int, float] = {}  # and each thread's
+        self.threads_last: dict[int, float] = {}
         self.done = threading.Event()
 
     def add(self, messages: int = 1) -> None:
@@ -163,23 +187,25 @@ class Counter:
         if self.received == 0:
             self.first = now
             self.cpu_first = time.process_time()
+            self.threads_first = thread_seconds(os.getpid())
             messages -= 1  # the clock starts at the first one
             self.received = 1
         self.received += messages
         self.last = now
         if self.received >= self.count and not self.done.is_set():
             self.cpu_last = time.process_time()
+            self.threads_last = thread_seconds(os.getpid())
             self.done.set()
 
     def result(self, size: int) -> dict[str, Any]:
         """The JSON line of the subscriber (``cpu``: its CPU seconds from the first message to
-        the last)."""
+        the last; ``cpu_thread``: those of its busiest thread)."""
         elapsed = max(self.last - self.first, 1e-9)
         rate = (self.received - 1) / elapsed
         cpu = self.cpu_last - self.cpu_first
         return {
             'received': self.received, 'expected': self.count, 'rate': rate, 'size': size,
-            'cpu': cpu,
+            'cpu': cpu, 'cpu_thread': busiest_thread(self.threads_first, self.threads_last),
         }  # fmt: skip
 
 
