@@ -327,3 +327,44 @@ def test_closing_a_publisher_while_another_thread_writes(
         pub = node.create_publisher(String, 'race', qos)
         _, errors = close_while_used(pub, partial(pub.write, message))
         assert len(errors) == 1 and isinstance(errors[0], zenoh.ZError), errors
+
+
+def test_writes_after_close_raise_naming_the_topic(zros_node: Callable[..., Node]) -> None:
+    pub = zros_node('talker').create_publisher(String, 'closing')
+    pub.close()
+    with pytest.raises(zenoh.ZError, match='the publisher on /closing is closed'):
+        pub.write(text('late'))
+    with pytest.raises(zenoh.ZError, match='is closed'):
+        pub.write_raw(b'\x00\x01\x00\x00')
+
+
+class _Busy:
+    """A Zenoh object another thread is inside for its first ``busy`` undeclares."""
+
+    def __init__(self, busy: int, error: Exception | None = None) -> None:
+        self.busy, self.error, self.calls = busy, error, 0
+
+    def undeclare(self) -> None:
+        self.calls += 1
+        if self.error is not None:
+            raise self.error
+        if self.calls <= self.busy:
+            raise RuntimeError('Already borrowed')
+
+
+def test_undeclaring_waits_for_a_call_in_another_thread(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    from zros.runtime import entity
+
+    busy = _Busy(3)
+    entity._undeclare(busy, 'pub')
+    assert busy.calls == 4 and 'waits' not in caplog.text
+    monkeypatch.setattr(entity, 'WAIT_WARNING', 0.0)
+    entity._undeclare(_Busy(2), 'a stuck pub')
+    assert 'closing a stuck pub waits for a call another thread is still in' in caplog.text
+    with pytest.raises(RuntimeError, match='something else'):  # not a busy object: not hidden
+        entity._undeclare(_Busy(0, RuntimeError('something else')), 'pub')
+    gone = _Busy(0, zenoh.ZError('session closed'))
+    entity._undeclare(gone, 'pub')  # the session closed under it
+    assert gone.calls == 1

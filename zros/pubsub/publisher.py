@@ -7,7 +7,7 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from zenoh import CongestionControl, Reliability, ext
+from zenoh import CongestionControl, Reliability, ZError, ext
 
 from zros.cdr import encode
 from zros.cdr.encode_buffer import EncodeBuffer
@@ -57,8 +57,9 @@ class Publisher(Entity):
         self._publisher = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
         # types that can grow large (sequences) reuse one output buffer while their messages are
-        # large; small ones are joined into fresh bytes (faster for them). Every put holds
-        # _in_use (which also guards the buffer): close() never undeclares in the middle of one.
+        # large, holding _in_use while they do; small ones are joined into fresh bytes (faster
+        # for them) and put with no lock: close() swaps _put first, then waits for a put still
+        # running (zenoh-python refuses to undeclare a publisher another thread is inside).
         self._buffer: EncodeBuffer | None = None
         self._large = sys.maxsize  #: messages from this size on go through the buffer
         self._small = True  #: the last message was small
@@ -97,8 +98,7 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) >= self._large:
                 self._small = False  # the next ones go through the buffer
-            with self._in_use:
-                self._put(data)
+            self._put(data)
             return
         buffer = self._buffer
         assert buffer is not None
@@ -115,8 +115,15 @@ class Publisher(Entity):
 
     def write_raw(self, data: bytes | bytearray) -> None:
         """Publish CDR bytes (4-byte header included) as they are."""
-        with self._in_use:
-            self._put(bytes(data) if isinstance(data, memoryview) else data)
+        self._put(bytes(data) if isinstance(data, memoryview) else data)
+
+    def close(self) -> None:
+        """Withdraw it from the network; later writes raise ``zenoh.ZError``."""
+        self._put = self._refuse
+        super().close()
+
+    def _refuse(self, data: bytes | bytearray) -> None:
+        raise ZError(f'the publisher on {self.topic} is closed')
 
     def _check_type(self, message: object) -> None:
         if getattr(message, '__msgtype__', None) != self.type_name:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Protocol, TypeVar
 
@@ -64,6 +65,10 @@ def _each(callback: Callable[[Sample], None]) -> Callable[[list[Sample]], None]:
     return each
 
 
+#: seconds close() waits for a call still running in another thread before it says so
+WAIT_WARNING = 5.0
+
+
 class Entity:
     """A publisher, subscriber, service, client, action part, tap... of a node (``node``
     None: the default node of ``zros.init``)."""
@@ -78,8 +83,8 @@ class Entity:
         self._declared: list[Undeclarable] = []
         self._parts: list[Entity] = []
         self._closed = False
-        #: held around calls into its Zenoh objects from other threads: zenoh-python refuses to
-        #: undeclare an object another thread is using ('Already borrowed'), so close() waits
+        #: held around calls into its Zenoh objects from other threads, and by close() while it
+        #: undeclares them (a call that does not hold it is waited for: see _undeclare_all)
         self._in_use = threading.Lock()
 
     # --- while it is made ----------------------------------------------------------------
@@ -196,10 +201,29 @@ class Entity:
 
     def _undeclare_all(self) -> None:
         for declared in self._declared:
-            try:
-                declared.undeclare()
-            except ZError:  # the session closes under it
-                _log.debug('undeclaring on %s failed', self, exc_info=True)
+            _undeclare(declared, self)
 
     def _on_close(self) -> None:
         """What a kind of entity does once withdrawn (wake its waiters, fail its requests)."""
+
+
+def _undeclare(declared: Undeclarable, owner: object) -> None:
+    """Undeclare one Zenoh object. zenoh-python refuses while another thread is inside one of
+    its calls ('Already borrowed'): that call (a put, which takes no lock) is waited for."""
+    delay = 0.0001
+    warn_at = time.monotonic() + WAIT_WARNING
+    while True:
+        try:
+            declared.undeclare()
+            return
+        except ZError:  # the session closes under it
+            _log.debug('undeclaring on %s failed', owner, exc_info=True)
+            return
+        except RuntimeError as exc:
+            if 'borrowed' not in str(exc):
+                raise
+        if warn_at and time.monotonic() > warn_at:  # a put blocked by a congested network
+            _log.warning('closing %s waits for a call another thread is still in', owner)
+            warn_at = 0.0
+        time.sleep(delay)
+        delay = min(delay * 2, 0.01)
