@@ -65,12 +65,20 @@ class SampleQueue:
                 self.received += len(samples)
                 items.extend(samples)
             return 0
-        sizes = [_cost(sample) for sample in samples]
+        sizes = [len(sample.payload) for sample in samples]
+        batch = sum(sizes) + SAMPLE_OVERHEAD * len(samples)
         refused = 0
         with self._lock:
             self.received += len(samples)
             count_limit = self.max_count
-            for sample, size in zip(samples, sizes, strict=True):
+            if self._bytes + batch <= limit and (
+                count_limit is None or len(items) + len(samples) <= count_limit
+            ):  # the usual case: the whole batch fits
+                items.extend(samples)
+                self._bytes += batch
+                return 0
+            for sample, payload in zip(samples, sizes, strict=True):
+                size = payload + SAMPLE_OVERHEAD
                 if self._bytes + size > limit or (
                     count_limit is not None and len(items) >= count_limit
                 ):
