@@ -118,7 +118,7 @@ class Publisher(Entity):
         self._put(bytes(data) if isinstance(data, memoryview) else data)
 
     def close(self) -> None:
-        """Withdraw it from the network; later writes raise ``zenoh.ZError``."""
+        """Withdraw it from the network; safe to call twice. Later writes raise ``zenoh.ZError``."""
         self._put = self._refuse
         super().close()
 
