@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from zros.cdr.codegen.encoder import _without_dead_counts
+from zros.cdr.codegen.passes import without_dead_counts
 
 
 def _body(text: str) -> list[str]:
@@ -22,7 +22,7 @@ if n:
     r += n
 return join(parts)
 """)
-    assert _without_dead_counts(lines) == _body("""
+    assert without_dead_counts(lines) == _body("""
 parts = []; _p = parts.append; r = 0
 _p(a)
 r += 4
@@ -47,7 +47,7 @@ for e in items:
 r += 4
 return join(parts)
 """)
-    kept = _without_dead_counts(lines)
+    kept = without_dead_counts(lines)
     assert kept == [line for line in lines if line != '    r += 4']
 
 
@@ -59,4 +59,4 @@ if n:
 _p(a)
 return join(parts)
 """)
-    assert _without_dead_counts(lines) == lines
+    assert without_dead_counts(lines) == lines

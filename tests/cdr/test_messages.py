@@ -200,6 +200,19 @@ def test_struct_sequence_of_small_structs(registry: TypeRegistry) -> None:
     assert decoded.points == [Point32(1, 2, 3), Point32(4, 5, 6)]
 
 
+def test_empty_struct_sequences_decode_as_fresh_lists(registry: TypeRegistry) -> None:
+    """An empty sequence of structs skips the decoding loop: each decode still gets a list of
+    its own, and the fields after it are read from the right offset."""
+    cls = registry.get_class('std_msgs/msg/UInt8MultiArray')
+    data = cdr.encode(cls(layout={'data_offset': 7}, data=[1, 2, 3]))
+    first, second = cdr.decode(cls, data), cdr.decode(cls, data)
+    assert first.layout.dim == [] and first.layout.dim is not second.layout.dim
+    first.layout.dim.append(registry.get_class('std_msgs/msg/MultiArrayDimension')(label='x'))
+    assert second.layout.dim == [] and cdr.decode(cls, data).layout.dim == []
+    assert first.layout.data_offset == 7 and list(first.data) == [1, 2, 3]
+    assert cdr.decode(cls, cdr.encode(first)).layout.dim[0].label == 'x'
+
+
 def test_same_type_from_two_registries_compares_by_content(registry: TypeRegistry) -> None:
     mine = registry.get_class('std_msgs/msg/String')(data='x')
     other = default_registry().get_class('std_msgs/msg/String')(data='x')

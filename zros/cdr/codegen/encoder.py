@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from zros.cdr import convert
+from zros.cdr.codegen.failures import encode_failure
 from zros.cdr.codegen.ops import (
     START,
     STRUCT_CODES,
@@ -27,8 +28,8 @@ from zros.cdr.codegen.ops import (
     merge_state,
     value_dtype,
 )
+from zros.cdr.codegen.passes import JOIN, PARTS, parts_in_locals, without_dead_counts
 from zros.cdr.codegen.program import Program, path_literal
-from zros.cdr.errors import CdrError
 from zros.cdr.model import INTEGER_RANGES, PRIMITIVE_SIZES, FieldType, Kind, MessageDef
 from zros.cdr.struct_seq import struct_rows
 
@@ -381,70 +382,6 @@ class _EncoderBuilder:
 
 
 _ZEROS = tuple(bytes(k) for k in range(8))
-_BASE = '    '  # the indentation of the encoder's body
-#: the first and the last line of an encoder's body (``_parts_in_locals`` rewrites both)
-_PARTS = 'parts = []; _p = parts.append; r = 0'
-_JOIN = 'return join(parts)'
-
-
-def _parts_in_locals(lines: list[str]) -> list[str] | None:
-    """The body with its parts in locals joined once, where every part is appended outside
-    loops and branches (a list and its appends are a third of a small message's encode), and
-    without the position count when nothing reads it (:func:`_without_dead_counts` dropped
-    its updates); None where parts are appended in blocks."""
-    appended = {i for i, line in enumerate(lines) if '_p(' in line}
-    if len(appended) < 2 or any(not lines[i].startswith(_BASE + '_p(') for i in appended):
-        return None
-    counted = any('-r &' in line for line in lines)
-    names: list[str] = []
-    body = []
-    for i, line in enumerate(lines):
-        if i in appended:
-            names.append(f'q{len(names)}')
-            body.append(f'{_BASE}{names[-1]} = {line[len(_BASE) + 3 : -1]}')
-        elif line == _BASE + _PARTS:
-            body += [_BASE + 'r = 0'] if counted else []
-        elif line == _BASE + _JOIN:
-            body.append(f'{_BASE}return join(({", ".join(names)},))')
-        else:
-            body.append(line)
-    return body
-
-
-def _indent(line: str) -> int:
-    return len(line) - len(line.lstrip())
-
-
-def _without_dead_counts(lines: list[str]) -> list[str]:
-    """The body without the updates of the position count ``r`` that nothing reads after
-    them (those after the last alignment, unless a loop holding it reads them again)."""
-    reads = [i for i, line in enumerate(lines) if '-r &' in line]
-    start = 0
-    if reads:
-        start = reads[-1] + 1
-        depth = _indent(lines[reads[-1]])
-        for j in range(reads[-1] - 1, -1, -1):  # the loops around the last read
-            if _indent(lines[j]) < depth:
-                depth = _indent(lines[j])
-                if lines[j].lstrip().startswith(('for ', 'while ')):
-                    end = next(
-                        (k for k in range(reads[-1] + 1, len(lines)) if _indent(lines[k]) <= depth),
-                        len(lines),
-                    )
-                    start = max(start, end)
-    body = lines[:start]
-    for i in range(start, len(lines)):
-        line = lines[i]
-        alone = (
-            bool(body)
-            and body[-1].endswith(':')
-            and (  # a block's only statement stays (it must have one)
-                i + 1 == len(lines) or _indent(lines[i + 1]) < _indent(line)
-            )
-        )
-        if alone or not line.lstrip().startswith('r += '):
-            body.append(line)
-    return body
 
 
 def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[..., bytes]:
@@ -454,30 +391,20 @@ def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[...
     src = builder.src
     ops: list[Op] = []
     builder.struct_ops(msg, 'o', '', ops)
-    src.add(_PARTS)
+    src.add(PARTS)
     if trace:
         src.add("_f = ''")
-    with src.guarded(_encode_error, f'{msg.name!r}, _f, exc') if trace else nullcontext():
+    with src.guarded(encode_failure, f'{msg.name!r}, _f, exc') if trace else nullcontext():
         builder.emit(ops, START)
         builder.ensure_header()
-        src.add(_JOIN)
+        src.add(JOIN)
     if not trace and builder.appends == 1 and builder.single_pack:
         # the whole message is one pack call: return its bytes, no parts list
         lines = src.lines[: builder.last_append]
         del lines[0]
         src.lines = [*lines, f'    return {builder.single_pack}']
     elif not trace:
-        src.lines = _without_dead_counts(src.lines)
-        src.lines = _parts_in_locals(src.lines) or src.lines
+        src.lines = without_dead_counts(src.lines)
+        src.lines = parts_in_locals(src.lines) or src.lines
     join_default = src.ref(b''.join, 'join')
     return src.compile(f'o, join={join_default}', 'encode')
-
-
-def _encode_error(type_name: str, path: str, exc: Exception) -> Exception:
-    if isinstance(exc, CdrError):
-        return exc
-    reason = str(exc) or type(exc).__name__
-    if isinstance(exc, AttributeError):
-        reason = f'a value has the wrong type ({reason})'
-    where = f' field {path!r}' if path else ''
-    return CdrError(f'cannot encode {type_name}:{where}: {reason}', type_name=type_name, field=path)
