@@ -373,7 +373,9 @@ def measure(name: str, message: Any, repeats: int, budget: float) -> dict[str, f
 
     row['memcpy'] = best_time(copy_once, repeats, budget)
     for label, make in LIBRARIES.items():
-        codec = make(name, message)
+        # a copy: other libraries iterate a struct sequence, which turns zros's packed array
+        # into objects, and the next run would time zros's encode of the objects instead
+        codec = make(name, message.copy())
         if codec is None:
             row[f'{label}_enc'] = row[f'{label}_dec'] = None
             continue
