@@ -368,33 +368,37 @@ class _DecoderBuilder:
             after = State(0, min(align, 4)) if stride % min(align, 4) == 0 else UNKNOWN
             return merge_state(after, state)
         assert isinstance(op, Loop)
-        fixed = op.count.isdigit()
-        if fixed:
+        if op.count.isdigit():
             self.mark(op.path)
-        # an empty sequence (MultiArrayLayout.dim, a marker's points) skips the list's append
-        # method and the loop, which cost 100 ns
-        with nullcontext() if fixed else src.block(f'if {op.count}:'):
-            if not fixed:
-                if op.bound >= 0:
-                    self.fail(
-                        f'{op.count} > {op.bound}',
-                        f'{{{op.count}}} elements exceed the bound {op.bound}',
-                    )
+            self.read_elements(op)
+            return UNKNOWN
+        # a sequence: an empty one (MultiArrayLayout.dim, a marker's points) skips the list's
+        # append method and the loop, which cost 100 ns
+        with src.block(f'if {op.count}:'):
+            if op.bound >= 0:
                 self.fail(
-                    f'{op.count} > ({self.end} - pos) // {op.min_size}',
-                    f'{{{op.count}}} elements cannot fit in the {{end - pos}} bytes left',
+                    f'{op.count} > {op.bound}',
+                    f'{{{op.count}}} elements exceed the bound {op.bound}',
                 )
-            items = src.tmp('l')
-            append = src.tmp('a')
-            src.add(f'{items} = []; {append} = {items}.append')
-            with src.block(f'for {op.index} in range({op.count}):'):
-                self.emit(op.body, UNKNOWN)
-                src.add(f'{append}({op.item})')
-            src.add(f'{op.ref} = {items}')
-        if not fixed:
-            with src.block('else:'):
-                src.add(f'{op.ref} = []')
+            self.fail(
+                f'{op.count} > ({self.end} - pos) // {op.min_size}',
+                f'{{{op.count}}} elements cannot fit in the {{end - pos}} bytes left',
+            )
+            self.read_elements(op)
+        with src.block('else:'):
+            src.add(f'{op.ref} = []')
         return UNKNOWN
+
+    def read_elements(self, op: Loop) -> None:
+        """The ``op.count`` elements of ``op``, read into a new list."""
+        src = self.src
+        items = src.tmp('l')
+        append = src.tmp('a')
+        src.add(f'{items} = []; {append} = {items}.append')
+        with src.block(f'for {op.index} in range({op.count}):'):
+            self.emit(op.body, UNKNOWN)
+            src.add(f'{append}({op.item})')
+        src.add(f'{op.ref} = {items}')
 
 
 def generate_decoder(
