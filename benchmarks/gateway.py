@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shutil
 import statistics
 import subprocess
@@ -44,7 +43,7 @@ HERE = Path(__file__).resolve()
 sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
 
 import transport as bench  # noqa: E402  (the publisher and the zros subscriber roles)
-from transport_roles import busiest_thread, thread_seconds  # noqa: E402
+from transport_roles import busiest_thread, cpu_seconds, thread_seconds  # noqa: E402
 
 from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
 
@@ -193,15 +192,6 @@ class Gateway:
         self.client.close()
         self.process.terminate()
         self.process.wait(30)
-
-
-def cpu_seconds(pid: int) -> float:
-    """CPU seconds a process has used so far, all threads (Linux; NaN elsewhere)."""
-    try:
-        fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    except OSError:
-        return float('nan')
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 def gateway_throughput(

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -148,20 +149,29 @@ def role_publish(args: argparse.Namespace) -> None:
     print(json.dumps({'cpu': cpu}))  # its CPU seconds while it sent (all threads)
 
 
+def stat_seconds(stat: Path) -> float:
+    """The CPU seconds (user and system) a /proc ``stat`` file gives; NaN where it cannot be
+    read (the process or thread ended, or no /proc)."""
+    try:
+        fields = stat.read_text().rsplit(')', 1)[1].split()
+    except OSError:
+        return float('nan')
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def cpu_seconds(pid: int) -> float:
+    """CPU seconds a process has used so far, all threads (Linux; NaN elsewhere)."""
+    return stat_seconds(Path(f'/proc/{pid}/stat'))
+
+
 def thread_seconds(pid: int) -> dict[int, float]:
     """CPU seconds each thread of a process has used so far (Linux; empty elsewhere)."""
-    found: dict[int, float] = {}
     try:
         tasks = list(Path(f'/proc/{pid}/task').iterdir())
     except OSError:
         return {}
-    for task in tasks:
-        try:
-            fields = (task / 'stat').read_text().rsplit(')', 1)[1].split()
-        except OSError:  # the thread ended
-            continue
-        found[int(task.name)] = (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
-    return found
+    found = {int(task.name): stat_seconds(task / 'stat') for task in tasks}
+    return {tid: seconds for tid, seconds in found.items() if not math.isnan(seconds)}
 
 
 def busiest_thread(before: dict[int, float], after: dict[int, float]) -> float:
