@@ -26,6 +26,7 @@ from zros.cdr.codegen.ops import (
     Str,
     empty_message,
     fields_of,
+    loop_entry,
     merge_state,
 )
 from zros.cdr.codegen.program import Program, path_literal
@@ -368,10 +369,11 @@ class _DecoderBuilder:
             after = State(0, min(align, 4)) if stride % min(align, 4) == 0 else UNKNOWN
             return merge_state(after, state)
         assert isinstance(op, Loop)
+        entry = loop_entry(state, lambda start: self.dry_emit(op.body, start))
         if op.count.isdigit():
             self.mark(op.path)
-            self.read_elements(op)
-            return UNKNOWN
+            self.read_elements(op, entry)
+            return entry
         # a sequence: an empty one (MultiArrayLayout.dim, a marker's points) skips the list's
         # append method and the loop, which cost 100 ns
         with src.block(f'if {op.count}:'):
@@ -384,19 +386,25 @@ class _DecoderBuilder:
                 f'{op.count} > ({self.end} - pos) // {op.min_size}',
                 f'{{{op.count}}} elements cannot fit in the {{end - pos}} bytes left',
             )
-            self.read_elements(op)
+            self.read_elements(op, entry)
         with src.block('else:'):
             src.add(f'{op.ref} = []')
-        return UNKNOWN
+        return entry
 
-    def read_elements(self, op: Loop) -> None:
-        """The ``op.count`` elements of ``op``, read into a new list."""
+    def dry_emit(self, ops: list[Op], state: State) -> State:
+        """The state ``emit(ops, state)`` would leave, emitting nothing."""
+        with self.src.trial():
+            return self.emit(ops, state)
+
+    def read_elements(self, op: Loop, entry: State) -> None:
+        """The ``op.count`` elements of ``op``, each starting in state ``entry``, read into a
+        new list."""
         src = self.src
         items = src.tmp('l')
         append = src.tmp('a')
         src.add(f'{items} = []; {append} = {items}.append')
         with src.block(f'for {op.index} in range({op.count}):'):
-            self.emit(op.body, UNKNOWN)
+            self.emit(op.body, entry)
             src.add(f'{append}({op.item})')
         src.add(f'{op.ref} = {items}')
 

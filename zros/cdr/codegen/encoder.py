@@ -25,6 +25,7 @@ from zros.cdr.codegen.ops import (
     State,
     empty_message,
     fields_of,
+    loop_entry,
     merge_state,
     value_dtype,
 )
@@ -372,13 +373,22 @@ class _EncoderBuilder:
             return merge_state(after, state)
         assert isinstance(op, Loop)
         self.ensure_header()
+        entry = loop_entry(state, lambda start: self.dry_emit(op.body, start))
         with src.block(
             f'for {op.index}, {op.item} in enumerate({op.count}):'
             if self.trace
             else f'for {op.item} in {op.count}:'
         ):
-            self.emit(op.body, UNKNOWN)
-        return UNKNOWN
+            self.emit(op.body, entry)
+        return entry
+
+    def dry_emit(self, ops: list[Op], state: State) -> State:
+        """The state ``emit(ops, state)`` would leave, emitting nothing."""
+        counts = self.appends, self.last_append
+        with self.src.trial():
+            end = self.emit(ops, state)
+        self.appends, self.last_append = counts
+        return end
 
 
 _ZEROS = tuple(bytes(k) for k in range(8))

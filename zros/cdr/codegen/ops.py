@@ -7,6 +7,7 @@ the :class:`State` says their alignment is known statically.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -185,6 +186,23 @@ class State:
 UNKNOWN = State(0, 1)
 #: the start of the body (the 4-byte header keeps it aligned to 8)
 START = State(0, 8)
+
+
+def loop_entry(before: State, element: Callable[[State], State]) -> State:
+    """What is known at the start of every element of a loop entered in state ``before``, where
+    ``element(state)`` is the state after one element that started in ``state``: the first
+    alignment of a TransformStamped is static when the one before it ended aligned.
+
+    The answer holds before the loop and after any element started in it, so it also holds
+    after the loop.
+    """
+    entry = before
+    for _ in range(4):  # each entry is merge_state(before, ...): it differs only in modulus
+        after = merge_state(before, element(entry))
+        if after == entry:
+            return entry
+        entry = after
+    return UNKNOWN
 
 
 def merge_state(a: State, b: State) -> State:

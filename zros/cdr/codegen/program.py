@@ -52,6 +52,19 @@ class Program:
         self.add('except Exception as exc:')
         self.add(f'    raise {self.ref(explain, "err")}({arguments}) from None')
 
+    @contextmanager
+    def trial(self) -> Iterator[None]:
+        """Lines, names and objects added inside the ``with`` are dropped after it (a dry run
+        that tells a generator what state some code would leave it in)."""
+        lines, depth, counter = len(self.lines), self.depth, self._counter
+        objects, ids = dict(self.objects), dict(self._ids)
+        try:
+            yield
+        finally:
+            del self.lines[lines:]
+            self.depth, self._counter = depth, counter
+            self.objects, self._ids = objects, ids
+
     def tmp(self, prefix: str) -> str:
         """A fresh name for a generated variable (``prefix`` and a number)."""
         self._counter += 1
