@@ -332,11 +332,7 @@ class _DecoderBuilder:
                 return State(0, 4)
             return self.string(op, None)
         if isinstance(op, Seq):
-            if op.bound >= 0:
-                self.fail(
-                    f'{op.count} > {op.bound}',
-                    f'{{{op.count}}} elements exceed the bound {op.bound}',
-                )
+            self.check_bound(op.count, op.bound)
             if op.struct:
                 info = self.ctx.info(op.element)
                 align, stride = info.first_align, info.size
@@ -346,14 +342,10 @@ class _DecoderBuilder:
                 empty = src.ref(convert.empty_array(self.ctx.dtype(op.element, self.endian)), 'E')
             else:
                 align = stride = PRIMITIVE_SIZES[op.element]
-                empty = src.ref(
-                    convert.empty_array(
-                        np.dtype('?')
-                        if op.element == 'bool'
-                        else numpy_dtype(op.element, self.endian)
-                    ),
-                    'E',
+                values = (
+                    np.dtype('?') if op.element == 'bool' else numpy_dtype(op.element, self.endian)
                 )
+                empty = src.ref(convert.empty_array(values), 'E')
             with src.block(f'if {op.count}:'):
                 self.align(state, align)
                 if op.struct:
@@ -377,11 +369,7 @@ class _DecoderBuilder:
         # a sequence: an empty one (MultiArrayLayout.dim, a marker's points) skips the list's
         # append method and the loop, which cost 100 ns
         with src.block(f'if {op.count}:'):
-            if op.bound >= 0:
-                self.fail(
-                    f'{op.count} > {op.bound}',
-                    f'{{{op.count}}} elements exceed the bound {op.bound}',
-                )
+            self.check_bound(op.count, op.bound)
             self.fail(
                 f'{op.count} > ({self.end} - pos) // {op.min_size}',
                 f'{{{op.count}}} elements cannot fit in the {{end - pos}} bytes left',
@@ -390,6 +378,11 @@ class _DecoderBuilder:
         with src.block('else:'):
             src.add(f'{op.ref} = []')
         return entry
+
+    def check_bound(self, count: str, bound: int) -> None:
+        """Refuse more than ``bound`` elements (a bounded sequence; -1: unbounded)."""
+        if bound >= 0:
+            self.fail(f'{count} > {bound}', f'{{{count}}} elements exceed the bound {bound}')
 
     def dry_emit(self, ops: list[Op], state: State) -> State:
         """The state ``emit(ops, state)`` would leave, emitting nothing."""
