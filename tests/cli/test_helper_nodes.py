@@ -47,11 +47,14 @@ def test_helper_nodes_are_named_alike_and_fully_visible(
     assert {hz_node, pub_node} <= set(nodes)
     assert all(re.fullmatch(r'/zros_[a-z_]+_\d+', n) for n in nodes if n.startswith('/zros'))
 
-    info = cli.run('node', 'info', hz_node, '--wire', wire).stdout.splitlines()
+    shown = cli.run('node', 'info', hz_node, '--wire', wire)
+    assert shown.returncode == 0, shown.stderr
+    info = shown.stdout.splitlines()
     subscribers = info[info.index('  Subscribers:') + 1 : info.index('  Publishers:')]
     assert subscribers == ['    /chatter: std_msgs/msg/String']
-    info = cli.run('node', 'info', pub_node, '--wire', wire).stdout.splitlines()
-    assert '    /cmd: std_msgs/msg/String' in info
+    shown = cli.run('node', 'info', pub_node, '--wire', wire)
+    assert shown.returncode == 0, shown.stderr
+    assert '    /cmd: std_msgs/msg/String' in shown.stdout.splitlines()
 
     verbose = cli.run('topic', 'info', '/chatter', '-v', '--wire', wire).stdout
     assert 'Subscription count: 1' in verbose
