@@ -19,6 +19,7 @@ from zros.cdr.codegen.ops import (
     Fix,
     FixArr,
     Loop,
+    LoopStates,
     Op,
     Pre,
     Seq,
@@ -26,7 +27,6 @@ from zros.cdr.codegen.ops import (
     Str,
     empty_message,
     fields_of,
-    loop_entry,
     merge_state,
 )
 from zros.cdr.codegen.program import Program, path_literal
@@ -64,6 +64,7 @@ class _DecoderBuilder:
         #: the fallback of a decoder that checks the header itself, while its first run of
         #: fixed fields (which then reads the header too) is still to come
         self.header_fallback: str | None = None
+        self.loops = LoopStates(lambda loop, start: self.dry_emit(loop.body, start))
 
     # ops
 
@@ -361,7 +362,9 @@ class _DecoderBuilder:
             after = State(0, min(align, 4)) if stride % min(align, 4) == 0 else UNKNOWN
             return merge_state(after, state)
         assert isinstance(op, Loop)
-        entry = loop_entry(state, lambda start: self.dry_emit(op.body, start))
+        entry = self.loops.entry(op, state)
+        if self.src.trials:  # a dry run needs only the state after the loop
+            return entry
         if op.count.isdigit():
             self.mark(op.path)
             self.read_elements(op, entry)
@@ -458,4 +461,4 @@ def generate_decoder(
                 'are allowed); the data may be of another type or version',
             )
         src.add('return o')
-    return src.compile('buf, strict=False', 'decode')
+    return src.compile('buf, strict=False', 'decode', msg.name)

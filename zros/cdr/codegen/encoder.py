@@ -20,12 +20,12 @@ from zros.cdr.codegen.ops import (
     Fix,
     FixArr,
     Loop,
+    LoopStates,
     Op,
     Pre,
     State,
     empty_message,
     fields_of,
-    loop_entry,
     merge_state,
     value_dtype,
 )
@@ -56,6 +56,7 @@ class _EncoderBuilder:
         self.appends = 0
         self.last_append = -1
         self.single_pack = ''
+        self.loops = LoopStates(lambda loop, start: self.dry_emit(loop.body, start))
 
     def struct_ops(self, msg: MessageDef, var: str, path: str, ops: list[Op]) -> None:
         src = self.src
@@ -373,7 +374,9 @@ class _EncoderBuilder:
             return merge_state(after, state)
         assert isinstance(op, Loop)
         self.ensure_header()
-        entry = loop_entry(state, lambda start: self.dry_emit(op.body, start))
+        entry = self.loops.entry(op, state)
+        if self.src.trials:  # a dry run needs only the state after the loop
+            return entry
         with src.block(
             f'for {op.index}, {op.item} in enumerate({op.count}):'
             if self.trace
@@ -417,4 +420,4 @@ def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[...
         src.lines = without_dead_counts(src.lines)
         src.lines = parts_in_locals(src.lines) or src.lines
     join_default = src.ref(b''.join, 'join')
-    return src.compile(f'o, join={join_default}', 'encode')
+    return src.compile(f'o, join={join_default}', 'encode', msg.name)

@@ -205,6 +205,25 @@ def loop_entry(before: State, element: Callable[[State], State]) -> State:
     return UNKNOWN
 
 
+class LoopStates:
+    """The entry state of each loop (:func:`loop_entry`), found once per loop and state before
+    it: ``after_element(loop, state)`` dry-runs one element. Found anew each time, the dry runs
+    of loops nested in loops would multiply with the depth (3^depth emissions of the body)."""
+
+    def __init__(self, after_element: Callable[[Loop, State], State]) -> None:
+        self._after_element = after_element
+        self._known: dict[tuple[int, State], State] = {}
+
+    def entry(self, loop: Loop, before: State) -> State:
+        """What is known at the start of every element of ``loop``, entered in ``before``."""
+        key = (id(loop), before)
+        known = self._known.get(key)
+        if known is None:
+            known = loop_entry(before, lambda start: self._after_element(loop, start))
+            self._known[key] = known
+        return known
+
+
 def merge_state(a: State, b: State) -> State:
     """What is known after either of two paths (an ``if`` that wrote data or did not)."""
     modulus = min(a.modulus, b.modulus)

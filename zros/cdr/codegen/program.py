@@ -6,6 +6,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from zros.cdr.errors import CdrError
+
 #: a function compiled from generated source (boundary): its signature is the source text's,
 #: and each generator states it in its own return type
 Generated = Callable[..., Any]
@@ -24,6 +26,7 @@ class Program:
         self.objects: dict[str, object] = {}
         self._ids: dict[int, str] = {}
         self._counter = 0
+        self.trials = 0  #: how many :meth:`trial` blocks are open (their code is dropped)
 
     def add(self, line: str) -> None:
         """Append a line at the current indentation."""
@@ -58,9 +61,11 @@ class Program:
         that tells a generator what state some code would leave it in)."""
         lines, depth, counter = len(self.lines), self.depth, self._counter
         objects, ids = dict(self.objects), dict(self._ids)
+        self.trials += 1
         try:
             yield
         finally:
+            self.trials -= 1
             del self.lines[lines:]
             self.depth, self._counter = depth, counter
             self.objects, self._ids = objects, ids
@@ -79,14 +84,24 @@ class Program:
             self.objects[name] = obj
         return self._ids[key]
 
-    def compile(self, signature: str, name: str) -> Generated:
-        """The function ``name(signature)`` with these lines as its body."""
+    def compile(self, signature: str, name: str, type_name: str = '') -> Generated:
+        """The function ``name(signature)`` with these lines as its body; CdrError when Python
+        refuses it (a type nesting sequences deeper than its 20 nested blocks allow)."""
         params = ', '.join(self.objects)
         text = f'def _factory({params}):\n    def {name}({signature}):\n'
         text += '\n'.join('    ' + line for line in self.lines)
         text += f'\n    return {name}\n'
         scope: dict[str, Generated] = {}
-        exec(compile(text, f'<zros codec {name}>', 'exec'), scope)
+        try:
+            code = compile(text, f'<zros codec {name}>', 'exec')
+        except (SyntaxError, RecursionError) as exc:
+            subject = type_name or 'this type'
+            raise CdrError(
+                f'zros cannot generate the {name} function of {subject}: Python refuses it '
+                f'({exc}); the type nests its fields too deeply',
+                type_name=type_name,
+            ) from None
+        exec(code, scope)
         function: Generated = scope['_factory'](**self.objects)
         function.__zros_source__ = text  # type: ignore[attr-defined]
         return function
