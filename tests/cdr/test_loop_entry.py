@@ -11,7 +11,7 @@ from zros.cdr import CdrError, decode, encode
 from zros.cdr.codegen.ops import START, UNKNOWN, State, loop_entry
 from zros.cdr.codegen.program import Program
 from zros.cdr.message import Message
-from zros.cdr.registry import TypeRegistry, registry_of
+from zros.cdr.registry import TypeRegistry
 
 
 def test_an_element_that_ends_aligned_keeps_its_start_known() -> None:
@@ -44,14 +44,11 @@ def _nested(registry: TypeRegistry, depth: int) -> type[Message]:
     return registry.get_class('deep_msgs/msg/L0')
 
 
-def _chain(cls: type[Message], depth: int) -> Message:
-    message = cls(name='x')
-    outer = message
-    for _ in range(depth):
-        inner = type(outer).get_fields_and_field_types()['items']
-        child = registry_of(cls).get_class(inner.strip('[]'))(name='y')
-        outer.items = [child]
-        outer = child
+def _chain(registry: TypeRegistry, depth: int) -> Message:
+    """An ``L0`` holding one ``L1``, and so on down to one ``L{depth}``."""
+    message = registry.get_class(f'deep_msgs/msg/L{depth}')(name='y')
+    for level in range(depth - 1, -1, -1):
+        message = registry.get_class(f'deep_msgs/msg/L{level}')(name='x', items=[message])
     return message
 
 
@@ -68,8 +65,9 @@ def test_nested_loops_are_dry_run_once_per_entry_state(monkeypatch: pytest.Monke
         return real(self)
 
     monkeypatch.setattr(Program, 'trial', counted)
-    cls = _nested(TypeRegistry('jazzy', paths=[], ament=False), 16)
-    message = _chain(cls, 16)
+    registry = TypeRegistry('jazzy', paths=[], ament=False)
+    cls = _nested(registry, 16)
+    message = _chain(registry, 16)
     assert decode(cls, encode(message)) == message
     assert 0 < trials < 1000
 
