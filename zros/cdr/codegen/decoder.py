@@ -54,7 +54,6 @@ class _DecoderBuilder:
         self.trace = trace
         self.src = Program()
         self.bad = self.src.ref(convert.Bad, 'Bad')
-        self.new = self.src.ref(object.__new__, 'new')
         self.frombuffer = self.src.ref(np.frombuffer, 'fb')
         #: the read offset while known when generating (the fast decoder reads the fixed fields
         #: before the first variable-size one at constant offsets); None once ``pos`` holds it
@@ -100,8 +99,8 @@ class _DecoderBuilder:
             ops.append(Str(ref, count, t.string_bound, path, t.base == 'wstring'))
         else:
             var = self.src.tmp('v')
-            cls = self.src.ref(self.ctx.cls(t.base), 'C')
-            ops.append(Pre([f'{var} = {self.new}({cls})', f'{ref} = {var}']))
+            blank = self.src.blank(self.ctx.cls(t.base))
+            ops.append(Pre([f'{var} = {blank}()', f'{ref} = {var}']))
             self.struct_ops(self.ctx.resolve(t.base), var, path, ops)
 
     def loop(self, t: FieldType, count: str, bound: int, ref: str, path: str) -> Loop:
@@ -426,7 +425,7 @@ def generate_decoder(
     """
     builder = _DecoderBuilder(ctx, endian, text_from_memoryview, trace)
     src = builder.src
-    cls = src.ref(ctx.cls(msg.name), 'C')
+    blank = src.blank(ctx.cls(msg.name))
     ops: list[Op] = []
     builder.struct_ops(msg, 'o', '', ops)
     if fallback is not None:
@@ -445,7 +444,7 @@ def generate_decoder(
         src.add("_f = '(header)'; _p = 0")
     explained = src.guarded(decode_failure, f'{msg.name!r}, _f, _p, exc, end')
     with explained if trace else nullcontext():
-        src.add(f'o = {builder.new}({cls})')
+        src.add(f'o = {blank}()')
         builder.emit(ops, START)
         if not ctx.info(msg.name).has_wstring:
             if trace:

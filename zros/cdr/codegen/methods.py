@@ -106,7 +106,7 @@ def _gen_default(ctx: Context, msg: MessageDef) -> Callable[[], Message]:
     """A message with every default value, made without the constructor's checks (nested
     defaults use it: they need no checking, and ``Msg()`` of a nested type costs twice as much)."""
     src = Program()
-    src.add(f'o = {src.ref(object.__new__, "new")}({src.ref(ctx.cls(msg.name), "C")})')
+    src.add(f'o = {src.blank(ctx.cls(msg.name))}()')
     for f in msg.fields:
         value = _default_expr(ctx, src, f, _field_category(ctx, f.type))
         src.add(f'o.{attribute_name(f.name)} = {value}')
@@ -216,8 +216,7 @@ def _gen_repr(ctx: Context, msg: MessageDef) -> Callable[[Message], str]:
 
 def _gen_copy(ctx: Context, msg: MessageDef) -> Callable[[Message], Message]:
     src = Program()
-    cls = src.ref(ctx.cls(msg.name), 'C')
-    src.add(f'o = {src.ref(object.__new__, "new")}({cls})')
+    src.add(f'o = {src.blank(ctx.cls(msg.name))}()')
     array = src.ref(np.array, 'array')
     for f in msg.fields:
         attr = attribute_name(f.name)
@@ -264,9 +263,7 @@ def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str,
 
 def _tuple_pattern(ctx: Context, msg: MessageDef, src: Program, var: str, lines: list[str]) -> str:
     """Unpacking pattern of one dtype row; appends to ``lines`` the code building ``var``."""
-    cls = src.ref(ctx.cls(msg.name), 'C')
-    new = src.ref(object.__new__, 'new')
-    lines.append(f'{var} = {new}({cls})')
+    lines.append(f'{var} = {src.blank(ctx.cls(msg.name))}()')
     names = []
     for f in msg.fields:
         attr = attribute_name(f.name)
