@@ -38,7 +38,16 @@ from transport_roles import ROLES, read_result, spawn_role, wait_ready, zros_nod
 
 __all__ = ['read_result', 'round_trip', 'spawn_role', 'throughput', 'wait_ready', 'zros_node']
 
-STRING_IMPLS = ('zenoh', 'zenoh_decode', 'zros', 'zros_bytes', 'zros_rmw', 'zros_poll', 'zros_now')
+STRING_IMPLS = (
+    'zenoh',
+    'zenoh_decode',
+    'zenoh_rmw',
+    'zros',
+    'zros_bytes',
+    'zros_rmw',
+    'zros_poll',
+    'zros_now',
+)
 IMAGE_IMPLS = ('zenoh', 'zros', 'zros_rmw')
 SIZE_IMPLS = ('zenoh', 'zenoh_decode', 'zros')
 RTT_IMPLS = ('zenoh', 'zros', 'zros_rmw', 'zros_now')

@@ -10,6 +10,7 @@ Rows = dict[str, dict[str, Any]]  #: 'row/impl' -> the median run
 STRING_NAMES = {
     'zenoh': 'raw zenoh, bytes only',
     'zenoh_decode': 'raw zenoh + zros decode',
+    'zenoh_rmw': 'raw + attachment + decode',
     'zros': 'zros callback (bridge)',
     'zros_bytes': 'zros callback, bytes only',
     'zros_rmw': 'zros callback (rmw_zenoh)',
@@ -80,6 +81,12 @@ def _print_strings(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> Non
         if found and reference:
             ratio = found['rate'] / reference['rate']
             goals.append((f'String, {text}', ratio, f'>= {target:.2f}', ratio >= target))
+    attached = rows.get('string/zenoh_rmw')
+    if attached and decoded:
+        print(
+            "    what rmw_zenoh's attachment costs raw zenoh: raw + attachment + decode / "
+            f'raw + decode {attached["rate"] / decoded["rate"]:.2f}'
+        )
 
 
 def _print_images(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
