@@ -97,7 +97,10 @@ class Executor:
         if not work.scheduled:
             work.scheduled = True
             self._ready.append(work)
-            self._wake()
+            if self._signal.waiters:  # _wake, inlined: once per delivered batch
+                self._signal.notify()
+            for waker in self._async_wakers:
+                waker()
 
     def call_soon(self, function: Callable[[], object]) -> None:
         """Run ``function()`` on the spinning thread (thread-safe)."""
@@ -113,7 +116,7 @@ class Executor:
         self._wake()
 
     def _wake(self) -> None:
-        if self._signal:
+        if self._signal.waiters:
             self._signal.notify()
         for waker in self._async_wakers:
             waker()
@@ -160,28 +163,33 @@ class Executor:
     def _has_work(self) -> bool:
         return bool(self._ready) or self._woken or self.stopped or interrupted()
 
-    def _run_ready(self) -> int:
+    def _run_due(self) -> int:
+        """Run the ready work, then the due timers; returns how many callbacks ran."""
+        ready = self._ready
         done = 0
-        while self._ready:
-            work = self._ready.popleft()
+        while ready:
+            work = ready.popleft()
             work.scheduled = False
             done += work.run()
+        if self._timers:
+            done += self._run_timers()
         return done
 
     def run_once(self, timeout: float | None) -> int:
         """Run what is due; wait up to ``timeout`` seconds (None: forever) for something to do."""
-        done = self._run_ready() + self._run_timers()
+        done = self._run_due()
         if done or (timeout is not None and timeout <= 0):
             return done
         deadline = None if timeout is None else time.monotonic() + timeout
         while not (self.stopped or interrupted()):
             wait: float | None = None if deadline is None else deadline - time.monotonic()
-            next_timer = self.next_timer()
-            if next_timer is not None:
-                wait = next_timer if wait is None else min(wait, next_timer)
+            if self._timers:
+                next_timer = self.next_timer()
+                if next_timer is not None:
+                    wait = next_timer if wait is None else min(wait, next_timer)
             if wait is None or wait > 0:
                 self._signal.wait(self._has_work, wait, interruptible=True)
-            done = self._run_ready() + self._run_timers()
+            done = self._run_due()
             woken, self._woken = self._woken, False
             if done or woken or (deadline is not None and time.monotonic() >= deadline):
                 return done

@@ -22,21 +22,13 @@ from collections.abc import Callable, Iterator
 
 class _Flag:
     """A flag without a lock (``threading.Event`` takes one): the SIGINT handler sets it on the
-    main thread between two bytecodes, possibly while that thread is inside ``clear()``."""
+    main thread between two bytecodes, possibly while that thread is clearing it. Read as an
+    attribute, not through a method: waits test it on every wake-up."""
 
-    __slots__ = ('_value',)
+    __slots__ = ('value',)
 
     def __init__(self) -> None:
-        self._value = False
-
-    def set(self) -> None:
-        self._value = True
-
-    def clear(self) -> None:
-        self._value = False
-
-    def is_set(self) -> bool:
-        return self._value
+        self.value = False
 
 
 _interrupted = _Flag()
@@ -53,7 +45,7 @@ _listener_thread: threading.Thread | None = None
 
 def interrupted() -> bool:
     """Whether Ctrl-C ended zros's blocking calls (until the next ``zros.init``)."""
-    return _interrupted.is_set()
+    return _interrupted.value
 
 
 def interrupt() -> None:
@@ -62,7 +54,7 @@ def interrupt() -> None:
     Safe in a signal handler: it only releases locks; the listeners run on a thread of their
     own once :func:`start_listener_thread` started it, else right here.
     """
-    _interrupted.set()
+    _interrupted.value = True
     for lock in tuple(_sleeping):
         with contextlib.suppress(RuntimeError):  # released already
             lock.release()
@@ -115,7 +107,7 @@ def raises_on_interrupt() -> Iterator[None]:
         return
     _main_raising += 1
     try:
-        if _interrupted.is_set():
+        if _interrupted.value:
             raise KeyboardInterrupt
         yield
     finally:
@@ -129,7 +121,7 @@ def main_thread_raises() -> bool:
 
 def clear_interrupt() -> None:
     """Let blocking calls block again (a new ``zros.init``)."""
-    _interrupted.clear()
+    _interrupted.value = False
 
 
 def add_interrupt_listener(listener: Callable[[], object]) -> None:
@@ -137,7 +129,7 @@ def add_interrupt_listener(listener: Callable[[], object]) -> None:
     block. Remove it with :func:`remove_interrupt_listener` when the wait it ends is over."""
     with _listeners_lock:
         _listeners.append(listener)
-    if _interrupted.is_set():
+    if _interrupted.value:
         listener()
 
 
@@ -153,14 +145,15 @@ _MAIN_THREAD_SLICE = 0.1
 
 def _sleep_on_main_thread(
     lock: _thread.LockType, timeout: float | None, interruptible: bool
-) -> None:
+) -> bool:
     """Acquire ``lock`` (a waiter's) on the main thread in slices of 0.1 s.
 
     Python runs a signal's handler on the main thread between two bytecodes. A blocked acquire
     is cut short to run it only if the signal lands on the main thread during the acquire; one
     that arrives just before the acquire starts, or lands on another thread (Zenoh's), leaves
     the handler pending, and the acquire would sleep through the Ctrl-C. Between slices the
-    pending handler runs (and releases this lock through :func:`interrupt`).
+    pending handler runs (and releases this lock through :func:`interrupt`). Returns whether
+    it acquired the lock.
     """
     deadline = None if timeout is None else time.monotonic() + timeout
     while True:
@@ -168,48 +161,78 @@ def _sleep_on_main_thread(
         if deadline is not None:
             length = min(length, deadline - time.monotonic())
             if length <= 0:
-                return
-        if lock.acquire(True, length) or (interruptible and _interrupted.is_set()):
-            return
+                return False
+        if lock.acquire(True, length):
+            return True
+        if interruptible and _interrupted.value:
+            return False
 
 
 def sleep(seconds: float) -> bool:
     """Sleep ``seconds`` unless interrupted; returns False when Ctrl-C cut it short."""
     Signal().wait_for(lambda: False, seconds)
-    return not _interrupted.is_set()
+    return not _interrupted.value
+
+
+#: the longest a wait that ran out waits for the release of a notify that took its lock
+_RELEASE_GRACE = 1.0
+
+
+class _Waiting(threading.local):
+    """This thread's waiter lock, made once per thread (allocating one per wait cost a wake-up
+    a few microseconds with cold caches), and whether this is the main thread. The lock is held
+    while the thread does not wait: a notify takes it out of the signal's waiters, then releases
+    it, and the wait it ends acquires it again."""
+
+    def __init__(self) -> None:
+        self.lock = _thread.allocate_lock()
+        self.lock.acquire()
+        self.main = threading.current_thread() is threading.main_thread()
+
+
+_waiting = _Waiting()
 
 
 class Signal:
     """Lets threads sleep until another thread says something may have changed."""
 
-    __slots__ = ('_waiters',)
+    __slots__ = ('waiters',)
 
     def __init__(self) -> None:
-        self._waiters: list[_thread.LockType] = []
+        #: the locks of the threads waiting now (empty: notifying costs nothing); read it to
+        #: skip :meth:`notify` cheaply, never change it
+        self.waiters: list[_thread.LockType] = []
 
     def __bool__(self) -> bool:
-        """Whether a thread is waiting (notifying costs nothing otherwise)."""
-        return bool(self._waiters)
+        """Whether a thread is waiting."""
+        return bool(self.waiters)
 
     def wait(
         self, ready: Callable[[], object], timeout: float | None, interruptible: bool = False
     ) -> None:
         """Sleep until notified or ``timeout`` seconds pass, unless ``ready()`` is already true;
         an ``interruptible`` wait also ends on (or right after) :func:`interrupt`."""
-        lock = _thread.allocate_lock()
-        lock.acquire()
-        self._waiters.append(lock)
+        waiting = _waiting
+        lock = waiting.lock
+        waiters = self.waiters
+        waiters.append(lock)
         if interruptible:
             _sleeping.add(lock)
+        woken = False
         try:
-            if not (ready() or (interruptible and _interrupted.is_set())):
-                if threading.get_ident() == threading.main_thread().ident:
-                    _sleep_on_main_thread(lock, timeout, interruptible)
+            if not (ready() or (interruptible and _interrupted.value)):
+                if waiting.main:
+                    woken = _sleep_on_main_thread(lock, timeout, interruptible)
                 else:
-                    lock.acquire(True, -1 if timeout is None else max(timeout, 0.0))
+                    woken = lock.acquire(True, -1 if timeout is None else max(timeout, 0.0))
         finally:
-            self._waiters.remove(lock)
-            _sleeping.discard(lock)
+            if interruptible:
+                _sleeping.discard(lock)
+            if not woken or lock in waiters:  # woken by a notify: it took the lock out already
+                try:
+                    waiters.remove(lock)
+                except ValueError:  # a notify took it meanwhile: its release is due, take it
+                    lock.acquire(True, _RELEASE_GRACE)
 
     def wait_for(
         self, ready: Callable[[], object], timeout: float | None, interruptible: bool = True
@@ -219,17 +242,20 @@ class Signal:
         deadline = None if timeout is None else time.monotonic() + timeout
         while not ready():
             remaining = None if deadline is None else deadline - time.monotonic()
-            if (interruptible and _interrupted.is_set()) or (
-                remaining is not None and remaining <= 0
-            ):
+            if (interruptible and _interrupted.value) or (remaining is not None and remaining <= 0):
                 return bool(ready())
             self.wait(ready, remaining, interruptible)
         return True
 
     def notify(self) -> None:
         """Wake every waiting thread."""
-        for lock in tuple(self._waiters):
+        waiters = self.waiters
+        while waiters:
+            try:  # take the lock out first: a wait that ends meanwhile knows a release comes
+                lock = waiters.pop()
+            except IndexError:  # another notify took the last one
+                return
             try:  # noqa: SIM105 (contextlib.suppress costs 3x the release, once per message)
                 lock.release()
-            except RuntimeError:  # already released by an earlier notify
+            except RuntimeError:  # released already (by interrupt())
                 pass
