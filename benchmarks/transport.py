@@ -17,8 +17,14 @@ rmw_zenoh's (attachments on every message). Rows, all reliable and keep-all:
       variants (a ping that waits in Rust, an echo that hands over to a spinning thread): where
       zros's extra time goes, side by side.
 
-Competitors alternate within each repeat, and the median run is reported: the machine's load
-drifts more than the differences being measured. The roles are in ``transport_roles.py``.
+The machine's speed drifts more than the differences being measured (this 2-core VM's String
+rates moved by a third within minutes), so competitors never run one after the other: in each
+repeat, the processes of every competitor of a row are up at once, on keys of their own, and
+they take turns. A throughput row's competitors send 10 turns each (after one to warm up) and
+the median turn's rate counts; the round trips of rows d and e take turns of 20. Sequential
+runs of 5,000 round trips moved by 30 us from run to run here; the differences between pairs
+in one interleaved run, by 2 us. The median of the repeats is reported. The roles are in
+``transport_roles.py``.
 
 With the ``interop`` extra and root, the same rows run between two rclpy processes over Fast DDS
 inside a private network namespace (``transport_rclpy.py``).
@@ -29,6 +35,9 @@ inside a private network namespace (``transport_rclpy.py``).
 from __future__ import annotations
 
 import argparse
+import json
+import statistics
+import subprocess
 import time
 from typing import Any
 
@@ -36,7 +45,7 @@ from transport_rclpy import rclpy_rows
 from transport_report import report
 from transport_roles import ROLES, read_result, spawn_role, wait_ready, zros_node
 
-__all__ = ['read_result', 'round_trip', 'spawn_role', 'throughput', 'wait_ready', 'zros_node']
+__all__ = ['read_result', 'round_trips', 'spawn_role', 'throughput', 'wait_ready', 'zros_node']
 
 STRING_IMPLS = (
     'zenoh',
@@ -56,6 +65,8 @@ RTT_SPLIT = (
     ('zenoh', 'zenoh'),
     ('zenoh', 'zenoh_fifo'),
     ('zenoh_spin', 'zenoh'),
+    ('zenoh_dec', 'zenoh'),
+    ('zenoh_spin_dec', 'zenoh'),
     ('zros', 'zenoh'),
     ('zros_now', 'zenoh'),
     ('zenoh', 'zros'),
@@ -86,18 +97,107 @@ def throughput(impl: str, kind: str, count: int, endpoint: str, shm: bool) -> di
     return result
 
 
-def round_trip(
-    impl: str, count: int, endpoint: str, shm: bool, *, peer: bool = False, echo_impl: str = ''
-) -> dict[str, Any]:
-    """``count`` ping-pongs between two processes of ``impl`` (the echo's: ``echo_impl``)."""
-    echo_role = echo_impl or impl
-    echo = spawn_role('echo', echo_role, endpoint, ['--timeout', '300'], shm, peer=peer)
-    wait_ready(echo)
-    pinger = spawn_role('ping', impl, endpoint, ['--count', str(count)], shm, peer=peer)
-    result = read_result(pinger, 300)
-    echo.kill()
-    echo.communicate()
-    return result
+#: turns each competitor of a throughput row takes in one run (after one to warm up)
+TURNS = 10
+
+
+def throughputs(
+    impls: list[str], kind: str, count: int, endpoint: str, shm: bool
+) -> list[dict[str, Any]]:
+    """``count`` messages of ``kind`` for each competitor: every competitor's publisher and
+    subscriber are up at once, on keys of their own, and they take turns of ``count //``
+    :data:`TURNS` messages, so the machine's drift falls on each alike (one competitor runs
+    at a time). Returns each one's rate (the median turn's: a burst of load that hits one turn
+    moves it little) and totals over its turns, as :func:`throughput` does."""
+    turn = max(count // TURNS, 2)
+    subscribers, publishers = [], []
+    try:
+        for tag, impl in enumerate(impls):
+            extra = ['--kind', kind, '--count', str(turn), '--tag', str(tag), '--turns']
+            subscribers.append(spawn_role('subscribe', impl, endpoint, extra, shm))
+        for process in subscribers:
+            wait_ready(process)
+        for tag, impl in enumerate(impls):
+            extra = ['--kind', kind, '--tag', str(tag), '--turns']
+            stdin = subprocess.PIPE
+            publishers.append(spawn_role('publish', impl, endpoint, extra, shm, stdin=stdin))
+        for process in publishers:
+            wait_ready(process)
+        turns: list[list[dict[str, Any]]] = [[] for _ in impls]
+        for _ in range(TURNS + 1):
+            for subscriber, publisher, found in zip(subscribers, publishers, turns, strict=True):
+                assert publisher.stdin is not None and publisher.stdout is not None
+                assert subscriber.stdout is not None
+                router = time.process_time()  # this process's: the router's
+                publisher.stdin.write(f'{turn}\n')
+                publisher.stdin.flush()
+                result = json.loads(subscriber.stdout.readline())
+                result['cpu_publisher'] = json.loads(publisher.stdout.readline())['cpu']
+                result['cpu_router'] = time.process_time() - router
+                found.append(result)
+    finally:
+        _end(publishers + subscribers)
+    return [_total(found[1:]) for found in turns]  # the first turn warms up
+
+
+def _total(turns: list[dict[str, Any]]) -> dict[str, Any]:
+    """One competitor's turns as one run: the median turn's rate; messages and CPU added up."""
+    total: dict[str, Any] = {'size': turns[0]['size']}
+    for key in ('received', 'expected', 'cpu', 'cpu_thread', 'cpu_publisher', 'cpu_router'):
+        total[key] = sum(found[key] for found in turns)
+    total['rate'] = statistics.median(found['rate'] for found in turns)
+    return total
+
+
+def _end(processes: list[subprocess.Popen[str]]) -> None:
+    """Kill the role processes and close their pipes."""
+    for process in processes:
+        process.kill()
+    for process in processes:
+        process.wait()
+        for stream in (process.stdin, process.stdout):
+            if stream is not None:
+                stream.close()
+
+
+#: round trips a pair makes in one turn (row d, e)
+TURN = 20
+
+
+def round_trips(
+    pairs: list[tuple[str, str, bool]], count: int, endpoint: str, shm: bool
+) -> list[dict[str, Any]]:
+    """``count`` ping-pongs for each (ping, echo, peer) pair: every pair's two processes are up
+    at once, on keys of their own, and the pairs take turns of :data:`TURN` round trips, so the
+    machine's drift over a run (larger here than the differences measured) falls on each pair
+    alike. Returns each pair's median and p99 (seconds)."""
+    echoes, pingers = [], []
+    try:
+        for tag, (_, echo, peer) in enumerate(pairs):
+            extra = ['--timeout', '3600', '--tag', str(tag)]
+            echoes.append(spawn_role('echo', echo, endpoint, extra, shm, peer=peer))
+        for process in echoes:
+            wait_ready(process)
+        for tag, (ping, _, peer) in enumerate(pairs):
+            extra = ['--tag', str(tag)]
+            stdin = subprocess.PIPE
+            pingers.append(spawn_role('ping', ping, endpoint, extra, shm, peer=peer, stdin=stdin))
+        for process in pingers:
+            wait_ready(process)
+        times: list[list[float]] = [[] for _ in pairs]
+        while len(times[0]) < count:
+            for process, found in zip(pingers, times, strict=True):
+                assert process.stdin is not None and process.stdout is not None
+                process.stdin.write(f'{TURN}\n')
+                process.stdin.flush()
+                found.extend(json.loads(process.stdout.readline()))
+    finally:
+        _end(pingers + echoes)
+    results = []
+    for found in times:
+        found.sort()
+        results.append({'median': statistics.median(found), 'p99': found[int(len(found) * 0.99)]})
+    return results
 
 
 def parse() -> argparse.Namespace:
@@ -117,6 +217,8 @@ def parse() -> argparse.Namespace:
     parser.add_argument('--count', type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument('--timeout', type=float, default=120, help=argparse.SUPPRESS)
     parser.add_argument('--peer', action='store_true', help=argparse.SUPPRESS)
+    parser.add_argument('--tag', default='', help=argparse.SUPPRESS)
+    parser.add_argument('--turns', action='store_true', help=argparse.SUPPRESS)
     return parser.parse_args()
 
 
@@ -150,31 +252,34 @@ def main() -> None:
     def run(row: str, impl: str, found: dict[str, Any]) -> None:
         runs.setdefault(f'{row}/{impl}', []).append(found)
 
+    throughput_rows = []  # (row, kind, competitors, messages)
+    if 'a' in rows:
+        throughput_rows.append(('string', 'string', chosen(STRING_IMPLS), strings))
+    if 'b' in rows:
+        throughput_rows.append(('image', 'image', chosen(IMAGE_IMPLS), images))
+    if 'c' in rows:
+        for size, full in SIZES.items():
+            count = max(full // scale, 20)
+            throughput_rows.append((f'bytes{size}', f'bytes{size}', chosen(SIZE_IMPLS), count))
     router = start_router(shared_memory=args.shm)
     endpoint = router.endpoint
     try:
         for _ in range(repeats):
-            if 'a' in rows:
-                for impl in chosen(STRING_IMPLS):
-                    run('string', impl, throughput(impl, 'string', strings, endpoint, args.shm))
-            if 'b' in rows:
-                for impl in chosen(IMAGE_IMPLS):
-                    run('image', impl, throughput(impl, 'image', images, endpoint, args.shm))
-            if 'c' in rows:
-                for size, full in SIZES.items():
-                    count = max(full // scale, 20)
-                    for impl in chosen(SIZE_IMPLS):
-                        found = throughput(impl, f'bytes{size}', count, endpoint, args.shm)
-                        run(f'bytes{size}', impl, found)
+            for row, kind, impls, count in throughput_rows:
+                results = throughputs(impls, kind, count, endpoint, args.shm)
+                for impl, result in zip(impls, results, strict=True):
+                    run(row, impl, result)
             if 'd' in rows:
-                for impl in chosen(RTT_IMPLS):
-                    run('rtt', impl, round_trip(impl, pings, endpoint, args.shm))
-                for impl in chosen(RTT_IMPLS):
-                    run('rtt_peer', impl, round_trip(impl, pings, endpoint, args.shm, peer=True))
+                impls = chosen(RTT_IMPLS)
+                pairs = [(impl, impl, peer) for peer in (False, True) for impl in impls]
+                results = round_trips(pairs, pings, endpoint, args.shm)
+                for (impl, _, peer), result in zip(pairs, results, strict=True):
+                    run('rtt_peer' if peer else 'rtt', impl, result)
             if 'e' in rows:
-                for echo, ping in RTT_SPLIT:
-                    found = round_trip(ping, pings, endpoint, args.shm, echo_impl=echo)
-                    run('split', f'{echo}:{ping}', found)
+                split = [(ping, echo, False) for echo, ping in RTT_SPLIT]
+                results = round_trips(split, pings, endpoint, args.shm)
+                for (echo, ping), result in zip(RTT_SPLIT, results, strict=True):
+                    run('split', f'{echo}:{ping}', result)
     finally:
         router.close()
     medians = {key: _median_run(found) for key, found in runs.items()}

@@ -156,6 +156,8 @@ SPLIT_NAMES = {
     'zenoh:zenoh': 'raw both (row d)',
     'zenoh:zenoh_fifo': 'raw, ping waits in Rust',
     'zenoh_spin:zenoh': 'raw, echo on a spinning thread',
+    'zenoh_dec:zenoh': 'raw echo, decodes + encodes',
+    'zenoh_spin_dec:zenoh': 'raw spinning echo, decodes',
     'zros:zenoh': 'zros echo (spin)',
     'zros_now:zenoh': 'zros echo (immediate)',
     'zenoh:zros': 'zros ping',

@@ -14,10 +14,12 @@ Implementations (``--impl``):
   * ``zros_now``: a zros node with ``immediate_callbacks`` (callbacks run on the delivery
     thread as messages arrive, not inside ``spin``).
 
-Two more take part in the split round trip (row e) only: ``zenoh_spin``, an echo whose
-callback hands each ping to the main thread, which sends the pong (what running callbacks
-inside ``spin`` costs raw zenoh-python), and ``zenoh_fifo``, a ping that waits for its pong
-in a FIFO channel's ``recv`` (no Python thread in between: the fastest raw ping).
+More take part in the split round trip (row e) only: ``zenoh_spin``, an echo whose callback
+hands each ping to the main thread, which sends the pong (what running callbacks inside
+``spin`` costs raw zenoh-python); ``zenoh_dec`` and ``zenoh_spin_dec``, the raw echoes that
+also decode each ping and encode the pong with zros's codec (the least an echo that hands
+messages to user code does); and ``zenoh_fifo``, a ping that waits for its pong in a FIFO
+channel's ``recv`` (no Python thread in between: the fastest raw ping).
 
 Payloads (``--kind``): ``string`` (std_msgs/String), ``image`` (sensor_msgs/Image 1080p rgb8),
 ``bytes<N>`` (std_msgs/UInt8MultiArray with N bytes of data).
@@ -29,7 +31,6 @@ import argparse
 import json
 import math
 import os
-import statistics
 import subprocess
 import sys
 import threading
@@ -116,17 +117,18 @@ def encoded_size(kind: str) -> int:
 
 
 def role_publish(args: argparse.Namespace) -> None:
-    """Send ``count`` messages as fast as the transport takes them."""
+    """Send ``count`` messages as fast as the transport takes them, then print the CPU seconds
+    that took (all threads). With ``--turns``: after ``ready``, each line ``N`` read from stdin
+    sends N messages and prints their CPU seconds; ends at EOF."""
     message = payload(args.kind)
+    key = f'bench/data{args.tag}'
     if args.impl.startswith('zenoh'):
         import zenoh
 
         from zros.cdr import encode
 
         session = raw_session(args.endpoint, args.shm)
-        publisher = session.declare_publisher(
-            'bench/data', congestion_control=zenoh.CongestionControl.BLOCK
-        )
+        publisher = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
         while not publisher.matching_status.matching:
             time.sleep(0.001)
         data = encode(message)
@@ -135,24 +137,36 @@ def role_publish(args: argparse.Namespace) -> None:
             from zros.wire import SequenceNumbers
 
             put = SequenceNumbers(bytes(range(16))).sender(put)
-        cpu = time.process_time()
-        for _ in range(args.count):
-            put(data)
-        cpu = time.process_time() - cpu
-        time.sleep(LINGER)
-        session.close()
+        close = session.close
+
+        def burst(count: int) -> float:
+            cpu = time.process_time()
+            for _ in range(count):
+                put(data)
+            return time.process_time() - cpu
+
     else:
         node = zros_node('bench_pub', args.endpoint, args.shm, impl=args.impl)
-        publisher = node.create_publisher(message.__msgtype__, '/bench/data', qos='keep_all')
-        publisher.wait_for_subscribers(30)
-        write = publisher.write
-        cpu = time.process_time()
-        for _ in range(args.count):
-            write(message)
-        cpu = time.process_time() - cpu
+        zros_publisher = node.create_publisher(message.__msgtype__, '/' + key, qos='keep_all')
+        zros_publisher.wait_for_subscribers(30)
+        write = zros_publisher.write
+        close = node.transport.close
+
+        def burst(count: int) -> float:
+            cpu = time.process_time()
+            for _ in range(count):
+                write(message)
+            return time.process_time() - cpu
+
+    if args.turns:
+        print('ready', flush=True)
+        for line in sys.stdin:
+            print(json.dumps({'cpu': burst(int(line))}), flush=True)
+    else:
+        cpu = burst(args.count)
         time.sleep(LINGER)
-        node.transport.close()
-    print(json.dumps({'cpu': cpu}))  # its CPU seconds while it sent (all threads)
+        print(json.dumps({'cpu': cpu}))
+    close()
 
 
 def stat_seconds(stat: Path) -> float:
@@ -190,6 +204,10 @@ class Counter:
 
     def __init__(self, count: int) -> None:
         self.count = count
+        self.reset()
+
+    def reset(self) -> None:
+        """Count anew (the next turn)."""
         self.received = 0
         self.first = self.last = 0.0
         self.cpu_first = self.cpu_last = 0.0  # this process's CPU seconds (all threads)
@@ -226,12 +244,26 @@ class Counter:
 
 
 def role_subscribe(args: argparse.Namespace) -> None:
-    """Receive (and decode) ``count`` messages; print the rate between the first and the last."""
+    """Receive (and decode) ``count`` messages; print the rate between the first and the last.
+    With ``--turns``: print that line for every ``count`` messages, until killed."""
     from zros.cdr import get_class
     from zros.cdr.message import decode
 
     cls = get_class(type_of(args.kind))
     counter = Counter(args.count)
+    key = f'bench/data{args.tag}'
+    size = encoded_size(args.kind)
+
+    def turn_over() -> bool:
+        """Whether the subscriber is done: after its one run, or (turns) never."""
+        if not counter.done.is_set():
+            return False
+        if not args.turns:
+            return True
+        print(json.dumps(counter.result(size)), flush=True)
+        counter.reset()
+        return False
+
     if args.impl.startswith('zenoh'):
         add = counter.add
         if args.impl == 'zenoh':
@@ -255,9 +287,13 @@ def role_subscribe(args: argparse.Namespace) -> None:
                 add()
 
         session = raw_session(args.endpoint, args.shm)
-        subscriber = session.declare_subscriber('bench/data', on_sample)
+        subscriber = session.declare_subscriber(key, on_sample)
         print('ready', flush=True)
-        counter.done.wait(args.timeout)
+        deadline = time.monotonic() + args.timeout
+        while time.monotonic() < deadline:
+            counter.done.wait(0.5)
+            if turn_over():
+                break
         subscriber.undeclare()
         session.close()
     else:
@@ -267,53 +303,71 @@ def role_subscribe(args: argparse.Namespace) -> None:
         node = zros_node('bench_sub', args.endpoint, args.shm, impl=args.impl)
         deadline = time.monotonic() + args.timeout
         if args.impl == 'zros_poll':
-            subscriber = node.create_subscription(cls, '/bench/data', qos=KEEP_ALL)
+            subscriber = node.create_subscription(cls, '/' + key, qos=KEEP_ALL)
             print('ready', flush=True)
-            while counter.received < args.count and time.monotonic() < deadline:
+            while time.monotonic() < deadline and not turn_over():
                 node.spin_once(POLL_PERIOD)
                 if subscriber.has_new_message():
                     counter.add(len(subscriber.take()))
         else:  # zros_bytes: the messages' bytes, not decoded (what zros adds besides decoding)
             raw = args.impl == 'zros_bytes'
-            zros.Subscriber(
-                '/bench/data', cls, lambda _: counter.add(), KEEP_ALL, node=node, raw=raw
-            )
+            zros.Subscriber('/' + key, cls, lambda _: counter.add(), KEEP_ALL, node=node, raw=raw)
             print('ready', flush=True)
-            while counter.received < args.count and time.monotonic() < deadline:
+            while time.monotonic() < deadline and not turn_over():
                 node.spin_once(0.5)
         node.transport.close()
-    print(json.dumps(counter.result(encoded_size(args.kind))))
+    if not args.turns:
+        print(json.dumps(counter.result(size)))
 
 
 def role_echo(args: argparse.Namespace) -> None:
-    """Send every ping back as a pong."""
-    if args.impl == 'zenoh_spin':
-        _raw_spinning_echo(args)
+    """Send every ping back as a pong (on the keys of ``--tag``)."""
+    ping, pong = f'bench/ping{args.tag}', f'bench/pong{args.tag}'
+    if args.impl.startswith('zenoh_spin'):
+        _raw_spinning_echo(args, ping, pong)
     elif args.impl.startswith('zenoh'):
         session = raw_session(args.endpoint, args.shm, args.peer)
-        pong = session.declare_publisher('bench/pong')
-        subscriber = session.declare_subscriber('bench/ping', lambda s: pong.put(s.payload))
+        publisher = session.declare_publisher(pong)
+        answer = _pong(args.impl, publisher.put)
+        subscriber = session.declare_subscriber(ping, lambda s: answer(s.payload))
         print('ready', flush=True)
         threading.Event().wait(args.timeout)
         subscriber.undeclare()
         session.close()
     else:
         node = zros_node('bench_echo', args.endpoint, args.shm, args.peer, args.impl)
-        pong = node.create_publisher('std_msgs/msg/Float64', '/bench/pong')
-        node.create_subscription('std_msgs/msg/Float64', '/bench/ping', pong.write, qos=100)
+        publisher = node.create_publisher('std_msgs/msg/Float64', '/' + pong)
+        node.create_subscription('std_msgs/msg/Float64', '/' + ping, publisher.write, qos=100)
         print('ready', flush=True)
         node.spin(timeout=args.timeout)
         node.transport.close()
 
 
-def _raw_spinning_echo(args: argparse.Namespace) -> None:
+def _pong(impl: str, put: Any) -> Any:
+    """What a raw echo does with a ping's payload: put it back, or (``..._dec``) decode it as
+    the message and put the message encoded again, as any echo handing messages to user code
+    must (zros's codec: the least that costs)."""
+    if not impl.endswith('_dec'):
+        return put
+    from zros.cdr import get_class
+
+    cls = get_class('std_msgs/msg/Float64')
+    decode, encode = cls._cdr_decode, cls._cdr_encode
+
+    def answer(payload: Any) -> None:
+        put(encode(decode(payload.to_bytes(), False)))
+
+    return answer
+
+
+def _raw_spinning_echo(args: argparse.Namespace, ping: str, pong: str) -> None:
     """zenoh-python's callback hands the ping to the main thread (the least a Python hand-over
     takes: a deque and a lock released), which sends the pong."""
     import _thread
     import collections
 
     session = raw_session(args.endpoint, args.shm, args.peer)
-    pong = session.declare_publisher('bench/pong')
+    publisher = session.declare_publisher(pong)
     pings: collections.deque[Any] = collections.deque()
     arrived = _thread.allocate_lock()
     arrived.acquire()
@@ -323,23 +377,29 @@ def _raw_spinning_echo(args: argparse.Namespace) -> None:
         if arrived.locked():
             arrived.release()
 
-    subscriber = session.declare_subscriber('bench/ping', on_ping)
+    subscriber = session.declare_subscriber(ping, on_ping)
+    answer = _pong(args.impl, publisher.put)
     print('ready', flush=True)
     deadline = time.monotonic() + args.timeout
     while time.monotonic() < deadline:
         arrived.acquire(True, 0.1)
         while pings:
-            pong.put(pings.popleft())
+            answer(pings.popleft())
     subscriber.undeclare()
     session.close()
 
 
+#: round trips a pinger makes before it says it is ready (not timed)
+WARM_UP = 100
+
+
 def role_ping(args: argparse.Namespace) -> None:
-    """Measure ``count`` round trips after a warm-up of 100."""
+    """Ping the echo of ``--tag``: after a warm-up, each line ``N`` read from stdin makes N
+    round trips, and their times in seconds are printed as one JSON list; ends at EOF."""
     import zros
 
-    times: list[float] = []
     message = zros.Message('std_msgs/msg/Float64', data=0.0)
+    ping_key, pong_key = f'bench/ping{args.tag}', f'bench/pong{args.tag}'
     if args.impl.startswith('zenoh'):
         from zros.cdr import encode
 
@@ -348,48 +408,61 @@ def role_ping(args: argparse.Namespace) -> None:
         if args.impl == 'zenoh_fifo':
             import zenoh
 
-            pongs = session.declare_subscriber('bench/pong', zenoh.handlers.FifoChannel(16))
+            pongs = session.declare_subscriber(pong_key, zenoh.handlers.FifoChannel(16))
             wait = pongs.handler.recv
         else:
-            session.declare_subscriber('bench/pong', lambda s: got.set())
+            session.declare_subscriber(pong_key, lambda s: got.set())
 
             def wait() -> None:
                 got.wait(2)
                 got.clear()
 
-        ping = session.declare_publisher('bench/ping')
-        while not ping.matching_status.matching:
+        publisher = session.declare_publisher(ping_key)
+        while not publisher.matching_status.matching:
             time.sleep(0.001)
         data = encode(message)
-        for i in range(args.count + 100):
+        close = session.close
+
+        def round_trip() -> float:
             start = time.perf_counter()
-            ping.put(data)
+            publisher.put(data)
             wait()
-            if i >= 100:
-                times.append(time.perf_counter() - start)
-        session.close()
+            return time.perf_counter() - start
+
     else:
         node = zros_node('bench_ping', args.endpoint, args.shm, args.peer, args.impl)
-        pongs = node.create_subscription('std_msgs/msg/Float64', '/bench/pong', qos=100)
-        ping = node.create_publisher('std_msgs/msg/Float64', '/bench/ping')
+        pongs = node.create_subscription('std_msgs/msg/Float64', '/' + pong_key, qos=100)
+        ping = node.create_publisher('std_msgs/msg/Float64', '/' + ping_key)
         ping.wait_for_subscribers(30)
-        for i in range(args.count + 100):
-            message.data = float(i)
+        close = node.transport.close
+
+        def round_trip() -> float:
+            message.data += 1.0
             start = time.perf_counter()
             ping.write(message)
             pongs.wait_for_message(2)
-            if i >= 100:
-                times.append(time.perf_counter() - start)
-        node.transport.close()
-    times.sort()
-    print(json.dumps({'median': statistics.median(times), 'p99': times[int(len(times) * 0.99)]}))
+            return time.perf_counter() - start
+
+    for _ in range(WARM_UP):
+        round_trip()
+    print('ready', flush=True)
+    for line in sys.stdin:
+        print(json.dumps([round_trip() for _ in range(int(line))]), flush=True)
+    close()
 
 
 # --- the driver's side --------------------------------------------------------------------------
 
 
 def spawn_role(
-    role: str, impl: str, endpoint: str, extra: list[str], shm: bool, *, peer: bool = False
+    role: str,
+    impl: str,
+    endpoint: str,
+    extra: list[str],
+    shm: bool,
+    *,
+    peer: bool = False,
+    stdin: int | None = None,
 ) -> subprocess.Popen[str]:
     """``transport.py`` in another process, playing ``role``."""
     command = [sys.executable, SCRIPT, '--role', role, '--impl', impl, '--endpoint', endpoint]
@@ -398,7 +471,7 @@ def spawn_role(
         command.append('--shm')
     if peer:
         command.append('--peer')
-    return subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
+    return subprocess.Popen(command, stdin=stdin, stdout=subprocess.PIPE, text=True)
 
 
 def read_result(process: subprocess.Popen[str], timeout: float) -> dict[str, Any]:
