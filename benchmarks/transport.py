@@ -69,6 +69,7 @@ RTT_SPLIT = (
     ('zenoh_spin_dec', 'zenoh'),
     ('zros', 'zenoh'),
     ('zros_now', 'zenoh'),
+    ('zenoh', 'zenoh_dec'),
     ('zenoh', 'zros'),
     ('zros_now', 'zros'),
 )

@@ -160,6 +160,7 @@ SPLIT_NAMES = {
     'zenoh_spin_dec:zenoh': 'raw spinning echo, decodes',
     'zros:zenoh': 'zros echo (spin)',
     'zros_now:zenoh': 'zros echo (immediate)',
+    'zenoh:zenoh_dec': 'raw ping, encodes + decodes',
     'zenoh:zros': 'zros ping',
     'zros_now:zros': 'zros both (immediate echo)',
 }

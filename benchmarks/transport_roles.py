@@ -18,8 +18,9 @@ More take part in the split round trip (row e) only: ``zenoh_spin``, an echo who
 hands each ping to the main thread, which sends the pong (what running callbacks inside
 ``spin`` costs raw zenoh-python); ``zenoh_dec`` and ``zenoh_spin_dec``, the raw echoes that
 also decode each ping and encode the pong with zros's codec (the least an echo that hands
-messages to user code does); and ``zenoh_fifo``, a ping that waits for its pong in a FIFO
-channel's ``recv`` (no Python thread in between: the fastest raw ping).
+messages to user code does), and as a ping ``zenoh_dec``, encoding each ping and decoding
+each pong; and ``zenoh_fifo``, a ping that waits for its pong in a FIFO channel's ``recv`` (no
+Python thread in between: the fastest raw ping).
 
 Payloads (``--kind``): ``string`` (std_msgs/String), ``image`` (sensor_msgs/Image 1080p rgb8),
 ``bytes<N>`` (std_msgs/UInt8MultiArray with N bytes of data).
@@ -410,6 +411,19 @@ def role_ping(args: argparse.Namespace) -> None:
 
             pongs = session.declare_subscriber(pong_key, zenoh.handlers.FifoChannel(16))
             wait = pongs.handler.recv
+        elif args.impl == 'zenoh_dec':  # each pong decoded, each ping encoded: zros's codec
+            decode = type(message)._cdr_decode
+
+            def on_pong(sample: Any) -> None:
+                decode(sample.payload.to_bytes(), False)
+                got.set()
+
+            session.declare_subscriber(pong_key, on_pong)
+
+            def wait() -> None:
+                got.wait(2)
+                got.clear()
+
         else:
             session.declare_subscriber(pong_key, lambda s: got.set())
 
@@ -422,10 +436,11 @@ def role_ping(args: argparse.Namespace) -> None:
             time.sleep(0.001)
         data = encode(message)
         close = session.close
+        fresh = args.impl == 'zenoh_dec'
 
         def round_trip() -> float:
             start = time.perf_counter()
-            publisher.put(data)
+            publisher.put(encode(message) if fresh else data)
             wait()
             return time.perf_counter() - start
 
