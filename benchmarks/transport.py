@@ -30,6 +30,10 @@ With the ``interop`` extra and root, the same rows run between two rclpy process
 inside a private network namespace (``transport_rclpy.py``).
 
     python benchmarks/transport.py [--quick] [--shm] [--repeats N] [--rows a,b,c,d]
+
+``--against PATH`` runs every zros competitor a second time, named ``... (before)``, with zros
+imported from the checkout at PATH (``git worktree add PATH main``), in the same turns: a
+change measured against the code before it, on the same machine at the same moments.
 """
 
 from __future__ import annotations
@@ -39,11 +43,13 @@ import json
 import statistics
 import subprocess
 import time
+from pathlib import Path
 from typing import Any
 
+import transport_roles
 from transport_rclpy import rclpy_rows
 from transport_report import report
-from transport_roles import ROLES, read_result, spawn_role, wait_ready, zros_node
+from transport_roles import BEFORE, ROLES, read_result, spawn_role, wait_ready, zros_node
 
 __all__ = ['read_result', 'round_trips', 'spawn_role', 'throughput', 'wait_ready', 'zros_node']
 
@@ -211,6 +217,9 @@ def parse() -> argparse.Namespace:
         '--skip', default='', help='competitors to leave out, e.g. zros_now (for older zros)'
     )
     parser.add_argument('--no-rclpy', action='store_true', help='leave out the rclpy rows')
+    parser.add_argument(
+        '--against', help='a checkout of zros to run each zros competitor from too (before)'
+    )
     parser.add_argument('--role', help=argparse.SUPPRESS)
     parser.add_argument('--impl', default='zros', help=argparse.SUPPRESS)
     parser.add_argument('--endpoint', help=argparse.SUPPRESS)
@@ -247,8 +256,20 @@ def main() -> None:
     runs: dict[str, list[dict[str, Any]]] = {}
     skip = set(args.skip.split(','))
 
+    if args.against:
+        transport_roles.against = str(Path(args.against).resolve())
+
+    def before(impl: str) -> list[str]:
+        return [impl + BEFORE] if args.against and impl.startswith('zros') else []
+
     def chosen(impls: tuple[str, ...]) -> list[str]:
-        return [impl for impl in impls if impl not in skip]
+        return [name for impl in impls if impl not in skip for name in [impl, *before(impl)]]
+
+    split_pairs = list(RTT_SPLIT)
+    for echo, ping in RTT_SPLIT:
+        if args.against and 'zros' in echo + ping:
+            split_pairs.append((echo + BEFORE * echo.startswith('zros'),
+                                ping + BEFORE * ping.startswith('zros')))  # fmt: skip
 
     def run(row: str, impl: str, found: dict[str, Any]) -> None:
         runs.setdefault(f'{row}/{impl}', []).append(found)
@@ -277,9 +298,9 @@ def main() -> None:
                 for (impl, _, peer), result in zip(pairs, results, strict=True):
                     run('rtt_peer' if peer else 'rtt', impl, result)
             if 'e' in rows:
-                split = [(ping, echo, False) for echo, ping in RTT_SPLIT]
+                split = [(ping, echo, False) for echo, ping in split_pairs]
                 results = round_trips(split, pings, endpoint, args.shm)
-                for (echo, ping), result in zip(RTT_SPLIT, results, strict=True):
+                for (echo, ping), result in zip(split_pairs, results, strict=True):
                     run('split', f'{echo}:{ping}', result)
     finally:
         router.close()

@@ -6,6 +6,22 @@ from __future__ import annotations
 from typing import Any
 
 Rows = dict[str, dict[str, Any]]  #: 'row/impl' -> the median run
+#: a competitor run from the checkout ``transport.py --against`` names ends with this
+BEFORE = '@before'
+#: the width of the rows' labels, and of the tables' first heading
+LABEL = 40
+HEAD = LABEL + 4
+
+
+def with_before(names: dict[str, str]) -> dict[str, str]:
+    """``names`` (competitor -> label), each followed by its twin run from the code before."""
+    return {
+        key: label
+        for impl, name in names.items()
+        for key, label in ((impl, name), (impl + BEFORE, f'  {name} (before)'))
+    }
+
+
 #: the String row's competitors
 STRING_NAMES = {
     'zenoh': 'raw zenoh, bytes only',
@@ -59,10 +75,10 @@ def _print_strings(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> Non
     if not any(key.startswith('string/') for key in rows):
         return
     print(
-        f'(a) std_msgs/String msgs/s       {"msgs/s":>10} {"/ bytes":>8} {"/ decode":>8}'
+        f'{"(a) std_msgs/String msgs/s":{HEAD}} {"msgs/s":>10} {"/ bytes":>8} {"/ decode":>8}'
         f' {"sub CPU us":>10}  runs'
     )
-    for impl, name in STRING_NAMES.items():
+    for impl, name in with_before(STRING_NAMES).items():
         found = rows.get(f'string/{impl}')
         if found is None:
             continue
@@ -71,7 +87,7 @@ def _print_strings(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> Non
         over_decoded = f'{rate / decoded["rate"]:8.2f}' if decoded else ' ' * 8
         cpu = _cpu_per_message(found)
         runs = ' '.join(f'{r / 1000:.0f}k' for r in found['runs'])
-        print(f'    {name:28} {rate:>10,.0f} {over_raw} {over_decoded} {cpu:>10.2f}  {runs}')
+        print(f'    {name:{LABEL}} {rate:>10,.0f} {over_raw} {over_decoded} {cpu:>10.2f}  {runs}')
     print(
         "    sub CPU us: the subscriber process's CPU per message (all its threads), steadier "
         'than the rates here'
@@ -93,11 +109,12 @@ def _print_images(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None
     raw = rows.get('image/zenoh')
     if raw is None:
         return
-    print(f'(b) Image 1080p rgb8 MB/s        {"MB/s":>10} {"/ raw":>8}')
-    for impl, name in (('zenoh', 'raw zenoh'), ('zros', 'zros'), ('zros_rmw', 'zros rmw_zenoh')):
+    print(f'{"(b) Image 1080p rgb8 MB/s":{HEAD}} {"MB/s":>10} {"/ raw":>8}')
+    names = {'zenoh': 'raw zenoh', 'zros': 'zros', 'zros_rmw': 'zros rmw_zenoh'}
+    for impl, name in with_before(names).items():
         found = rows.get(f'image/{impl}')
         if found is not None:
-            print(f'    {name:28} {_mbs(found):>10,.0f} {_mbs(found) / _mbs(raw):8.2f}')
+            print(f'    {name:{LABEL}} {_mbs(found):>10,.0f} {_mbs(found) / _mbs(raw):8.2f}')
     zros = rows.get('image/zros')
     if zros:
         ratio = _mbs(zros) / _mbs(raw)
@@ -127,6 +144,12 @@ def _print_sizes(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
             f'    {_size(size):>7} {raw["rate"]:>12,.0f} {_mbs(raw):>9,.1f} {zros["rate"]:>12,.0f}'
             f' {_mbs(zros):>9,.1f} {ratio:>9.2f} {floor} {over_floor}'
         )
+        earlier = rows.get(f'bytes{size}/zros{BEFORE}')
+        if earlier is not None:
+            print(
+                f'    {"(before)":>7} {"":>12} {"":>9} {earlier["rate"]:>12,.0f}'
+                f' {_mbs(earlier):>9,.1f} {earlier["rate"] / raw["rate"]:>9.2f}'
+            )
     if worst is not None:
         text = f'uint8[] 10 B-10 MB, zros / raw (worst: {_size(worst[1])})'
         goals.append((text, worst[0], '>= 0.75', worst[0] >= 0.75))
@@ -135,10 +158,12 @@ def _print_sizes(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
 def _print_round_trips(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
     if 'rtt/zenoh' not in rows:
         return
-    print(f'(d) Float64 round trip, us       {"median":>10} {"p99":>8} {"- raw":>8}')
+    print(f'{"(d) Float64 round trip, us":{HEAD}} {"median":>10} {"p99":>8} {"- raw":>8}')
     for row, where in (('rtt', 'router'), ('rtt_peer', 'peer to peer')):
         raw = rows[f'{row}/zenoh']
-        names = {f'{row}/{impl}': f'{name}, {where}' for impl, name in RTT_NAMES.items()}
+        names = {
+            f'{row}/{impl}': f'{name}, {where}' for impl, name in with_before(RTT_NAMES).items()
+        }
         _print_times(rows, names, raw)
         for impl, name in (('zros', 'zros'), ('zros_now', 'zros immediate')):
             zros = rows.get(f'{row}/{impl}')
@@ -174,7 +199,7 @@ def _print_times(rows: Rows, names: dict[str, str], base: dict[str, Any]) -> Non
             continue
         over = _us(found, 'median') - _us(base, 'median')
         print(
-            f'    {label:28} {_us(found, "median"):>10,.0f} {_us(found, "p99"):>8,.0f} {over:>+8,.0f}'
+            f'    {label:{LABEL}} {_us(found, "median"):>10,.0f} {_us(found, "p99"):>8,.0f} {over:>+8,.0f}'
         )
 
 
@@ -182,8 +207,17 @@ def _print_split(rows: Rows) -> None:
     base = rows.get('split/zenoh:zenoh')
     if base is None:
         return
-    print(f'(e) round trip split, router, us {"median":>10} {"p99":>8} {"- raw":>8}')
-    _print_times(rows, {f'split/{pair}': name for pair, name in SPLIT_NAMES.items()}, base)
+    print(f'{"(e) round trip split, router, us":{HEAD}} {"median":>10} {"p99":>8} {"- raw":>8}')
+    names = {}
+    for pair, name in SPLIT_NAMES.items():
+        names[f'split/{pair}'] = name
+        echo, ping = pair.split(':')
+        if 'zros' in pair:
+            before = (
+                f'{echo}{BEFORE * echo.startswith("zros")}:{ping}{BEFORE * ping.startswith("zros")}'
+            )
+            names[f'split/{before}'] = f'  {name} (before)'
+    _print_times(rows, names, base)
 
 
 def report(rows: Rows, rclpy: dict[str, dict[str, Any]] | None = None) -> None:

@@ -41,6 +41,9 @@ from typing import Any
 
 #: the script that plays the roles (``--role``)
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'transport.py')
+#: competitors named ``<impl>@before`` import zros from this checkout (``transport.py --against``)
+BEFORE = '@before'
+against: str | None = None
 
 #: how long a publisher waits after its last message (the subscriber drains its queue)
 LINGER = 1.0
@@ -479,14 +482,20 @@ def spawn_role(
     peer: bool = False,
     stdin: int | None = None,
 ) -> subprocess.Popen[str]:
-    """``transport.py`` in another process, playing ``role``."""
+    """``transport.py`` in another process, playing ``role`` (``<impl>@before``: with zros
+    imported from the checkout :data:`against` names)."""
+    env = None
+    if impl.endswith(BEFORE):
+        assert against is not None, 'an @before competitor needs transport.py --against'
+        impl = impl.removesuffix(BEFORE)
+        env = {**os.environ, 'PYTHONPATH': against}
     command = [sys.executable, SCRIPT, '--role', role, '--impl', impl, '--endpoint', endpoint]
     command += extra
     if shm:
         command.append('--shm')
     if peer:
         command.append('--peer')
-    return subprocess.Popen(command, stdin=stdin, stdout=subprocess.PIPE, text=True)
+    return subprocess.Popen(command, stdin=stdin, stdout=subprocess.PIPE, text=True, env=env)
 
 
 def read_result(process: subprocess.Popen[str], timeout: float) -> dict[str, Any]:
