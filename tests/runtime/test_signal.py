@@ -113,3 +113,33 @@ def test_waits_on_one_thread_reuse_one_lock() -> None:
     for _ in range(100):
         signal.wait(record, 1.0)
     assert len(locks) == 1
+
+
+@pytest.mark.parametrize('on_main_thread', [True, False], ids=['main thread', 'other thread'])
+def test_a_wait_whose_notify_was_cut_short_ends(on_main_thread: bool) -> None:
+    """A notify takes the waiter's lock out of the list, then releases it; an exception between
+    the two (a second Ctrl-C on the notifying thread) loses the release. The wait, even one
+    without a timeout, ends once it sees its lock was taken, within a few seconds (on the main
+    thread the test waits 20 s at most, so that a regression fails instead of hanging)."""
+    signal = Signal()
+    lengths: list[float] = []
+
+    def wait() -> None:
+        start = time.monotonic()
+        signal.wait(lambda: False, 20.0 if on_main_thread else None)
+        lengths.append(time.monotonic() - start)
+
+    def lose_the_release() -> None:
+        _wait_until(lambda: bool(signal.waiters))
+        signal.waiters.pop()  # what notify does first; its release never comes
+
+    if on_main_thread:
+        threading.Thread(target=lose_the_release).start()
+        wait()
+    else:
+        waiter = threading.Thread(target=wait, daemon=True)
+        waiter.start()
+        lose_the_release()
+        waiter.join(TIMEOUT)
+    assert lengths and lengths[0] < 5.0
+    assert not signal.waiters

@@ -141,30 +141,39 @@ def remove_interrupt_listener(listener: Callable[[], object]) -> None:
 
 #: the longest the main thread sleeps in one go before Python's signal handlers may run
 _MAIN_THREAD_SLICE = 0.1
+#: the longest another thread sleeps in one go before it looks whether a notify took its lock
+_SLICE = 1.0
 
 
-def _sleep_on_main_thread(
-    lock: _thread.LockType, timeout: float | None, interruptible: bool
+def _sleep(
+    lock: _thread.LockType,
+    timeout: float | None,
+    waiters: list[_thread.LockType],
+    main: bool,
+    interruptible: bool,
 ) -> bool:
-    """Acquire ``lock`` (a waiter's) on the main thread in slices of 0.1 s.
+    """Acquire ``lock`` (a waiter's) within ``timeout`` seconds, in slices; returns whether it
+    did.
 
     Python runs a signal's handler on the main thread between two bytecodes. A blocked acquire
     is cut short to run it only if the signal lands on the main thread during the acquire; one
     that arrives just before the acquire starts, or lands on another thread (Zenoh's), leaves
-    the handler pending, and the acquire would sleep through the Ctrl-C. Between slices the
-    pending handler runs (and releases this lock through :func:`interrupt`). Returns whether
-    it acquired the lock.
+    the handler pending, and the acquire would sleep through the Ctrl-C: the main thread sleeps
+    0.1 s at a time, and the pending handler runs between slices (and releases this lock
+    through :func:`interrupt`). Every thread also ends its wait between slices once a notify
+    took its lock out of ``waiters``: the notify's release may never come, if an exception
+    (a second Ctrl-C) cut the notifier short.
     """
     deadline = None if timeout is None else time.monotonic() + timeout
+    length = _MAIN_THREAD_SLICE if main else _SLICE
     while True:
-        length = _MAIN_THREAD_SLICE
         if deadline is not None:
             length = min(length, deadline - time.monotonic())
             if length <= 0:
                 return False
         if lock.acquire(True, length):
             return True
-        if interruptible and _interrupted.value:
+        if (interruptible and _interrupted.value) or lock not in waiters:
             return False
 
 
@@ -221,10 +230,7 @@ class Signal:
         woken = False
         try:
             if not (ready() or (interruptible and _interrupted.value)):
-                if waiting.main:
-                    woken = _sleep_on_main_thread(lock, timeout, interruptible)
-                else:
-                    woken = lock.acquire(True, -1 if timeout is None else max(timeout, 0.0))
+                woken = _sleep(lock, timeout, waiters, waiting.main, interruptible)
         finally:
             if interruptible:
                 _sleeping.discard(lock)
