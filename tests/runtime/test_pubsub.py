@@ -77,6 +77,29 @@ def test_polling_read_and_take(zros_node: Callable[..., Node]) -> None:
     assert not sub.has_new_message()
 
 
+def test_wait_for_message_at_its_edges(zros_node: Callable[..., Node]) -> None:
+    """The oldest unread message, at once when one is there (even with no time left, and once
+    the subscriber is closed); None when none comes in time, or after close."""
+    talker, listener = connected(zros_node)
+    sub = zros.Subscriber('chatter', String, node=listener, qos=10)
+    pub = zros.Publisher('chatter', String, node=talker)
+    assert pub.wait_for_subscribers()
+    start = time.monotonic()
+    assert sub.wait_for_message(0.2) is None
+    assert time.monotonic() - start >= 0.2
+    assert sub.wait_for_message(0) is None
+    for i in range(3):
+        pub.write(text(str(i)))
+    assert wait_for(lambda: sub.received == 3)
+    assert sub.wait_for_message(0).data == '0'
+    assert sub.wait_for_message(5).data == '1'
+    sub.close()
+    assert sub.wait_for_message(5).data == '2'  # read after close: still there
+    start = time.monotonic()
+    assert sub.wait_for_message(5) is None
+    assert time.monotonic() - start < 2
+
+
 def test_messages_small_and_large_in_turn_arrive_intact(zros_node: Callable[..., Node]) -> None:
     talker, listener = connected(zros_node)
     kind = 'std_msgs/msg/UInt8MultiArray'

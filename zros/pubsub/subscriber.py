@@ -266,13 +266,16 @@ class Subscriber(Entity):
         the subscriber is closed, and after Ctrl-C)."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if self._closed or interrupted() or (remaining is not None and remaining <= 0):
+                messages = self.take(1)  # a last look
+                return messages[0] if messages else None
+            # returns at once when a message is there: no take() before it (a blocking read
+            # with cold caches spent a few microseconds on the empty one)
+            self._arrived.wait(self._has_message, remaining, interruptible=True)
             messages = self.take(1)
             if messages:
                 return messages[0]
-            remaining = None if deadline is None else deadline - time.monotonic()
-            if self._closed or interrupted() or (remaining is not None and remaining <= 0):
-                return None
-            self._arrived.wait(self._has_message, remaining, interruptible=True)
 
     def _dispatch(self) -> int:
         """The executor's work: every unread message to the callback (what ``take()`` does,
