@@ -18,6 +18,10 @@ the same message's CDR bytes on an SDK channel as fast as it takes them, with no
 router and no copy of its own, to the same node client; and raw zenoh-python logging each
 sample's bytes into the SDK from its callback (the gateway's work without zros).
 
+All four paths are up at once, each on a topic of its own, and they take turns (10 each, after
+one to warm up; the median turn's rate counts): this VM's speed drifts by a third within
+minutes, more than the differences measured, and turns make the drift fall on every path alike.
+
 On two cores every process competes for the same CPU, so the rates follow the CPU each path
 spends per message, which the second table gives per process. Its last rows give each
 receiver's busiest thread (ticks of /proc, 10 ms): where every thread has a core of its own,
@@ -43,7 +47,7 @@ HERE = Path(__file__).resolve()
 sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
 
 import transport as bench  # noqa: E402  (the publisher and the zros subscriber roles)
-from transport_roles import busiest_thread, cpu_seconds, thread_seconds  # noqa: E402
+from gateway_paths import ClientPath, ZrosPath, topic, total  # noqa: E402
 
 from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
 
@@ -72,8 +76,8 @@ def role_stamps(args: argparse.Namespace) -> None:
     node.transport.close()
 
 
-def _watched_channel(kind: str, timeout: float) -> tuple[Any, Any]:
-    """An SDK server and a channel on TOPIC (cdr) of ``kind``'s type, its URL printed as
+def _watched_channel(kind: str, timeout: float, name: str = TOPIC) -> tuple[Any, Any]:
+    """An SDK server and a channel on ``name`` (cdr) of ``kind``'s type, its URL printed as
     ``zros foxglove`` prints it; returns once a client subscribed (or after ``timeout`` s)."""
     import foxglove
     from transport_roles import type_of
@@ -83,7 +87,7 @@ def _watched_channel(kind: str, timeout: float) -> tuple[Any, Any]:
 
     schema = ros2msg_schema(default_registry(), type_of(kind))
     server = foxglove.start_server(host='127.0.0.1', port=0, message_backlog_size=1_000_000)
-    channel = foxglove.Channel(TOPIC, schema=schema, message_encoding='cdr')
+    channel = foxglove.Channel(name, schema=schema, message_encoding='cdr')
     print(f'Foxglove: ws://127.0.0.1:{server.port}', flush=True)
     deadline = time.monotonic() + timeout
     while not channel.has_sinks() and time.monotonic() < deadline:
@@ -92,18 +96,18 @@ def _watched_channel(kind: str, timeout: float) -> tuple[Any, Any]:
 
 
 def role_sdk(args: argparse.Namespace) -> None:
-    """foxglove-sdk alone: log one message's CDR bytes ``count`` times once a client
-    subscribes (with a stamp, as the gateway logs them)."""
+    """foxglove-sdk alone: once a client subscribes, each line ``N`` read from stdin logs one
+    message's CDR bytes N times (with a stamp, as the gateway logs them); ends at EOF."""
     from transport_roles import payload
 
     from zros.cdr import encode
 
     data = encode(payload(args.kind))
-    _server, channel = _watched_channel(args.kind, args.timeout)
+    _server, channel = _watched_channel(args.kind, args.timeout, topic(args.tag))
     log = channel.base.log
-    for _ in range(args.count):
-        log(data, time.time_ns())
-    time.sleep(args.timeout)  # the client reads the backlog; the driver ends this process
+    for line in sys.stdin:
+        for _ in range(int(line)):
+            log(data, time.time_ns())
 
 
 def role_zenoh_sdk(args: argparse.Namespace) -> None:
@@ -112,10 +116,11 @@ def role_zenoh_sdk(args: argparse.Namespace) -> None:
     from transport_roles import raw_session
 
     session = raw_session(args.endpoint, False)
-    _server, channel = _watched_channel(args.kind, args.timeout)
+    name = topic(args.tag)
+    _server, channel = _watched_channel(args.kind, args.timeout, name)
     log = channel.base.log
     subscriber = session.declare_subscriber(  # once watched, as the gateway taps a topic
-        TOPIC.lstrip('/'), lambda sample: log(sample.payload.to_bytes(), time.time_ns())
+        name.lstrip('/'), lambda sample: log(sample.payload.to_bytes(), time.time_ns())
     )
     time.sleep(args.timeout)  # the driver ends this process
     subscriber.undeclare()
@@ -194,46 +199,40 @@ class Gateway:
         self.process.wait(30)
 
 
-def gateway_throughput(
-    kind: str, count: int, endpoint: str, command: list[str] | None = None, publish: bool = True
-) -> dict[str, Any]:
-    """``count`` messages of ``kind`` through ``zros foxglove`` (or ``command``, a server that
-    prints its URL as it does), sent by a zros publisher unless ``publish`` is False; with the
-    CPU seconds the server and the client used from their start (once idle) to the last."""
-    gateway = Gateway(endpoint, command)
-    pids = {'cpu': gateway.process.pid, 'cpu_client': gateway.client.process.pid}
-    before = {name: cpu_seconds(pid) for name, pid in pids.items()}  # both started, idle
-    threads = {name: thread_seconds(pid) for name, pid in pids.items()}
-    router = time.process_time()  # this process's: the router's
+#: the paths a message takes, in the order they take their turns
+PATHS = ('zros', 'gateway', 'sdk', 'zenoh_sdk')
+#: turns each path takes in one run (after one to warm up)
+TURNS = 10
+
+
+def interleaved(kind: str, count: int, endpoint: str) -> dict[str, dict[str, Any]]:
+    """``count`` messages of ``kind`` along each path, every path up at once (topics of their
+    own) and taking turns of ``count //`` :data:`TURNS`: the zros subscriber; ``zros foxglove``
+    to the node client; foxglove-sdk alone (sending itself, no Zenoh) to the node client; raw
+    zenoh-python logging into the SDK, to the node client. Each path's median turn rate, and
+    its CPU and messages added up."""
+    turn = max(count // TURNS, 2)
+    here = [sys.executable, str(HERE), '--kind', kind, '--endpoint', endpoint]
+    zros = shutil.which('zros', path=str(Path(sys.executable).parent))
+    assert zros is not None, 'the zros command is not installed beside this Python'
+    gateway = [zros, 'foxglove', '--connect', endpoint, '--port', '0', '--no-sim-time',
+               '--message-backlog', '1000000']  # fmt: skip
+    paths: dict[str, Any] = {}
     try:
-        extra = ['--kind', kind, '--count', str(count)]
-        publisher = bench.spawn_role('publish', 'zros', endpoint, extra, False) if publish else None
-        subscription = gateway.subscribe()  # the publisher waits for the tap this makes
-        found = gateway.counted(subscription, count, 20)
-        cpu = {name: cpu_seconds(pid) - before[name] for name, pid in pids.items()}
-        for name, pid in pids.items():
-            cpu[f'{name}_thread'] = busiest_thread(threads[name], thread_seconds(pid))
-        if publisher is not None:
-            cpu['cpu_publisher'] = bench.read_result(publisher, 120)['cpu']
-            cpu['cpu_router'] = time.process_time() - router
+        paths['zros'] = ZrosPath(kind, endpoint, '0', turn)
+        paths['gateway'] = ClientPath(gateway, kind, endpoint, '1', publish=True)
+        command = [*here, '--role', 'sdk', '--tag', '2', '--timeout', '300']
+        paths['sdk'] = ClientPath(command, kind, endpoint, '2', publish=False)
+        command = [*here, '--role', 'zenoh_sdk', '--tag', '3', '--timeout', '3600']
+        paths['zenoh_sdk'] = ClientPath(command, kind, endpoint, '3', publish=True)
+        turns: dict[str, list[dict[str, Any]]] = {name: [] for name in PATHS}
+        for _ in range(TURNS + 1):
+            for name in PATHS:
+                turns[name].append(paths[name].turn(turn))
     finally:
-        gateway.close()
-    rate = (found['count'] - 1) / max(found['seconds'], 1e-9)
-    size = found['bytes'] / found['count']
-    return {'received': found['count'], 'rate': rate, 'size': size, **cpu}
-
-
-def sdk_throughput(kind: str, count: int) -> dict[str, Any]:
-    """Messages logged by foxglove-sdk alone (``role_sdk``) as the node client counts them."""
-    command = [sys.executable, str(HERE), '--role', 'sdk', '--kind', kind, '--count', str(count)]
-    return gateway_throughput(kind, count, '', [*command, '--timeout', '300'], publish=False)
-
-
-def zenoh_sdk_throughput(kind: str, count: int, endpoint: str) -> dict[str, Any]:
-    """Messages through raw zenoh-python into foxglove-sdk (``role_zenoh_sdk``)."""
-    command = [sys.executable, str(HERE), '--role', 'zenoh_sdk', '--kind', kind]
-    command += ['--endpoint', endpoint, '--timeout', '300']
-    return gateway_throughput(kind, count, endpoint, command)
+        for path in paths.values():
+            path.close()
+    return {name: total(found[1:]) for name, found in turns.items()}  # the first warms up
 
 
 def _spawn_here(role: str, endpoint: str, count: int) -> subprocess.Popen[str]:
@@ -266,6 +265,7 @@ def zros_latency(count: int, endpoint: str) -> list[float]:
 
 
 def _median_run(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """The run with the median rate."""
     return sorted(runs, key=lambda run: run['rate'])[len(runs) // 2]
 
 
@@ -278,6 +278,7 @@ def main() -> None:
     parser.add_argument('--count', type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument('--kind', default='image', help=argparse.SUPPRESS)
     parser.add_argument('--timeout', type=float, default=120, help=argparse.SUPPRESS)
+    parser.add_argument('--tag', default='', help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.role:
         roles = {'stamps': role_stamps, 'latency': role_latency, 'sdk': role_sdk}
@@ -304,17 +305,12 @@ def main() -> None:
         f'{metadata.version("foxglove-sdk")}, median of {repeats} alternating runs'
     )
     runs: dict[str, dict[str, list[dict[str, Any]]]] = {
-        'zros': {'string': [], 'image': []},
-        'gateway': {'string': [], 'image': []},
-        'sdk': {'string': [], 'image': []},
-        'zenoh_sdk': {'string': [], 'image': []},
+        name: {'string': [], 'image': []} for name in PATHS
     }
     for _ in range(repeats):
         for kind, count in (('string', strings), ('image', images)):
-            runs['zros'][kind].append(bench.throughput('zros', kind, count, endpoint, False))
-            runs['gateway'][kind].append(gateway_throughput(kind, count, endpoint))
-            runs['sdk'][kind].append(sdk_throughput(kind, count))
-            runs['zenoh_sdk'][kind].append(zenoh_sdk_throughput(kind, count, endpoint))
+            for name, found in interleaved(kind, count, endpoint).items():
+                runs[name][kind].append(found)
     latency = {'zros': zros_latency(stamps, endpoint), 'gateway': gateway_latency(stamps, endpoint)}
     router.close()
     report(

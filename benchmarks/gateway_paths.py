@@ -1,0 +1,150 @@
+"""The ways a message takes in ``benchmarks/gateway.py``, each driven turn by turn.
+
+Every path is up at once, on a topic of its own (``/bench/data<tag>``), and the driver gives
+each a turn of messages in order, so the machine's drift (larger here than the differences
+measured) falls on all alike:
+
+  * :class:`ZrosPath`: a zros publisher and a zros subscriber (``transport.py``'s roles);
+  * :class:`ClientPath`: a server that prints its URL as ``zros foxglove`` does (the gateway,
+    or a role of ``gateway.py``), the ``@foxglove/ws-protocol`` node client subscribed to the
+    topic, and a zros publisher, unless the server sends the messages itself.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve()
+sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
+
+from transport_roles import busiest_thread, cpu_seconds, spawn_role, thread_seconds, wait_ready  # noqa: E402
+
+from tests.gateway.foxglove_client import FoxgloveClient  # noqa: E402
+
+#: how long a turn may go without a new message before it counts as ended
+STALL = 20.0
+
+
+def topic(tag: str) -> str:
+    """The topic of the path tagged ``tag``."""
+    return f'/bench/data{tag}'
+
+
+def _publisher(kind: str, endpoint: str, tag: str) -> subprocess.Popen[str]:
+    extra = ['--kind', kind, '--tag', tag, '--turns']
+    return spawn_role('publish', 'zros', endpoint, extra, False, stdin=subprocess.PIPE)
+
+
+def _send(process: subprocess.Popen[str], count: int) -> None:
+    assert process.stdin is not None
+    process.stdin.write(f'{count}\n')
+    process.stdin.flush()
+
+
+def _line(process: subprocess.Popen[str]) -> dict[str, Any]:
+    assert process.stdout is not None
+    return dict(json.loads(process.stdout.readline()))
+
+
+def _end(processes: list[subprocess.Popen[str]]) -> None:
+    for process in processes:
+        process.kill()
+    for process in processes:
+        process.wait()
+        for stream in (process.stdin, process.stdout):
+            if stream is not None:
+                stream.close()
+
+
+class ZrosPath:
+    """A zros publisher and a zros subscriber with a callback."""
+
+    def __init__(self, kind: str, endpoint: str, tag: str, turn: int) -> None:
+        extra = ['--kind', kind, '--tag', tag, '--turns', '--count', str(turn)]
+        self.subscriber = spawn_role('subscribe', 'zros', endpoint, extra, False)
+        wait_ready(self.subscriber)
+        self.publisher = _publisher(kind, endpoint, tag)
+        wait_ready(self.publisher)
+
+    def turn(self, count: int) -> dict[str, Any]:
+        """``count`` messages through (the subscriber counts them as its turn)."""
+        router = time.process_time()  # the driver's: the router's
+        _send(self.publisher, count)
+        found = _line(self.subscriber)
+        found['cpu_publisher'] = _line(self.publisher)['cpu']
+        found['cpu_router'] = time.process_time() - router
+        return found
+
+    def close(self) -> None:
+        _end([self.publisher, self.subscriber])
+
+
+class ClientPath:
+    """A server process printing ``Foxglove: <url>``, the node client subscribed to the path's
+    topic, and a zros publisher (``publish``), or the server sending itself (its stdin)."""
+
+    def __init__(self, command: list[str], kind: str, endpoint: str, tag: str, publish: bool):
+        self.server = subprocess.Popen(
+            command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+        )
+        assert self.server.stdout is not None
+        line = self.server.stdout.readline()
+        if not line.startswith('Foxglove: '):
+            raise RuntimeError(f'{command[:2]} did not start: {line!r}')
+        self.client = FoxgloveClient(line.split()[1])
+        self.publisher = _publisher(kind, endpoint, tag) if publish else None
+        # the topic shows once the publisher is up; the publisher waits for the tap this makes
+        self.subscription = self.client.subscribe(topic(tag), 60, quiet=True)
+        if self.publisher is not None:
+            wait_ready(self.publisher)
+
+    def turn(self, count: int) -> dict[str, Any]:
+        """``count`` messages through, counted by the client from the turn's first."""
+        client, key = self.client, str(self.subscription)
+        client.send('quiet', subscriptionId=self.subscription)  # counts anew
+        assert client.stats()[key]['count'] == 0
+        pids = {'cpu': self.server.pid, 'cpu_client': self.client.process.pid}
+        cpu = {name: cpu_seconds(pid) for name, pid in pids.items()}
+        threads = {name: thread_seconds(pid) for name, pid in pids.items()}
+        router = time.process_time()
+        _send(self.publisher or self.server, count)
+        progress, last = -1, time.monotonic()
+        while True:
+            found = dict(client.stats()[key])
+            if found['count'] >= count or time.monotonic() - last > STALL:
+                break
+            if found['count'] != progress:
+                progress, last = found['count'], time.monotonic()
+            time.sleep(0.02)
+        result: dict[str, Any] = {
+            'received': found['count'], 'expected': count,
+            'rate': (found['count'] - 1) / max(found['seconds'], 1e-9),
+            'size': found['bytes'] / max(found['count'], 1),
+            'cpu_router': time.process_time() - router,
+        }  # fmt: skip
+        for name, pid in pids.items():
+            result[name] = cpu_seconds(pid) - cpu[name]
+            result[f'{name}_thread'] = busiest_thread(threads[name], thread_seconds(pid))
+        if self.publisher is not None:
+            result['cpu_publisher'] = _line(self.publisher)['cpu']
+        return result
+
+    def close(self) -> None:
+        self.client.close()
+        _end([p for p in (self.publisher, self.server) if p is not None])
+
+
+def total(turns: list[dict[str, Any]]) -> dict[str, Any]:
+    """A path's turns as one run: the median turn's rate; messages and CPU added up."""
+    result: dict[str, Any] = {'size': turns[0]['size']}
+    for key in turns[0]:
+        if key.startswith('cpu') or key in ('received', 'expected'):
+            result[key] = sum(found[key] for found in turns)
+    result['rate'] = statistics.median(found['rate'] for found in turns)
+    return result
