@@ -47,7 +47,8 @@ HERE = Path(__file__).resolve()
 sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
 
 import transport as bench  # noqa: E402  (the publisher and the zros subscriber roles)
-from gateway_paths import ClientPath, ZrosPath, topic, total  # noqa: E402
+from gateway_paths import ClientPath, ZrosPath, topic  # noqa: E402
+from transport_roles import total  # noqa: E402
 
 from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
 

@@ -12,8 +12,6 @@ measured) falls on all alike:
 
 from __future__ import annotations
 
-import json
-import statistics
 import subprocess
 import sys
 import time
@@ -23,7 +21,16 @@ from typing import Any
 HERE = Path(__file__).resolve()
 sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
 
-from transport_roles import busiest_thread, cpu_seconds, spawn_role, thread_seconds, wait_ready  # noqa: E402
+from transport_roles import (  # noqa: E402
+    busiest_thread,
+    cpu_seconds,
+    end_roles,
+    read_line,
+    send_turn,
+    spawn_role,
+    thread_seconds,
+    wait_ready,
+)
 
 from tests.gateway.foxglove_client import FoxgloveClient  # noqa: E402
 
@@ -41,27 +48,6 @@ def _publisher(kind: str, endpoint: str, tag: str) -> subprocess.Popen[str]:
     return spawn_role('publish', 'zros', endpoint, extra, False, stdin=subprocess.PIPE)
 
 
-def _send(process: subprocess.Popen[str], count: int) -> None:
-    assert process.stdin is not None
-    process.stdin.write(f'{count}\n')
-    process.stdin.flush()
-
-
-def _line(process: subprocess.Popen[str]) -> dict[str, Any]:
-    assert process.stdout is not None
-    return dict(json.loads(process.stdout.readline()))
-
-
-def _end(processes: list[subprocess.Popen[str]]) -> None:
-    for process in processes:
-        process.kill()
-    for process in processes:
-        process.wait()
-        for stream in (process.stdin, process.stdout):
-            if stream is not None:
-                stream.close()
-
-
 class ZrosPath:
     """A zros publisher and a zros subscriber with a callback."""
 
@@ -75,14 +61,14 @@ class ZrosPath:
     def turn(self, count: int) -> dict[str, Any]:
         """``count`` messages through (the subscriber counts them as its turn)."""
         router = time.process_time()  # the driver's: the router's
-        _send(self.publisher, count)
-        found = _line(self.subscriber)
-        found['cpu_publisher'] = _line(self.publisher)['cpu']
+        send_turn(self.publisher, count)
+        found = read_line(self.subscriber)
+        found['cpu_publisher'] = read_line(self.publisher)['cpu']
         found['cpu_router'] = time.process_time() - router
         return found
 
     def close(self) -> None:
-        _end([self.publisher, self.subscriber])
+        end_roles([self.publisher, self.subscriber])
 
 
 class ClientPath:
@@ -113,7 +99,7 @@ class ClientPath:
         cpu = {name: cpu_seconds(pid) for name, pid in pids.items()}
         threads = {name: thread_seconds(pid) for name, pid in pids.items()}
         router = time.process_time()
-        _send(self.publisher or self.server, count)
+        send_turn(self.publisher or self.server, count)
         progress, last = -1, time.monotonic()
         while True:
             found = dict(client.stats()[key])
@@ -132,19 +118,9 @@ class ClientPath:
             result[name] = cpu_seconds(pid) - cpu[name]
             result[f'{name}_thread'] = busiest_thread(threads[name], thread_seconds(pid))
         if self.publisher is not None:
-            result['cpu_publisher'] = _line(self.publisher)['cpu']
+            result['cpu_publisher'] = read_line(self.publisher)['cpu']
         return result
 
     def close(self) -> None:
         self.client.close()
-        _end([p for p in (self.publisher, self.server) if p is not None])
-
-
-def total(turns: list[dict[str, Any]]) -> dict[str, Any]:
-    """A path's turns as one run: the median turn's rate; messages and CPU added up."""
-    result: dict[str, Any] = {'size': turns[0]['size']}
-    for key in turns[0]:
-        if key.startswith('cpu') or key in ('received', 'expected'):
-            result[key] = sum(found[key] for found in turns)
-    result['rate'] = statistics.median(found['rate'] for found in turns)
-    return result
+        end_roles([p for p in (self.publisher, self.server) if p is not None])

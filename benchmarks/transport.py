@@ -39,7 +39,6 @@ change measured against the code before it, on the same machine at the same mome
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import subprocess
 import time
@@ -49,7 +48,18 @@ from typing import Any
 import transport_roles
 from transport_rclpy import rclpy_rows
 from transport_report import report
-from transport_roles import BEFORE, ROLES, read_result, spawn_role, wait_ready, zros_node
+from transport_roles import (
+    ROLES,
+    end_roles,
+    read_line,
+    read_result,
+    send_turn,
+    spawn_role,
+    total,
+    twin,
+    wait_ready,
+    zros_node,
+)
 
 __all__ = ['read_result', 'round_trips', 'spawn_role', 'throughput', 'wait_ready', 'zros_node']
 
@@ -114,8 +124,7 @@ def throughputs(
     """``count`` messages of ``kind`` for each competitor: every competitor's publisher and
     subscriber are up at once, on keys of their own, and they take turns of ``count //``
     :data:`TURNS` messages, so the machine's drift falls on each alike (one competitor runs
-    at a time). Returns each one's rate (the median turn's: a burst of load that hits one turn
-    moves it little) and totals over its turns, as :func:`throughput` does."""
+    at a time). Returns each one's :func:`total` of its turns."""
     turn = max(count // TURNS, 2)
     subscribers, publishers = [], []
     try:
@@ -133,38 +142,15 @@ def throughputs(
         turns: list[list[dict[str, Any]]] = [[] for _ in impls]
         for _ in range(TURNS + 1):
             for subscriber, publisher, found in zip(subscribers, publishers, turns, strict=True):
-                assert publisher.stdin is not None and publisher.stdout is not None
-                assert subscriber.stdout is not None
                 router = time.process_time()  # this process's: the router's
-                publisher.stdin.write(f'{turn}\n')
-                publisher.stdin.flush()
-                result = json.loads(subscriber.stdout.readline())
-                result['cpu_publisher'] = json.loads(publisher.stdout.readline())['cpu']
+                send_turn(publisher, turn)
+                result = read_line(subscriber)
+                result['cpu_publisher'] = read_line(publisher)['cpu']
                 result['cpu_router'] = time.process_time() - router
                 found.append(result)
     finally:
-        _end(publishers + subscribers)
-    return [_total(found[1:]) for found in turns]  # the first turn warms up
-
-
-def _total(turns: list[dict[str, Any]]) -> dict[str, Any]:
-    """One competitor's turns as one run: the median turn's rate; messages and CPU added up."""
-    total: dict[str, Any] = {'size': turns[0]['size']}
-    for key in ('received', 'expected', 'cpu', 'cpu_thread', 'cpu_publisher', 'cpu_router'):
-        total[key] = sum(found[key] for found in turns)
-    total['rate'] = statistics.median(found['rate'] for found in turns)
-    return total
-
-
-def _end(processes: list[subprocess.Popen[str]]) -> None:
-    """Kill the role processes and close their pipes."""
-    for process in processes:
-        process.kill()
-    for process in processes:
-        process.wait()
-        for stream in (process.stdin, process.stdout):
-            if stream is not None:
-                stream.close()
+        end_roles(publishers + subscribers)
+    return [total(found[1:]) for found in turns]  # the first turn warms up
 
 
 #: round trips a pair makes in one turn (row d, e)
@@ -194,12 +180,10 @@ def round_trips(
         times: list[list[float]] = [[] for _ in pairs]
         while len(times[0]) < count:
             for process, found in zip(pingers, times, strict=True):
-                assert process.stdin is not None and process.stdout is not None
-                process.stdin.write(f'{TURN}\n')
-                process.stdin.flush()
-                found.extend(json.loads(process.stdout.readline()))
+                send_turn(process, TURN)
+                found.extend(read_line(process))
     finally:
-        _end(pingers + echoes)
+        end_roles(pingers + echoes)
     results = []
     for found in times:
         found.sort()
@@ -259,17 +243,13 @@ def main() -> None:
     if args.against:
         transport_roles.against = str(Path(args.against).resolve())
 
-    def before(impl: str) -> list[str]:
-        return [impl + BEFORE] if args.against and impl.startswith('zros') else []
-
     def chosen(impls: tuple[str, ...]) -> list[str]:
-        return [name for impl in impls if impl not in skip for name in [impl, *before(impl)]]
+        names = [impl for impl in impls if impl not in skip]
+        return names + [twin(impl) for impl in names if args.against and twin(impl) != impl]
 
     split_pairs = list(RTT_SPLIT)
-    for echo, ping in RTT_SPLIT:
-        if args.against and 'zros' in echo + ping:
-            split_pairs.append((echo + BEFORE * echo.startswith('zros'),
-                                ping + BEFORE * ping.startswith('zros')))  # fmt: skip
+    if args.against:
+        split_pairs += [(twin(e), twin(p)) for e, p in RTT_SPLIT if 'zros' in e + p]
 
     def run(row: str, impl: str, found: dict[str, Any]) -> None:
         runs.setdefault(f'{row}/{impl}', []).append(found)

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from transport_roles import BEFORE, twin
+
 Rows = dict[str, dict[str, Any]]  #: 'row/impl' -> the median run
-#: a competitor run from the checkout ``transport.py --against`` names ends with this
-BEFORE = '@before'
 #: the width of the rows' labels, and of the tables' first heading
 LABEL = 40
 HEAD = LABEL + 4
@@ -213,10 +213,7 @@ def _print_split(rows: Rows) -> None:
         names[f'split/{pair}'] = name
         echo, ping = pair.split(':')
         if 'zros' in pair:
-            before = (
-                f'{echo}{BEFORE * echo.startswith("zros")}:{ping}{BEFORE * ping.startswith("zros")}'
-            )
-            names[f'split/{before}'] = f'  {name} (before)'
+            names[f'split/{twin(echo)}:{twin(ping)}'] = f'  {name} (before)'
     _print_times(rows, names, base)
 
 

@@ -32,6 +32,7 @@ import argparse
 import json
 import math
 import os
+import statistics
 import subprocess
 import sys
 import threading
@@ -141,26 +142,18 @@ def role_publish(args: argparse.Namespace) -> None:
             from zros.wire import SequenceNumbers
 
             put = SequenceNumbers(bytes(range(16))).sender(put)
-        close = session.close
-
-        def burst(count: int) -> float:
-            cpu = time.process_time()
-            for _ in range(count):
-                put(data)
-            return time.process_time() - cpu
-
+        send, item, close = put, data, session.close
     else:
         node = zros_node('bench_pub', args.endpoint, args.shm, impl=args.impl)
         zros_publisher = node.create_publisher(message.__msgtype__, '/' + key, qos='keep_all')
         zros_publisher.wait_for_subscribers(30)
-        write = zros_publisher.write
-        close = node.transport.close
+        send, item, close = zros_publisher.write, message, node.transport.close
 
-        def burst(count: int) -> float:
-            cpu = time.process_time()
-            for _ in range(count):
-                write(message)
-            return time.process_time() - cpu
+    def burst(count: int) -> float:
+        cpu = time.process_time()
+        for _ in range(count):
+            send(item)
+        return time.process_time() - cpu
 
     if args.turns:
         print('ready', flush=True)
@@ -505,6 +498,46 @@ def read_result(process: subprocess.Popen[str], timeout: float) -> dict[str, Any
     if process.returncode != 0 or not lines:
         raise RuntimeError(f'a benchmark process failed (exit {process.returncode}): {out[-500:]}')
     return dict(json.loads(lines[-1]))
+
+
+def twin(impl: str) -> str:
+    """A competitor's name run from the ``--against`` checkout (a zros one), else the name."""
+    return impl + BEFORE if impl.startswith('zros') else impl
+
+
+def send_turn(process: subprocess.Popen[str], count: int) -> None:
+    """Tell a role process taking turns to do ``count`` (messages, round trips)."""
+    assert process.stdin is not None
+    process.stdin.write(f'{count}\n')
+    process.stdin.flush()
+
+
+def read_line(process: subprocess.Popen[str]) -> Any:
+    """The next JSON line a role process prints."""
+    assert process.stdout is not None
+    return json.loads(process.stdout.readline())
+
+
+def end_roles(processes: list[subprocess.Popen[str]]) -> None:
+    """Kill role processes and close their pipes."""
+    for process in processes:
+        process.kill()
+    for process in processes:
+        process.wait()
+        for stream in (process.stdin, process.stdout):
+            if stream is not None:
+                stream.close()
+
+
+def total(turns: list[dict[str, Any]]) -> dict[str, Any]:
+    """A competitor's turns as one run: the median turn's rate (a burst of load that hits one
+    turn moves it little); messages and CPU added up."""
+    result: dict[str, Any] = {'size': turns[0]['size']}
+    for key in turns[0]:
+        if key.startswith('cpu') or key in ('received', 'expected'):
+            result[key] = sum(found[key] for found in turns)
+    result['rate'] = statistics.median(found['rate'] for found in turns)
+    return result
 
 
 def wait_ready(process: subprocess.Popen[str]) -> None:
