@@ -8,15 +8,9 @@ import time
 import pytest
 
 from zros.runtime.signal import Signal
+from zros.testing import wait_for
 
 TIMEOUT = 30.0
-
-
-def _wait_until(condition: object, timeout: float = TIMEOUT) -> None:
-    deadline = time.monotonic() + timeout
-    while not condition():  # type: ignore[operator]
-        assert time.monotonic() < deadline, 'timed out'
-        time.sleep(0.001)
 
 
 @pytest.mark.parametrize('on_main_thread', [True, False], ids=['main thread', 'other thread'])
@@ -25,7 +19,7 @@ def test_a_wait_ends_when_notified(on_main_thread: bool) -> None:
     done = threading.Event()
 
     def notify_once_waiting() -> None:
-        _wait_until(lambda: bool(signal.waiters))
+        assert wait_for(lambda: bool(signal.waiters), TIMEOUT)
         signal.notify()
 
     def wait() -> None:
@@ -58,7 +52,7 @@ def test_every_waiting_thread_wakes() -> None:
     threads = [threading.Thread(target=wait, args=(n,)) for n in range(4)]
     for thread in threads:
         thread.start()
-    _wait_until(lambda: len(signal.waiters) == 4)
+    assert wait_for(lambda: len(signal.waiters) == 4, TIMEOUT)
     signal.notify()
     for thread in threads:
         thread.join(TIMEOUT)
@@ -130,7 +124,7 @@ def test_a_wait_whose_notify_was_cut_short_ends(on_main_thread: bool) -> None:
         lengths.append(time.monotonic() - start)
 
     def lose_the_release() -> None:
-        _wait_until(lambda: bool(signal.waiters))
+        assert wait_for(lambda: bool(signal.waiters), TIMEOUT)
         signal.waiters.pop()  # what notify does first; its release never comes
 
     if on_main_thread:
