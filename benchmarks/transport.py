@@ -83,6 +83,7 @@ RTT_SPLIT = (
     ('zenoh_spin', 'zenoh'),
     ('zenoh_dec', 'zenoh'),
     ('zenoh_spin_dec', 'zenoh'),
+    ('zenoh_relay_dec', 'zenoh'),
     ('zros', 'zenoh'),
     ('zros_now', 'zenoh'),
     ('zenoh', 'zenoh_dec'),

@@ -183,6 +183,7 @@ SPLIT_NAMES = {
     'zenoh_spin:zenoh': 'raw, echo on a spinning thread',
     'zenoh_dec:zenoh': 'raw echo, decodes + encodes',
     'zenoh_spin_dec:zenoh': 'raw spinning echo, decodes',
+    'zenoh_relay_dec:zenoh': '  the same, through a FIFO and a thread',
     'zros:zenoh': 'zros echo (spin)',
     'zros_now:zenoh': 'zros echo (immediate)',
     'zenoh:zenoh_dec': 'raw ping, encodes + decodes',

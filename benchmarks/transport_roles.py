@@ -18,7 +18,9 @@ More take part in the split round trip (row e) only: ``zenoh_spin``, an echo who
 hands each ping to the main thread, which sends the pong (what running callbacks inside
 ``spin`` costs raw zenoh-python); ``zenoh_dec`` and ``zenoh_spin_dec``, the raw echoes that
 also decode each ping and encode the pong with zros's codec (the least an echo that hands
-messages to user code does), and as a ping ``zenoh_dec``, encoding each ping and decoding
+messages to user code does); ``zenoh_relay_dec``, as ``zenoh_spin_dec`` with zros's
+structure (a FIFO channel drained by a thread of its own, handing the pings to the spinning
+thread); and as a ping ``zenoh_dec``, encoding each ping and decoding
 each pong; and ``zenoh_fifo``, a ping that waits for its pong in a FIFO channel's ``recv`` (no
 Python thread in between: the fastest raw ping).
 
@@ -29,6 +31,7 @@ Payloads (``--kind``): ``string`` (std_msgs/String), ``image`` (sensor_msgs/Imag
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -240,13 +243,25 @@ class Counter:
         }  # fmt: skip
 
 
+def fast_codec(type_name: str) -> tuple[Any, Any]:
+    """The compiled decoder and encoder of a type, as zros's entities call them (``decode(buf,
+    strict)``, ``encode(message)``): a class's ``_cdr_decode`` and ``_cdr_encode`` are stubs
+    that compile on their first call, and one bound before that stays a stub."""
+    from zros.cdr import encode, get_class
+    from zros.cdr.classes import compiled_decoder
+
+    cls = get_class(type_name)
+    encode(cls())  # compiles the encoder
+    return compiled_decoder(cls), cls._cdr_encode
+
+
 def role_subscribe(args: argparse.Namespace) -> None:
     """Receive (and decode) ``count`` messages; print the rate between the first and the last.
     With ``--turns``: print that line for every ``count`` messages, until killed."""
     from zros.cdr import get_class
-    from zros.cdr.message import decode
 
     cls = get_class(type_of(args.kind))
+    decode = fast_codec(cls.__msgtype__)[0]
     counter = Counter(args.count)
     key = f'bench/data{args.tag}'
     size = encoded_size(args.kind)
@@ -274,13 +289,13 @@ def role_subscribe(args: argparse.Namespace) -> None:
 
             def on_sample(sample: Any) -> None:
                 if has_attachment(sample):
-                    decode(cls, sample.payload.to_bytes())
+                    decode(sample.payload.to_bytes(), False)
                     add()
 
         else:
 
             def on_sample(sample: Any) -> None:
-                decode(cls, sample.payload.to_bytes())
+                decode(sample.payload.to_bytes(), False)
                 add()
 
         session = raw_session(args.endpoint, args.shm)
@@ -320,7 +335,7 @@ def role_subscribe(args: argparse.Namespace) -> None:
 def role_echo(args: argparse.Namespace) -> None:
     """Send every ping back as a pong (on the keys of ``--tag``)."""
     ping, pong = f'bench/ping{args.tag}', f'bench/pong{args.tag}'
-    if args.impl.startswith('zenoh_spin'):
+    if args.impl.startswith(('zenoh_spin', 'zenoh_relay')):
         _raw_spinning_echo(args, ping, pong)
     elif args.impl.startswith('zenoh'):
         session = raw_session(args.endpoint, args.shm, args.peer)
@@ -346,10 +361,7 @@ def _pong(impl: str, put: Any) -> Any:
     must (zros's codec: the least that costs)."""
     if not impl.endswith('_dec'):
         return put
-    from zros.cdr import get_class
-
-    cls = get_class('std_msgs/msg/Float64')
-    decode, encode = cls._cdr_decode, cls._cdr_encode
+    decode, encode = fast_codec('std_msgs/msg/Float64')
 
     def answer(payload: Any) -> None:
         put(encode(decode(payload.to_bytes(), False)))
@@ -359,9 +371,14 @@ def _pong(impl: str, put: Any) -> Any:
 
 def _raw_spinning_echo(args: argparse.Namespace, ping: str, pong: str) -> None:
     """zenoh-python's callback hands the ping to the main thread (the least a Python hand-over
-    takes: a deque and a lock released), which sends the pong."""
+    takes: a deque and a lock released), which sends the pong. ``zenoh_relay...``: the pings
+    come through a FIFO channel drained by a thread of the echo's own instead (``recv``, then
+    ``try_recv`` until it is empty), which hands them over the same way: zros's structure, with
+    nothing of zros in it."""
     import _thread
     import collections
+
+    import zenoh
 
     session = raw_session(args.endpoint, args.shm, args.peer)
     publisher = session.declare_publisher(pong)
@@ -374,7 +391,23 @@ def _raw_spinning_echo(args: argparse.Namespace, ping: str, pong: str) -> None:
         if arrived.locked():
             arrived.release()
 
-    subscriber = session.declare_subscriber(ping, on_ping)
+    if args.impl.startswith('zenoh_relay'):
+        channel = session.declare_subscriber(ping, zenoh.handlers.FifoChannel(256))
+
+        def relay(recv: Any = channel.handler.recv, try_recv: Any = channel.handler.try_recv):
+            with contextlib.suppress(zenoh.ZError):  # the channel closed
+                while True:
+                    batch = [recv()]
+                    while (sample := try_recv()) is not None:
+                        batch.append(sample)
+                    pings.extend(sample.payload for sample in batch)
+                    if arrived.locked():
+                        arrived.release()
+
+        threading.Thread(target=relay, daemon=True).start()
+        subscriber = channel
+    else:
+        subscriber = session.declare_subscriber(ping, on_ping)
     answer = _pong(args.impl, publisher.put)
     print('ready', flush=True)
     deadline = time.monotonic() + args.timeout
@@ -408,7 +441,7 @@ def role_ping(args: argparse.Namespace) -> None:
             pongs = session.declare_subscriber(pong_key, zenoh.handlers.FifoChannel(16))
             wait = pongs.handler.recv
         elif args.impl == 'zenoh_dec':  # each pong decoded, each ping encoded: zros's codec
-            decode = type(message)._cdr_decode
+            decode = fast_codec('std_msgs/msg/Float64')[0]
 
             def on_pong(sample: Any) -> None:
                 decode(sample.payload.to_bytes(), False)
