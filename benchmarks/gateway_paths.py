@@ -7,7 +7,8 @@ measured) falls on all alike:
   * :class:`ZrosPath`: a zros publisher and a zros subscriber (``transport.py``'s roles);
   * :class:`ClientPath`: a server that prints its URL as ``zros foxglove`` does (the gateway,
     or a role of ``gateway.py``), the ``@foxglove/ws-protocol`` node client subscribed to the
-    topic, and a zros publisher, unless the server sends the messages itself.
+    topic (or, ``lean``, ``gateway_counter.js``: node's ``ws`` counting message frames), and a
+    zros publisher, unless the server sends the messages itself.
 """
 
 from __future__ import annotations
@@ -32,7 +33,10 @@ from transport_roles import (  # noqa: E402
     wait_ready,
 )
 
-from tests.gateway.foxglove_client import FoxgloveClient  # noqa: E402
+from tests.gateway.foxglove_client import SCRIPT, FoxgloveClient  # noqa: E402
+
+#: the client that counts message frames and parses nothing else of them
+LEAN = HERE.with_name('gateway_counter.js')
 
 #: how long a turn may go without a new message before it counts as ended
 STALL = 20.0
@@ -75,7 +79,10 @@ class ClientPath:
     """A server process printing ``Foxglove: <url>``, the node client subscribed to the path's
     topic, and a zros publisher (``publish``), or the server sending itself (its stdin)."""
 
-    def __init__(self, command: list[str], kind: str, endpoint: str, tag: str, publish: bool):
+    def __init__(
+        self, command: list[str], kind: str, endpoint: str, tag: str, *, publish: bool,
+        lean: bool = False,
+    ) -> None:  # fmt: skip
         self.server = subprocess.Popen(
             command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
         )
@@ -83,7 +90,7 @@ class ClientPath:
         line = self.server.stdout.readline()
         if not line.startswith('Foxglove: '):
             raise RuntimeError(f'{command[:2]} did not start: {line!r}')
-        self.client = FoxgloveClient(line.split()[1])
+        self.client = FoxgloveClient(line.split()[1], script=LEAN if lean else SCRIPT)
         self.publisher = _publisher(kind, endpoint, tag) if publish else None
         # the topic shows once the publisher is up; the publisher waits for the tap this makes
         self.subscription = self.client.subscribe(topic(tag), 60, quiet=True)

@@ -148,10 +148,13 @@ class NodeProcess:
 
 
 class FoxgloveClient(NodeProcess):
-    """One Foxglove client connected to ``url`` (``node/client.js``)."""
+    """One Foxglove client connected to ``url`` (``node/client.js``, or a ``script`` speaking
+    the same JSON lines)."""
 
-    def __init__(self, url: str, ca: str | os.PathLike[str] | None = None) -> None:
-        super().__init__(['node', str(SCRIPT), url] + ([str(ca)] if ca is not None else []))
+    def __init__(
+        self, url: str, ca: str | os.PathLike[str] | None = None, script: Path = SCRIPT
+    ) -> None:
+        super().__init__(['node', str(script), url] + ([str(ca)] if ca is not None else []))
 
     # --- what tests do -----------------------------------------------------------------------
 
