@@ -13,7 +13,8 @@ import zros
 from zros.gateway.core import GatewayError, GraphWatcher, NameFilter, SendQueue, Taps
 from zros.gateway.foxglove_calls import message_from_json
 from zros.gateway.views import endpoint_owner, offered_services, parameter_nodes, service_providers
-from zros.pubsub.taps import graph_topics
+from zros.pubsub.taps import RawTap, graph_topics
+from zros.qos import QoS
 from zros.testing import wait_for
 
 Make = Callable[..., Any]
@@ -112,6 +113,35 @@ def test_taps_exist_only_while_watched(zros_node: Make) -> None:
         assert taps.watched() == {}
     finally:
         taps.close()
+
+
+def test_a_burst_through_a_tap_arrives_whole_and_in_order(zros_node: Make) -> None:
+    talker, watcher = zros_node('talker'), zros_node('watcher')
+    pub = talker.create_publisher('std_msgs/msg/String', '/chatter', qos=1000)
+    assert watcher.graph.wait_until(lambda: '/chatter' in graph_topics(watcher), TIMEOUT)
+    stamps = iter(range(10**6))
+    taps = Taps(watcher, now=lambda: next(stamps))
+    got: list[tuple[bytes, int]] = []
+    try:
+        taps.watch(graph_topics(watcher)['/chatter'], 'a', lambda *item: got.append(item))
+        assert pub.wait_for_subscribers(TIMEOUT)
+        sent = [zros.Message('std_msgs/msg/String', data=str(i)).serialize() for i in range(500)]
+        for data in sent:
+            pub.write_raw(data)
+        assert wait_for(lambda: len(got) == len(sent), TIMEOUT)
+        assert [data for data, _ in got] == sent
+        times = [stamp for _, stamp in got]
+        assert times == sorted(times)  # one stamp per delivered batch, never going back
+        assert taps.counts('/chatter') == (500, sum(map(len, sent)))
+    finally:
+        taps.close()
+
+
+def test_a_raw_tap_takes_a_callback_or_batches(zros_node: Make) -> None:
+    node = zros_node('tapper')
+    for given in ({}, {'callback': print, 'batches': print}):
+        with pytest.raises(TypeError, match='a callback or batches'):
+            RawTap(node, '/chatter', 'std_msgs/msg/String', qos=QoS(), key=None, **given)
 
 
 def test_a_failing_delivery_is_logged_and_the_tap_goes_on(

@@ -164,8 +164,9 @@ class Taps:
     :meth:`watch` declares the Zenoh subscription on a topic when its first watcher comes,
     with the QoS matched to the topic's publishers (transient local when they all are: their
     latched messages arrive); ``deliver(data, time_ns)`` then gets every message's CDR bytes on
-    Zenoh's thread. :meth:`unwatch` releases the subscription when the last watcher leaves, so
-    unwatched topics carry no traffic. ``now()`` stamps the messages (ns).
+    the delivery thread (messages delivered together share one stamp). :meth:`unwatch`
+    releases the subscription when the last watcher leaves, so unwatched topics carry no
+    traffic. ``now()`` stamps the messages (ns).
 
     Latched topics of at most ``replay_depth`` messages (state: ``/tf_static``, a map, a robot
     description) keep their last messages for later watchers; deeper ones (history, such as
@@ -203,7 +204,7 @@ class Taps:
                 topic.type_name,
                 qos=qos,
                 key=topic.key,
-                callback=self._callback(tapped, deliver),
+                batches=self._callback(tapped, deliver),
             )
             self._tapped[topic.name] = tapped
             _log.info('tapping %s [%s] (%s)', topic.name, topic.type_name, qos)
@@ -211,25 +212,28 @@ class Taps:
 
     def _callback(
         self, tapped: _Tapped, deliver: Callable[[bytes, int], object]
-    ) -> Callable[[zenoh.Sample], None]:
+    ) -> Callable[[list[zenoh.Sample]], None]:
         now = self._now
         latched = tapped.latched
 
-        def on_sample(sample: zenoh.Sample) -> None:
-            data = sample.payload.to_bytes()
-            stamp = now()
-            if latched is not None:
-                latched.append((data, stamp))
-            tapped.samples += 1
-            tapped.bytes += len(data)
-            try:
-                deliver(data, stamp)
-            except Exception:  # a broken client session, on Zenoh's thread: counted and logged
-                tapped.failures += 1
-                if tapped.failures == 1:  # a broken client must not flood the log
-                    _log.exception('delivering a message of %s failed (logged once)', tapped.name)
+        def on_samples(samples: list[zenoh.Sample]) -> None:
+            stamp = now()  # they were taken from Zenoh together
+            for sample in samples:
+                data = sample.payload.to_bytes()
+                tapped.samples += 1
+                tapped.bytes += len(data)
+                if latched is not None:
+                    latched.append((data, stamp))
+                try:
+                    deliver(data, stamp)
+                except Exception:  # a broken client session: counted and logged
+                    tapped.failures += 1
+                    if tapped.failures == 1:  # a broken client must not flood the log
+                        _log.exception(
+                            'delivering a message of %s failed (logged once)', tapped.name
+                        )
 
-        return on_sample
+        return on_samples
 
     def unwatch(self, name: str, watcher: Hashable) -> None:
         """Remove ``watcher`` from the topic; the last one out releases the subscription."""

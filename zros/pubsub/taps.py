@@ -122,7 +122,7 @@ def graph_topics(
 class RawTap(Entity):
     """A raw Zenoh subscription on one topic, announced in the graph like a zros subscriber;
     ``callback(sample)`` runs on Zenoh's thread with each sample the node's wire accepts,
-    undecoded.
+    undecoded (or ``batches(samples)`` with several at once, oldest first).
 
     ``key`` (matching the publishers' keys) is used when the node cannot make the topic's key
     and tokens itself (a type it does not know): the topic is then tapped unannounced.
@@ -137,8 +137,11 @@ class RawTap(Entity):
         *,
         qos: QoS,
         key: str | None,
-        callback: Callable[[Sample], None],
+        callback: Callable[[Sample], None] | None = None,
+        batches: Callable[[list[Sample]], None] | None = None,
     ) -> None:
+        if (callback is None) == (batches is None):
+            raise TypeError('a RawTap takes a callback or batches, not both')
         super().__init__(node)
         self.topic = topic
         self.qos = qos
@@ -152,7 +155,7 @@ class RawTap(Entity):
             _log.debug('not announcing the tap on %s: %s', topic, exc)
             wire = context.wire.unannounced(key)
         self.key = wire.key
-        self._subscribe(wire, qos, callback)
+        self._subscribe(wire, qos, callback, batches=batches)
         self._announce()
 
     def __repr__(self) -> str:
