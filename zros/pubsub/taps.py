@@ -121,8 +121,9 @@ def graph_topics(
 
 class RawTap(Entity):
     """A raw Zenoh subscription on one topic, announced in the graph like a zros subscriber;
-    ``callback(sample)`` runs on Zenoh's thread with each sample the node's wire accepts,
-    undecoded (or ``batches(samples)`` with several at once, oldest first).
+    ``callback(sample)`` runs on the delivery thread (Zenoh's for transient local) with each
+    sample the node's wire accepts, undecoded (or ``batches(samples)`` with several at once,
+    oldest first).
 
     ``key`` (matching the publishers' keys) is used when the node cannot make the topic's key
     and tokens itself (a type it does not know): the topic is then tapped unannounced.
