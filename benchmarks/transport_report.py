@@ -242,5 +242,51 @@ def report(rows: Rows, rclpy: dict[str, dict[str, Any]] | None = None) -> None:
     print(f'    {"goal":50} {"found":>8} {"target":>8}')
     for text, value, target, met in goals:
         print(f'    {text:50} {value:>8.2f} {target:>8}  {"met" if met else "MISSED"}')
+    _print_floors(rows)
     lost = {key: row['lost'] for key, row in rows.items() if row.get('lost')}
     print(f'  messages lost: {lost or "none"} (none may be)')
+
+
+def _floors(rows: Rows) -> list[tuple[str, float, str, bool]]:
+    """The goals as raw zenoh-python meets them doing the least zros must (decode, carry the
+    attachment, hand over to a spinning thread), where the run measured that."""
+    floors: list[tuple[str, float, str, bool]] = []
+    raw, decoded = rows.get('string/zenoh'), rows.get('string/zenoh_decode')
+    if raw and decoded:
+        ratio = decoded['rate'] / raw['rate']
+        floors.append(('String, raw + decode / raw bytes', ratio, '>= 0.75', ratio >= 0.75))
+    attached = rows.get('string/zenoh_rmw')
+    if attached and decoded:
+        ratio = attached['rate'] / decoded['rate']
+        floors.append(
+            ('String, raw + attachment / raw (both decode)', ratio, '>= 0.95', ratio >= 0.95)
+        )
+    sizes = [
+        (rows[f'{key}/zenoh_decode']['rate'] / rows[f'{key}/zenoh']['rate'], key[5:])
+        for key in {k.split('/')[0] for k in rows if k.startswith('bytes')}
+        if f'{key}/zenoh_decode' in rows and f'{key}/zenoh' in rows
+    ]
+    if sizes:
+        ratio, size = min(sizes)
+        text = f'uint8[], raw + decode / raw (worst: {_size(int(size))})'
+        floors.append((text, ratio, '>= 0.75', ratio >= 0.75))
+    base, ping = rows.get('split/zenoh:zenoh'), rows.get('split/zenoh:zenoh_dec')
+    for echo, how in (('zenoh_spin_dec', 'spinning'), ('zenoh_dec', 'immediate')):
+        found = rows.get(f'split/{echo}:zenoh')
+        if base and ping and found:
+            raw_us = _us(base, 'median')
+            over = (_us(found, 'median') - raw_us) + (_us(ping, 'median') - raw_us)
+            text = f'RTT router, {how} echo + ping decoding: - raw (us)'
+            floors.append((text, over, '<= +30', over <= 30))
+    return floors
+
+
+def _print_floors(rows: Rows) -> None:
+    floors = _floors(rows)
+    if not floors:
+        return
+    print()
+    print(f'    {"the same goals for raw zenoh-python doing the least zros must":56} {"found":>8}')
+    for text, value, target, met in floors:
+        verdict = 'within reach' if met else 'out of reach for raw zenoh-python itself here'
+        print(f'    {text:56} {value:>8.2f} {target:>8}  {verdict}')
