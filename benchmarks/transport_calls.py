@@ -17,7 +17,6 @@ from __future__ import annotations
 import _thread
 import argparse
 import collections
-import contextlib
 import sys
 import threading
 import time
@@ -29,7 +28,7 @@ from typing import Any
 HERE = Path(__file__).resolve()
 sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
 
-from transport_roles import fast_codec, raw_session, zros_node  # noqa: E402
+from transport_roles import fast_codec, raw_session, relayed, zros_node  # noqa: E402
 
 PING, PONG = 'bench/ping_calls', 'bench/pong_calls'
 #: the thread names of the echoes under test (the pinger's threads have others)
@@ -40,26 +39,14 @@ Stop = Callable[[], None]
 def raw_relay(endpoint: str) -> Stop:
     """Row e's ``zenoh_relay_dec``: a FIFO channel drained by a thread of its own, which hands
     the pings to the spinning thread; that one decodes each, encodes it again and puts it."""
-    import zenoh
-
     session = raw_session(endpoint, False)
     put = session.declare_publisher(PONG).put
     decode, encode = fast_codec('std_msgs/msg/Float64')
     pings: collections.deque[Any] = collections.deque()
     arrived = _thread.allocate_lock()
     arrived.acquire()
-    channel = session.declare_subscriber(PING, zenoh.handlers.FifoChannel(256))
+    channel = relayed(session, PING, pings, arrived, 'echo relay')
     done = threading.Event()
-
-    def relay(recv: Any = channel.handler.recv, try_recv: Any = channel.handler.try_recv) -> None:
-        with contextlib.suppress(zenoh.ZError):
-            while True:
-                batch = [recv()]
-                while (sample := try_recv()) is not None:
-                    batch.append(sample)
-                pings.extend(sample.payload for sample in batch)
-                if arrived.locked():
-                    arrived.release()
 
     def spin() -> None:
         while not done.is_set():
@@ -67,7 +54,6 @@ def raw_relay(endpoint: str) -> Stop:
             while pings:
                 put(encode(decode(pings.popleft().to_bytes(), False)))
 
-    threading.Thread(target=relay, name='echo relay', daemon=True).start()
     spinner = threading.Thread(target=spin, name='echo spin')
     spinner.start()
 

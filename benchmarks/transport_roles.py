@@ -369,16 +369,35 @@ def _pong(impl: str, put: Any) -> Any:
     return answer
 
 
+def relayed(session: Any, key: str, pings: Any, arrived: Any, name: str = 'relay') -> Any:
+    """A subscriber on ``key`` whose FIFO channel a thread of its own drains (``recv``, then
+    ``try_recv`` until it is empty), appending the payloads to the deque ``pings`` and releasing
+    the lock ``arrived``: zros's structure, with nothing of zros in it."""
+    import zenoh
+
+    channel = session.declare_subscriber(key, zenoh.handlers.FifoChannel(256))
+
+    def relay(recv: Any = channel.handler.recv, try_recv: Any = channel.handler.try_recv) -> None:
+        with contextlib.suppress(zenoh.ZError):  # the channel closed
+            while True:
+                batch = [recv()]
+                while (sample := try_recv()) is not None:
+                    batch.append(sample)
+                pings.extend(sample.payload for sample in batch)
+                if arrived.locked():
+                    arrived.release()
+
+    threading.Thread(target=relay, name=name, daemon=True).start()
+    return channel
+
+
 def _raw_spinning_echo(args: argparse.Namespace, ping: str, pong: str) -> None:
     """zenoh-python's callback hands the ping to the main thread (the least a Python hand-over
     takes: a deque and a lock released), which sends the pong. ``zenoh_relay...``: the pings
     come through a FIFO channel drained by a thread of the echo's own instead (``recv``, then
-    ``try_recv`` until it is empty), which hands them over the same way: zros's structure, with
-    nothing of zros in it."""
+    ``try_recv`` until it is empty), which hands them over the same way (:func:`relayed`)."""
     import _thread
     import collections
-
-    import zenoh
 
     session = raw_session(args.endpoint, args.shm, args.peer)
     publisher = session.declare_publisher(pong)
@@ -392,20 +411,7 @@ def _raw_spinning_echo(args: argparse.Namespace, ping: str, pong: str) -> None:
             arrived.release()
 
     if args.impl.startswith('zenoh_relay'):
-        channel = session.declare_subscriber(ping, zenoh.handlers.FifoChannel(256))
-
-        def relay(recv: Any = channel.handler.recv, try_recv: Any = channel.handler.try_recv):
-            with contextlib.suppress(zenoh.ZError):  # the channel closed
-                while True:
-                    batch = [recv()]
-                    while (sample := try_recv()) is not None:
-                        batch.append(sample)
-                    pings.extend(sample.payload for sample in batch)
-                    if arrived.locked():
-                        arrived.release()
-
-        threading.Thread(target=relay, daemon=True).start()
-        subscriber = channel
+        subscriber = relayed(session, ping, pings, arrived)
     else:
         subscriber = session.declare_subscriber(ping, on_ping)
     answer = _pong(args.impl, publisher.put)
