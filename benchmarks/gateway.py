@@ -8,8 +8,8 @@ takes; the messages go through a router (started here) to
   * the ``zros foxglove`` command in a process of its own, to the ``@foxglove/ws-protocol``
     client run by node (``tests/gateway/node``; needs node and npm), which counts them, or to
     a lean client that counts message frames with node's ``ws`` and parses nothing else of
-    them (``gateway_counter.js``): the library's client parses each message and copies it out
-    of node's buffer, and on two cores its CPU is taken from the server's.
+    them (``tests/gateway/node/counter.js``): the library's client parses each message and
+    copies it out of node's buffer, and on two cores its CPU is taken from the server's.
 
 Rows: std_msgs/String messages per second, sensor_msgs/Image 1920x1080 rgb8 in MB/s, and the
 latency of std_msgs/Header messages sent 200 times a second (stamp to arrival, wall clocks of

@@ -7,7 +7,7 @@ measured) falls on all alike:
   * :class:`ZrosPath`: a zros publisher and a zros subscriber (``transport.py``'s roles);
   * :class:`ClientPath`: a server that prints its URL as ``zros foxglove`` does (the gateway,
     or a role of ``gateway.py``), the ``@foxglove/ws-protocol`` node client subscribed to the
-    topic (or, ``lean``, ``gateway_counter.js``: node's ``ws`` counting message frames), and a
+    topic (or, ``lean``, ``counter.js`` beside it: node's ``ws`` counting message frames), and a
     zros publisher, unless the server sends the messages itself.
 """
 
@@ -33,10 +33,10 @@ from transport_roles import (  # noqa: E402
     wait_ready,
 )
 
-from tests.gateway.foxglove_client import SCRIPT, FoxgloveClient  # noqa: E402
+from tests.gateway.foxglove_client import NODE_DIR, SCRIPT, FoxgloveClient  # noqa: E402
 
 #: the client that counts message frames and parses nothing else of them
-LEAN = HERE.with_name('gateway_counter.js')
+LEAN = NODE_DIR / 'counter.js'
 
 #: how long a turn may go without a new message before it counts as ended
 STALL = 20.0

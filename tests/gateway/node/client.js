@@ -18,18 +18,14 @@
 'use strict';
 
 const fs = require('fs');
-const readline = require('readline');
 const { FoxgloveClient } = require('@foxglove/ws-protocol');
 const WebSocket = require('ws');
+const { emit, serve, stats, tally } = require('./lines');
 
 const [url, caFile] = process.argv.slice(2);
 const options = caFile ? { ca: fs.readFileSync(caFile) } : {};
 const ws = new WebSocket(url, ['foxglove.sdk.v1'], options);
 const client = new FoxgloveClient({ ws });
-
-function emit(event) {
-  process.stdout.write(JSON.stringify(event) + '\n');
-}
 
 function b64(view) {
   return Buffer.from(view.buffer, view.byteOffset, view.byteLength).toString('base64');
@@ -85,13 +81,7 @@ client.on('fetchAssetResponse', (message) => {
 client.on('message', (message) => {
   const counted = quiet.get(message.subscriptionId);
   if (counted !== undefined) {
-    const now = performance.now();
-    if (counted.count === 0) {
-      counted.first = now;
-    }
-    counted.last = now;
-    counted.count += 1;
-    counted.bytes += message.data.byteLength;
+    tally(counted, message.data.byteLength);
     if (counted.latency && message.data.byteLength >= 12) {
       const sec = message.data.getInt32(4, true);
       const nanosec = message.data.getUint32(8, true);
@@ -148,14 +138,7 @@ const commands = {
   },
   unsubscribe: (c) => client.unsubscribe(c.subscriptionId),
   quiet: (c) => quiet.set(c.subscriptionId, { count: 0, bytes: 0, first: 0, last: 0, latency: !!c.latency, latencies: [] }),
-  stats: () => {
-    const counts = {};
-    for (const [id, counted] of quiet) {
-      const { count, bytes, first, last, latencies } = counted;
-      counts[id] = { count, bytes, seconds: (last - first) / 1000, latencies };
-    }
-    emit({ ev: 'stats', counts });
-  },
+  stats: () => emit(stats(quiet)),
   advertise: (c) => {
     const channel = { topic: c.topic, encoding: c.encoding, schemaName: c.schemaName };
     if (c.schema !== undefined) {
@@ -180,18 +163,4 @@ const commands = {
   close: () => client.close(),
 };
 
-readline.createInterface({ input: process.stdin }).on('line', (line) => {
-  const command = JSON.parse(line);
-  try {
-    commands[command.cmd](command);
-    emit({ ev: 'done', cmd: command.cmd });
-  } catch (error) {
-    emit({ ev: 'error', message: `${command.cmd}: ${error.message}` });
-  }
-});
-process.stdin.on('end', () => {
-  // close cleanly (the server logs an error for a dropped connection), then leave
-  ws.on('close', () => process.exit(0));
-  client.close();
-  setTimeout(() => process.exit(0), 2000).unref();
-});
+serve(commands, ws, () => client.close());
