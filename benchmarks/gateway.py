@@ -21,7 +21,7 @@ the same message's CDR bytes on an SDK channel as fast as it takes them, with no
 router and no copy of its own, to the same node client; and raw zenoh-python logging each
 sample's bytes into the SDK from its callback (the gateway's work without zros).
 
-All four paths are up at once, each on a topic of its own, and they take turns (10 each, after
+All five paths are up at once, each on a topic of its own, and they take turns (10 each, after
 one to warm up; the median turn's rate counts): this VM's speed drifts by a third within
 minutes, more than the differences measured, and turns make the drift fall on every path alike.
 
@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
 import statistics
 import subprocess
 import sys
@@ -50,7 +49,13 @@ HERE = Path(__file__).resolve()
 sys.path[:0] = [str(HERE.parent), str(HERE.parents[1])]
 
 import transport as bench  # noqa: E402  (the publisher and the zros subscriber roles)
-from gateway_paths import ClientPath, ZrosPath, topic  # noqa: E402
+from gateway_paths import (  # noqa: E402
+    ClientPath,
+    ZrosPath,
+    gateway_command,
+    start_server,
+    topic,
+)
 from transport_roles import total  # noqa: E402
 
 from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
@@ -154,20 +159,9 @@ def role_latency(args: argparse.Namespace) -> None:
 class Gateway:
     """``zros foxglove`` in a process of its own, and a node client subscribed to TOPIC."""
 
-    def __init__(self, endpoint: str, command: list[str] | None = None) -> None:
-        zros = shutil.which('zros', path=str(Path(sys.executable).parent))
-        assert zros is not None, 'the zros command is not installed beside this Python'
-        self.process = subprocess.Popen(
-            command or [zros, 'foxglove', '--connect', endpoint, '--port', '0', '--no-sim-time',
-                        '--message-backlog', '1000000'],
-            stdout=subprocess.PIPE,
-            text=True,
-        )  # fmt: skip
-        assert self.process.stdout is not None
-        line = self.process.stdout.readline()
-        if not line.startswith('Foxglove: '):
-            raise RuntimeError(f'zros foxglove did not start: {line!r}')
-        self.client = FoxgloveClient(line.split()[1])
+    def __init__(self, endpoint: str) -> None:
+        self.process, url = start_server(gateway_command(endpoint))
+        self.client = FoxgloveClient(url)
 
     def subscribe(self, latency: bool = False) -> int:
         """Subscribe to TOPIC once a publisher made it appear, and return once its first
@@ -212,15 +206,12 @@ TURNS = 10
 def interleaved(kind: str, count: int, endpoint: str) -> dict[str, dict[str, Any]]:
     """``count`` messages of ``kind`` along each path, every path up at once (topics of their
     own) and taking turns of ``count //`` :data:`TURNS`: the zros subscriber; ``zros foxglove``
-    to the node client, and to a lean one that only counts frames; foxglove-sdk alone (sending itself, no Zenoh) to the node client; raw
-    zenoh-python logging into the SDK, to the node client. Each path's median turn rate, and
-    its CPU and messages added up."""
+    to the node client, and to a lean one that only counts frames; foxglove-sdk alone (sending
+    itself, no Zenoh) to the node client; raw zenoh-python logging into the SDK, to the node
+    client. Each path's median turn rate, and its CPU and messages added up."""
     turn = max(count // TURNS, 2)
     here = [sys.executable, str(HERE), '--kind', kind, '--endpoint', endpoint]
-    zros = shutil.which('zros', path=str(Path(sys.executable).parent))
-    assert zros is not None, 'the zros command is not installed beside this Python'
-    gateway = [zros, 'foxglove', '--connect', endpoint, '--port', '0', '--no-sim-time',
-               '--message-backlog', '1000000']  # fmt: skip
+    gateway = gateway_command(endpoint)
     paths: dict[str, Any] = {}
     try:
         paths['zros'] = ZrosPath(kind, endpoint, '0', turn)

@@ -13,6 +13,7 @@ measured) falls on all alike:
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 import time
@@ -26,6 +27,7 @@ from transport_roles import (  # noqa: E402
     busiest_thread,
     cpu_seconds,
     end_roles,
+    publish_turn,
     read_line,
     send_turn,
     spawn_role,
@@ -47,6 +49,26 @@ def topic(tag: str) -> str:
     return f'/bench/data{tag}'
 
 
+def gateway_command(endpoint: str) -> list[str]:
+    """``zros foxglove`` connected to ``endpoint``, on a free port, with an outbox large
+    enough that the benchmark loses nothing."""
+    zros = shutil.which('zros', path=str(Path(sys.executable).parent))
+    assert zros is not None, 'the zros command is not installed beside this Python'
+    return [zros, 'foxglove', '--connect', endpoint, '--port', '0', '--no-sim-time',
+            '--message-backlog', '1000000']  # fmt: skip
+
+
+def start_server(command: list[str]) -> tuple[subprocess.Popen[str], str]:
+    """Start a server that prints ``Foxglove: <url>`` first (its stdin a pipe); the process
+    and the URL."""
+    server = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert server.stdout is not None
+    line = server.stdout.readline()
+    if not line.startswith('Foxglove: '):
+        raise RuntimeError(f'{command[:2]} did not start: {line!r}')
+    return server, line.split()[1]
+
+
 def _publisher(kind: str, endpoint: str, tag: str) -> subprocess.Popen[str]:
     extra = ['--kind', kind, '--tag', tag, '--turns']
     return spawn_role('publish', 'zros', endpoint, extra, False, stdin=subprocess.PIPE)
@@ -64,12 +86,7 @@ class ZrosPath:
 
     def turn(self, count: int) -> dict[str, Any]:
         """``count`` messages through (the subscriber counts them as its turn)."""
-        router = time.process_time()  # the driver's: the router's
-        send_turn(self.publisher, count)
-        found = read_line(self.subscriber)
-        found['cpu_publisher'] = read_line(self.publisher)['cpu']
-        found['cpu_router'] = time.process_time() - router
-        return found
+        return publish_turn(self.publisher, self.subscriber, count)
 
     def close(self) -> None:
         end_roles([self.publisher, self.subscriber])
@@ -83,14 +100,8 @@ class ClientPath:
         self, command: list[str], kind: str, endpoint: str, tag: str, *, publish: bool,
         lean: bool = False,
     ) -> None:  # fmt: skip
-        self.server = subprocess.Popen(
-            command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
-        )
-        assert self.server.stdout is not None
-        line = self.server.stdout.readline()
-        if not line.startswith('Foxglove: '):
-            raise RuntimeError(f'{command[:2]} did not start: {line!r}')
-        self.client = FoxgloveClient(line.split()[1], script=LEAN if lean else SCRIPT)
+        self.server, url = start_server(command)
+        self.client = FoxgloveClient(url, script=LEAN if lean else SCRIPT)
         self.publisher = _publisher(kind, endpoint, tag) if publish else None
         # the topic shows once the publisher is up; the publisher waits for the tap this makes
         self.subscription = self.client.subscribe(topic(tag), 60, quiet=True)

@@ -51,6 +51,7 @@ from transport_report import report
 from transport_roles import (
     ROLES,
     end_roles,
+    publish_turn,
     read_line,
     read_result,
     send_turn,
@@ -143,12 +144,7 @@ def throughputs(
         turns: list[list[dict[str, Any]]] = [[] for _ in impls]
         for _ in range(TURNS + 1):
             for subscriber, publisher, found in zip(subscribers, publishers, turns, strict=True):
-                router = time.process_time()  # this process's: the router's
-                send_turn(publisher, turn)
-                result = read_line(subscriber)
-                result['cpu_publisher'] = read_line(publisher)['cpu']
-                result['cpu_router'] = time.process_time() - router
-                found.append(result)
+                found.append(publish_turn(publisher, subscriber, turn))
     finally:
         end_roles(publishers + subscribers)
     return [total(found[1:]) for found in turns]  # the first turn warms up

@@ -20,9 +20,9 @@ hands each ping to the main thread, which sends the pong (what running callbacks
 also decode each ping and encode the pong with zros's codec (the least an echo that hands
 messages to user code does); ``zenoh_relay_dec``, as ``zenoh_spin_dec`` with zros's
 structure (a FIFO channel drained by a thread of its own, handing the pings to the spinning
-thread); and as a ping ``zenoh_dec``, encoding each ping and decoding
-each pong; and ``zenoh_fifo``, a ping that waits for its pong in a FIFO channel's ``recv`` (no
-Python thread in between: the fastest raw ping).
+thread). As pings: ``zenoh_dec``, encoding each ping and decoding each pong, and
+``zenoh_fifo``, waiting for its pong in a FIFO channel's ``recv`` (no Python thread in
+between: the fastest raw ping).
 
 Payloads (``--kind``): ``string`` (std_msgs/String), ``image`` (sensor_msgs/Image 1080p rgb8),
 ``bytes<N>`` (std_msgs/UInt8MultiArray with N bytes of data).
@@ -454,13 +454,9 @@ def role_ping(args: argparse.Namespace) -> None:
                 got.set()
 
             session.declare_subscriber(pong_key, on_pong)
-
-            def wait() -> None:
-                got.wait(2)
-                got.clear()
-
         else:
             session.declare_subscriber(pong_key, lambda s: got.set())
+        if args.impl != 'zenoh_fifo':
 
             def wait() -> None:
                 got.wait(2)
@@ -549,6 +545,20 @@ def send_turn(process: subprocess.Popen[str], count: int) -> None:
     assert process.stdin is not None
     process.stdin.write(f'{count}\n')
     process.stdin.flush()
+
+
+def publish_turn(
+    publisher: subprocess.Popen[str], subscriber: subprocess.Popen[str], count: int
+) -> dict[str, Any]:
+    """One turn of a publisher and a subscriber taking turns (``--turns``): ``count`` messages;
+    the subscriber's line, with the publisher's CPU seconds (``cpu_publisher``) and the
+    router's (``cpu_router``: this process's, where the driver runs the router)."""
+    router = time.process_time()
+    send_turn(publisher, count)
+    found: dict[str, Any] = read_line(subscriber)
+    found['cpu_publisher'] = read_line(publisher)['cpu']
+    found['cpu_router'] = time.process_time() - router
+    return found
 
 
 def read_line(process: subprocess.Popen[str]) -> Any:
