@@ -31,6 +31,7 @@ from zros.runtime.sample_queue import KEEP_ALL_BYTES, SampleQueue
 from zros.runtime.signal import (
     Signal,
     add_interrupt_listener,
+    interrupt_flag,
     interrupted,
     remove_interrupt_listener,
 )
@@ -91,12 +92,13 @@ class Subscriber(Entity):
         self._checked: Sample | None = None  #: the sample has_new_message decoded, and its message
         self._checked_message: Received = None
         self._decoder: Decoder | None = None  #: the type's compiled decoder, once a batch came
-        self._work = Work(self._dispatch)
+        self._work = Work(self._deliver)
         self._executor = context.executor
         self._schedule = context.executor.schedule
         #: immediate callbacks: samples are decoded and handed to the callback as they arrive
         self._now = callback is not None and context.executor.immediate
         self._arrived = Signal()  #: threads waiting for a message
+        self._unread = self._queue.unread
         self._async_wakers: list[Callable[[], None]] = []
         self._last: Received = None
         self.undecodable = 0  #: samples that did not decode as the type
@@ -140,7 +142,7 @@ class Subscriber(Entity):
 
     def _on_samples(self, samples: list[Sample]) -> None:
         if self._now and not self._executor.stopped:
-            self._call(self._read(self._queue.passing(samples)))
+            self._deliver(self._queue.passing(samples))
             return
         refused = self._queue.put(samples)
         for _ in range(refused):
@@ -233,14 +235,6 @@ class Subscriber(Entity):
             self._checked = self._checked_message = None
         return self._last
 
-    def _read(self, samples: list[Sample]) -> list[Received]:
-        """The messages of ``samples`` that decode; the last becomes ``read_message``'s."""
-        with self._reading:
-            messages = self._convert_all(samples)
-        if messages:
-            self._last = messages[-1]
-        return messages
-
     def take(self, max_messages: int | None = None) -> list[Received]:
         """Every unread message, oldest first (up to ``max_messages``)."""
         messages: list[Received] = []
@@ -259,7 +253,7 @@ class Subscriber(Entity):
         return messages
 
     def _has_message(self) -> bool:
-        return bool(self._queue) or self._closed
+        return self._unread() > 0 or self._closed
 
     def wait_for_message(self, timeout: float | None = None) -> Received:
         """Block until a message is unread, then return the oldest one (None on timeout, once
@@ -267,29 +261,32 @@ class Subscriber(Entity):
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             remaining = None if deadline is None else deadline - time.monotonic()
-            if self._closed or interrupted() or (remaining is not None and remaining <= 0):
+            if self._closed or interrupt_flag.value or (remaining is not None and remaining <= 0):
                 messages = self.take(1)  # a last look
                 return messages[0] if messages else None
             # returns at once when a message is there: no take() before it (a blocking read
-            # with cold caches spent a few microseconds on the empty one)
+            # with cold caches spent a few microseconds on the empty one); take(1), inlined
+            # (each call on this path costs every round trip a few microseconds cold)
             self._arrived.wait(self._has_message, remaining, interruptible=True)
-            messages = self.take(1)
-            if messages:
+            with self._reading:
+                messages = self._convert_all(self._queue.pop(1))
+            if messages:  # else a spurious wake-up, or a sample that did not decode
+                self._last = messages[0]
                 return messages[0]
 
-    def _dispatch(self) -> int:
-        """The executor's work: every unread message to the callback (what ``take()`` does,
-        in fewer calls: this runs once per delivered batch)."""
-        if self._callback is None:
-            return 0
+    def _deliver(self, samples: list[Sample] | None = None) -> int:
+        """Run the callback on each message of ``samples`` that decodes (the last becomes
+        ``read_message``'s); returns how many ran. The executor's work (``samples`` None:
+        every unread one, what ``take()`` does in fewer calls), or the delivery thread's with
+        immediate callbacks. It runs once per delivered batch: each call added here costs
+        every round trip."""
+        if samples is None:
+            samples = self._queue.pop()
         with self._reading:
-            messages = self._convert_all(self._queue.pop())
-        if messages:
-            self._last = messages[-1]
-        return self._call(messages)
-
-    def _call(self, messages: list[Received]) -> int:
-        """Run the callback on each of ``messages``; returns how many ran."""
+            messages = self._convert_all(samples)
+        if not messages:
+            return 0
+        self._last = messages[-1]
         callback = self._callback
         assert callback is not None
         done = 0

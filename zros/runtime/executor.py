@@ -20,7 +20,7 @@ from collections.abc import Callable, Coroutine
 from typing import Protocol, TypeVar
 
 from zros.runtime.clock import Clock
-from zros.runtime.signal import Signal, interrupted
+from zros.runtime.signal import Signal, interrupt_flag
 
 T = TypeVar('T')
 _log = logging.getLogger('zros')
@@ -130,7 +130,7 @@ class Executor:
 
     def ok(self) -> bool:
         """True until the executor stops or the process got Ctrl-C."""
-        return not (self.stopped or interrupted())
+        return not (self.stopped or interrupt_flag.value)
 
     # --- timers ------------------------------------------------------------------------------
 
@@ -161,7 +161,7 @@ class Executor:
     # --- running -----------------------------------------------------------------------------
 
     def _has_work(self) -> bool:
-        return bool(self._ready) or self._woken or self.stopped or interrupted()
+        return bool(self._ready) or self._woken or self.stopped or interrupt_flag.value
 
     def _run_due(self) -> int:
         """Run the ready work, then the due timers; returns how many callbacks ran."""
@@ -177,11 +177,11 @@ class Executor:
 
     def run_once(self, timeout: float | None) -> int:
         """Run what is due; wait up to ``timeout`` seconds (None: forever) for something to do."""
-        done = self._run_due()
+        done = self._run_due() if self._ready or self._timers else 0
         if done or (timeout is not None and timeout <= 0):
             return done
         deadline = None if timeout is None else time.monotonic() + timeout
-        while not (self.stopped or interrupted()):
+        while not (self.stopped or interrupt_flag.value):
             wait: float | None = None if deadline is None else deadline - time.monotonic()
             if self._timers:
                 next_timer = self.next_timer()
@@ -198,7 +198,7 @@ class Executor:
     def spin(self, timeout: float | None = None) -> None:
         """Run callbacks and timers until not ``ok()`` (or ``timeout`` seconds)."""
         deadline = None if timeout is None else time.monotonic() + timeout
-        while self.ok():
+        while not (self.stopped or interrupt_flag.value):  # ok(), inlined: once per message
             remaining = None if deadline is None else deadline - time.monotonic()
             if remaining is not None and remaining <= 0:
                 return

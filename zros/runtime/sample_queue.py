@@ -36,6 +36,9 @@ class SampleQueue:
         if max_bytes is not None and max_bytes < 1:
             raise ValueError(f'max_queue_bytes must be at least 1, got {max_bytes}')
         self._items: collections.deque[Sample] = collections.deque(maxlen=depth)
+        #: the number of unread samples, as a C call (``len(queue)`` runs a Python method:
+        #: a wait tests this once per message)
+        self.unread = self._items.__len__
         self.max_count = max_count if depth is None else None
         self.max_bytes = max_bytes if depth is None else None
         self._bytes = 0  #: keep-all: what the queue holds, overheads included

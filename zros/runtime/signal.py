@@ -31,7 +31,9 @@ class _Flag:
         self.value = False
 
 
-_interrupted = _Flag()
+#: what :func:`interrupted` returns, as ``interrupt_flag.value``: loops that run once per
+#: message (the executor's) read it there, saving a call; only this module sets it
+interrupt_flag = _Flag()
 #: the locks of the interruptible waits sleeping now
 _sleeping: set[_thread.LockType] = set()
 _listeners: list[Callable[[], object]] = []
@@ -45,7 +47,7 @@ _listener_thread: threading.Thread | None = None
 
 def interrupted() -> bool:
     """Whether Ctrl-C ended zros's blocking calls (until the next ``zros.init``)."""
-    return _interrupted.value
+    return interrupt_flag.value
 
 
 def interrupt() -> None:
@@ -54,7 +56,7 @@ def interrupt() -> None:
     Safe in a signal handler: it only releases locks; the listeners run on a thread of their
     own once :func:`start_listener_thread` started it, else right here.
     """
-    _interrupted.value = True
+    interrupt_flag.value = True
     for lock in tuple(_sleeping):
         with contextlib.suppress(RuntimeError):  # released already
             lock.release()
@@ -107,7 +109,7 @@ def raises_on_interrupt() -> Iterator[None]:
         return
     _main_raising += 1
     try:
-        if _interrupted.value:
+        if interrupt_flag.value:
             raise KeyboardInterrupt
         yield
     finally:
@@ -121,7 +123,7 @@ def main_thread_raises() -> bool:
 
 def clear_interrupt() -> None:
     """Let blocking calls block again (a new ``zros.init``)."""
-    _interrupted.value = False
+    interrupt_flag.value = False
 
 
 def add_interrupt_listener(listener: Callable[[], object]) -> None:
@@ -129,7 +131,7 @@ def add_interrupt_listener(listener: Callable[[], object]) -> None:
     block. Remove it with :func:`remove_interrupt_listener` when the wait it ends is over."""
     with _listeners_lock:
         _listeners.append(listener)
-    if _interrupted.value:
+    if interrupt_flag.value:
         listener()
 
 
@@ -173,14 +175,14 @@ def _sleep(
                 return False
         if lock.acquire(True, length):
             return True
-        if (interruptible and _interrupted.value) or lock not in waiters:
+        if (interruptible and interrupt_flag.value) or lock not in waiters:
             return False
 
 
 def sleep(seconds: float) -> bool:
     """Sleep ``seconds`` unless interrupted; returns False when Ctrl-C cut it short."""
     Signal().wait_for(lambda: False, seconds)
-    return not _interrupted.value
+    return not interrupt_flag.value
 
 
 #: the longest a wait that ran out waits for the release of a notify that took its lock
@@ -229,7 +231,7 @@ class Signal:
             _sleeping.add(lock)
         woken = False
         try:
-            if not (ready() or (interruptible and _interrupted.value)):
+            if not (ready() or (interruptible and interrupt_flag.value)):
                 woken = _sleep(lock, timeout, waiters, waiting.main, interruptible)
         finally:
             if interruptible:
@@ -248,7 +250,9 @@ class Signal:
         deadline = None if timeout is None else time.monotonic() + timeout
         while not ready():
             remaining = None if deadline is None else deadline - time.monotonic()
-            if (interruptible and _interrupted.value) or (remaining is not None and remaining <= 0):
+            if interruptible and interrupt_flag.value:
+                return bool(ready())
+            if remaining is not None and remaining <= 0:
                 return bool(ready())
             self.wait(ready, remaining, interruptible)
         return True
