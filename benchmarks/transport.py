@@ -86,8 +86,10 @@ RTT_SPLIT = (
     ('zenoh_spin_dec', 'zenoh'),
     ('zenoh_relay_dec', 'zenoh'),
     ('zros', 'zenoh'),
+    ('zenoh_fifo_dec', 'zenoh'),
     ('zros_now', 'zenoh'),
     ('zenoh', 'zenoh_dec'),
+    ('zenoh', 'zenoh_relay_dec'),
     ('zenoh', 'zros'),
     ('zros_now', 'zros'),
 )

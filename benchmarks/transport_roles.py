@@ -20,9 +20,12 @@ hands each ping to the main thread, which sends the pong (what running callbacks
 also decode each ping and encode the pong with zros's codec (the least an echo that hands
 messages to user code does); ``zenoh_relay_dec``, as ``zenoh_spin_dec`` with zros's
 structure (a FIFO channel drained by a thread of its own, handing the pings to the spinning
-thread). As pings: ``zenoh_dec``, encoding each ping and decoding each pong, and
-``zenoh_fifo``, waiting for its pong in a FIFO channel's ``recv`` (no Python thread in
-between: the fastest raw ping).
+thread); ``zenoh_fifo_dec``, zros's immediate callbacks with nothing of zros (a FIFO channel
+drained by a thread of its own, which decodes, encodes and puts). As pings: ``zenoh_dec``,
+encoding each ping and decoding each pong; ``zenoh_relay_dec``, the same with zros's structure
+(the pongs come through a FIFO channel drained by a thread of its own, which wakes the pinging
+thread, which decodes); and ``zenoh_fifo``, waiting for its pong in a FIFO channel's ``recv``
+(no Python thread in between: the fastest raw ping).
 
 Payloads (``--kind``): ``string`` (std_msgs/String), ``image`` (sensor_msgs/Image 1080p rgb8),
 ``bytes<N>`` (std_msgs/UInt8MultiArray with N bytes of data).
@@ -337,6 +340,8 @@ def role_echo(args: argparse.Namespace) -> None:
     ping, pong = f'bench/ping{args.tag}', f'bench/pong{args.tag}'
     if args.impl.startswith(('zenoh_spin', 'zenoh_relay')):
         _raw_spinning_echo(args, ping, pong)
+    elif args.impl == 'zenoh_fifo_dec':
+        _raw_fifo_echo(args, ping, pong)
     elif args.impl.startswith('zenoh'):
         session = raw_session(args.endpoint, args.shm, args.peer)
         publisher = session.declare_publisher(pong)
@@ -371,8 +376,8 @@ def _pong(impl: str, put: Any) -> Any:
 
 def relayed(session: Any, key: str, pings: Any, arrived: Any, name: str = 'relay') -> Any:
     """A subscriber on ``key`` whose FIFO channel a thread of its own drains (``recv``, then
-    ``try_recv`` until it is empty), appending the payloads to the deque ``pings`` and releasing
-    the lock ``arrived``: zros's structure, with nothing of zros in it."""
+    ``try_recv`` until it is empty), handing each batch's payloads to ``pings.extend`` (a deque)
+    and releasing the lock ``arrived`` if it is held: zros's structure, with nothing of zros."""
     import zenoh
 
     channel = session.declare_subscriber(key, zenoh.handlers.FifoChannel(256))
@@ -389,6 +394,30 @@ def relayed(session: Any, key: str, pings: Any, arrived: Any, name: str = 'relay
 
     threading.Thread(target=relay, name=name, daemon=True).start()
     return channel
+
+
+class _Answering:
+    """What :func:`relayed` hands a batch of pings to, answering each on the relay thread."""
+
+    def __init__(self, answer: Any) -> None:
+        self.answer = answer
+
+    def extend(self, payloads: Any) -> None:
+        for payload in payloads:
+            self.answer(payload)
+
+
+def _raw_fifo_echo(args: argparse.Namespace, ping: str, pong: str) -> None:
+    """zros's immediate callbacks with nothing of zros: the pings come through a FIFO channel
+    that a thread of the echo's own drains, which decodes each, encodes the pong and puts it."""
+    session = raw_session(args.endpoint, args.shm, args.peer)
+    publisher = session.declare_publisher(pong)
+    never_held = threading.Lock()
+    subscriber = relayed(session, ping, _Answering(_pong(args.impl, publisher.put)), never_held)
+    print('ready', flush=True)
+    threading.Event().wait(args.timeout)
+    subscriber.undeclare()
+    session.close()
 
 
 def _raw_spinning_echo(args: argparse.Namespace, ping: str, pong: str) -> None:
@@ -446,6 +475,21 @@ def role_ping(args: argparse.Namespace) -> None:
 
             pongs = session.declare_subscriber(pong_key, zenoh.handlers.FifoChannel(16))
             wait = pongs.handler.recv
+        elif args.impl == 'zenoh_relay_dec':  # zros's structure: a FIFO, a thread, a wake-up
+            import _thread
+            import collections
+
+            decode = fast_codec('std_msgs/msg/Float64')[0]
+            pongs_in: collections.deque[Any] = collections.deque()
+            arrived = _thread.allocate_lock()
+            arrived.acquire()
+            pongs = relayed(session, pong_key, pongs_in, arrived)  # kept: dropped, it undeclares
+
+            def wait() -> None:
+                while not pongs_in:
+                    arrived.acquire(True, 2)
+                decode(pongs_in.popleft().to_bytes(), False)
+
         elif args.impl == 'zenoh_dec':  # each pong decoded, each ping encoded: zros's codec
             decode = fast_codec('std_msgs/msg/Float64')[0]
 
@@ -456,7 +500,7 @@ def role_ping(args: argparse.Namespace) -> None:
             session.declare_subscriber(pong_key, on_pong)
         else:
             session.declare_subscriber(pong_key, lambda s: got.set())
-        if args.impl != 'zenoh_fifo':
+        if args.impl not in ('zenoh_fifo', 'zenoh_relay_dec'):
 
             def wait() -> None:
                 got.wait(2)
@@ -467,7 +511,7 @@ def role_ping(args: argparse.Namespace) -> None:
             time.sleep(0.001)
         data = encode(message)
         close = session.close
-        fresh = args.impl == 'zenoh_dec'
+        fresh = args.impl in ('zenoh_dec', 'zenoh_relay_dec')
 
         def round_trip() -> float:
             start = time.perf_counter()
