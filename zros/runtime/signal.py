@@ -149,13 +149,13 @@ _SLICE = 1.0
 
 def _sleep(
     lock: _thread.LockType,
-    timeout: float | None,
+    deadline: float | None,
     waiters: list[_thread.LockType],
     main: bool,
     interruptible: bool,
 ) -> bool:
-    """Acquire ``lock`` (a waiter's) within ``timeout`` seconds, in slices; returns whether it
-    did.
+    """Acquire ``lock`` (a waiter's) by ``deadline`` (``time.monotonic()``; None: no limit), in
+    slices; returns whether it did. :meth:`Signal.wait` sleeps the first slice itself.
 
     Python runs a signal's handler on the main thread between two bytecodes. A blocked acquire
     is cut short to run it only if the signal lands on the main thread during the acquire; one
@@ -166,7 +166,6 @@ def _sleep(
     took its lock out of ``waiters``: the notify's release may never come, if an exception
     (a second Ctrl-C) cut the notifier short.
     """
-    deadline = None if timeout is None else time.monotonic() + timeout
     length = _MAIN_THREAD_SLICE if main else _SLICE
     while True:
         if deadline is not None:
@@ -232,7 +231,16 @@ class Signal:
         woken = False
         try:
             if not (ready() or (interruptible and interrupt_flag.value)):
-                woken = _sleep(lock, timeout, waiters, waiting.main, interruptible)
+                # the first slice here, any more in _sleep: most waits end in the first, and a
+                # call costs a wake-up a few microseconds with cold caches
+                deadline = None if timeout is None else time.monotonic() + timeout
+                first = _MAIN_THREAD_SLICE if waiting.main else _SLICE
+                if timeout is not None and timeout < first:
+                    first = timeout
+                if first > 0 and lock.acquire(True, first):
+                    woken = True
+                elif not ((interruptible and interrupt_flag.value) or lock not in waiters):
+                    woken = _sleep(lock, deadline, waiters, waiting.main, interruptible)
         finally:
             if interruptible:
                 _sleeping.discard(lock)
