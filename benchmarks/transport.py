@@ -67,6 +67,7 @@ __all__ = ['read_result', 'round_trips', 'spawn_role', 'throughput', 'wait_ready
 STRING_IMPLS = (
     'zenoh',
     'zenoh_decode',
+    'zenoh_codec',
     'zenoh_rmw',
     'zros',
     'zros_bytes',
@@ -75,7 +76,7 @@ STRING_IMPLS = (
     'zros_now',
 )
 IMAGE_IMPLS = ('zenoh', 'zros', 'zros_rmw')
-SIZE_IMPLS = ('zenoh', 'zenoh_decode', 'zros')
+SIZE_IMPLS = ('zenoh', 'zenoh_decode', 'zenoh_codec', 'zros')
 RTT_IMPLS = ('zenoh', 'zros', 'zros_rmw', 'zros_now')
 #: row e: (echo, ping)
 RTT_SPLIT = (
@@ -93,6 +94,9 @@ RTT_SPLIT = (
     ('zenoh', 'zros'),
     ('zros_now', 'zros'),
 )
+#: raw zenoh-python encoding every message is row (c)'s floor up to this size; beyond it, its
+#: fresh buffer per message costs more than zros's publisher, which reuses one
+CODEC_FLOOR_SIZES = 100_000
 #: uint8[] sizes of row (c), and how many messages each run sends (full run)
 SIZES = {
     10: 200_000,
@@ -261,7 +265,12 @@ def main() -> None:
     if 'c' in rows:
         for size, full in SIZES.items():
             count = max(full // scale, 20)
-            throughput_rows.append((f'bytes{size}', f'bytes{size}', chosen(SIZE_IMPLS), count))
+            impls = [  # beyond CODEC_FLOOR_SIZES, zenoh_codec is no floor for zros
+                impl
+                for impl in chosen(SIZE_IMPLS)
+                if impl != 'zenoh_codec' or size <= CODEC_FLOOR_SIZES
+            ]
+            throughput_rows.append((f'bytes{size}', f'bytes{size}', impls, count))
     router = start_router(shared_memory=args.shm)
     endpoint = router.endpoint
     try:

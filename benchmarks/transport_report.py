@@ -26,6 +26,7 @@ def with_before(names: dict[str, str]) -> dict[str, str]:
 STRING_NAMES = {
     'zenoh': 'raw zenoh, bytes only',
     'zenoh_decode': 'raw zenoh + zros decode',
+    'zenoh_codec': 'raw + decode, publisher encodes',
     'zenoh_rmw': 'raw + attachment + decode',
     'zros': 'zros callback (bridge)',
     'zros_bytes': 'zros callback, bytes only',
@@ -128,7 +129,7 @@ def _print_sizes(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
         return
     print(
         f'(c) uint8[]   {"raw msgs/s":>12} {"raw MB/s":>9} {"zros msgs/s":>12} {"zros MB/s":>9}'
-        f' {"zros/raw":>9} {"raw+dec/raw":>11} {"zros/raw+dec":>12}'
+        f' {"zros/raw":>9} {"raw+dec/raw":>11} {"zros/raw+dec":>12} {"raw+codec/raw":>13}'
     )
     worst: tuple[float, int] | None = None
     for size in sizes:
@@ -140,9 +141,11 @@ def _print_sizes(rows: Rows, goals: list[tuple[str, float, str, bool]]) -> None:
         decoded = rows.get(f'bytes{size}/zenoh_decode')
         floor = f'{decoded["rate"] / raw["rate"]:>11.2f}' if decoded else ' ' * 11
         over_floor = f'{zros["rate"] / decoded["rate"]:>12.2f}' if decoded else ' ' * 12
+        coded = rows.get(f'bytes{size}/zenoh_codec')
+        codec_floor = f'{coded["rate"] / raw["rate"]:>13.2f}' if coded else ''
         print(
             f'    {_size(size):>7} {raw["rate"]:>12,.0f} {_mbs(raw):>9,.1f} {zros["rate"]:>12,.0f}'
-            f' {_mbs(zros):>9,.1f} {ratio:>9.2f} {floor} {over_floor}'
+            f' {_mbs(zros):>9,.1f} {ratio:>9.2f} {floor} {over_floor} {codec_floor}'
         )
         earlier = rows.get(f'bytes{size}/zros{BEFORE}')
         if earlier is not None:
@@ -263,15 +266,22 @@ def _floors(rows: Rows) -> list[tuple[str, float, str, bool]]:
         floors.append(
             ('String, raw + attachment / raw (both decode)', ratio, '>= 0.95', ratio >= 0.95)
         )
-    sizes = [
-        (rows[f'{key}/zenoh_decode']['rate'] / rows[f'{key}/zenoh']['rate'], key[5:])
-        for key in {k.split('/')[0] for k in rows if k.startswith('bytes')}
-        if f'{key}/zenoh_decode' in rows and f'{key}/zenoh' in rows
-    ]
-    if sizes:
-        ratio, size = min(sizes)
-        text = f'uint8[], raw + decode / raw (worst: {_size(int(size))})'
-        floors.append((text, ratio, '>= 0.75', ratio >= 0.75))
+    coded = rows.get('string/zenoh_codec')
+    if raw and coded:
+        ratio = coded['rate'] / raw['rate']
+        floors.append(
+            ('String, raw + encode + decode / raw bytes', ratio, '>= 0.75', ratio >= 0.75)
+        )
+    for floor, what in (('zenoh_decode', 'raw + decode'), ('zenoh_codec', 'raw + codec')):
+        sizes = [
+            (rows[f'{key}/{floor}']['rate'] / rows[f'{key}/zenoh']['rate'], key[5:])
+            for key in {k.split('/')[0] for k in rows if k.startswith('bytes')}
+            if f'{key}/{floor}' in rows and f'{key}/zenoh' in rows
+        ]
+        if sizes:
+            ratio, size = min(sizes)
+            text = f'uint8[], {what} / raw (worst: {_size(int(size))})'
+            floors.append((text, ratio, '>= 0.75', ratio >= 0.75))
     base = rows.get('split/zenoh:zenoh')
     pairs = (  # (what, echo, ping): zros's structure is a FIFO channel and a thread of its own
         ('spinning echo + ping decoding', 'zenoh_spin_dec', 'zenoh_dec'),

@@ -5,6 +5,9 @@ Implementations (``--impl``):
 
   * ``zenoh``: zenoh-python alone; its subscriber only takes the bytes of each sample;
   * ``zenoh_decode``: zenoh-python, whose subscriber also decodes them with zros's codec;
+  * ``zenoh_codec``: as ``zenoh_decode``, whose publisher also encodes every message (the
+    others send the bytes of one, encoded once): the least a node that publishes and
+    receives messages does;
   * ``zenoh_rmw``: as ``zenoh_decode``, with rmw_zenoh's 33-byte attachment on every message,
     which the subscriber checks before it decodes (what that wire costs raw zenoh-python);
   * ``zros``, ``zros_rmw``: a zros node on the bridge's keys or on rmw_zenoh's, whose
@@ -149,6 +152,13 @@ def role_publish(args: argparse.Namespace) -> None:
 
             put = SequenceNumbers(bytes(range(16))).sender(put)
         send, item, close = put, data, session.close
+        if args.impl == 'zenoh_codec':  # each message encoded, as a publisher of messages must
+            encode_fast = fast_codec(message.__msgtype__)[1]
+
+            def send(message: Any) -> None:
+                put(encode_fast(message))
+
+            item = message
     else:
         node = zros_node('bench_pub', args.endpoint, args.shm, impl=args.impl)
         zros_publisher = node.create_publisher(message.__msgtype__, '/' + key, qos='keep_all')
