@@ -322,16 +322,30 @@ def print_constructions(repeats: int, budget: float) -> None:
 
 def best_time(function: Callable[[], Any], repeats: int, budget: float) -> float:
     """Seconds per call: the best of ``repeats`` runs, each sized to take about ``budget``."""
-    start = time.perf_counter()
-    function()
-    once = max(time.perf_counter() - start, 1e-7)
-    number = max(1, min(100_000, int(budget / once)))
-    best = float('inf')
-    for _ in range(repeats):
+    return best_times({'': function}, repeats, budget)['']
+
+
+def best_times(
+    functions: dict[str, Callable[[], Any]], repeats: int, budget: float
+) -> dict[str, float]:
+    """Seconds per call of each function: the best of ``repeats`` runs, each sized to take
+    about ``budget``. The runs interleave (every function's first run, then every second...):
+    this VM's speed drifts by more than the differences measured, within seconds, and run in
+    blocks one competitor would get the fast moments and the next the slow."""
+    numbers = {}
+    for key, function in functions.items():
         start = time.perf_counter()
-        for _ in range(number):
-            function()
-        best = min(best, (time.perf_counter() - start) / number)
+        function()
+        once = max(time.perf_counter() - start, 1e-7)
+        numbers[key] = max(1, min(100_000, int(budget / once)))
+    best = dict.fromkeys(functions, float('inf'))
+    for _ in range(repeats):
+        for key, function in functions.items():
+            number = numbers[key]
+            start = time.perf_counter()
+            for _ in range(number):
+                function()
+            best[key] = min(best[key], (time.perf_counter() - start) / number)
     return best
 
 
@@ -361,17 +375,18 @@ def measure(name: str, message: Any, repeats: int, budget: float) -> dict[str, f
     data = cdr.encode(message)
     cls = type(message)
     type_name = cls.__msgtype__
-    row: dict[str, float | None] = {
-        'zros_enc': best_time(lambda: cdr.encode(message), repeats, budget),
-        'name_dec': best_time(lambda: cdr.decode(type_name, data), repeats, budget),
-        'cls_dec': best_time(lambda: decode_class(cls, data), repeats, budget),
-    }
     target = memoryview(bytearray(len(data)))  # bytearray slice assignment is slower
 
     def copy_once() -> None:
         target[:] = data
 
-    row['memcpy'] = best_time(copy_once, repeats, budget)
+    functions: dict[str, Callable[[], Any]] = {
+        'zros_enc': lambda: cdr.encode(message),
+        'name_dec': lambda: cdr.decode(type_name, data),
+        'cls_dec': lambda: decode_class(cls, data),
+        'memcpy': copy_once,
+    }
+    row: dict[str, float | None] = {}
     for label, make in LIBRARIES.items():
         # a copy: other libraries iterate a struct sequence, which turns zros's packed array
         # into objects, and the next run would time zros's encode of the objects instead
@@ -379,9 +394,8 @@ def measure(name: str, message: Any, repeats: int, budget: float) -> dict[str, f
         if codec is None:
             row[f'{label}_enc'] = row[f'{label}_dec'] = None
             continue
-        encode, decode = codec
-        row[f'{label}_enc'] = best_time(encode, repeats, budget)
-        row[f'{label}_dec'] = best_time(decode, repeats, budget)
+        functions[f'{label}_enc'], functions[f'{label}_dec'] = codec
+    row.update(best_times(functions, repeats, budget))
     return row
 
 
