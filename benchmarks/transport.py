@@ -5,17 +5,20 @@ Both go through one Zenoh router (started by this script) with the same session 
 rmw_zenoh's (attachments on every message). Rows, all reliable and keep-all:
 
   (a) std_msgs/String messages per second, against two raw subscribers: one that only takes
-      the bytes, one that also decodes them with zros's codec; zros with a callback run by
+      the bytes, one that also decodes them with zros's codec (and the latter again with a
+      publisher that encodes every message, as zros's must); zros with a callback run by
       ``spin_once`` (both wires), with a callback that takes the bytes (``raw=True``: what
       zros adds besides decoding), and read the rosR way (``spin_once`` + ``take()``);
   (b) sensor_msgs/Image 1920x1080 rgb8 throughput in MB/s;
   (c) uint8[] messages (std_msgs/UInt8MultiArray) of 10 B to 10 MB: messages/s and MB/s, raw
-      taking the bytes and raw also decoding them (what a subscriber that decodes can reach);
+      taking the bytes and raw also decoding them (what a subscriber that decodes can reach;
+      up to 100 KB also with a publisher that encodes every message);
   (d) ping-pong round trip of std_msgs/Float64 (median and p99), through the router, and between
       peers that met at the router and then talk directly (as DDS nodes do);
   (e) the same round trip through the router with zros on one side only, and raw zenoh-python
-      variants (a ping that waits in Rust, an echo that hands over to a spinning thread): where
-      zros's extra time goes, side by side.
+      variants (a ping that waits in Rust, an echo that hands over to a spinning thread, echoes
+      and a ping in zros's own thread structure with nothing of zros): where zros's extra time
+      goes, side by side.
 
 The machine's speed drifts more than the differences being measured (this 2-core VM's String
 rates moved by a third within minutes), so competitors never run one after the other: in each
