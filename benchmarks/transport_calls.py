@@ -1,6 +1,7 @@
 """What an echo runs per message: the Python functions and C calls on each of its threads, for
 zros's echo (spinning and immediate) against raw zenoh-python echoes doing the least the same
-structure needs (row e's floors of ``transport.py``).
+structure needs (row e's floors of ``transport.py``); and what zros's ping runs, on the
+pinging thread and its pong subscription's delivery thread.
 
 At one message every few hundred microseconds each one runs with cold caches, where a Python
 function call costs microseconds instead of a tenth of one (DESIGN, "where a round trip's time
@@ -140,6 +141,61 @@ def measure(endpoint: str, start: Callable[[], Stop], pings: int) -> Calls:
     return collections.Counter({key: round(n / pings, 2) for key, n in calls.items()})
 
 
+def measure_ping(endpoint: str, pings: int) -> Calls:
+    """Calls per round trip of zros's ping (``write``, then ``wait_for_message``) against a raw
+    echo, on the pinging thread and the pong subscription's delivery thread."""
+    import zros
+
+    calls: Calls = collections.Counter()
+    active = False
+    threads = ('MainThread', PONG)
+
+    def profile(frame: FrameType, event: str, arg: Any) -> None:
+        if not active or event not in ('call', 'c_call'):
+            return
+        thread = threading.current_thread().name.removesuffix(' (zros delivery)')
+        if thread not in threads:
+            return
+        if event == 'call':
+            code = frame.f_code
+            name = f'{code.co_name} ({Path(code.co_filename).name}:{code.co_firstlineno})'
+            calls[thread, 'py', name] += 1
+        else:
+            calls[thread, 'c', getattr(arg, '__qualname__', repr(arg))] += 1
+
+    session = raw_session(endpoint, False)
+    put = session.declare_publisher(PONG).put
+    echo = session.declare_subscriber(PING, lambda sample: put(sample.payload))
+    threading.setprofile(profile)  # for the delivery thread the subscription starts
+    node = zros_node('bench_ping', endpoint, False)
+    pongs = node.create_subscription('std_msgs/msg/Float64', '/' + PONG, qos=100)
+    publisher = node.create_publisher('std_msgs/msg/Float64', '/' + PING)
+    if not publisher.wait_for_subscribers(30):
+        raise RuntimeError('the echo did not subscribe')
+    message = zros.Message('std_msgs/msg/Float64', data=1.0)
+
+    def ping() -> None:
+        publisher.write(message)
+        if pongs.wait_for_message(10) is None:
+            raise RuntimeError('no pong')
+
+    for _ in range(50):  # compiled codecs, caches warm
+        ping()
+    sys.setprofile(profile)
+    active = True
+    for _ in range(pings):
+        ping()
+    active = False
+    sys.setprofile(None)
+    threading.setprofile(None)  # type: ignore[arg-type]
+    node.destroy()
+    node.transport.close()
+    echo.undeclare()
+    session.close()
+    calls.pop(('MainThread', 'py', f'ping ({HERE.name}:{ping.__code__.co_firstlineno})'), None)
+    return collections.Counter({key: round(n / pings, 2) for key, n in calls.items()})
+
+
 def report(label: str, calls: Calls, verbose: bool) -> None:
     totals: collections.Counter[tuple[str, str]] = collections.Counter()
     for (thread, kind, _), count in calls.items():
@@ -176,6 +232,7 @@ def main() -> None:
     try:
         for label, start in echoes.items():
             report(label, measure(endpoint, start, args.pings), args.verbose)
+        report('zros ping (against a raw echo)', measure_ping(endpoint, args.pings), args.verbose)
     finally:
         router.close()
 
