@@ -88,28 +88,51 @@ def zros_echo(endpoint: str, impl: str) -> Stop:
 Calls = collections.Counter[tuple[str, str, str]]
 
 
+class CallCounter:
+    """A profile function (``threading.setprofile``) counting the Python functions and C calls
+    on the threads named ``threads`` (delivery threads by their key) while :meth:`count` runs."""
+
+    def __init__(self, threads: tuple[str, ...]) -> None:
+        self.threads = threads
+        self.calls: Calls = collections.Counter()
+        self.active = False
+        self.skip: object = None  #: the code of the round trip itself, not counted
+
+    def __call__(self, frame: FrameType, event: str, arg: Any) -> None:
+        if not self.active or event not in ('call', 'c_call'):
+            return
+        thread = threading.current_thread().name.removesuffix(' (zros delivery)')
+        if thread not in self.threads:
+            return
+        if event == 'call':
+            code = frame.f_code
+            if code is self.skip:
+                return
+            name = f'{code.co_name} ({Path(code.co_filename).name}:{code.co_firstlineno})'
+            self.calls[thread, 'py', name] += 1
+        else:
+            self.calls[thread, 'c', getattr(arg, '__qualname__', repr(arg))] += 1
+
+    def count(self, round_trip: Callable[[], None], pings: int) -> Calls:
+        """Calls per round trip over ``pings`` round trips, after 50 that compile the codecs
+        and warm the caches."""
+        for _ in range(50):
+            round_trip()
+        self.skip = round_trip.__code__
+        self.active = True
+        for _ in range(pings):
+            round_trip()
+        self.active = False
+        return collections.Counter({key: round(n / pings, 2) for key, n in self.calls.items()})
+
+
 def measure(endpoint: str, start: Callable[[], Stop], pings: int) -> Calls:
     """Calls per round trip on the echo's threads: (thread, 'py' or 'c', name) -> count."""
     import zros
     from zros.cdr import encode
 
-    calls: Calls = collections.Counter()
-    active = False
-
-    def profile(frame: FrameType, event: str, arg: Any) -> None:
-        if not active or event not in ('call', 'c_call'):
-            return
-        thread = threading.current_thread().name.removesuffix(' (zros delivery)')
-        if thread not in ECHO_THREADS:
-            return
-        if event == 'call':
-            code = frame.f_code
-            name = f'{code.co_name} ({Path(code.co_filename).name}:{code.co_firstlineno})'
-            calls[thread, 'py', name] += 1
-        else:
-            calls[thread, 'c', getattr(arg, '__qualname__', repr(arg))] += 1
-
-    threading.setprofile(profile)  # for the threads the echo starts
+    counter = CallCounter(ECHO_THREADS)
+    threading.setprofile(counter)  # for the threads the echo starts
     stop = start()
     session = raw_session(endpoint, False)
     got = threading.Event()
@@ -128,17 +151,12 @@ def measure(endpoint: str, start: Callable[[], Stop], pings: int) -> Calls:
         if not got.wait(10):
             raise RuntimeError('no pong')
 
-    for _ in range(50):  # compiled codecs, caches warm
-        ping()
-    active = True
-    for _ in range(pings):
-        ping()
-    active = False
+    calls = counter.count(ping, pings)
     threading.setprofile(None)  # type: ignore[arg-type]
     pongs.undeclare()
     session.close()
     stop()
-    return collections.Counter({key: round(n / pings, 2) for key, n in calls.items()})
+    return calls
 
 
 def measure_ping(endpoint: str, pings: int) -> Calls:
@@ -146,27 +164,11 @@ def measure_ping(endpoint: str, pings: int) -> Calls:
     echo, on the pinging thread and the pong subscription's delivery thread."""
     import zros
 
-    calls: Calls = collections.Counter()
-    active = False
-    threads = ('MainThread', PONG)
-
-    def profile(frame: FrameType, event: str, arg: Any) -> None:
-        if not active or event not in ('call', 'c_call'):
-            return
-        thread = threading.current_thread().name.removesuffix(' (zros delivery)')
-        if thread not in threads:
-            return
-        if event == 'call':
-            code = frame.f_code
-            name = f'{code.co_name} ({Path(code.co_filename).name}:{code.co_firstlineno})'
-            calls[thread, 'py', name] += 1
-        else:
-            calls[thread, 'c', getattr(arg, '__qualname__', repr(arg))] += 1
-
+    counter = CallCounter(('MainThread', PONG))
     session = raw_session(endpoint, False)
     put = session.declare_publisher(PONG).put
     echo = session.declare_subscriber(PING, lambda sample: put(sample.payload))
-    threading.setprofile(profile)  # for the delivery thread the subscription starts
+    threading.setprofile(counter)  # for the delivery thread the subscription starts
     node = zros_node('bench_ping', endpoint, False)
     pongs = node.create_subscription('std_msgs/msg/Float64', '/' + PONG, qos=100)
     publisher = node.create_publisher('std_msgs/msg/Float64', '/' + PING)
@@ -179,21 +181,15 @@ def measure_ping(endpoint: str, pings: int) -> Calls:
         if pongs.wait_for_message(10) is None:
             raise RuntimeError('no pong')
 
-    for _ in range(50):  # compiled codecs, caches warm
-        ping()
-    sys.setprofile(profile)
-    active = True
-    for _ in range(pings):
-        ping()
-    active = False
+    sys.setprofile(counter)  # this thread
+    calls = counter.count(ping, pings)
     sys.setprofile(None)
     threading.setprofile(None)  # type: ignore[arg-type]
     node.destroy()
     node.transport.close()
     echo.undeclare()
     session.close()
-    calls.pop(('MainThread', 'py', f'ping ({HERE.name}:{ping.__code__.co_firstlineno})'), None)
-    return collections.Counter({key: round(n / pings, 2) for key, n in calls.items()})
+    return calls
 
 
 def report(label: str, calls: Calls, verbose: bool) -> None:
