@@ -98,7 +98,6 @@ class Subscriber(Entity):
         #: immediate callbacks: samples are decoded and handed to the callback as they arrive
         self._now = callback is not None and context.executor.immediate
         self._arrived = Signal()  #: threads waiting for a message
-        self._unread = self._queue.unread
         self._async_wakers: list[Callable[[], None]] = []
         self._last: Received = None
         self.undecodable = 0  #: samples that did not decode as the type
@@ -253,7 +252,7 @@ class Subscriber(Entity):
         return messages
 
     def _has_message(self) -> bool:
-        return self._unread() > 0 or self._closed
+        return self._queue.unread() > 0 or self._closed
 
     def wait_for_message(self, timeout: float | None = None) -> Received:
         """Block until a message is unread, then return the oldest one (None on timeout, once

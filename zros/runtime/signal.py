@@ -154,8 +154,10 @@ def _sleep(
     main: bool,
     interruptible: bool,
 ) -> bool:
-    """Acquire ``lock`` (a waiter's) by ``deadline`` (``time.monotonic()``; None: no limit), in
-    slices; returns whether it did. :meth:`Signal.wait` sleeps the first slice itself.
+    """Go on acquiring ``lock`` (a waiter's) by ``deadline`` (``time.monotonic()``; None: no
+    limit), in slices, once its first slice ran out; returns whether it did. :meth:`Signal.wait`
+    sleeps the first slice itself (most waits end in it, and a call costs a wake-up a few
+    microseconds with cold caches).
 
     Python runs a signal's handler on the main thread between two bytecodes. A blocked acquire
     is cut short to run it only if the signal lands on the main thread during the acquire; one
@@ -167,15 +169,14 @@ def _sleep(
     (a second Ctrl-C) cut the notifier short.
     """
     length = _MAIN_THREAD_SLICE if main else _SLICE
-    while True:
+    while not ((interruptible and interrupt_flag.value) or lock not in waiters):
         if deadline is not None:
             length = min(length, deadline - time.monotonic())
             if length <= 0:
                 return False
         if lock.acquire(True, length):
             return True
-        if (interruptible and interrupt_flag.value) or lock not in waiters:
-            return False
+    return False
 
 
 def sleep(seconds: float) -> bool:
@@ -231,16 +232,13 @@ class Signal:
         woken = False
         try:
             if not (ready() or (interruptible and interrupt_flag.value)):
-                # the first slice here, any more in _sleep: most waits end in the first, and a
-                # call costs a wake-up a few microseconds with cold caches
                 deadline = None if timeout is None else time.monotonic() + timeout
-                first = _MAIN_THREAD_SLICE if waiting.main else _SLICE
+                first = _MAIN_THREAD_SLICE if waiting.main else _SLICE  # any more in _sleep
                 if timeout is not None and timeout < first:
                     first = timeout
-                if first > 0 and lock.acquire(True, first):
-                    woken = True
-                elif not ((interruptible and interrupt_flag.value) or lock not in waiters):
-                    woken = _sleep(lock, deadline, waiters, waiting.main, interruptible)
+                woken = (first > 0 and lock.acquire(True, first)) or _sleep(
+                    lock, deadline, waiters, waiting.main, interruptible
+                )
         finally:
             if interruptible:
                 _sleeping.discard(lock)
