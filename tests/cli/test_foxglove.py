@@ -72,7 +72,10 @@ def test_the_command_serves_a_bag(
     ('args', 'error'),
     [
         (['--topics', '('], 'not a valid regex'),
-        (['--tls-cert', '/nonexistent.pem', '--tls-key', '/nonexistent.key'], 'cannot read'),
+        (
+            ['--tls-cert', '/nonexistent.pem', '--tls-key', '/nonexistent.key'],
+            'certificate /nonexistent.pem does not exist',
+        ),
         (['--bag', '/nonexistent/bag'], 'nonexistent'),
     ],
 )

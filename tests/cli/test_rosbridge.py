@@ -52,7 +52,10 @@ def test_the_command_serves_the_graph(cli: Cli, zros_node: Any) -> None:
 @pytest.mark.parametrize(
     ('args', 'error'),
     [
-        (['--tls-cert', '/nonexistent.pem', '--tls-key', '/nonexistent.key'], 'cannot read'),
+        (
+            ['--tls-cert', '/nonexistent.pem', '--tls-key', '/nonexistent.key'],
+            'certificate /nonexistent.pem does not exist',
+        ),
         (['--tls-cert', '/nonexistent.pem'], 'both a certificate and its private key'),
     ],
 )

@@ -100,7 +100,10 @@ def test_an_address_beyond_loopback_warns(caplog: pytest.LogCaptureFixture) -> N
     ('options', 'error'),
     [
         ({'topics': ['(']}, 'not a valid regex'),
-        ({'tls_cert': '/nonexistent/cert.pem', 'tls_key': '/nonexistent/key.pem'}, 'cannot read'),
+        (
+            {'tls_cert': '/nonexistent/cert.pem', 'tls_key': '/nonexistent/key.pem'},
+            'the certificate /nonexistent/cert.pem does not exist',
+        ),
         ({'tls_cert': '/nonexistent/cert.pem'}, 'both a certificate and its private key'),
         ({'asset_paths': ['/nonexistent/meshes']}, 'does not exist'),
         ({'message_backlog': 0}, 'at least 1'),

@@ -315,7 +315,10 @@ def test_tls_serves_wss(tmp_path: Path, rosbridge: Make, raw_client: Make) -> No
 @pytest.mark.parametrize(
     ('options', 'error'),
     [
-        ({'tls_cert': '/nonexistent/cert.pem', 'tls_key': '/nonexistent/key.pem'}, 'cannot read'),
+        (
+            {'tls_cert': '/nonexistent/cert.pem', 'tls_key': '/nonexistent/key.pem'},
+            'certificate /nonexistent/cert.pem does not exist',
+        ),
         ({'tls_cert': '/nonexistent/cert.pem'}, 'both a certificate and its private key'),
         ({'port': 70000}, 'the port must be 0 to 65535'),
         ({'queue_items': 0}, 'at least 1'),

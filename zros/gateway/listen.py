@@ -11,6 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from zros.gateway.core import GatewayError
+from zros.transport.errors import TlsFileError
+from zros.transport.tlsfiles import check_tls_files
 
 _log = logging.getLogger('zros.gateway')
 
@@ -42,12 +44,17 @@ class Listen:
         return 'wss' if self.tls_cert else 'ws'
 
     def check(self) -> None:
-        """Refuse a port out of range or half a TLS pair; warn about an address reachable from
-        the network."""
+        """Refuse a port out of range, half a TLS pair or a TLS file that cannot serve (named,
+        as Zenoh's TLS files are); warn about an address reachable from the network."""
         if not 0 <= self.port <= 65535:
             raise GatewayError(f'the port must be 0 to 65535, not {self.port}')
         if (self.tls_cert is None) != (self.tls_key is None):
             raise GatewayError('TLS needs both a certificate and its private key')
+        if self.tls_cert is not None and self.tls_key is not None:
+            try:
+                check_tls_files(None, os.fspath(self.tls_cert), os.fspath(self.tls_key))
+            except TlsFileError as exc:
+                raise GatewayError(f'{self.what}: {exc}') from None
         if not is_loopback(self.address):
             _log.warning(
                 '%s listens on %s: anyone who reaches this machine there can see the robot%s',
