@@ -261,6 +261,47 @@ def at_least_one(text: str) -> int:
     return value
 
 
+_UNITS = {'': 1, 'k': 1000, 'kb': 1000, 'kib': 1024, 'm': 1000**2, 'mb': 1000**2,
+          'mib': 1024**2, 'g': 1000**3, 'gb': 1000**3, 'gib': 1024**3}  # fmt: skip
+
+
+def byte_count(text: str) -> int:
+    """An argparse type: a size of at least 1 byte, as ``33554432``, ``32MiB`` or ``500kB``."""
+    spelled = text.strip().lower()
+    unit = spelled.lstrip('0123456789.')
+    factor = _UNITS.get(unit.strip())
+    try:
+        size = int(float(spelled[: len(spelled) - len(unit)]) * factor) if factor else 0
+    except ValueError:
+        size = 0
+    if size < 1:
+        raise argparse.ArgumentTypeError(
+            f'a size in bytes, as 33554432, 32MiB or 500kB, of at least 1 byte, not {text}'
+        )
+    return size
+
+
+#: 32 MiB: what one client of a gateway may hold queued before its oldest messages drop
+CLIENT_BUFFER = 32 * 1024**2
+
+
+def add_gateway_safety_options(parser: argparse.ArgumentParser, default_origins: str) -> None:
+    """The options both gateway commands share: which browsers may connect, whether clients
+    may act on the robot, and the bytes queued per client. ``default_origins`` says in the help
+    which origins the command allows besides this machine's pages."""
+    parser.add_argument('--allow-origin', action='append', default=[], metavar='ORIGIN',
+                        help='also accept browsers on pages of ORIGIN (https://host[:port]; '
+                        f"repeatable; '*': any page). Default: pages of this machine"
+                        f'{default_origins}; programs (no Origin header) are always accepted'
+                        )  # fmt: skip
+    parser.add_argument('--read-only', action='store_true',
+                        help='clients may only watch: no publishing, service calls, parameter '
+                        'sets or action goals')  # fmt: skip
+    parser.add_argument('--client-buffer', type=byte_count, default=CLIENT_BUFFER,
+                        metavar='BYTES', help='bytes queued per client before its oldest '
+                        'messages are dropped (default 32MiB)')  # fmt: skip
+
+
 def out(text: str = '') -> None:
     """Print and flush (output often goes to a pipe another program reads line by line)."""
     sys.stdout.write(text + '\n')
