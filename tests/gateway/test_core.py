@@ -197,7 +197,14 @@ def test_graph_views(zros_node: Make) -> None:
     server.create_service('example_interfaces/srv/AddTwoInts', '/add_two_ints')
     server.create_service('std_srvs/srv/Empty', '/_hidden')
     observer = zros_node('observer', start_parameter_services=False)
-    assert observer.graph.wait_until(lambda: '/add_two_ints' in offered_services(observer), TIMEOUT)
+    # the parameter services are declared after /add_two_ints's node, each in a token of its own
+    assert observer.graph.wait_until(
+        lambda: (
+            parameter_nodes(offered_services(observer)) == ['/adder']
+            and '/add_two_ints' in offered_services(observer)
+        ),
+        TIMEOUT,
+    )
     services = offered_services(observer)
     assert services['/add_two_ints'] == 'example_interfaces/srv/AddTwoInts'
     assert '/_hidden' not in services
