@@ -290,12 +290,8 @@ class Buffer:
         if stamp == 0:
             stamp = _latest_common(chain)
         try:
-            up = IDENTITY
-            for _, edge in chain.up:
-                up = compose(edge.at(stamp), up)
-            down = IDENTITY
-            for _, edge in chain.down:
-                down = compose(edge.at(stamp), down)
+            up = _through(chain.up, stamp)
+            down = _through(chain.down, stamp)
         except OutOfRange as exc:
             raise _extrapolation(chain, stamp, exc) from None
         if not chain.down:
@@ -631,6 +627,16 @@ class Buffer:
     def __repr__(self) -> str:
         window = 'all' if self.cache_time is None else f'{self.cache_time / _NS:g} s'
         return f'<zros.tf.Buffer {len(self._frames)} frames, cache {window}>'
+
+
+def _through(edges: tuple[tuple[str, EdgeCache], ...], stamp: int) -> Pose7:
+    """The edges' transforms at ``stamp`` composed (the top of the walk in its bottom)."""
+    if not edges:
+        return IDENTITY
+    pose = edges[0][1].at(stamp)
+    for _, edge in edges[1:]:
+        pose = compose(edge.at(stamp), pose)
+    return pose
 
 
 def _latest_common(chain: Chain) -> int:

@@ -179,8 +179,8 @@ class EdgeCache:
         if self.static:
             return tuple(self._data[start].tolist())
         stamps = self._stamps
-        first = int(stamps[start])
-        last = int(stamps[end - 1])
+        first = stamps.item(start)
+        last = stamps.item(end - 1)
         if stamp >= last:
             if stamp == last:
                 return tuple(self._data[end - 1].tolist())
@@ -189,12 +189,12 @@ class EdgeCache:
             if stamp == first:
                 return tuple(self._data[start].tolist())
             raise OutOfRange('only' if end - start == 1 else 'past', first, last)
-        after = start + int(np.searchsorted(stamps[start:end], stamp, 'right'))
-        before_stamp = int(stamps[after - 1])
+        after = start + int(stamps[start:end].searchsorted(stamp, 'right'))
+        before_stamp = stamps.item(after - 1)
         before = tuple(self._data[after - 1].tolist())
         if before_stamp == stamp:
             return before
-        ratio = (stamp - before_stamp) / (int(stamps[after]) - before_stamp)
+        ratio = (stamp - before_stamp) / (stamps.item(after) - before_stamp)
         return interpolate(before, tuple(self._data[after].tolist()), ratio)
 
     def covers(self, stamp: int) -> bool:
