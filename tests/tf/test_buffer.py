@@ -268,3 +268,17 @@ def test_all_frames_as_yaml_and_string() -> None:
     parsed = YAML(typ='safe').load(yaml)
     assert parsed['odom']['buffer_length'] == 2.0
     assert 'transform_delay: 0.500' in buffer.all_frames_as_yaml(Time(13 * 10**9))
+
+
+def test_a_static_transform_sent_again_replaces_the_old_one_in_every_chain() -> None:
+    buffer = Buffer()
+    buffer.add('map', 'base', 10, (1, 0, 0, 0, 0, 0, 1), 'odom')
+    buffer.add('base', 'arm', 0, (0, 1, 0, 0, 0, 0, 1), 'rsp', static=True)
+    buffer.add('arm', 'hand', 0, (0, 0, 1, 0, 0, 0, 1), 'rsp', static=True)
+    first = buffer.lookup_transform('map', 'hand', 10).transform.translation
+    assert (first.x, first.y, first.z) == (1.0, 1.0, 1.0)
+    buffer.add('base', 'arm', 0, (0, 2, 0, 0, 0, 0, 1), 'rsp', static=True)
+    again = buffer.lookup_transform('map', 'hand', 10).transform.translation
+    assert (again.x, again.y, again.z) == (1.0, 2.0, 1.0)
+    t, _ = buffer.lookup_transforms('hand', 'map', [10])
+    np.testing.assert_allclose(t, [[-1.0, -2.0, -1.0]], atol=TOL)

@@ -34,8 +34,8 @@ LISTENER_QOS = QoS(100)
 STATIC_LISTENER_QOS = QoS(100, durability=Durability.TRANSIENT_LOCAL)
 #: senders named per listener; past this they are named by their key alone
 MAX_SENDERS = 256
-#: seconds before a sender the graph did not know yet is looked up again
-RENAME_AFTER = 0.5
+#: seconds before a sender's name is looked up in the graph again
+RENAME_AFTER = 1.0
 
 
 class TransformListener:
@@ -57,7 +57,8 @@ class TransformListener:
         self._context = context
         self._class = message_class(context.registry, TF_TYPE)
         self._decoder = compiled_decoder(self._class)
-        self._names: dict[str, tuple[str, float | None]] = {}  #: name, when to ask again
+        #: (sender, topic) -> its name, and when to ask the graph again
+        self._names: dict[tuple[str, str], tuple[str, float]] = {}
         self.undecodable = 0  #: samples that were not a TFMessage
         self.topics = (context.resolve_name('/tf'), context.resolve_name('/tf_static'))
         self._taps: list[RawTap] = []
@@ -77,16 +78,15 @@ class TransformListener:
             raise
 
     def _authority(self, sample: Sample, topic: str) -> str:
-        key = sender_key(sample)
+        key = (sender_key(sample), topic)
         known = self._names.get(key)
         now = time.monotonic()
-        if known is not None and (known[1] is None or now < known[1]):
+        if known is not None and now < known[1]:
             return known[0]
-        name = describe_sender(sample, key, self._context, topic)
-        # a sample can overtake its publisher's announcement: ask the graph again later
-        retry = now + RENAME_AFTER if 'announced by no one' in name else None
+        # asked again now and then: a sample can overtake its publisher's announcement
+        name = describe_sender(sample, key[0], self._context, topic)
         if len(self._names) < MAX_SENDERS or key in self._names:
-            self._names[key] = (name, retry)
+            self._names[key] = (name, now + RENAME_AFTER)
         return name
 
     def _receiver(self, topic: str, static: bool) -> Callable[[list[Sample]], None]:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from zros.tf.cache import EdgeCache
 from zros.tf.errors import ConnectivityException, InvalidArgumentException, LookupException
+from zros.tf.quaternions import Pose7, compose
 
 #: deeper than any real tree; a guard should a loop ever get in
 MAX_DEPTH = 1000
@@ -28,6 +29,9 @@ class Chain:
     up: tuple[tuple[str, EdgeCache], ...]
     down: tuple[tuple[str, EdgeCache], ...]
     version: int
+    #: ``up`` and ``down`` with each run of static edges composed into one constant
+    up_steps: tuple[EdgeCache | Pose7, ...] = ()
+    down_steps: tuple[EdgeCache | Pose7, ...] = ()
 
     @property
     def edges(self) -> tuple[tuple[str, EdgeCache], ...]:
@@ -104,4 +108,17 @@ def find_chain(
     common = index[down_frames[-1]]
     up = tuple((frame, edges[frame]) for frame in up_frames[:common])
     down = tuple((frame, edges[frame]) for frame in down_frames[:-1])
-    return Chain(target, source, up, down, version)
+    return Chain(target, source, up, down, version, _fold(up), _fold(down))
+
+
+def _fold(edges: tuple[tuple[str, EdgeCache], ...]) -> tuple[EdgeCache | Pose7, ...]:
+    """The edges in walking order, each run of static ones composed into one transform."""
+    steps: list[EdgeCache | Pose7] = []
+    for _, edge in edges:
+        if not edge.static:
+            steps.append(edge)
+        elif steps and isinstance(steps[-1], tuple):
+            steps[-1] = compose(edge.at(0), steps[-1])
+        else:
+            steps.append(edge.at(0))
+    return tuple(steps)
