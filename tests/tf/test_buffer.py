@@ -282,3 +282,16 @@ def test_a_static_transform_sent_again_replaces_the_old_one_in_every_chain() -> 
     assert (again.x, again.y, again.z) == (1.0, 2.0, 1.0)
     t, _ = buffer.lookup_transforms('hand', 'map', [10])
     np.testing.assert_allclose(t, [[-1.0, -2.0, -1.0]], atol=TOL)
+
+
+def test_rclpy_style_times_and_durations_are_taken_by_their_nanoseconds() -> None:
+    class RclpyLike:  # rclpy.time.Time and rclpy.duration.Duration have .nanoseconds
+        def __init__(self, nanoseconds: int) -> None:
+            self.nanoseconds = nanoseconds
+
+    buffer = Buffer()
+    buffer.add('a', 'b', 10, (1, 0, 0, 0, 0, 0, 1), 'test')
+    buffer.add('a', 'b', 20, (2, 0, 0, 0, 0, 0, 1), 'test')
+    got = buffer.lookup_transform('a', 'b', RclpyLike(15), timeout=RclpyLike(10**6))  # type: ignore[arg-type]
+    assert got.transform.translation.x == 1.5
+    assert not buffer.can_transform('a', 'b', RclpyLike(25), timeout=RclpyLike(10**6))  # type: ignore[arg-type]

@@ -8,7 +8,7 @@ Python floats; :meth:`Buffer.lookup_transforms` runs on numpy arrays for any num
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
@@ -54,18 +54,27 @@ class HasStamp(Protocol):
     nanosec: int
 
 
-#: a time: integer nanoseconds, a zros.Time, or a builtin_interfaces/msg/Time
-TimeLike = int | Time | HasStamp
-#: a timeout: seconds, or a zros.Duration
-TimeoutLike = float | Duration | None
+class HasNanoseconds(Protocol):
+    """A time or duration with integer ``nanoseconds`` (rclpy's ``Time`` and ``Duration``)."""
+
+    @property
+    def nanoseconds(self) -> int:
+        """The value in integer nanoseconds."""
+
+
+#: a time: integer nanoseconds, a zros.Time (or rclpy's), or a builtin_interfaces/msg/Time
+TimeLike = int | Time | HasStamp | HasNanoseconds
+#: a timeout: seconds, or a zros.Duration (or rclpy's)
+TimeoutLike = float | Duration | HasNanoseconds | None
 
 
 def nanoseconds(time: TimeLike, argument: str = 'time') -> int:
     """A time as integer nanoseconds (0 means the latest common time)."""
+    nanoseconds_of = getattr(time, 'nanoseconds', None)  # zros.Time, rclpy.time.Time
     if isinstance(time, int) and not isinstance(time, bool):
         value = time
-    elif isinstance(time, Time):
-        value = time.nanoseconds
+    elif isinstance(nanoseconds_of, int):
+        value = nanoseconds_of
     elif hasattr(time, 'sec') and hasattr(time, 'nanosec'):
         value = int(time.sec) * _NS + int(time.nanosec)
     else:
@@ -82,9 +91,10 @@ def nanoseconds(time: TimeLike, argument: str = 'time') -> int:
 def _seconds(timeout: TimeoutLike) -> float | None:
     if timeout is None:
         return None
-    if isinstance(timeout, Duration):
-        return timeout.seconds
-    return float(timeout)
+    nanoseconds_of = getattr(timeout, 'nanoseconds', None)  # zros or rclpy Duration
+    if isinstance(nanoseconds_of, int):
+        return nanoseconds_of / _NS
+    return float(timeout)  # type: ignore[arg-type]
 
 
 def format_time(stamp: int) -> str:
@@ -358,11 +368,7 @@ class Buffer:
         timeout: TimeoutLike = None,
     ) -> bool:
         """Whether :meth:`lookup_transform` would succeed (waiting up to ``timeout``)."""
-        try:
-            self.lookup_transform(target_frame, source_frame, time, timeout)
-        except TransformException:
-            return False
-        return True
+        return _succeeds(lambda: self.lookup_transform(target_frame, source_frame, time, timeout))
 
     def can_transform_full(  # noqa: PLR0917 (tf2_ros's signature)
         self,
@@ -374,15 +380,13 @@ class Buffer:
         timeout: TimeoutLike = None,
     ) -> bool:
         """Whether :meth:`lookup_transform_full` would succeed (waiting up to ``timeout``)."""
-        try:
-            self.lookup_transform_full(
+        return _succeeds(
+            lambda: self.lookup_transform_full(
                 target_frame, target_time, source_frame, source_time, fixed_frame, timeout
             )
-        except TransformException:
-            return False
-        return True
+        )
 
-    def _wait(self, attempt: object, timeout: TimeoutLike) -> None:
+    def _wait(self, attempt: Callable[[], object], timeout: TimeoutLike) -> None:
         """Wait until ``attempt()`` stops raising TransformException, or ``timeout`` runs out
         (then return: the caller's own attempt raises). KeyboardInterrupt on Ctrl-C."""
         seconds = _seconds(timeout)
@@ -390,12 +394,8 @@ class Buffer:
             return
 
         def ready() -> bool:
-            try:
-                with self._lock:
-                    attempt()  # type: ignore[operator]
-            except TransformException:
-                return False
-            return True
+            with self._lock:
+                return _succeeds(attempt)
 
         if not self._arrived.wait_for(ready, seconds) and interrupted():
             raise KeyboardInterrupt
@@ -639,6 +639,15 @@ def _through(steps: tuple[EdgeCache | Pose7, ...], stamp: int) -> Pose7:
         here = step if isinstance(step, tuple) else step.at(stamp)
         pose = here if number == 0 else compose(here, pose)
     return pose
+
+
+def _succeeds(attempt: Callable[[], object]) -> bool:
+    """Whether ``attempt()`` returns instead of raising a TransformException."""
+    try:
+        attempt()
+    except TransformException:
+        return False
+    return True
 
 
 def _latest_common(chain: Chain) -> int:
