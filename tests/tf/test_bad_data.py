@@ -143,3 +143,23 @@ def test_memory_is_bounded_by_the_cache_time() -> None:
     assert edge.received == 20_000
     held = buffer._edges['base']
     assert len(held._stamps) <= 4096  # the room did not grow with what went through
+
+
+def test_a_live_buffer_holds_a_bounded_number_of_frames_and_rows(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.tf import buffer as module
+
+    monkeypatch.setattr(module, 'MAX_FRAMES', 5)
+    monkeypatch.setattr(module, 'MAX_EDGE_LENGTH', 100)
+    buffer = Buffer(cache_time=3600.0)
+    with caplog.at_level(logging.WARNING, 'zros.tf'):
+        for i in range(8):
+            buffer.add('root', f'flood{i}', 1, GOOD, 'flooder')
+    assert len(buffer.edges()) == 5
+    assert buffer.rejections.counts['TF_TOO_MANY_FRAMES'] == 3
+    assert sum('TF_TOO_MANY_FRAMES' in line for line in warnings(caplog)) == 3  # one per frame
+    for stamp in range(2, 1000):  # 1 ns apart: all inside the hour the buffer keeps
+        assert buffer.add('root', 'flood0', stamp, GOOD, 'flooder')
+    edge = next(e for e in buffer.edges() if e.frame == 'flood0')
+    assert edge.length == 100 and edge.newest == 999

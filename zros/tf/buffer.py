@@ -44,7 +44,7 @@ _NS = 1_000_000_000
 #: frames a live buffer takes before refusing new ones (a flood of names must not grow it)
 MAX_FRAMES = 10_000
 #: transforms one live edge keeps, whatever its rate
-MAX_EDGE_LENGTH = 1_000_000
+MAX_EDGE_LENGTH = 100_000
 
 
 class HasStamp(Protocol):
