@@ -117,7 +117,7 @@ def test_live_echo_and_frames(cli: Cli, zros_node: Callable[..., Node], tmp_path
     seen = frames.seen
     laser = seen.index('laser: ')
     assert seen[laser + 1] == "  parent: 'base_link'"
-    assert 'robot' in seen[laser + 2]  # the broadcaster: the publishing node
+    assert 'robot' in seen[laser + 2], seen  # the broadcaster: the publishing node
     assert seen[seen.index('base_link: ') + 1] == "  parent: 'odom'"
     assert (tmp_path / 'live.pdf').read_bytes().startswith(b'%PDF')
 

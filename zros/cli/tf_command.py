@@ -205,7 +205,8 @@ def frames(args: argparse.Namespace) -> int:
             sleep(args.wait)
         finally:
             listener.unregister()
-    return _report_frames(args, buffer)
+        node.graph.refresh()  # the publishers are named from the graph: see all of it
+        return _report_frames(args, buffer)
 
 
 def _report_frames(args: argparse.Namespace, buffer: Buffer) -> int:

@@ -20,6 +20,7 @@ from zros.runtime.signal import Signal, interrupted
 from zros.tf import checks
 from zros.tf.bag_transforms import read_transforms
 from zros.tf.cache import EdgeCache, OutOfRange
+from zros.tf.checks import Authority
 from zros.tf.errors import (
     ExtrapolationException,
     InvalidArgumentException,
@@ -154,15 +155,15 @@ class Buffer:
 
     # --- filling -------------------------------------------------------------------------
 
-    def set_transform(self, transform: Message, authority: str) -> bool:
+    def set_transform(self, transform: Message, authority: Authority) -> bool:
         """Add a ``geometry_msgs/msg/TransformStamped``; False if it was refused (logged)."""
         return self._add_message(transform, authority, static=False)
 
-    def set_transform_static(self, transform: Message, authority: str) -> bool:
+    def set_transform_static(self, transform: Message, authority: Authority) -> bool:
         """Add a transform valid at every time (as from ``/tf_static``)."""
         return self._add_message(transform, authority, static=True)
 
-    def _add_message(self, transform: Message, authority: str, *, static: bool) -> bool:
+    def _add_message(self, transform: Message, authority: Authority, *, static: bool) -> bool:
         header = transform.header
         t = transform.transform.translation
         q = transform.transform.rotation
@@ -181,7 +182,7 @@ class Buffer:
         child: str,
         stamp: int,
         pose: Pose7,
-        authority: str,
+        authority: Authority,
         *,
         static: bool = False,
     ) -> bool:
@@ -222,7 +223,7 @@ class Buffer:
         return False
 
     def _edge_for(
-        self, parent: str, child: str, stamp: int, authority: str, static: bool
+        self, parent: str, child: str, stamp: int, authority: Authority, static: bool
     ) -> EdgeCache | None:
         """The edge to insert into (made if new); None when the transform is refused."""
         edge = self._edges.get(child)
@@ -538,7 +539,7 @@ class Buffer:
                 EdgeInfo(
                     frame=frame,
                     parent=edge.parent,
-                    authority=edge.authority,
+                    authority=str(edge.authority),
                     static=edge.static,
                     length=len(edge),
                     oldest=edge.oldest,
@@ -607,7 +608,7 @@ class Buffer:
         stamps: np.ndarray,
         rows: np.ndarray,
         *,
-        authority: str,
+        authority: Authority,
         static: bool,
     ) -> int:
         """Add a batch of checked transforms of one edge; how many it refused."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from zros.tf.checks import Authority
 from zros.tf.quaternions import Pose7, interpolate
 
 #: insert outcomes other than success, with tf2's names
@@ -59,7 +60,7 @@ class EdgeCache:
         self.static = static
         self.max_age = max_age  #: nanoseconds kept before the newest stamp (None: all)
         self.max_length = max_length  #: most transforms kept (None: no limit)
-        self.authority = ''  #: who sent the newest transform
+        self.authority: Authority = ''  #: who sent the newest transform
         self.received = 0  #: transforms accepted since the edge was made
         self._stamps = np.zeros(capacity, dtype=np.int64)
         self._data = np.zeros((capacity, 7), dtype=np.float64)

@@ -10,6 +10,7 @@ import logging
 import math
 import threading
 from collections import Counter
+from collections.abc import Hashable
 
 from zros.tf.quaternions import Pose7
 
@@ -27,8 +28,12 @@ TOO_MANY_FRAMES = 'TF_TOO_MANY_FRAMES'
 #: (code, sender, frame) triples told apart; past this, refusals are only counted
 MAX_TOLD = 4096
 
+#: who sent a transform: a name, or an object whose ``str()`` names it when it is shown (the
+#: listener's senders, named by the graph, which may learn of a publisher after its data)
+Authority = Hashable
 
-def check(child: str, parent: str, pose: Pose7, authority: str) -> tuple[str, str] | None:
+
+def check(child: str, parent: str, pose: Pose7, authority: Authority) -> tuple[str, str] | None:
     """Why tf2 would ignore this transform, as ``(code, message)``; None when it is fine."""
     if not child:
         return NO_CHILD_FRAME_ID, (
@@ -73,10 +78,10 @@ class Rejections:
 
     def __init__(self) -> None:
         self.counts: Counter[str] = Counter()
-        self._told: set[tuple[str, str, str]] = set()
+        self._told: set[tuple[str, Authority, str]] = set()
         self._lock = threading.Lock()
 
-    def report(self, code: str, authority: str, frame: str, message: str) -> None:
+    def report(self, code: str, authority: Authority, frame: str, message: str) -> None:
         """Count one refusal; log ``message`` the first time this sender does it."""
         key = (code, authority, frame)
         with self._lock:

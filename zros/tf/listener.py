@@ -2,8 +2,8 @@
 
 Two raw taps (``zros.pubsub.taps``) hand each sample over on the delivery thread, which
 decodes it and adds its transforms to the buffer at once: no spinning is needed, as with
-tf2_ros's listener and its own thread. Each sender is named once (the graph's name for it)
-and that name is the authority bad transforms are reported under.
+tf2_ros's listener and its own thread. Each sender is an authority the graph names when it
+is shown (in ``zros tf frames``, in the report of a bad transform).
 """
 
 from __future__ import annotations
@@ -20,10 +20,12 @@ from zros.cdr.message import decode
 from zros.pubsub.senders import describe_sender
 from zros.pubsub.taps import RawTap
 from zros.qos import Durability, QoS
+from zros.runtime.context import NodeContext
 from zros.runtime.defaults import NodeLike, default_node
 from zros.runtime.drops import sender_key
 from zros.runtime.entity import message_class
 from zros.tf.buffer import Buffer
+from zros.tf.checks import Authority
 
 _log = logging.getLogger('zros.tf')
 
@@ -34,8 +36,31 @@ LISTENER_QOS = QoS(100)
 STATIC_LISTENER_QOS = QoS(100, durability=Durability.TRANSIENT_LOCAL)
 #: senders named per listener; past this they are named by their key alone
 MAX_SENDERS = 256
-#: seconds before a sender's name is looked up in the graph again
+#: seconds a sender's name is kept before the graph is asked again
 RENAME_AFTER = 1.0
+
+
+class _Sender:
+    """A sender of transforms, named by the graph when shown (``str``). The name is asked
+    again once it is older than :data:`RENAME_AFTER`: a sample can overtake its publisher's
+    announcement, and a latched transform arrives only once."""
+
+    __slots__ = ('_context', '_key', '_name', '_sample', '_topic', '_until')
+
+    def __init__(self, context: NodeContext, key: str, topic: str, sample: Sample) -> None:
+        self._context = context
+        self._key = key
+        self._topic = topic
+        self._sample = sample  #: the first sample (its timestamp names the session)
+        self._name = key
+        self._until = 0.0
+
+    def __str__(self) -> str:
+        now = time.monotonic()
+        if now >= self._until:
+            self._name = describe_sender(self._sample, self._key, self._context, self._topic)
+            self._until = now + RENAME_AFTER
+        return self._name
 
 
 class TransformListener:
@@ -57,8 +82,7 @@ class TransformListener:
         self._context = context
         self._class = message_class(context.registry, TF_TYPE)
         self._decoder = compiled_decoder(self._class)
-        #: (sender, topic) -> its name, and when to ask the graph again
-        self._names: dict[tuple[str, str], tuple[str, float]] = {}
+        self._senders: dict[tuple[str, str], _Sender] = {}  #: by (sender key, topic)
         self.undecodable = 0  #: samples that were not a TFMessage
         self.topics = (context.resolve_name('/tf'), context.resolve_name('/tf_static'))
         self._taps: list[RawTap] = []
@@ -77,17 +101,14 @@ class TransformListener:
             self.unregister()
             raise
 
-    def _authority(self, sample: Sample, topic: str) -> str:
+    def _authority(self, sample: Sample, topic: str) -> Authority:
         key = (sender_key(sample), topic)
-        known = self._names.get(key)
-        now = time.monotonic()
-        if known is not None and now < known[1]:
-            return known[0]
-        # asked again now and then: a sample can overtake its publisher's announcement
-        name = describe_sender(sample, key[0], self._context, topic)
-        if len(self._names) < MAX_SENDERS or key in self._names:
-            self._names[key] = (name, now + RENAME_AFTER)
-        return name
+        sender = self._senders.get(key)
+        if sender is None:
+            if len(self._senders) >= MAX_SENDERS:
+                return key[0]
+            sender = self._senders[key] = _Sender(self._context, key[0], topic, sample)
+        return sender
 
     def _receiver(self, topic: str, static: bool) -> Callable[[list[Sample]], None]:
         def receive(samples: list[Sample]) -> None:
