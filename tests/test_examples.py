@@ -78,6 +78,14 @@ EXPECTED: dict[str, list[str]] = {
         r'fitted distance \[m\] over time into bag_to_numpy\.png',
     ],
     'real_robot.py': [r'No bridge answered at tcp/127\.0\.0\.1:7447|connected to tcp/127\.0\.0\.1'],
+    'robot_path.py': [
+        r'Frame base_laser exists with parent base_link\.',
+        r'Frame odom exists with parent map\.',
+        r'path of base_laser in map: 401 poses over 20\.0 s',
+        r'     10\.00      0\.900      4\.500       180\.0',
+        r'drove 12\.63 m',
+        r'drew the path into robot_path\.png',
+    ],
 }
 
 

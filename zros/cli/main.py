@@ -28,6 +28,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     'bag': ('read, record and play recordings', 'zros.cli.bag:add_parser'),
     'plot': ('plot topic fields, live or from a bag', 'zros.cli.plot:add_parser'),
     'graph': ('draw the ROS graph (rqt_graph)', 'zros.cli.plot:add_graph_parser'),
+    'tf': (
+        'frames: echo a transform, show the tree (tf2_echo, view_frames)',
+        'zros.cli.tf_command:add_parser',
+    ),
     'foxglove': (
         'serve the robot, or a bag, to the Foxglove app (as foxglove_bridge)',
         'zros.cli.foxglove_command:add_parser',

@@ -1,0 +1,89 @@
+"""The transforms of a recording's tf topics, checked and grouped by edge.
+
+Only the tf topics are read. Each transform passes tf2's checks (``zros.tf.checks``); the good
+ones are grouped per (parent, child, static, sender) into arrays the buffer stores at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from zros.bag import Bag, BagError
+from zros.tf import checks
+
+_NS = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class EdgeBatch:
+    """The checked transforms of one edge from one sender: stamps (int64 ns) and ``(N, 7)``
+    rows (translation, quaternion x y z w)."""
+
+    parent: str
+    child: str
+    static: bool
+    authority: str
+    stamps: np.ndarray
+    rows: np.ndarray
+
+
+def _is_static(topic: str) -> bool:
+    return topic.rstrip('/').endswith('tf_static')
+
+
+def read_transforms(
+    bag: Bag | str | Path, topics: tuple[str, ...], rejections: checks.Rejections
+) -> list[EdgeBatch]:
+    """The transforms of ``topics`` in ``bag`` by edge; refused ones go to ``rejections``."""
+    if isinstance(bag, Bag):
+        return _read(bag, topics, rejections)
+    with Bag(bag) as opened:
+        return _read(opened, topics, rejections)
+
+
+def _read(bag: Bag, topics: tuple[str, ...], rejections: checks.Rejections) -> list[EdgeBatch]:
+    present = [topic for topic in topics if topic in bag.topics]
+    if not present:
+        raise BagError(
+            bag.path,
+            f'no topic {" or ".join(topics)} in the recording; it has: '
+            f'{", ".join(bag.topics) or "none"}',
+        )
+    # (parent, child, static, authority) -> stamps, poses; checked one by one, stored at once
+    batches: dict[tuple[str, str, bool, str], tuple[list[int], list[tuple[float, ...]]]] = {}
+    decode = bag.types.decode
+    for raw in bag.raw_messages(present):
+        topic = raw.connection.topic
+        static = _is_static(topic)
+        authority = f'{topic} (connection {raw.connection.id} of {bag.path.name})'
+        for transform in decode(raw).transforms:
+            header = transform.header
+            parent = header.frame_id.lstrip('/')
+            child = transform.child_frame_id.lstrip('/')
+            t = transform.transform.translation
+            q = transform.transform.rotation
+            pose = (t.x, t.y, t.z, q.x, q.y, q.z, q.w)
+            problem = checks.check(child, parent, pose, authority)
+            if problem is not None:
+                rejections.report(problem[0], authority, child, problem[1])
+                continue
+            key = (parent, child, static, authority)
+            batch = batches.get(key)
+            if batch is None:
+                batch = batches[key] = ([], [])
+            batch[0].append(header.stamp.sec * _NS + header.stamp.nanosec)
+            batch[1].append(checks.normalized(pose))
+    return [
+        EdgeBatch(
+            parent,
+            child,
+            static,
+            authority,
+            np.asarray(stamps, dtype=np.int64),
+            np.asarray(poses, dtype=np.float64),
+        )
+        for (parent, child, static, authority), (stamps, poses) in batches.items()
+    ]

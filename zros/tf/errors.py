@@ -1,0 +1,25 @@
+"""tf2's exceptions, as subclasses of :class:`zros.ZrosError`."""
+
+from __future__ import annotations
+
+from zros.errors import ZrosError
+
+
+class TransformException(ZrosError):
+    """Base of every transform lookup error (tf2's ``TransformException``)."""
+
+
+class LookupException(TransformException):
+    """A frame the buffer does not know; the message names the closest known frames."""
+
+
+class ConnectivityException(TransformException):
+    """The two frames are in trees not joined; the message names both roots."""
+
+
+class ExtrapolationException(TransformException):
+    """The requested time is outside what the chain's data covers; the message says both."""
+
+
+class InvalidArgumentException(TransformException):
+    """An argument no lookup can take: an empty frame name, a bad time or array."""

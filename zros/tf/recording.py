@@ -1,0 +1,47 @@
+"""Trajectories from recordings, as columns.
+
+``zros.bag`` sits below ``zros.tf`` (the layers of DESIGN.md), so the bag cannot offer a
+``Bag.trajectory`` method itself: :func:`trajectory` takes the bag as its first argument.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from zros.bag import Bag
+from zros.tf.buffer import Buffer
+from zros.tf.tree import clean_frame
+
+
+def trajectory(
+    bag: Bag | str | Path | Buffer,
+    target_frame: str,
+    source_frame: str,
+    times: np.ndarray | Sequence[int] | None = None,
+) -> dict[str, np.ndarray]:
+    """The pose of ``source_frame`` in ``target_frame`` over a recording, as columns ``t``
+    (int64 ns), ``x``, ``y``, ``z``, ``qx``, ``qy``, ``qz``, ``qw``.
+
+    ``times`` (int64 ns) default to every stamp at which a moving edge of the chain has a
+    transform while the whole chain is known. Stamps the chain does not cover give NaN rows.
+    ``bag`` may be a path, an open :class:`~zros.bag.Bag`, or a buffer made with
+    :meth:`Buffer.from_bag` (to look up several chains without reading the bag again).
+    """
+    buffer = bag if isinstance(bag, Buffer) else Buffer.from_bag(bag)
+    target = clean_frame(target_frame, 'target_frame')
+    source = clean_frame(source_frame, 'source_frame')
+    stamps = buffer.stamps(target, source) if times is None else np.asarray(times, dtype=np.int64)
+    translations, rotations = buffer.lookup_transforms(target, source, stamps)
+    return {
+        't': stamps,
+        'x': translations[:, 0],
+        'y': translations[:, 1],
+        'z': translations[:, 2],
+        'qx': rotations[:, 0],
+        'qy': rotations[:, 1],
+        'qz': rotations[:, 2],
+        'qw': rotations[:, 3],
+    }
