@@ -10,12 +10,12 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from zros.cdr import Message, get_class
-from zros.runtime.clock import Duration, Time
+from zros.runtime.clock import Duration
 from zros.runtime.signal import Signal, interrupted
 from zros.tf import checks
 from zros.tf.bag_transforms import read_transforms
@@ -34,6 +34,7 @@ from zros.tf.quaternions import (
     invert,
     rotate,
 )
+from zros.tf.times import TimeLike, TimeoutLike, format_time, nanoseconds, seconds
 from zros.tf.tree import Chain, ancestors, clean_frame, find_chain
 
 if TYPE_CHECKING:
@@ -46,62 +47,6 @@ _NS = 1_000_000_000
 MAX_FRAMES = 10_000
 #: transforms one live edge keeps, whatever its rate
 MAX_EDGE_LENGTH = 100_000
-
-
-class HasStamp(Protocol):
-    """A ``builtin_interfaces/msg/Time``."""
-
-    sec: int
-    nanosec: int
-
-
-class HasNanoseconds(Protocol):
-    """A time or duration with integer ``nanoseconds`` (rclpy's ``Time`` and ``Duration``)."""
-
-    @property
-    def nanoseconds(self) -> int:
-        """The value in integer nanoseconds."""
-
-
-#: a time: integer nanoseconds, a zros.Time (or rclpy's), or a builtin_interfaces/msg/Time
-TimeLike = int | Time | HasStamp | HasNanoseconds
-#: a timeout: seconds, or a zros.Duration (or rclpy's)
-TimeoutLike = float | Duration | HasNanoseconds | None
-
-
-def nanoseconds(time: TimeLike, argument: str = 'time') -> int:
-    """A time as integer nanoseconds (0 means the latest common time)."""
-    nanoseconds_of = getattr(time, 'nanoseconds', None)  # zros.Time, rclpy.time.Time
-    if isinstance(time, int) and not isinstance(time, bool):
-        value = time
-    elif isinstance(nanoseconds_of, int):
-        value = nanoseconds_of
-    elif hasattr(time, 'sec') and hasattr(time, 'nanosec'):
-        value = int(time.sec) * _NS + int(time.nanosec)
-    else:
-        hint = ' (for seconds, use zros.Time.from_seconds)' if isinstance(time, float) else ''
-        raise InvalidArgumentException(
-            f'{argument} must be integer nanoseconds, a zros.Time or a '
-            f'builtin_interfaces/msg/Time, not {type(time).__name__}{hint}'
-        )
-    if value < 0:
-        raise InvalidArgumentException(f'{argument} is negative ({value} ns)')
-    return value
-
-
-def _seconds(timeout: TimeoutLike) -> float | None:
-    if timeout is None:
-        return None
-    nanoseconds_of = getattr(timeout, 'nanoseconds', None)  # zros or rclpy Duration
-    if isinstance(nanoseconds_of, int):
-        return nanoseconds_of / _NS
-    return float(timeout)  # type: ignore[arg-type]
-
-
-def format_time(stamp: int) -> str:
-    """Nanoseconds as seconds with all nine decimals."""
-    sec, nanosec = divmod(stamp, _NS)
-    return f'{sec}.{nanosec:09d}'
 
 
 @dataclass(frozen=True)
@@ -143,8 +88,8 @@ class Buffer:
     """
 
     def __init__(self, cache_time: float | Duration | None = 10.0) -> None:
-        seconds = _seconds(cache_time)
-        self.cache_time: int | None = None if seconds is None else round(seconds * _NS)
+        window = seconds(cache_time)
+        self.cache_time: int | None = None if window is None else round(window * _NS)
         self._edges: dict[str, EdgeCache] = {}
         self._frames: set[str] = set()
         self._version = 0
@@ -390,15 +335,15 @@ class Buffer:
     def _wait(self, attempt: Callable[[], object], timeout: TimeoutLike) -> None:
         """Wait until ``attempt()`` stops raising TransformException, or ``timeout`` runs out
         (then return: the caller's own attempt raises). KeyboardInterrupt on Ctrl-C."""
-        seconds = _seconds(timeout)
-        if not seconds or seconds <= 0:
+        wait = seconds(timeout)
+        if not wait or wait <= 0:
             return
 
         def ready() -> bool:
             with self._lock:
                 return _succeeds(attempt)
 
-        if not self._arrived.wait_for(ready, seconds) and interrupted():
+        if not self._arrived.wait_for(ready, wait) and interrupted():
             raise KeyboardInterrupt
 
     # --- many stamps at once -----------------------------------------------------------------
