@@ -391,3 +391,26 @@ def test_undeclaring_waits_for_a_call_in_another_thread(
     gone = _Busy(0, zenoh.ZError('session closed'))
     entity._undeclare(gone, 'pub')  # the session closed under it
     assert gone.calls == 1
+
+
+def test_qos_extensions_take_names_numbers_or_members_and_refuse_others() -> None:
+    qos = QoS(1, congestion='block_first', priority='data_low', express=True, lifespan=0.5)
+    assert qos.congestion is zros.Congestion.BLOCK_FIRST and qos.priority is zros.Priority.DATA_LOW
+    assert QoS(priority=2).priority is zros.Priority.INTERACTIVE_HIGH
+    assert str(qos) == (
+        'reliable, volatile, keep last 1, lifespan 0.5 s, block_first, priority data_low, express'
+    )
+    with pytest.raises(ValueError, match='unknown priority 9; one of: real_time'):
+        QoS(priority=9)
+    with pytest.raises(ValueError, match="unknown congestion 'fast'; one of: drop, block"):
+        QoS(congestion='fast')
+    with pytest.raises(ValueError, match='lifespan is a number of seconds > 0, got 0'):
+        QoS(lifespan=0)
+
+
+def test_congestion_control_follows_reliability_and_history() -> None:
+    assert QoS(5, zros.Reliability.BEST_EFFORT).congestion_control is zros.Congestion.DROP
+    assert QoS(1).congestion_control is zros.Congestion.BLOCK_FIRST
+    keep_all = QoS(history=zros.History.KEEP_ALL)
+    assert keep_all.congestion_control is zros.Congestion.BLOCK
+    assert keep_all.with_(congestion='drop').congestion_control is zros.Congestion.DROP

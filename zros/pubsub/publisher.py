@@ -15,7 +15,7 @@ from zros.cdr.message import Message
 from zros.cdr.model import Kind
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
-from zros.qos import QoS, QoSLike, as_qos
+from zros.qos import Congestion, QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity, message_class
 from zros.runtime.signal import sleep
@@ -25,12 +25,20 @@ if TYPE_CHECKING:
 
     from zros.wire import WireEntity
 
+_CONGESTION = {
+    Congestion.DROP: CongestionControl.DROP,
+    Congestion.BLOCK: CongestionControl.BLOCK,
+    Congestion.BLOCK_FIRST: CongestionControl.BLOCK_FIRST,
+}
+
 
 class Publisher(Entity):
     """Publishes messages of one type on one topic (rosR: ``ros.Publisher``).
 
-    ``qos`` is a :class:`zros.QoS`, a depth or a preset name (``'sensor_data'``). Reliable
-    publishers block when the network cannot keep up; best-effort ones drop.
+    ``qos`` is a :class:`zros.QoS`, a depth or a preset name (``'sensor_data'``). When the
+    network cannot keep up, ``write()`` drops the message rather than wait (a keep-last reader
+    wants the newest), except for reliable keep-all publishers, which block until it is sent
+    (as rmw_zenoh chooses); ``QoS(congestion=...)`` overrides that.
     """
 
     def __init__(
@@ -73,7 +81,7 @@ class Publisher(Entity):
 
     def _declare(self, wire: WireEntity) -> ZenohPublisher | ext.AdvancedPublisher:
         qos = self.qos
-        congestion = CongestionControl.BLOCK if qos.reliable else CongestionControl.DROP
+        congestion = _CONGESTION[qos.congestion_control]
         reliability = Reliability.RELIABLE if qos.reliable else Reliability.BEST_EFFORT
         session = self.context.transport.session
         if qos.transient_local:
