@@ -99,6 +99,14 @@ class QoS:
             return Congestion.DROP
         return Congestion.BLOCK if self.keep_all else Congestion.BLOCK_FIRST
 
+    def priority_for(self, topic: str, type_name: str) -> tuple[Priority, bool]:
+        """The priority and express flag of a publisher of ``type_name`` on ``topic``: the
+        QoS's own, else :func:`default_priority`, express for INTERACTIVE_HIGH and above
+        (small urgent messages skip batching)."""
+        priority = self.priority or default_priority(topic, type_name)
+        express = priority <= Priority.INTERACTIVE_HIGH if self.express is None else self.express
+        return priority, express
+
     @property
     def reliable(self) -> bool:
         """Whether the reliability is RELIABLE."""
@@ -147,6 +155,36 @@ def _member(kind: type[_E], value: object) -> _E:
             return member
     names = ', '.join(m.name.lower() for m in kind)
     raise ValueError(f'unknown {kind.__name__.lower()} {value!r}; one of: {names}')
+
+
+#: types whose messages are bulk data, sent after everything else (``Priority.DATA_LOW``)
+BULK_TYPES = frozenset({
+    'sensor_msgs/msg/Image', 'sensor_msgs/msg/CompressedImage', 'sensor_msgs/msg/PointCloud2',
+    'sensor_msgs/msg/PointCloud', 'nav_msgs/msg/OccupancyGrid', 'map_msgs/msg/OccupancyGridUpdate',
+    'foxglove_msgs/msg/CompressedVideo', 'foxglove_msgs/msg/RawImage',
+    'foxglove_msgs/msg/CompressedImage', 'foxglove_msgs/msg/PointCloud',
+    'ffmpeg_image_transport_msgs/msg/FFMPEGPacket', 'theora_image_transport/msg/Packet',
+    'octomap_msgs/msg/Octomap', 'grid_map_msgs/msg/GridMap',
+})  # fmt: skip
+#: topics that steer, locate or explain the robot, sent first (``Priority.INTERACTIVE_HIGH``)
+URGENT_TOPICS = frozenset({
+    '/tf', '/tf_static', '/cmd_vel', '/rosout', '/parameter_events', '/joy', '/estop',
+    '/e_stop', '/emergency_stop',
+})  # fmt: skip
+#: services, actions and parameters: their requests, and so their replies (Zenoh replies at
+#: the priority of the query), as urgent topics
+SERVICE_PRIORITY = Priority.INTERACTIVE_HIGH
+
+
+def default_priority(topic: str, type_name: str) -> Priority:
+    """The Zenoh priority of a publisher whose QoS names none: INTERACTIVE_HIGH for the
+    urgent topics (also in a namespace: ``/robot1/cmd_vel``) and actions' feedback and status,
+    DATA_LOW for bulk types, DATA (Zenoh's default) for the rest."""
+    if '/_action/' in topic or '/' + topic.rsplit('/', 1)[-1] in URGENT_TOPICS:
+        return Priority.INTERACTIVE_HIGH
+    if type_name in BULK_TYPES:
+        return Priority.DATA_LOW
+    return Priority.DATA
 
 
 #: ROS 2's ``rclpy.qos.qos_profile_sensor_data``

@@ -9,10 +9,12 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
+import zenoh
 
 import zros
 from tests.cli.conftest import Cli
 from zros.testing import spinning, wait_for
+from zros.transport import Router
 
 Node = Callable[..., Any]
 
@@ -267,3 +269,24 @@ def test_list_on_a_graph_larger_than_zenoh_channels(cli: Cli, zros_node: Node) -
     assert [name for name in listing.stdout.split() if name.startswith('/crowd/')] == [
         f'/crowd/t{index:03d}' for index in range(300)
     ]
+
+
+def test_pub_sends_with_the_priority_and_congestion_asked(cli: Cli, zros_router: Router) -> None:
+    samples: list[zenoh.Sample] = []
+    taps = [zros_router.session.declare_subscriber(key, samples.append) for key in ('a', 'b')]
+    chosen_options = ('--priority', 'background', '--no-express', '--congestion', 'block')
+    for topic, options in (('/a', ()), ('/b', chosen_options)):
+        result = cli.run(
+            'topic', 'pub', topic, 'std_msgs/msg/Int32', '{data: 1}', '--once', *options
+        )
+        assert result.returncode == 0, result.stderr
+    assert wait_for(lambda: len(samples) == 2, 10)
+    for tap in taps:
+        tap.undeclare()
+    default, chosen = sorted(samples, key=lambda s: str(s.key_expr))
+    assert default.priority == zenoh.Priority.DATA
+    assert default.congestion_control == zenoh.CongestionControl.BLOCK_FIRST
+    assert chosen.priority == zenoh.Priority.BACKGROUND and not chosen.express
+    assert chosen.congestion_control == zenoh.CongestionControl.BLOCK
+    wrong = cli.run('topic', 'pub', '/a', 'std_msgs/msg/Int32', '{}', '--once', '--priority', '9')
+    assert wrong.returncode == 2 and "invalid choice: '9'" in wrong.stderr

@@ -9,8 +9,8 @@ With ``rate`` (bytes per second) each direction is also a bottleneck of that ban
 leaves it when the chunks before it have, at ``rate``, and arrives ``delay`` later. ``buffer``
 (bytes; default the bandwidth-delay product) bounds what waits at the bottleneck: past it the
 proxy stops reading, so the sender's TCP sees the back-pressure a real path gives instead of
-piling megabytes into loopback socket buffers; the proxy's own sockets get buffers of that
-size too.
+piling megabytes into loopback socket buffers; the proxy's own sockets then get small buffers
+(one read's worth), so that what the path holds is the bottleneck's queue and its delay line.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ class DelayProxy:
         self.rate = rate  #: bytes per second each way (None: unlimited)
         if buffer is None and rate is not None:
             buffer = max(int(rate * 2 * delay), 65536)
-        self.buffer = buffer  #: bytes that may wait at the bottleneck, and socket buffer sizes
+        self.buffer = buffer  #: bytes that may wait at the bottleneck
         self.port = 0
         self._loop = asyncio.new_event_loop()
         self._ready = threading.Event()
@@ -74,9 +74,9 @@ class DelayProxy:
         return 65536 if self.buffer is None else min(65536, max(self.buffer // 8, 4096))
 
     def _size(self, sock: socket.socket) -> None:
-        if self.buffer is not None:
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.buffer)
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, self.buffer)
+        if self.buffer is not None:  # Linux doubles what it is given
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self._chunk // 2)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, self._chunk // 2)
 
     async def _accept(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)

@@ -3,15 +3,16 @@
 
 from __future__ import annotations
 
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import pytest
 
 import zros
 from tests.runtime.wan_rig import Wan, wan
 from zros.node import Node
-from zros.qos import Congestion, History, QoS
+from zros.qos import Congestion, History, Priority, QoS
 from zros.testing import wait_for
 
 IMAGE = 900_000  #: bytes of image data (640x480 rgb8 is 921,600)
@@ -41,6 +42,19 @@ def _camera(rig: Wan, qos: QoS) -> tuple[Node, zros.Publisher, zros.Subscriber]:
     return robot, camera, seen
 
 
+def _quiet(rig: Wan) -> Callable[[], bool]:
+    """A condition: nothing crossed the link towards the laptop for a second."""
+    last = [-1, time.monotonic()]
+
+    def quiet() -> bool:
+        relayed = rig.proxy.relayed['down']
+        if relayed != last[0]:
+            last[:] = [relayed, time.monotonic()]
+        return time.monotonic() - last[1] > 1.0
+
+    return quiet
+
+
 def _publish(camera: zros.Publisher, count: int, period: float) -> list[float]:
     """Write ``count`` images every ``period`` seconds; how long each write() took."""
     took = []
@@ -61,15 +75,17 @@ def test_a_keep_last_writer_never_waits_for_a_slow_link_and_the_newest_arrives(r
     assert max(took) < 0.05, f'the slowest write() took {max(took) * 1e3:.0f} ms'
     arrived: list[int] = []
 
-    def newest() -> bool:
-        # the link takes 0.72 s an image: the one on its way when the last was written is at
-        # most 8 older, and Zenoh drops what comes while one is on its way (block_first)
-        arrived.extend(int(m.header.frame_id) for m in seen.take())
-        return bool(arrived) and arrived[-1] >= 100 - 10
+    quiet = _quiet(rig)
 
-    assert wait_for(newest, 10), f'the last images that arrived: {arrived[-3:]}'
-    assert not wait_for(seen.has_new_message, 1.5)  # nothing stale replayed after it
-    assert arrived == sorted(set(arrived))
+    def drained() -> bool:
+        arrived.extend(int(m.header.frame_id) for m in seen.take())
+        return quiet()
+
+    assert wait_for(drained, 15)  # the last image on its way arrived
+    # the link takes 0.72 s an image: the one on its way when the last was written is at most
+    # 8 older, and Zenoh drops what comes while one is on its way (block_first)
+    assert arrived and arrived[-1] >= 100 - 10, f'the last images that arrived: {arrived[-3:]}'
+    assert arrived == sorted(set(arrived))  # in order, nothing replayed
     assert 5 < seen.received < 30  # about what the link carries in 10 s, as it was written
 
 
@@ -81,3 +97,42 @@ def test_a_keep_all_writer_blocks_until_every_message_is_sent(rig: Wan) -> None:
     assert max(took) > 0.2  # the link carries one image in 0.72 s: the writer waits for it
     assert wait_for(lambda: seen.received == 6, 10)
     assert [int(m.header.frame_id) for m in seen.take()] == list(range(6))
+
+
+def test_small_urgent_messages_overtake_images_that_saturate_the_link(rig: Wan) -> None:
+    robot = rig.node('robot', remote=False)
+    laptop = rig.node('laptop', remote=True)
+    ages: list[float] = []
+
+    def on_command(message: zros.Message) -> None:
+        stamp = message.header.stamp
+        ages.append(time.time() - stamp.sec - stamp.nanosec * 1e-9)
+
+    laptop.create_subscription('geometry_msgs/msg/TwistStamped', 'cmd_vel', on_command, qos=100)
+    seen = laptop.create_subscription('sensor_msgs/msg/Image', 'camera', qos=1)
+    camera = robot.create_publisher('sensor_msgs/msg/Image', 'camera', qos=1)
+    command = robot.create_publisher('geometry_msgs/msg/TwistStamped', 'cmd_vel')
+    assert (camera.priority, command.priority) == (Priority.DATA_LOW, Priority.INTERACTIVE_HIGH)
+    assert command.express and not camera.express
+    assert camera.wait_for_subscribers(10) and command.wait_for_subscribers(10)
+    stop = threading.Event()
+    spinner = threading.Thread(
+        target=lambda: [laptop.spin_once(0.05) for _ in iter(stop.is_set, True)]
+    )
+    spinner.start()
+    try:
+        start = time.monotonic()
+        for number in range(30):  # 9 MB/s of images into 1.25 MB/s, and 10 commands a second
+            camera.write(_image(number))
+            twist = zros.Message('geometry_msgs/msg/TwistStamped')
+            now = time.time_ns()
+            twist.header.stamp.sec, twist.header.stamp.nanosec = divmod(now, 10**9)
+            command.write(twist)
+            time.sleep(max(0.0, start + (number + 1) * 0.1 - time.monotonic()))
+        assert wait_for(lambda: len(ages) == 30, 5), f'{len(ages)} of 30 commands arrived'
+    finally:
+        stop.set()
+        spinner.join(5)
+    ages.sort()
+    assert ages[-1] < 0.5, f'commands arrived up to {ages[-1]:.2f} s old'
+    assert seen.received > 1  # the images saturated the link all along

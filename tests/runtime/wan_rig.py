@@ -16,7 +16,8 @@ from zros.transport import Router, Transport, TransportConfig, start_router
 DELAY = 0.05  #: seconds each way
 RATE = 10e6 / 8  #: bytes per second each way (10 Mbit/s)
 BDP = int(RATE * 2 * DELAY)  #: the path's bandwidth-delay product (125 kB)
-SIZED = {'transport/link/tcp/so_sndbuf': BDP, 'transport/link/tcp/so_rcvbuf': BDP}
+#: Zenoh's TCP socket buffers: the bandwidth-delay product (Linux doubles what it is given)
+SIZED = {'transport/link/tcp/so_sndbuf': BDP // 2, 'transport/link/tcp/so_rcvbuf': BDP // 2}
 
 
 @dataclass

@@ -24,6 +24,7 @@ from zros.cli.shared import (
     out,
     parse_values,
 )
+from zros.qos import DEFAULT, LATCHED, Congestion, Priority
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -170,7 +171,9 @@ def pub(args: argparse.Namespace) -> int:
     cls = message_class(args.type)
     message = build_message(cls, parse_values(args.values))
     with open_node(args) as node:
-        qos = 'latched' if args.latched else 10
+        qos = (LATCHED if args.latched else DEFAULT).with_(
+            priority=args.priority, express=args.express, congestion=args.congestion
+        )
         publisher = node.create_publisher(cls, args.topic, qos=qos)
         if args.wait_matching_subscriptions:
             deadline = time.monotonic() + 30
@@ -424,6 +427,18 @@ def add_parser(
     parser.add_argument('--keep-alive', type=float, default=1.0, metavar='S',
                         help='with --latched: seconds to stay for late subscribers')  # fmt: skip
     parser.add_argument('-w', '--wait-matching-subscriptions', type=int, default=0, metavar='N')
+    parser.add_argument(
+        '--priority', choices=[p.name.lower() for p in Priority],
+        help="Zenoh's priority (default: by topic and type, docs/qos.md)",
+    )  # fmt: skip
+    parser.add_argument(
+        '--express', action=argparse.BooleanOptionalAction, default=None,
+        help='send each message at once, unbatched (default: for urgent ones)',
+    )  # fmt: skip
+    parser.add_argument(
+        '--congestion', choices=[c.value for c in Congestion],
+        help='on a full link (default: block_first; docs/qos.md)',
+    )  # fmt: skip
 
     for name, help_text in (
         ('hz', 'the rate of a topic'),

@@ -7,7 +7,7 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from zenoh import CongestionControl, Reliability, ZError, ext
+from zenoh import Reliability, ZError, ext
 
 from zros.cdr import encode
 from zros.cdr.encode_buffer import EncodeBuffer
@@ -15,21 +15,16 @@ from zros.cdr.message import Message
 from zros.cdr.model import Kind
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
-from zros.qos import Congestion, QoS, QoSLike, as_qos
+from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity, message_class
 from zros.runtime.signal import sleep
+from zros.transport.qos import CONGESTION, PRIORITY
 
 if TYPE_CHECKING:
     from zenoh import Publisher as ZenohPublisher
 
     from zros.wire import WireEntity
-
-_CONGESTION = {
-    Congestion.DROP: CongestionControl.DROP,
-    Congestion.BLOCK: CongestionControl.BLOCK,
-    Congestion.BLOCK_FIRST: CongestionControl.BLOCK_FIRST,
-}
 
 
 class Publisher(Entity):
@@ -81,18 +76,23 @@ class Publisher(Entity):
 
     def _declare(self, wire: WireEntity) -> ZenohPublisher | ext.AdvancedPublisher:
         qos = self.qos
-        congestion = _CONGESTION[qos.congestion_control]
+        congestion = CONGESTION[qos.congestion_control]
         reliability = Reliability.RELIABLE if qos.reliable else Reliability.BEST_EFFORT
+        priority, express = qos.priority_for(self.topic, self.type_name)
+        #: the Zenoh priority and express flag its messages carry
+        self.priority, self.express = priority, express
         session = self.context.transport.session
         if qos.transient_local:
             return ext.declare_advanced_publisher(
                 session, self.key, cache=ext.CacheConfig(max_samples=qos.depth),
                 publisher_detection=True, congestion_control=congestion, reliability=reliability,
+                priority=PRIORITY[priority], express=express,
                 **wire.publisher_options(qos),
             )  # fmt: skip
         publisher: ZenohPublisher = session.declare_publisher(
-            self.key, congestion_control=congestion, reliability=reliability
-        )
+            self.key, congestion_control=congestion, reliability=reliability,
+            priority=PRIORITY[priority], express=express,
+        )  # fmt: skip
         return publisher
 
     def write(self, message: Message) -> None:
