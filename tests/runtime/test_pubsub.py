@@ -6,6 +6,7 @@ import asyncio
 import logging
 import time
 from collections.abc import Callable
+from datetime import datetime, timezone
 from functools import partial
 
 import numpy as np
@@ -408,9 +409,51 @@ def test_qos_extensions_take_names_numbers_or_members_and_refuse_others() -> Non
         QoS(lifespan=0)
 
 
-def test_congestion_control_follows_reliability_and_history() -> None:
-    assert QoS(5, zros.Reliability.BEST_EFFORT).congestion_control is zros.Congestion.DROP
-    assert QoS(1).congestion_control is zros.Congestion.BLOCK_FIRST
-    keep_all = QoS(history=zros.History.KEEP_ALL)
-    assert keep_all.congestion_control is zros.Congestion.BLOCK
-    assert keep_all.with_(congestion='drop').congestion_control is zros.Congestion.DROP
+def test_congestion_control_follows_reliability_history_and_size() -> None:
+    drop, block, first = zros.Congestion.DROP, zros.Congestion.BLOCK, zros.Congestion.BLOCK_FIRST
+    for qos, small, large in (
+        (QoS(5, zros.Reliability.BEST_EFFORT), drop, drop),
+        (QoS(1), drop, first),
+        (LATCHED, first, first),
+        (QoS(history=zros.History.KEEP_ALL), block, block),
+        (QoS(history=zros.History.KEEP_ALL, congestion='drop'), drop, drop),
+    ):
+        assert (qos.congestion_for(large=False), qos.congestion_for(large=True)) == (small, large)
+
+
+def test_a_burst_of_small_reliable_messages_arrives_whole(zros_node: Callable[..., Node]) -> None:
+    talker, listener = connected(zros_node)
+    sub = listener.create_subscription(String, 'chatter', qos=QoS(3000))
+    pub = talker.create_publisher(String, 'chatter')
+    assert pub.wait_for_subscribers()
+    for i in range(3000):
+        pub.write(text(str(i)))
+    assert wait_for(lambda: sub.received == 3000), f'{sub.received} of 3000 arrived'
+    assert [m.data for m in sub.take()] == [str(i) for i in range(3000)]
+
+
+def test_messages_past_their_lifespan_are_dropped_on_arrival_counted_and_logged(
+    zros_node: Callable[..., Node],
+    zros_transport: Callable[..., Transport],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    listener = zros_node('listener')
+    sub = listener.create_subscription(String, 'chatter', qos=QoS(10, lifespan=1.0))
+    sender = zros_transport()
+    publisher = sender.session.declare_publisher(sub.key)
+    assert wait_for(lambda: publisher.matching_status.matching)
+    stamp_id = zenoh.TimestampId(bytes(sender.session.zid()))
+
+    def put(value: str, age: float) -> None:
+        stamp = zenoh.Timestamp(datetime.fromtimestamp(time.time() - age, timezone.utc), stamp_id)
+        publisher.put(zros.cdr.encode(text(value)), timestamp=stamp, **put_options(listener))
+
+    with caplog.at_level(logging.WARNING, logger='zros'):
+        put('stale', 5.0)
+        put('fresh', 0.0)
+        put('older than a second', 1.5)
+        assert wait_for(lambda: sub.received + sub.expired == 3)
+    assert [m.data for m in sub.take()] == ['fresh']
+    assert sub.expired == 2 and sub.dropped == 2
+    warnings = [r.getMessage() for r in caplog.records if 'past its lifespan' in r.getMessage()]
+    assert len(warnings) == 1 and 'arrived 5.0' in warnings[0] and 'lifespan of 1 s' in warnings[0]

@@ -70,7 +70,7 @@ def _publish(camera: zros.Publisher, count: int, period: float) -> list[float]:
 
 def test_a_keep_last_writer_never_waits_for_a_slow_link_and_the_newest_arrives(rig: Wan) -> None:
     _, camera, seen = _camera(rig, QoS(1))
-    assert camera.qos.congestion_control is Congestion.BLOCK_FIRST
+    assert camera.qos.congestion_for(large=True) is Congestion.BLOCK_FIRST
     took = _publish(camera, 100, 0.1)  # 9 MB/s into a link of 1.25 MB/s
     assert max(took) < 0.05, f'the slowest write() took {max(took) * 1e3:.0f} ms'
     arrived: list[int] = []
@@ -92,7 +92,7 @@ def test_a_keep_last_writer_never_waits_for_a_slow_link_and_the_newest_arrives(r
 def test_a_keep_all_writer_blocks_until_every_message_is_sent(rig: Wan) -> None:
     keep_all = QoS(10, history=History.KEEP_ALL)
     _, camera, seen = _camera(rig, keep_all)
-    assert camera.qos.congestion_control is Congestion.BLOCK
+    assert camera.qos.congestion_for(large=True) is Congestion.BLOCK
     took = _publish(camera, 6, 0.1)
     assert max(took) > 0.2  # the link carries one image in 0.72 s: the writer waits for it
     assert wait_for(lambda: seen.received == 6, 10)

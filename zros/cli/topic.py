@@ -24,7 +24,7 @@ from zros.cli.shared import (
     out,
     parse_values,
 )
-from zros.qos import DEFAULT, LATCHED, Congestion, Priority
+from zros.qos import DEFAULT, LATCHED, Congestion, Priority, as_qos
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -147,9 +147,8 @@ def echo(args: argparse.Namespace) -> int:
         latched = bool(publishers) and all(
             p.qos is not None and p.qos.transient_local for p in publishers
         )
-        subscriber = node.create_subscription(
-            type_name, args.topic, qos='latched' if latched else args.qos_depth
-        )
+        qos = as_qos('latched' if latched else args.qos_depth).with_(lifespan=args.max_age)
+        subscriber = node.create_subscription(type_name, args.topic, qos=qos)
         printed = 0
         try:
             while node.ok():
@@ -243,7 +242,7 @@ def _measuring_subscription(
 
     type_name = _topic_type(node, args.topic, args.wait)
     # as ros2's: best effort (it hears reliable publishers too), with room for bursts
-    qos = QoS(1000, Reliability.BEST_EFFORT)
+    qos = QoS(1000, Reliability.BEST_EFFORT, lifespan=getattr(args, 'max_age', None))
     try:
 
         def count(data: bytes) -> None:
@@ -252,6 +251,10 @@ def _measuring_subscription(
         return Subscriber(args.topic, type_name, count, qos, node=node, raw=True).close
     except UnknownTypeError:
         pass
+    if qos.lifespan is not None:
+        raise CommandError(
+            f'--max-age needs the definition of {type_name} (ZROS_INTERFACE_PATH adds yours)'
+        )
     wire = node.context.wire
     key = wire.any_type_key(wire.key(node.resolve_name(args.topic)))  # any type and hash
     print(
@@ -413,6 +416,7 @@ def add_parser(
     parser.add_argument('--flow-style', action='store_true', help='arrays on one line')
     parser.add_argument('--truncate-length', type=int, metavar='N', help='cut long values')
     parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
+    _add_max_age(parser)
     parser.add_argument('--wait', type=float, default=10.0, metavar='S',
                         help='how long to wait for the topic to appear (default 10)')  # fmt: skip
 
@@ -437,7 +441,7 @@ def add_parser(
     )  # fmt: skip
     parser.add_argument(
         '--congestion', choices=[c.value for c in Congestion],
-        help='on a full link (default: block_first; docs/qos.md)',
+        help='on a full link (default: drop, block_first for large messages; docs/qos.md)',
     )  # fmt: skip
 
     for name, help_text in (
@@ -452,5 +456,25 @@ def add_parser(
         parser.add_argument('--wait', type=float, default=10.0, metavar='S',
                             help='how long to wait for the topic (default 10)')  # fmt: skip
         parser.add_argument('-w', '--window', type=int, default=10_000 if name == 'hz' else 100)
+        if name != 'delay':
+            _add_max_age(parser)
         parser.add_argument('--period', type=float, default=1.0, help='seconds between reports')
         parser.add_argument('--count', type=int, default=0, help='exit after N reports')
+
+
+def _seconds(text: str) -> float:
+    """An argparse type: a number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f'a number of seconds > 0, not {text}')
+    return value
+
+
+def _add_max_age(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        '--max-age', type=_seconds, metavar='S',
+        help='drop messages older than S seconds on arrival, counted and logged (a lifespan)',
+    )  # fmt: skip

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING
 
 from zenoh import Reliability, ZError, ext
@@ -26,14 +27,19 @@ if TYPE_CHECKING:
 
     from zros.wire import WireEntity
 
+#: messages from this size on are large: encoded into a reused buffer, put with the
+#: congestion control of large messages (:meth:`zros.QoS.congestion_for`)
+LARGE = 65536
+
 
 class Publisher(Entity):
     """Publishes messages of one type on one topic (rosR: ``ros.Publisher``).
 
     ``qos`` is a :class:`zros.QoS`, a depth or a preset name (``'sensor_data'``). When the
     network cannot keep up, ``write()`` drops the message rather than wait (a keep-last reader
-    wants the newest), except for reliable keep-all publishers, which block until it is sent
-    (as rmw_zenoh chooses); ``QoS(congestion=...)`` overrides that.
+    wants the newest; large reliable messages are sent one at a time, the newest next), except
+    for reliable keep-all publishers, which block until it is sent (as rmw_zenoh chooses);
+    ``QoS(congestion=...)`` overrides that (:meth:`zros.QoS.congestion_for`).
     """
 
     def __init__(
@@ -59,6 +65,17 @@ class Publisher(Entity):
         self.gid = wire.gid  #: rmw_zenoh: the GID in its attachments (and its token's hash)
         self._publisher = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
+        #: how large messages are put: with their own congestion control where it differs
+        self._put_large = self._put
+        large = self.qos.congestion_for(large=True)
+        if large is not self.qos.congestion_for(large=False):
+            self._put_large = wire.sender(
+                partial(
+                    self.context.transport.session.put, self.key,
+                    congestion_control=CONGESTION[large], priority=PRIORITY[self.priority],
+                    express=self.express,
+                )
+            )  # fmt: skip
         # types that can grow large (sequences) reuse one output buffer while their messages are
         # large, holding _in_use while they do; small ones are joined into fresh bytes (faster
         # for them) and put with no lock: close() swaps _put first, then waits for a put still
@@ -70,13 +87,13 @@ class Publisher(Entity):
         if any(f.type.kind is not Kind.SCALAR for f in definition.fields) or any(
             f.type.is_nested for f in definition.fields
         ):
-            self._buffer = EncodeBuffer()
-            self._large = self._buffer.threshold
+            self._buffer = EncodeBuffer(LARGE)
+            self._large = LARGE
         self._announce()
 
     def _declare(self, wire: WireEntity) -> ZenohPublisher | ext.AdvancedPublisher:
         qos = self.qos
-        congestion = CONGESTION[qos.congestion_control]
+        congestion = CONGESTION[qos.congestion_for(large=False)]
         reliability = Reliability.RELIABLE if qos.reliable else Reliability.BEST_EFFORT
         priority, express = qos.priority_for(self.topic, self.type_name)
         #: the Zenoh priority and express flag its messages carry
@@ -106,6 +123,8 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) >= self._large:
                 self._small = False  # the next ones go through the buffer
+                self._put_large(data)
+                return
             self._put(data)
             return
         buffer = self._buffer
@@ -117,17 +136,20 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) < self._large:
                 self._small = True
-            self._put(data)
+                self._put(data)
+            else:
+                self._put_large(data)
 
     publish = write
 
     def write_raw(self, data: bytes | bytearray) -> None:
         """Publish CDR bytes (4-byte header included) as they are."""
-        self._put(bytes(data) if isinstance(data, memoryview) else data)
+        put = self._put_large if len(data) >= LARGE else self._put
+        put(bytes(data) if isinstance(data, memoryview) else data)
 
     def close(self) -> None:
         """Withdraw it from the network; safe to call twice. Later writes raise ``zenoh.ZError``."""
-        self._put = self._refuse
+        self._put = self._put_large = self._refuse
         super().close()
 
     def _refuse(self, data: bytes | bytearray) -> None:
