@@ -8,12 +8,15 @@ import time
 from collections.abc import Callable, Iterator
 
 import pytest
+import zenoh
 
 import zros
 from tests.runtime.wan_rig import Wan, wan
 from zros.node import Node
 from zros.qos import Congestion, History, Priority, QoS
 from zros.testing import wait_for
+from zros.transport import Transport, TransportConfig, TransportError, start_router
+from zros.transport.router import downsampling
 
 IMAGE = 900_000  #: bytes of image data (640x480 rgb8 is 921,600)
 
@@ -136,3 +139,79 @@ def test_small_urgent_messages_overtake_images_that_saturate_the_link(rig: Wan) 
     ages.sort()
     assert ages[-1] < 0.5, f'commands arrived up to {ages[-1]:.2f} s old'
     assert seen.received > 1  # the images saturated the link all along
+
+
+# --- what a zros router does for slow links ---------------------------------------------------
+
+
+def test_a_router_sends_large_default_messages_last_and_block_first() -> None:
+    for large_payloads, expected in (
+        (True, 'CongestionControl.BLOCK_FIRST Priority.DATA_LOW'),
+        (False, 'CongestionControl.DROP Priority.DATA'),
+    ):
+        with start_router(large_payloads=large_payloads) as router:
+            sessions = [
+                Transport(TransportConfig.create(connect=router.endpoint, shared_memory=False))
+                for _ in range(2)
+            ]
+            try:
+                samples: list[zenoh.Sample] = []
+                sessions[1].session.declare_subscriber('k/*', samples.append)
+                sender = sessions[0].session
+                publisher = sender.declare_publisher('k/*')
+                assert wait_for(lambda p=publisher: p.matching_status.matching)
+                sender.put('k/small', bytes(100))
+                sender.put('k/large', bytes(100_000))
+                sender.put('k/urgent', bytes(100_000), priority=zenoh.Priority.INTERACTIVE_HIGH)
+                sender.put(
+                    'k/every', bytes(100_000), congestion_control=zenoh.CongestionControl.BLOCK
+                )
+                assert wait_for(lambda s=samples: len(s) == 4)
+            finally:
+                for transport in sessions:
+                    transport.close()
+        seen = {str(s.key_expr): f'{s.congestion_control} {s.priority}' for s in samples}
+        assert (
+            seen
+            == {
+                'k/small': 'CongestionControl.DROP Priority.DATA',
+                'k/large': expected,
+                'k/urgent': 'CongestionControl.DROP Priority.INTERACTIVE_HIGH',  # a choice of the sender's stays
+                'k/every': 'CongestionControl.BLOCK Priority.DATA',
+            }
+        )
+
+
+@pytest.mark.parametrize('wire', ['bridge', 'rmw_zenoh'])
+def test_a_router_downsamples_a_topic_out_of_each_link(wire: str) -> None:
+    with start_router(downsample={'/fast': 5.0}) as router:
+        nodes = [
+            Node(name, wire=wire, transport=Transport(
+                TransportConfig.create(connect=router.endpoint, shared_memory=False)
+            ))
+            for name in ('talker', 'listener')
+        ]  # fmt: skip
+        try:
+            fast = nodes[1].create_subscription('std_msgs/msg/Int32', '/fast', qos=100)
+            slow = nodes[1].create_subscription('std_msgs/msg/Int32', '/slow', qos=100)
+            publishers = [
+                nodes[0].create_publisher('std_msgs/msg/Int32', t) for t in ('/fast', '/slow')
+            ]
+            assert all(p.wait_for_subscribers() for p in publishers)
+            start = time.monotonic()
+            for number in range(50):  # 50 Hz for a second
+                for publisher in publishers:
+                    publisher.write(zros.Message('std_msgs/msg/Int32', data=number))
+                time.sleep(max(0.0, start + (number + 1) * 0.02 - time.monotonic()))
+            assert wait_for(lambda: slow.received == 50)
+            assert 3 <= fast.received <= 8, fast.received  # 5 a second, and the first at once
+        finally:
+            for node in nodes:
+                node.destroy()
+                node.transport.close()
+
+
+def test_downsampling_refuses_what_is_not_a_topic_and_a_rate() -> None:
+    for rates in ({'/': 2.0}, {'/a//b': 2.0}, {'/camera': 0.0}):
+        with pytest.raises(TransportError, match='give /topic=HZ, HZ > 0'):
+            downsampling(rates)
