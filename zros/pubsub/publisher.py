@@ -20,7 +20,7 @@ from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity, message_class
 from zros.runtime.signal import sleep
-from zros.transport.qos import CONGESTION, PRIORITY
+from zros.transport.zenoh_qos import CONGESTION, PRIORITY
 
 if TYPE_CHECKING:
     from zenoh import Publisher as ZenohPublisher

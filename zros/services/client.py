@@ -31,7 +31,7 @@ from zros.services.errors import (
     ServiceUnavailableError,
     service_type,
 )
-from zros.transport.qos import PRIORITY
+from zros.transport.zenoh_qos import PRIORITY
 
 #: seconds a call may still wait for its answer once no server matches any more (the answer
 #: may be in transit: declarations can overtake replies); then it ends as unavailable
