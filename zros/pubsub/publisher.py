@@ -123,6 +123,7 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) >= self._large:
                 self._small = False  # the next ones go through the buffer
+                self._went_large()
                 self._put_large(data)
                 return
             self._put(data)
@@ -136,20 +137,31 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) < self._large:
                 self._small = True
-                self._put(data)
-            else:
-                self._put_large(data)
+            self._put(data)  # the large ones' put since the first (_went_large)
 
     publish = write
 
     def write_raw(self, data: bytes | bytearray) -> None:
         """Publish CDR bytes (4-byte header included) as they are."""
-        put = self._put_large if len(data) >= LARGE else self._put
-        put(bytes(data) if isinstance(data, memoryview) else data)
+        if len(data) >= LARGE:
+            self._went_large()
+            self._put_large(bytes(data) if isinstance(data, memoryview) else data)
+            return
+        self._put(bytes(data) if isinstance(data, memoryview) else data)
+
+    def _went_large(self) -> None:
+        """From its first large message on, a publisher sends every message as large ones go:
+        Zenoh delivers a small message put with ``drop`` ahead of a large one put before it with
+        ``block_first``, and a topic's messages must keep their order."""
+        if self._put is not self._put_large:
+            with self._in_use:
+                if not self._closed:
+                    self._put = self._put_large
 
     def close(self) -> None:
         """Withdraw it from the network; safe to call twice. Later writes raise ``zenoh.ZError``."""
-        self._put = self._put_large = self._refuse
+        self._put_large = self._refuse  # first: _went_large copies it into _put
+        self._put = self._refuse
         super().close()
 
     def _refuse(self, data: bytes | bytearray) -> None:
