@@ -62,8 +62,7 @@ class QoS:
     """A QoS profile; ``QoS(10)`` is ROS 2's default (reliable, volatile, keep last 10).
 
     ``lifespan`` (seconds): subscribers drop messages older than that on arrival, counted.
-    ``congestion``: None chooses by reliability, history and message size
-    (:meth:`congestion_for`).
+    ``congestion``: None chooses as rmw_zenoh does (:attr:`congestion_control`).
     ``priority`` and ``express``: None chooses by the topic and type (docs/qos.md).
     """
 
@@ -86,21 +85,17 @@ class QoS:
         if self.priority is not None:
             object.__setattr__(self, 'priority', _member(Priority, self.priority))
 
-    def congestion_for(self, large: bool) -> Congestion:
-        """The congestion control of a publisher's messages, ``large`` ones (64 KiB on, more
-        than Zenoh sends in one batch) or not: ``congestion`` if given, else DROP for best
-        effort and for small reliable keep-last messages (as rmw_zenoh), BLOCK for reliable
-        keep-all (every message must arrive; rmw_zenoh's choice too), and BLOCK_FIRST for
-        large reliable keep-last messages and transient-local ones, where rmw_zenoh drops: a
-        message larger than a link's queue then never arrives whole, while BLOCK_FIRST sends
-        the newest one at a time and the writer still does not wait (docs/qos.md)."""
+    @property
+    def congestion_control(self) -> Congestion:
+        """What its publishers do on a full link: ``congestion`` if given, else as rmw_zenoh
+        chooses: BLOCK for reliable keep-all (every message must arrive), DROP otherwise (a
+        keep-last reader wants the newest; the writer never waits for a slow reader). Large
+        messages under DROP never cross a link slower than they come whole: a router on the
+        way turns them to BLOCK_FIRST (``zros router`` does, docs/connecting.md), or the
+        publisher asks for ``congestion=BLOCK_FIRST`` itself."""
         if self.congestion is not None:
             return self.congestion
-        if not self.reliable:
-            return Congestion.DROP
-        if self.keep_all:
-            return Congestion.BLOCK
-        return Congestion.BLOCK_FIRST if large or self.transient_local else Congestion.DROP
+        return Congestion.BLOCK if self.reliable and self.keep_all else Congestion.DROP
 
     def priority_for(self, topic: str, type_name: str) -> tuple[Priority, bool]:
         """The priority and express flag of a publisher of ``type_name`` on ``topic``: the

@@ -20,7 +20,6 @@ from zros.node import Node
 from zros.qos import LATCHED, QoS
 from zros.testing import wait_for
 from zros.transport import Transport
-from zros.wire import read_attachment
 
 
 @pytest.fixture(params=['bridge', 'rmw_zenoh'])
@@ -410,16 +409,16 @@ def test_qos_extensions_take_names_numbers_or_members_and_refuse_others() -> Non
         QoS(lifespan=0)
 
 
-def test_congestion_control_follows_reliability_history_and_size() -> None:
-    drop, block, first = zros.Congestion.DROP, zros.Congestion.BLOCK, zros.Congestion.BLOCK_FIRST
-    for qos, small, large in (
-        (QoS(5, zros.Reliability.BEST_EFFORT), drop, drop),
-        (QoS(1), drop, first),
-        (LATCHED, first, first),
-        (QoS(history=zros.History.KEEP_ALL), block, block),
-        (QoS(history=zros.History.KEEP_ALL, congestion='drop'), drop, drop),
+def test_congestion_control_is_rmw_zenohs() -> None:
+    drop, block = zros.Congestion.DROP, zros.Congestion.BLOCK
+    for qos, expected in (
+        (QoS(5, zros.Reliability.BEST_EFFORT), drop),
+        (QoS(1), drop),
+        (LATCHED, drop),
+        (QoS(history=zros.History.KEEP_ALL), block),
+        (QoS(history=zros.History.KEEP_ALL, congestion='block_first'), zros.Congestion.BLOCK_FIRST),
     ):
-        assert (qos.congestion_for(large=False), qos.congestion_for(large=True)) == (small, large)
+        assert qos.congestion_control is expected
 
 
 def test_a_burst_of_small_reliable_messages_arrives_whole(zros_node: Callable[..., Node]) -> None:
@@ -458,29 +457,3 @@ def test_messages_past_their_lifespan_are_dropped_on_arrival_counted_and_logged(
     assert sub.expired == 2 and sub.dropped == 2
     warnings = [r.getMessage() for r in caplog.records if 'past its lifespan' in r.getMessage()]
     assert len(warnings) == 1 and 'arrived 5.0' in warnings[0] and 'lifespan of 1 s' in warnings[0]
-
-
-def test_large_and_small_messages_of_a_publisher_go_out_as_one_stream(
-    zros_node: Callable[..., Node], zros_transport: Callable[..., Transport]
-) -> None:
-    # large reliable keep-last messages are put beside the publisher (block_first): in the
-    # order written, and under rmw_zenoh with the same GID and the next sequence numbers
-    talker = zros_node('talker')
-    samples: list[zenoh.Sample] = []
-    listener = zros_transport().session
-    publisher = talker.create_publisher('std_msgs/msg/UInt8MultiArray', 'blobs')
-    listener.declare_subscriber(publisher.key, samples.append)
-    assert publisher.wait_for_subscribers()
-    for size in (10, 100_000, 10, 100_000):
-        publisher.write(zros.Message('std_msgs/msg/UInt8MultiArray', data=bytes(size)))
-    assert wait_for(lambda: len(samples) == 4)
-    assert [len(s.payload) > 65536 for s in samples] == [False, True, False, True]
-    # from the first large one on, every message goes as large ones do: in order
-    first = zenoh.CongestionControl.BLOCK_FIRST
-    assert [s.congestion_control for s in samples] == [zenoh.CongestionControl.DROP] + [first] * 3
-    attachments = [read_attachment(s) for s in samples]
-    if talker.wire == 'rmw_zenoh':
-        assert [a.sequence_number for a in attachments if a] == [1, 2, 3, 4]
-        assert {a.gid for a in attachments if a} == {publisher.gid}
-    else:
-        assert attachments == [None] * 4

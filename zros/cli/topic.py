@@ -441,7 +441,7 @@ def add_parser(
     )  # fmt: skip
     parser.add_argument(
         '--congestion', choices=[c.value for c in Congestion],
-        help='on a full link (default: drop, block_first for large messages; docs/qos.md)',
+        help='what write() does on a full link (default: drop; docs/qos.md)',
     )  # fmt: skip
 
     for name, help_text in (

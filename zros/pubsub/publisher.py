@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
-from functools import partial
 from typing import TYPE_CHECKING
 
 from zenoh import Reliability, ZError, ext
@@ -27,19 +26,14 @@ if TYPE_CHECKING:
 
     from zros.wire import WireEntity
 
-#: messages from this size on are large: encoded into a reused buffer, put with the
-#: congestion control of large messages (:meth:`zros.QoS.congestion_for`)
-LARGE = 65536
-
 
 class Publisher(Entity):
     """Publishes messages of one type on one topic (rosR: ``ros.Publisher``).
 
     ``qos`` is a :class:`zros.QoS`, a depth or a preset name (``'sensor_data'``). When the
     network cannot keep up, ``write()`` drops the message rather than wait (a keep-last reader
-    wants the newest; large reliable messages are sent one at a time, the newest next), except
-    for reliable keep-all publishers, which block until it is sent (as rmw_zenoh chooses);
-    ``QoS(congestion=...)`` overrides that (:meth:`zros.QoS.congestion_for`).
+    wants the newest), except for reliable keep-all publishers, which block until it is sent
+    (as rmw_zenoh chooses); ``QoS(congestion=...)`` overrides that.
     """
 
     def __init__(
@@ -65,17 +59,6 @@ class Publisher(Entity):
         self.gid = wire.gid  #: rmw_zenoh: the GID in its attachments (and its token's hash)
         self._publisher = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
-        #: how large messages are put: with their own congestion control where it differs
-        self._put_large = self._put
-        large = self.qos.congestion_for(large=True)
-        if large is not self.qos.congestion_for(large=False):
-            self._put_large = wire.sender(
-                partial(
-                    self.context.transport.session.put, self.key,
-                    congestion_control=CONGESTION[large], priority=PRIORITY[self.priority],
-                    express=self.express,
-                )
-            )  # fmt: skip
         # types that can grow large (sequences) reuse one output buffer while their messages are
         # large, holding _in_use while they do; small ones are joined into fresh bytes (faster
         # for them) and put with no lock: close() swaps _put first, then waits for a put still
@@ -87,13 +70,13 @@ class Publisher(Entity):
         if any(f.type.kind is not Kind.SCALAR for f in definition.fields) or any(
             f.type.is_nested for f in definition.fields
         ):
-            self._buffer = EncodeBuffer(LARGE)
-            self._large = LARGE
+            self._buffer = EncodeBuffer()
+            self._large = self._buffer.threshold
         self._announce()
 
     def _declare(self, wire: WireEntity) -> ZenohPublisher | ext.AdvancedPublisher:
         qos = self.qos
-        congestion = CONGESTION[qos.congestion_for(large=False)]
+        congestion = CONGESTION[qos.congestion_control]
         reliability = Reliability.RELIABLE if qos.reliable else Reliability.BEST_EFFORT
         priority, express = qos.priority_for(self.topic, self.type_name)
         #: the Zenoh priority and express flag its messages carry
@@ -123,9 +106,6 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) >= self._large:
                 self._small = False  # the next ones go through the buffer
-                self._went_large()
-                self._put_large(data)
-                return
             self._put(data)
             return
         buffer = self._buffer
@@ -137,30 +117,16 @@ class Publisher(Entity):
                 data = encode(message)
             if len(data) < self._large:
                 self._small = True
-            self._put(data)  # the large ones' put since the first (_went_large)
+            self._put(data)
 
     publish = write
 
     def write_raw(self, data: bytes | bytearray) -> None:
         """Publish CDR bytes (4-byte header included) as they are."""
-        if len(data) >= LARGE:
-            self._went_large()
-            self._put_large(bytes(data) if isinstance(data, memoryview) else data)
-            return
         self._put(bytes(data) if isinstance(data, memoryview) else data)
-
-    def _went_large(self) -> None:
-        """From its first large message on, a publisher sends every message as large ones go:
-        Zenoh delivers a small message put with ``drop`` ahead of a large one put before it with
-        ``block_first``, and a topic's messages must keep their order."""
-        if self._put is not self._put_large:
-            with self._in_use:
-                if not self._closed:
-                    self._put = self._put_large
 
     def close(self) -> None:
         """Withdraw it from the network; safe to call twice. Later writes raise ``zenoh.ZError``."""
-        self._put_large = self._refuse  # first: _went_large copies it into _put
         self._put = self._refuse
         super().close()
 

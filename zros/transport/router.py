@@ -44,18 +44,25 @@ def _tls_settings(
     return settings
 
 
-#: what zros routers do to large messages sent with Zenoh's defaults (rmw_zenoh sends everything
-#: so; zenoh-bridge-ros2dds its best-effort topics): from 64 KiB on, priority ``data_low`` and
-#: congestion control ``block_first``, so that small messages overtake them and the newest of
-#: them still crosses a congested link whole (docs/connecting.md, "Across a WAN")
-LARGE_PAYLOADS: dict[str, JsonValue] = {
-    'id': 'zros_large_payloads',
-    'messages': ['put'],
-    'flows': ['egress'],
-    'payload_size': '65536..',
-    'qos': {'congestion_control': 'drop', 'priority': 'data'},
-    'overwrite': {'congestion_control': 'block_first', 'priority': 'data_low'},
-}
+#: what zros routers do to large messages (64 KiB on) sent with congestion control ``drop``
+#: (rmw_zenoh's and zros's default but for keep-all; the bridge's for best effort) as they
+#: leave: ``block_first``, so that the newest of them still crosses a congested link whole
+#: (under ``drop`` none does), and those at Zenoh's default priority go as ``data_low``, so that
+#: small messages overtake them; a sender's other choices stay (docs/connecting.md)
+LARGE_PAYLOADS: list[JsonValue] = [
+    {
+        'id': 'zros_large_payloads_last',
+        'messages': ['put'], 'flows': ['egress'], 'payload_size': '65536..',
+        'qos': {'congestion_control': 'drop', 'priority': 'data'},
+        'overwrite': {'congestion_control': 'block_first', 'priority': 'data_low'},
+    },
+    {
+        'id': 'zros_large_payloads_block_first',
+        'messages': ['put'], 'flows': ['egress'], 'payload_size': '65536..',
+        'qos': {'congestion_control': 'drop'},
+        'overwrite': {'congestion_control': 'block_first'},
+    },
+]  # fmt: skip
 
 
 def downsampling(rates: Mapping[str, float]) -> list[JsonValue]:
@@ -126,7 +133,7 @@ class Router:
             'transport': {'shared_memory': {'enabled': shared_memory}},
         }
         if large_payloads:
-            settings['qos'] = {'network': [LARGE_PAYLOADS]}
+            settings['qos'] = {'network': LARGE_PAYLOADS}
         if downsample:
             settings['downsampling'] = downsampling(downsample)
         config = z.Config.from_json5(json.dumps(settings))
