@@ -37,9 +37,9 @@ from pathlib import Path
 HERE = Path(__file__).resolve()
 sys.path[:0] = [str(HERE.parents[1])]
 
-import tests.runtime.wan_rig as rig_module  # noqa: E402
+
 import zros  # noqa: E402
-from tests.runtime.wan_rig import wan  # noqa: E402
+from tests.runtime.wan_rig import Wan, wan  # noqa: E402
 from zros.qos import Congestion, Priority, QoS  # noqa: E402
 
 RATE = 10.0  #: Hz of every topic
@@ -84,17 +84,11 @@ def _qos(before: bool, depth: int) -> QoS:
 
 def run(wire: str, before: bool, seconds: float) -> dict[str, object]:
     """One run; its figures."""
-    original = rig_module.start_router
-    if before:
-        rig_module.start_router = lambda **options: original(large_payloads=False, **options)
-    try:
-        with wan(wire) as rig:
-            return _measure(rig, before, seconds)
-    finally:
-        rig_module.start_router = original
+    with wan(wire, large_payloads=not before) as rig:
+        return _measure(rig, before, seconds)
 
 
-def _measure(rig: rig_module.Wan, before: bool, seconds: float) -> dict[str, object]:
+def _measure(rig: Wan, before: bool, seconds: float) -> dict[str, object]:
     robot = rig.node('robot', remote=False)
     laptop = rig.node('laptop', remote=True)
     arrivals = {name: Arrivals() for name, _ in (*SMALL, ('/camera', ''))}

@@ -117,6 +117,7 @@ def test_a_password_router_from_the_shell(cli: Cli) -> None:
 def test_a_router_from_the_shell_downsamples_and_says_so(cli: Cli) -> None:
     router = cli.start('router', '--listen', 'tcp/127.0.0.1:0', '--downsample', '/camera/*=2')
     endpoint = endpoint_of(router)
+    router.wait_line(lambda line: 'sent with drop leave as block_first' in line)
     router.wait_line(
         lambda line: line == '  /camera/*: at most 2 messages a second out of each link'
     )

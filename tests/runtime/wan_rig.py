@@ -43,9 +43,12 @@ class Wan:
 
 
 @contextlib.contextmanager
-def wan(wire: str = 'bridge', *, rate: float | None = RATE) -> Iterator[Wan]:
-    """A router with path-sized socket buffers and a proxy to it (``rate`` None: no limit)."""
-    router = start_router(shared_memory=False, zenoh=dict(SIZED))
+def wan(
+    wire: str = 'bridge', *, rate: float | None = RATE, large_payloads: bool = True
+) -> Iterator[Wan]:
+    """A router with path-sized socket buffers and a proxy to it (``rate`` None: no limit),
+    with ``zros router``'s rule for large payloads unless ``large_payloads`` is False."""
+    router = start_router(shared_memory=False, large_payloads=large_payloads, zenoh=dict(SIZED))
     host, port = router.endpoint.split('/')[1].rsplit(':', 1)
     try:
         with DelayProxy((host, int(port)), DELAY, rate=rate, buffer=BDP) as proxy:

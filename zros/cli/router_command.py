@@ -78,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
                 out(f'  clients need a certificate signed by {args.tls_ca} (mutual TLS)')
             if args.user:
                 out(f'  clients must log in as {args.user!r}')
+            if not args.keep_qos:
+                out('  large messages (64 KiB on) sent with drop leave as block_first')
             for topic, rate in args.downsample or ():
                 out(f'  {topic}: at most {rate:g} messages a second out of each link')
             out(f'  connect with --connect {router.endpoint} or ZROS_CONNECT={router.endpoint}')

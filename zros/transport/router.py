@@ -101,8 +101,10 @@ class Router:
     a network. With ``certificate`` and ``private_key`` it listens on TLS (``tls/`` endpoints
     only); with ``client_ca`` too, clients must present a certificate that CA signed (mutual
     TLS); with ``user`` and ``password``, they must present those. ``large_payloads`` applies
-    :data:`LARGE_PAYLOADS`; ``downsample`` maps topics to the most messages a second each
-    link gets of them (:func:`downsampling`).
+    :data:`LARGE_PAYLOADS` (``zros router`` does by default: for a robot's router with a slow
+    link; it drops large messages of a burst faster than even a local link takes them);
+    ``downsample`` maps topics to the most messages a second each link gets of them
+    (:func:`downsampling`).
     """
 
     def __init__(
@@ -110,7 +112,7 @@ class Router:
         listen: Sequence[str] = ('tcp/127.0.0.1:0',),
         *,
         shared_memory: bool = False,
-        large_payloads: bool = True,
+        large_payloads: bool = False,
         downsample: Mapping[str, float] | None = None,
         zenoh: dict[str, JsonValue] | None = None,
         certificate: str | None = None,
