@@ -94,6 +94,20 @@ def test_a_keep_last_writer_never_waits_for_a_slow_link_and_the_newest_arrives(r
     assert 5 < seen.received < 30  # about what the link carries in 10 s, as it was written
 
 
+def test_a_robot_behind_the_slow_link_asks_for_block_first_itself() -> None:
+    # no router between the robot and the slow link: its own session's queue is the bottleneck
+    with wan('bridge', large_payloads=False) as rig:
+        robot = rig.node('robot', remote=True)
+        laptop = rig.node('laptop', remote=False)
+        seen = laptop.create_subscription('sensor_msgs/msg/Image', 'camera', qos=1)
+        newest = QoS(1, congestion='block_first')
+        camera = robot.create_publisher('sensor_msgs/msg/Image', 'camera', qos=newest)
+        assert camera.wait_for_subscribers(10)
+        took = _publish(camera, 30, 0.1)
+        assert max(took) < 0.05, f'the slowest write() took {max(took) * 1e3:.0f} ms'
+        assert wait_for(lambda: seen.received >= 2, 10)  # under drop, none would arrive whole
+
+
 def test_a_keep_all_writer_blocks_until_every_message_is_sent(rig: Wan) -> None:
     keep_all = QoS(10, history=History.KEEP_ALL)
     _, camera, seen = _camera(rig, keep_all)
