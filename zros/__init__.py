@@ -75,6 +75,8 @@ _LAZY = {
     'Reliability': ('zros.qos', 'Reliability'),
     'Durability': ('zros.qos', 'Durability'),
     'History': ('zros.qos', 'History'),
+    'Congestion': ('zros.qos', 'Congestion'),
+    'Priority': ('zros.qos', 'Priority'),
     'InvalidNameError': ('zros.keyexpr.names', 'InvalidNameError'),
     'TransportError': ('zros.transport', 'TransportError'),
     'TransportConfig': ('zros.transport', 'TransportConfig'),
@@ -135,7 +137,7 @@ if TYPE_CHECKING:
         SetResult,
     )
     from zros.pubsub import Publisher, Subscriber
-    from zros.qos import Durability, History, QoS, Reliability
+    from zros.qos import Congestion, Durability, History, Priority, QoS, Reliability
     from zros.runtime.clock import Duration, Time
     from zros.runtime.defaults import NotInitializedError
     from zros.runtime.logger import Logger, RosoutHandler
@@ -183,6 +185,7 @@ __all__ = [
     'CancelResponse',
     'CdrError',
     'Client',
+    'Congestion',
     'Descriptor',
     'Durability',
     'Duration',
@@ -201,6 +204,7 @@ __all__ = [
     'ParameterError',
     'ParameterNotDeclaredError',
     'ParameterType',
+    'Priority',
     'Publisher',
     'QoS',
     'Rate',

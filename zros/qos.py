@@ -1,14 +1,17 @@
 """Quality of service of publishers and subscribers, as in ROS 2.
 
-Only the policies that cross a zenoh-bridge-ros2dds are modelled: reliability, durability and
-history (kind and depth). The enum values are the ones the bridge writes into its tokens.
+The policies that cross a zenoh-bridge-ros2dds are modelled: reliability, durability and
+history (kind and depth); the enum values are the ones the bridge writes into its tokens.
+``lifespan`` is ROS 2's, applied by zros's subscribers. ``congestion``, ``priority`` and
+``express`` are Zenoh's, zros extensions no token carries (docs/qos.md says how zros chooses
+them).
 """
 
 from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, replace
-from typing import Union
+from typing import TypeVar, Union
 
 
 class Reliability(enum.IntEnum):
@@ -32,18 +35,75 @@ class History(enum.IntEnum):
     KEEP_ALL = 1
 
 
+class Congestion(enum.Enum):
+    """What a publisher does when the network cannot take a message right now (Zenoh's
+    congestion control): DROP it, BLOCK until it can, or BLOCK_FIRST (block on one message,
+    drop the others until that one is sent)."""
+
+    DROP = 'drop'
+    BLOCK = 'block'
+    BLOCK_FIRST = 'block_first'
+
+
+class Priority(enum.IntEnum):
+    """Zenoh's priorities, 1 (first) to 7 (last), as zenoh-bridge-ros2dds numbers them."""
+
+    REAL_TIME = 1
+    INTERACTIVE_HIGH = 2
+    INTERACTIVE_LOW = 3
+    DATA_HIGH = 4
+    DATA = 5
+    DATA_LOW = 6
+    BACKGROUND = 7
+
+
 @dataclass(frozen=True)
 class QoS:
-    """A QoS profile; ``QoS(10)`` is ROS 2's default (reliable, volatile, keep last 10)."""
+    """A QoS profile; ``QoS(10)`` is ROS 2's default (reliable, volatile, keep last 10).
+
+    ``lifespan`` (seconds): subscribers drop messages older than that on arrival, counted.
+    ``congestion``: None chooses as rmw_zenoh does (:attr:`congestion_control`).
+    ``priority`` and ``express``: None chooses by the topic and type (docs/qos.md).
+    """
 
     depth: int = 10
     reliability: Reliability = Reliability.RELIABLE
     durability: Durability = Durability.VOLATILE
     history: History = History.KEEP_LAST
+    lifespan: float | None = None
+    congestion: Congestion | None = None
+    priority: Priority | None = None
+    express: bool | None = None
 
     def __post_init__(self) -> None:
         if self.history is History.KEEP_LAST and self.depth < 1:
             raise ValueError(f'a keep-last QoS needs depth >= 1, got {self.depth}')
+        if self.lifespan is not None and not self.lifespan > 0:
+            raise ValueError(f'a lifespan is a number of seconds > 0, got {self.lifespan}')
+        if self.congestion is not None:
+            object.__setattr__(self, 'congestion', _member(Congestion, self.congestion))
+        if self.priority is not None:
+            object.__setattr__(self, 'priority', _member(Priority, self.priority))
+
+    @property
+    def congestion_control(self) -> Congestion:
+        """What its publishers do on a full link: ``congestion`` if given, else as rmw_zenoh
+        chooses: BLOCK for reliable keep-all (every message must arrive), DROP otherwise (a
+        keep-last reader wants the newest; the writer never waits for a slow reader). Large
+        messages under DROP never cross a link slower than they come whole: a router on the
+        way turns them to BLOCK_FIRST (``zros router`` does, docs/connecting.md), or the
+        publisher asks for ``congestion=BLOCK_FIRST`` itself."""
+        if self.congestion is not None:
+            return self.congestion
+        return Congestion.BLOCK if self.reliable and self.keep_all else Congestion.DROP
+
+    def priority_for(self, topic: str, type_name: str) -> tuple[Priority, bool]:
+        """The priority and express flag of a publisher of ``type_name`` on ``topic``: the
+        QoS's own, else :func:`default_priority`, express for INTERACTIVE_HIGH and above
+        (small urgent messages skip batching)."""
+        priority = self.priority or default_priority(topic, type_name)
+        express = priority <= Priority.INTERACTIVE_HIGH if self.express is None else self.express
+        return priority, express
 
     @property
     def reliable(self) -> bool:
@@ -66,7 +126,63 @@ class QoS:
 
     def __str__(self) -> str:
         history = 'keep all' if self.keep_all else f'keep last {self.depth}'
-        return f'{self.reliability.name.lower()}, {self.durability.name.lower()}, {history}'
+        text = f'{self.reliability.name.lower()}, {self.durability.name.lower()}, {history}'
+        if self.lifespan is not None:
+            text += f', lifespan {self.lifespan:g} s'
+        if self.congestion is not None:
+            text += f', {self.congestion.value}'
+        if self.priority is not None:
+            text += f', priority {self.priority.name.lower()}'
+        if self.express:
+            text += ', express'
+        return text
+
+
+_E = TypeVar('_E', Congestion, Priority)
+
+
+def _member(kind: type[_E], value: object) -> _E:
+    """``value`` as a member of ``kind``: a member, its name (any case) or its value."""
+    if isinstance(value, kind):
+        return value
+    text = str(value)
+    if text.upper() in kind.__members__:
+        return kind[text.upper()]
+    for member in kind:
+        if str(member.value) == text.lower():
+            return member
+    names = ', '.join(m.name.lower() for m in kind)
+    raise ValueError(f'unknown {kind.__name__.lower()} {value!r}; one of: {names}')
+
+
+#: types whose messages are bulk data, sent after everything else (``Priority.DATA_LOW``)
+BULK_TYPES = frozenset({
+    'sensor_msgs/msg/Image', 'sensor_msgs/msg/CompressedImage', 'sensor_msgs/msg/PointCloud2',
+    'sensor_msgs/msg/PointCloud', 'nav_msgs/msg/OccupancyGrid', 'map_msgs/msg/OccupancyGridUpdate',
+    'foxglove_msgs/msg/CompressedVideo', 'foxglove_msgs/msg/RawImage',
+    'foxglove_msgs/msg/CompressedImage', 'foxglove_msgs/msg/PointCloud',
+    'ffmpeg_image_transport_msgs/msg/FFMPEGPacket', 'theora_image_transport/msg/Packet',
+    'octomap_msgs/msg/Octomap', 'grid_map_msgs/msg/GridMap',
+})  # fmt: skip
+#: topics that steer, locate or explain the robot, sent first (``Priority.INTERACTIVE_HIGH``)
+URGENT_TOPICS = frozenset({
+    '/tf', '/tf_static', '/cmd_vel', '/rosout', '/parameter_events', '/joy', '/estop',
+    '/e_stop', '/emergency_stop',
+})  # fmt: skip
+#: services, actions and parameters: their requests, and so their replies (Zenoh replies at
+#: the priority of the query), as urgent topics
+SERVICE_PRIORITY = Priority.INTERACTIVE_HIGH
+
+
+def default_priority(topic: str, type_name: str) -> Priority:
+    """The Zenoh priority of a publisher whose QoS names none: INTERACTIVE_HIGH for the
+    urgent topics (also in a namespace: ``/robot1/cmd_vel``) and actions' feedback and status,
+    DATA_LOW for bulk types, DATA (Zenoh's default) for the rest."""
+    if '/_action/' in topic or '/' + topic.rsplit('/', 1)[-1] in URGENT_TOPICS:
+        return Priority.INTERACTIVE_HIGH
+    if type_name in BULK_TYPES:
+        return Priority.DATA_LOW
+    return Priority.DATA
 
 
 #: ROS 2's ``rclpy.qos.qos_profile_sensor_data``

@@ -112,3 +112,22 @@ def test_a_password_router_from_the_shell(cli: Cli) -> None:
     assert stopped(router) == (0, '')
     no_password = cli.run('router', '--user', 'laptop', env={'ZROS_PASSWORD': ''})
     one_line_error(no_password, 1, 'set ZROS_PASSWORD')
+
+
+def test_a_router_from_the_shell_downsamples_and_says_so(cli: Cli) -> None:
+    router = cli.start('router', '--listen', 'tcp/127.0.0.1:0', '--downsample', '/camera/*=2')
+    endpoint = endpoint_of(router)
+    router.wait_line(lambda line: 'sent with drop leave as block_first' in line)
+    router.wait_line(
+        lambda line: line == '  /camera/*: at most 2 messages a second out of each link'
+    )
+    node = zros.Node('viewer', connect=endpoint, mode='client')
+    try:  # the router's settings reach Zenoh: it rejects a rule that does not parse
+        assert node.create_subscription('std_msgs/msg/Int32', '/camera/a') is not None
+    finally:
+        node.destroy()
+        node.transport.close()
+    assert stopped(router) == (0, '')
+    for wrong in ('/camera', '/camera=0', '=2', '/a//b=1', '/camera=fast'):
+        result = cli.run('router', '--downsample', wrong)
+        assert result.returncode == 2 and 'give TOPIC=HZ with HZ > 0' in result.stderr, wrong

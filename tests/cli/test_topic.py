@@ -6,13 +6,16 @@ import re
 import threading
 import time
 from collections.abc import Callable, Iterator
+from datetime import datetime, timezone
 from typing import Any
 
 import pytest
+import zenoh
 
 import zros
 from tests.cli.conftest import Cli
 from zros.testing import spinning, wait_for
+from zros.transport import Router
 
 Node = Callable[..., Any]
 
@@ -267,3 +270,48 @@ def test_list_on_a_graph_larger_than_zenoh_channels(cli: Cli, zros_node: Node) -
     assert [name for name in listing.stdout.split() if name.startswith('/crowd/')] == [
         f'/crowd/t{index:03d}' for index in range(300)
     ]
+
+
+def test_pub_sends_with_the_priority_and_congestion_asked(cli: Cli, zros_router: Router) -> None:
+    samples: list[zenoh.Sample] = []
+    taps = [zros_router.session.declare_subscriber(key, samples.append) for key in ('a', 'b')]
+    chosen_options = ('--priority', 'background', '--no-express', '--congestion', 'block')
+    for topic, options in (('/a', ()), ('/b', chosen_options)):
+        result = cli.run(
+            'topic', 'pub', topic, 'std_msgs/msg/Int32', '{data: 1}', '--once', *options
+        )
+        assert result.returncode == 0, result.stderr
+    assert wait_for(lambda: len(samples) == 2, 10)
+    for tap in taps:
+        tap.undeclare()
+    default, chosen = sorted(samples, key=lambda s: str(s.key_expr))
+    assert default.priority == zenoh.Priority.DATA
+    assert default.congestion_control == zenoh.CongestionControl.DROP
+    assert chosen.priority == zenoh.Priority.BACKGROUND and not chosen.express
+    assert chosen.congestion_control == zenoh.CongestionControl.BLOCK
+    wrong = cli.run('topic', 'pub', '/a', 'std_msgs/msg/Int32', '{}', '--once', '--priority', '9')
+    assert wrong.returncode == 2 and "invalid choice: '9'" in wrong.stderr
+
+
+def test_echo_and_hz_with_max_age_drop_stale_messages_and_say_so(
+    cli: Cli, zros_router: Router
+) -> None:
+    session = zros_router.session
+    stamp_id = zenoh.TimestampId(bytes(session.zid()))
+
+    def put(publisher: zenoh.Publisher, value: str, age: float) -> None:
+        when = datetime.fromtimestamp(time.time() - age, timezone.utc)
+        payload = zros.cdr.encode(zros.Message('std_msgs/msg/String', data=value))
+        publisher.put(payload, timestamp=zenoh.Timestamp(when, stamp_id))
+
+    publisher = session.declare_publisher('chatter')
+    echo = cli.start('topic', 'echo', '/chatter', 'std_msgs/msg/String', '--max-age', '0.5',
+                     '--count', '1')  # fmt: skip
+    assert wait_for(lambda: publisher.matching_status.matching, 10)
+    put(publisher, 'stale', 3.0)
+    put(publisher, 'fresh', 0.0)
+    assert echo.wait_line(lambda line: line.startswith('data:')) == 'data: fresh'
+    assert echo.finish()[0] == 0
+    assert 'past its lifespan of 0.5 s' in echo.errors.text()
+    wrong = cli.run('topic', 'hz', '/chatter', '--max-age', '0')
+    assert wrong.returncode == 2 and 'a number of seconds > 0, not 0' in wrong.stderr

@@ -4,12 +4,20 @@
 in order, which is what a long link does to a TCP stream. It counts the bytes it relays each
 way (``relayed['up']`` towards the target, ``relayed['down']`` back), so with no delay it is
 also a meter of what a link carries.
+
+With ``rate`` (bytes per second) each direction is also a bottleneck of that bandwidth: a chunk
+leaves it when the chunks before it have, at ``rate``, and arrives ``delay`` later. ``buffer``
+(bytes; default the bandwidth-delay product) bounds what waits at the bottleneck: past it the
+proxy stops reading, so the sender's TCP sees the back-pressure a real path gives instead of
+piling megabytes into loopback socket buffers; the proxy's own sockets then get small buffers
+(one read's worth), so that what the path holds is the bottleneck's queue and its delay line.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import socket
 import threading
 import time
 from collections.abc import Coroutine
@@ -19,9 +27,20 @@ from types import TracebackType
 class DelayProxy:
     """Listens on ``127.0.0.1:<free port>`` and forwards to ``target`` (host, port)."""
 
-    def __init__(self, target: tuple[str, int], delay: float) -> None:
+    def __init__(
+        self,
+        target: tuple[str, int],
+        delay: float,
+        *,
+        rate: float | None = None,
+        buffer: int | None = None,
+    ) -> None:
         self.target = target
         self.delay = delay
+        self.rate = rate  #: bytes per second each way (None: unlimited)
+        if buffer is None and rate is not None:
+            buffer = max(int(rate * 2 * delay), 65536)
+        self.buffer = buffer  #: bytes that may wait at the bottleneck
         self.port = 0
         self._loop = asyncio.new_event_loop()
         self._ready = threading.Event()
@@ -39,19 +58,39 @@ class DelayProxy:
 
     def _run(self) -> None:
         asyncio.set_event_loop(self._loop)
+        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self._size(listener)  # before listen(): accepted sockets inherit it
+        listener.bind(('127.0.0.1', 0))
         self._server = self._loop.run_until_complete(
-            asyncio.start_server(self._accept, '127.0.0.1', 0)
+            asyncio.start_server(self._accept, sock=listener, limit=self._chunk)
         )
         self.port = self._server.sockets[0].getsockname()[1]
         self._ready.set()
         self._loop.run_forever()
 
+    @property
+    def _chunk(self) -> int:
+        return 65536 if self.buffer is None else min(65536, max(self.buffer // 8, 4096))
+
+    def _size(self, sock: socket.socket) -> None:
+        if self.buffer is not None:  # Linux doubles what it is given
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self._chunk // 2)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, self._chunk // 2)
+
     async def _accept(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._size(sock)
+        sock.setblocking(False)
         try:
-            up_reader, up_writer = await asyncio.open_connection(*self.target)
+            await self._loop.sock_connect(sock, self.target)
+            up_reader, up_writer = await asyncio.open_connection(sock=sock, limit=self._chunk)
         except OSError:
+            sock.close()
             writer.close()
             return
+        for side in (writer, up_writer):
+            side.transport.set_write_buffer_limits(high=self._chunk)
         for task in (self._pump(reader, up_writer, 'up'), self._pump(up_reader, writer, 'down')):
             self._track(task)
 
@@ -69,6 +108,8 @@ class DelayProxy:
         """Copy ``reader`` to ``writer``, each chunk ``delay`` seconds after it arrived; the
         writer (this direction's socket) is closed however the pump ends."""
         queue: asyncio.Queue[tuple[float, bytes]] = asyncio.Queue()
+        rate, buffer = self.rate, self.buffer
+        out = 0.0  #: when the bottleneck is done with what it was given so far
 
         async def deliver() -> None:
             while True:
@@ -84,9 +125,16 @@ class DelayProxy:
         sender = self._track(deliver())
         try:
             with contextlib.suppress(ConnectionError, OSError):
-                while chunk := await reader.read(65536):
+                while chunk := await reader.read(self._chunk):
                     self.relayed[way] += len(chunk)
-                    queue.put_nowait((time.monotonic() + self.delay, chunk))
+                    now = time.monotonic()
+                    if rate is None:
+                        queue.put_nowait((now + self.delay, chunk))
+                        continue
+                    out = max(out, now) + len(chunk) / rate
+                    queue.put_nowait((out + self.delay, chunk))
+                    if buffer is not None and (out - now) * rate > buffer:
+                        await asyncio.sleep(out - now - buffer / rate)  # the bottleneck is full
             queue.put_nowait((0.0, b''))
             with contextlib.suppress(ConnectionError, OSError):
                 await sender

@@ -6,6 +6,7 @@ import asyncio
 import logging
 import time
 from collections.abc import Callable
+from datetime import datetime, timezone
 from functools import partial
 
 import numpy as np
@@ -391,3 +392,68 @@ def test_undeclaring_waits_for_a_call_in_another_thread(
     gone = _Busy(0, zenoh.ZError('session closed'))
     entity._undeclare(gone, 'pub')  # the session closed under it
     assert gone.calls == 1
+
+
+def test_qos_extensions_take_names_numbers_or_members_and_refuse_others() -> None:
+    qos = QoS(1, congestion='block_first', priority='data_low', express=True, lifespan=0.5)
+    assert qos.congestion is zros.Congestion.BLOCK_FIRST and qos.priority is zros.Priority.DATA_LOW
+    assert QoS(priority=2).priority is zros.Priority.INTERACTIVE_HIGH
+    assert str(qos) == (
+        'reliable, volatile, keep last 1, lifespan 0.5 s, block_first, priority data_low, express'
+    )
+    with pytest.raises(ValueError, match='unknown priority 9; one of: real_time'):
+        QoS(priority=9)
+    with pytest.raises(ValueError, match="unknown congestion 'fast'; one of: drop, block"):
+        QoS(congestion='fast')
+    with pytest.raises(ValueError, match='lifespan is a number of seconds > 0, got 0'):
+        QoS(lifespan=0)
+
+
+def test_congestion_control_is_rmw_zenohs() -> None:
+    drop, block = zros.Congestion.DROP, zros.Congestion.BLOCK
+    for qos, expected in (
+        (QoS(5, zros.Reliability.BEST_EFFORT), drop),
+        (QoS(1), drop),
+        (LATCHED, drop),
+        (QoS(history=zros.History.KEEP_ALL), block),
+        (QoS(history=zros.History.KEEP_ALL, congestion='block_first'), zros.Congestion.BLOCK_FIRST),
+    ):
+        assert qos.congestion_control is expected
+
+
+def test_a_burst_of_small_reliable_messages_arrives_whole(zros_node: Callable[..., Node]) -> None:
+    talker, listener = connected(zros_node)
+    sub = listener.create_subscription(String, 'chatter', qos=QoS(3000))
+    pub = talker.create_publisher(String, 'chatter')
+    assert pub.wait_for_subscribers()
+    for i in range(3000):
+        pub.write(text(str(i)))
+    assert wait_for(lambda: sub.received == 3000), f'{sub.received} of 3000 arrived'
+    assert [m.data for m in sub.take()] == [str(i) for i in range(3000)]
+
+
+def test_messages_past_their_lifespan_are_dropped_on_arrival_counted_and_logged(
+    zros_node: Callable[..., Node],
+    zros_transport: Callable[..., Transport],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    listener = zros_node('listener')
+    sub = listener.create_subscription(String, 'chatter', qos=QoS(10, lifespan=1.0))
+    sender = zros_transport()
+    publisher = sender.session.declare_publisher(sub.key)
+    assert wait_for(lambda: publisher.matching_status.matching)
+    stamp_id = zenoh.TimestampId(bytes(sender.session.zid()))
+
+    def put(value: str, age: float) -> None:
+        stamp = zenoh.Timestamp(datetime.fromtimestamp(time.time() - age, timezone.utc), stamp_id)
+        publisher.put(zros.cdr.encode(text(value)), timestamp=stamp, **put_options(listener))
+
+    with caplog.at_level(logging.WARNING, logger='zros'):
+        put('stale', 5.0)
+        put('fresh', 0.0)
+        put('older than a second', 1.5)
+        assert wait_for(lambda: sub.received + sub.expired == 3)
+    assert [m.data for m in sub.take()] == ['fresh']
+    assert sub.expired == 2 and sub.dropped == 2
+    warnings = [r.getMessage() for r in caplog.records if 'past its lifespan' in r.getMessage()]
+    assert len(warnings) == 1 and 'arrived 5.0' in warnings[0] and 'lifespan of 1 s' in warnings[0]

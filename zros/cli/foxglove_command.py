@@ -12,6 +12,7 @@ from collections.abc import Iterable
 from typing import TypedDict
 
 from zros.cli.shared import (
+    CommandError,
     add_connection_options,
     at_least_one,
     open_node,
@@ -53,6 +54,8 @@ def run(args: argparse.Namespace) -> int:
 
     keep_large_blocks()  # this process relays big messages: reuse their buffers
     if args.bag is not None:
+        if args.throttle:
+            raise CommandError('--throttle applies to live topics, not to a bag')
         with serve(bag=args.bag, **_settings(args)) as server:
             out(f'Foxglove: {server.url} serves {args.bag} (paused; play it from Foxglove)')
             return serve_until_interrupted()
@@ -63,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
             params=args.params,
             include_hidden=args.include_hidden,
             sim_time=args.sim_time,
+            throttle=args.throttle,
             **_settings(args),
         )
         assert isinstance(gateway, FoxgloveGateway)  # not a bag: a live gateway
@@ -89,6 +93,8 @@ def add_parser(
                         help='offer only topics matching one of these (whole names)')  # fmt: skip
     parser.add_argument('--exclude', nargs='+', action='extend', metavar='REGEX',
                         help='never offer topics matching one of these')  # fmt: skip
+    parser.add_argument('--throttle', action='append', default=[], metavar='REGEX=HZ',
+                        help="at most HZ messages a second of these ('/camera/.*=2')")  # fmt: skip
     parser.add_argument('--services', nargs='+', action='extend', metavar='REGEX',
                         help='offer only services matching one of these')  # fmt: skip
     parser.add_argument('--params', nargs='+', action='extend', metavar='REGEX',

@@ -44,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
             tls_key=args.tls_key,
             max_message_size=args.max_message_size,
             queue_items=args.client_queue,
+            throttle=args.throttle,
         )
         with gateway:
             out(f'rosbridge: {gateway.url} ({node.wire} wire)')
@@ -65,6 +66,8 @@ def add_parser(
                         help='address to listen on (default 127.0.0.1; others warn)')  # fmt: skip
     parser.add_argument('--topics-glob', nargs='+', action='extend', metavar='GLOB',
                         help='allow only topics matching one of these ("/camera/*")')  # fmt: skip
+    parser.add_argument('--throttle', action='append', default=[], metavar='REGEX=HZ',
+                        help="at most HZ messages a second of these ('/camera/.*=2')")  # fmt: skip
     parser.add_argument('--services-glob', nargs='+', action='extend', metavar='GLOB',
                         help='allow only services and actions matching these')  # fmt: skip
     parser.add_argument('--params-glob', nargs='+', action='extend', metavar='GLOB',

@@ -4,8 +4,10 @@ Listens on ``tcp/127.0.0.1:7447`` (this machine only) unless ``--listen`` says o
 warns when other machines can reach it. With ``--tls-cert`` and ``--tls-key`` it listens on
 TLS only; with ``--tls-ca`` too, clients need a certificate that CA signed (mutual TLS). With
 ``--user``, clients must present that user and the password read from ``ZROS_PASSWORD`` (or
-typed at a prompt): never from the command line, where ``ps`` would show it. Runs until Ctrl-C
-or SIGTERM, then exits 0.
+typed at a prompt): never from the command line, where ``ps`` would show it. Large messages
+sent with Zenoh's defaults (rmw_zenoh's, for one) leave it as ``data_low`` and ``block_first``
+unless ``--keep-qos``; ``--downsample /topic=HZ`` caps a topic's rate out of each link. Runs
+until Ctrl-C or SIGTERM, then exits 0.
 """
 
 from __future__ import annotations
@@ -66,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
             client_ca=args.tls_ca,
             user=args.user,
             password=password,
+            large_payloads=not args.keep_qos,
+            downsample=dict(args.downsample or ()),
         )
         with router:
             for endpoint in router.endpoints:
@@ -74,6 +78,10 @@ def run(args: argparse.Namespace) -> int:
                 out(f'  clients need a certificate signed by {args.tls_ca} (mutual TLS)')
             if args.user:
                 out(f'  clients must log in as {args.user!r}')
+            if not args.keep_qos:
+                out('  large messages (64 KiB on) sent with drop leave as block_first')
+            for topic, rate in args.downsample or ():
+                out(f'  {topic}: at most {rate:g} messages a second out of each link')
             out(f'  connect with --connect {router.endpoint} or ZROS_CONNECT={router.endpoint}')
             out('  Ctrl-C stops it')
             while not stop.wait(0.5):
@@ -107,4 +115,28 @@ def add_parser(
     parser.add_argument(
         '--shared-memory', action='store_true', help="Zenoh's shared memory for local clients"
     )
+    group = parser.add_argument_group('slow links')
+    group.add_argument(
+        '--downsample', action='append', type=_topic_rate, metavar='TOPIC=HZ',
+        help='send a topic at most HZ times a second out of each link (repeat; * and ** match)',
+    )  # fmt: skip
+    group.add_argument(
+        '--keep-qos', action='store_true',
+        help="leave large messages' priority and congestion control as sent (default: 64 KiB "
+        'on, sent with the defaults, go as data_low and block_first)',
+    )  # fmt: skip
     parser.set_defaults(run='zros.cli.router_command:run')
+
+
+def _topic_rate(text: str) -> tuple[str, float]:
+    """An argparse type: ``/topic=HZ``, HZ > 0."""
+    topic, _, rate = text.rpartition('=')
+    try:
+        hz = float(rate)
+    except ValueError:
+        hz = 0.0
+    if not topic.strip('/') or '//' in topic or not hz > 0:
+        raise argparse.ArgumentTypeError(
+            f'give TOPIC=HZ with HZ > 0, as /camera/image=2, not {text}'
+        )
+    return topic, hz

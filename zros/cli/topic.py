@@ -24,6 +24,7 @@ from zros.cli.shared import (
     out,
     parse_values,
 )
+from zros.qos import DEFAULT, LATCHED, Congestion, Priority, as_qos
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -146,9 +147,8 @@ def echo(args: argparse.Namespace) -> int:
         latched = bool(publishers) and all(
             p.qos is not None and p.qos.transient_local for p in publishers
         )
-        subscriber = node.create_subscription(
-            type_name, args.topic, qos='latched' if latched else args.qos_depth
-        )
+        qos = as_qos('latched' if latched else args.qos_depth).with_(lifespan=args.max_age)
+        subscriber = node.create_subscription(type_name, args.topic, qos=qos)
         printed = 0
         try:
             while node.ok():
@@ -170,7 +170,9 @@ def pub(args: argparse.Namespace) -> int:
     cls = message_class(args.type)
     message = build_message(cls, parse_values(args.values))
     with open_node(args) as node:
-        qos = 'latched' if args.latched else 10
+        qos = (LATCHED if args.latched else DEFAULT).with_(
+            priority=args.priority, express=args.express, congestion=args.congestion
+        )
         publisher = node.create_publisher(cls, args.topic, qos=qos)
         if args.wait_matching_subscriptions:
             deadline = time.monotonic() + 30
@@ -240,7 +242,7 @@ def _measuring_subscription(
 
     type_name = _topic_type(node, args.topic, args.wait)
     # as ros2's: best effort (it hears reliable publishers too), with room for bursts
-    qos = QoS(1000, Reliability.BEST_EFFORT)
+    qos = QoS(1000, Reliability.BEST_EFFORT, lifespan=getattr(args, 'max_age', None))
     try:
 
         def count(data: bytes) -> None:
@@ -249,6 +251,10 @@ def _measuring_subscription(
         return Subscriber(args.topic, type_name, count, qos, node=node, raw=True).close
     except UnknownTypeError:
         pass
+    if qos.lifespan is not None:
+        raise CommandError(
+            f'--max-age needs the definition of {type_name} (ZROS_INTERFACE_PATH adds yours)'
+        )
     wire = node.context.wire
     key = wire.any_type_key(wire.key(node.resolve_name(args.topic)))  # any type and hash
     print(
@@ -410,6 +416,7 @@ def add_parser(
     parser.add_argument('--flow-style', action='store_true', help='arrays on one line')
     parser.add_argument('--truncate-length', type=int, metavar='N', help='cut long values')
     parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
+    _add_max_age(parser)
     parser.add_argument('--wait', type=float, default=10.0, metavar='S',
                         help='how long to wait for the topic to appear (default 10)')  # fmt: skip
 
@@ -424,6 +431,18 @@ def add_parser(
     parser.add_argument('--keep-alive', type=float, default=1.0, metavar='S',
                         help='with --latched: seconds to stay for late subscribers')  # fmt: skip
     parser.add_argument('-w', '--wait-matching-subscriptions', type=int, default=0, metavar='N')
+    parser.add_argument(
+        '--priority', choices=[p.name.lower() for p in Priority],
+        help="Zenoh's priority (default: by topic and type, docs/qos.md)",
+    )  # fmt: skip
+    parser.add_argument(
+        '--express', action=argparse.BooleanOptionalAction, default=None,
+        help='send each message at once, unbatched (default: for urgent ones)',
+    )  # fmt: skip
+    parser.add_argument(
+        '--congestion', choices=[c.value for c in Congestion],
+        help='what write() does on a full link (default: drop; docs/qos.md)',
+    )  # fmt: skip
 
     for name, help_text in (
         ('hz', 'the rate of a topic'),
@@ -437,5 +456,25 @@ def add_parser(
         parser.add_argument('--wait', type=float, default=10.0, metavar='S',
                             help='how long to wait for the topic (default 10)')  # fmt: skip
         parser.add_argument('-w', '--window', type=int, default=10_000 if name == 'hz' else 100)
+        if name != 'delay':
+            _add_max_age(parser)
         parser.add_argument('--period', type=float, default=1.0, help='seconds between reports')
         parser.add_argument('--count', type=int, default=0, help='exit after N reports')
+
+
+def _seconds(text: str) -> float:
+    """An argparse type: a number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f'a number of seconds > 0, not {text}')
+    return value
+
+
+def _add_max_age(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        '--max-age', type=_seconds, metavar='S',
+        help='drop messages older than S seconds on arrival, counted and logged (a lifespan)',
+    )  # fmt: skip

@@ -158,6 +158,12 @@ class _Tapped:
             self.tap.close()
 
 
+Deliver = Callable[[bytes, int], object]
+#: ``limit(topic, deliver)``: the ``deliver`` a topic's messages go through (as
+#: :meth:`zros.gateway.throttle.Throttle.limit`)
+Limit = Callable[[str, Deliver], Deliver]
+
+
 class Taps:
     """Raw subscriptions on the topics someone watches, and only on those.
 
@@ -175,9 +181,15 @@ class Taps:
     """
 
     def __init__(
-        self, node: Node, now: Callable[[], int] = time.time_ns, replay_depth: int = REPLAY_DEPTH
+        self,
+        node: Node,
+        now: Callable[[], int] = time.time_ns,
+        replay_depth: int = REPLAY_DEPTH,
+        limit: Limit | None = None,
     ) -> None:
         self._node = node
+        #: what stands between a topic's messages and ``deliver`` (a rate limit), if anything
+        self._limit = limit
         self._now = now
         self._replay_depth = replay_depth
         self._lock = threading.Lock()
@@ -194,6 +206,8 @@ class Taps:
                 tapped.watchers.add(watcher)
                 return list(tapped.latched or ())
             qos = matched_qos(topic.offered)
+            if self._limit is not None:
+                deliver = self._limit(topic.name, deliver)
             kept = qos.transient_local and qos.depth <= self._replay_depth
             tapped = _Tapped(
                 topic.name, {watcher}, collections.deque(maxlen=qos.depth) if kept else None

@@ -27,6 +27,7 @@ from zros.gateway.core import GraphWatcher, NameFilter, Taps, gateway_node
 from zros.gateway.foxglove_calls import ENCODINGS, ClientChannels, ServiceOffer
 from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk, ros2msg_schema
 from zros.gateway.foxglove_params import Parameters
+from zros.gateway.throttle import Throttle
 from zros.gateway.views import offered_services, owners, parameter_nodes, service_providers
 from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
 from zros.qos import QoS, Reliability
@@ -77,6 +78,7 @@ class FoxgloveGateway:
         asset_paths: Iterable[str | os.PathLike[str]] = (),
         sim_time: bool | None = None,
         own_node: bool = False,
+        throttle: Iterable[str] = (),
     ) -> None:
         foxglove = import_sdk()
         from foxglove.websocket import Capability
@@ -97,7 +99,7 @@ class FoxgloveGateway:
             sim_time = '/clock' in graph_topics(node)
         self.sim_time = sim_time
         self._sim_now = 0
-        self._taps = Taps(node, self.now)
+        self._taps = Taps(node, self.now, limit=Throttle.parse(throttle).limit)
         self._context = foxglove.Context()
         capabilities = [
             Capability.ClientPublish,
@@ -415,13 +417,15 @@ def serve(
     sim_time: bool | None = None,
     node: Node | None = None,
     name: str = 'zros_foxglove',
+    throttle: Iterable[str] = (),
     **settings: NodeSetting,
 ) -> FoxgloveGateway | BagGateway:
     """Serve the robot (or, with ``bag``, a recording) to Foxglove at
     ``ws://address:port``; returns the running server (``close()`` it, or use ``with``).
 
     Without ``node``, a node named ``name`` joins the graph with the connection ``settings``
-    of :class:`zros.Node` (``connect``, ``wire``, ``transport``, ``tls``...).
+    of :class:`zros.Node` (``connect``, ``wire``, ``transport``, ``tls``...). ``throttle``:
+    ``REGEX=HZ`` rate limits of live topics (:mod:`zros.gateway.throttle`).
     """
     options = ServerOptions(port, address, tls_cert, tls_key, message_backlog, name='zros')
     if bag is not None:
@@ -443,6 +447,7 @@ def serve(
             asset_paths=asset_paths,
             sim_time=sim_time,
             own_node=own,
+            throttle=throttle,
         )
     except BaseException:
         if own:

@@ -31,6 +31,7 @@ from zros.gateway.rosbridge_calls import Calls
 from zros.gateway.rosbridge_client import ClientSession
 from zros.gateway.rosbridge_topics import Topics
 from zros.gateway.rosbridge_values import Values
+from zros.gateway.throttle import Throttle
 
 if TYPE_CHECKING:
     from types import ModuleType
@@ -86,6 +87,7 @@ class RosbridgeGateway:
         queue_items: int = QUEUE_ITEMS,
         queue_bytes: int = QUEUE_BYTES,
         own_node: bool = False,
+        throttle: Iterable[str] = (),
     ) -> None:
         server_module = import_websockets()
         listen.check()
@@ -96,7 +98,9 @@ class RosbridgeGateway:
         self._own_node = own_node
         self._sizes = (max_message_size, queue_items, queue_bytes)
         self.values = Values(node.registry, self._now)
-        self._taps = Taps(node, lambda: node.now().nanoseconds)
+        self._taps = Taps(
+            node, lambda: node.now().nanoseconds, limit=Throttle.parse(throttle).limit
+        )
         self.topics = Topics(node, self.values, NameFilter.globs(topics_glob), self._taps)
         rosapi = Rosapi(
             node,
@@ -227,6 +231,7 @@ def serve(
     queue_bytes: int = QUEUE_BYTES,
     node: Node | None = None,
     name: str = 'zros_rosbridge',
+    throttle: Iterable[str] = (),
     **settings: NodeSetting,
 ) -> RosbridgeGateway:
     """Serve the robot to rosbridge clients at ``ws://address:port``; returns the running
@@ -234,7 +239,8 @@ def serve(
 
     Without ``node``, a node named ``name`` joins the graph with the connection ``settings``
     of :class:`zros.Node` (``connect``, ``wire``, ``transport``, ``tls``...). The gateway spins
-    its node: a node given here should be one nothing else spins.
+    its node: a node given here should be one nothing else spins. ``throttle``: ``REGEX=HZ``
+    rate limits of topics (:mod:`zros.gateway.throttle`).
     """
     listen = Listen(port, address, tls_cert, tls_key, 'the rosbridge server')
     own = node is None
@@ -251,6 +257,7 @@ def serve(
             queue_items=queue_items,
             queue_bytes=queue_bytes,
             own_node=own,
+            throttle=throttle,
         )
     except BaseException:
         if own:

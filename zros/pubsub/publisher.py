@@ -7,7 +7,7 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from zenoh import CongestionControl, Reliability, ZError, ext
+from zenoh import Reliability, ZError, ext
 
 from zros.cdr import encode
 from zros.cdr.encode_buffer import EncodeBuffer
@@ -19,6 +19,7 @@ from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity, message_class
 from zros.runtime.signal import sleep
+from zros.transport.zenoh_qos import CONGESTION, PRIORITY
 
 if TYPE_CHECKING:
     from zenoh import Publisher as ZenohPublisher
@@ -29,8 +30,10 @@ if TYPE_CHECKING:
 class Publisher(Entity):
     """Publishes messages of one type on one topic (rosR: ``ros.Publisher``).
 
-    ``qos`` is a :class:`zros.QoS`, a depth or a preset name (``'sensor_data'``). Reliable
-    publishers block when the network cannot keep up; best-effort ones drop.
+    ``qos`` is a :class:`zros.QoS`, a depth or a preset name (``'sensor_data'``). When the
+    network cannot keep up, ``write()`` drops the message rather than wait (a keep-last reader
+    wants the newest), except for reliable keep-all publishers, which block until it is sent
+    (as rmw_zenoh chooses); ``QoS(congestion=...)`` overrides that.
     """
 
     def __init__(
@@ -73,18 +76,23 @@ class Publisher(Entity):
 
     def _declare(self, wire: WireEntity) -> ZenohPublisher | ext.AdvancedPublisher:
         qos = self.qos
-        congestion = CongestionControl.BLOCK if qos.reliable else CongestionControl.DROP
+        congestion = CONGESTION[qos.congestion_control]
         reliability = Reliability.RELIABLE if qos.reliable else Reliability.BEST_EFFORT
+        priority, express = qos.priority_for(self.topic, self.type_name)
+        #: the Zenoh priority and express flag its messages carry
+        self.priority, self.express = priority, express
         session = self.context.transport.session
         if qos.transient_local:
             return ext.declare_advanced_publisher(
                 session, self.key, cache=ext.CacheConfig(max_samples=qos.depth),
                 publisher_detection=True, congestion_control=congestion, reliability=reliability,
+                priority=PRIORITY[priority], express=express,
                 **wire.publisher_options(qos),
             )  # fmt: skip
         publisher: ZenohPublisher = session.declare_publisher(
-            self.key, congestion_control=congestion, reliability=reliability
-        )
+            self.key, congestion_control=congestion, reliability=reliability,
+            priority=PRIORITY[priority], express=express,
+        )  # fmt: skip
         return publisher
 
     def write(self, message: Message) -> None:

@@ -55,7 +55,9 @@ class Subscriber(Entity):
 
     Messages that do not decode (or, under rmw_zenoh, come without a valid attachment) are
     dropped, counted per sender (:meth:`dropped_by_sender`) and logged, at most once per sender
-    every 10 s; they never count as new.
+    every 10 s; they never count as new. With ``qos.lifespan`` (seconds), messages older than
+    that when they arrive (by the Zenoh timestamp of their sender, or of the first router on
+    their way) are dropped too, counted in ``expired`` and logged the same way.
     """
 
     def __init__(
@@ -103,6 +105,9 @@ class Subscriber(Entity):
         self.undecodable = 0  #: samples that did not decode as the type
         self._drops = DropCounter(self.topic)
         self._overflows = DropCounter(self.topic)
+        self.expired = 0  #: messages dropped on arrival, older than ``qos.lifespan``
+        self._lifespan = self.qos.lifespan
+        self._expiries = DropCounter(self.topic)
         self._rejection = wire.rejection
         self._subscribe(wire, self.qos, batches=self._on_samples, rejected=self._on_rejected)
         self._announce()
@@ -124,9 +129,10 @@ class Subscriber(Entity):
 
     @property
     def dropped(self) -> int:
-        """Messages lost: past a keep-all queue's bounds, undecodable, or (rmw_zenoh) without
-        a valid attachment. Keep-last replacing unread messages is not counted."""
-        return self.overflowed + self.undecodable + self.unattached
+        """Messages lost: past a keep-all queue's bounds, undecodable, (rmw_zenoh) without
+        a valid attachment, or past their lifespan (``expired``). Keep-last replacing unread
+        messages is not counted."""
+        return self.overflowed + self.undecodable + self.unattached + self.expired
 
     def dropped_by_sender(self) -> dict[str, int]:
         """Undecodable and unattached messages by sender (as the warnings name them)."""
@@ -140,6 +146,10 @@ class Subscriber(Entity):
         self._drop(sample, self._rejection)
 
     def _on_samples(self, samples: list[Sample]) -> None:
+        if self._lifespan is not None:
+            samples = self._unexpired(samples, self._lifespan)
+            if not samples:
+                return
         if self._now and not self._executor.stopped:
             self._deliver(self._queue.passing(samples))
             return
@@ -155,9 +165,26 @@ class Subscriber(Entity):
         for waker in self._async_wakers:
             waker()
 
-    def _drop(self, sample: Sample, reason: str) -> None:
+    def _unexpired(self, samples: list[Sample], lifespan: float) -> list[Sample]:
+        """``samples`` but those older than ``lifespan``, which are counted and logged (a
+        sample without a timestamp cannot tell its age: it is kept)."""
+        now = time.time()
+        kept = []
+        for sample in samples:
+            stamp = sample.timestamp
+            age = 0.0 if stamp is None else now - stamp.get_time_as_ntp64().as_secs_f64()
+            if age <= lifespan:
+                kept.append(sample)
+                continue
+            self.expired += 1
+            reason = f'it arrived {age:.2f} s old, past its lifespan of {lifespan:g} s'
+            self._drop(sample, reason, self._expiries)
+        return kept
+
+    def _drop(self, sample: Sample, reason: str, counter: DropCounter | None = None) -> None:
         key = sender_key(sample)
-        self._drops.add(key, lambda: describe_sender(sample, key, self.context, self.topic), reason)
+        counter = self._drops if counter is None else counter
+        counter.add(key, lambda: describe_sender(sample, key, self.context, self.topic), reason)
 
     # --- reading ---------------------------------------------------------------------------
 
@@ -331,6 +358,7 @@ class Subscriber(Entity):
     def _on_close(self) -> None:
         self._drops.flush()
         self._overflows.flush()
+        self._expiries.flush()
         self._arrived.notify()
         for waker in list(self._async_wakers):
             waker()

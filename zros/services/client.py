@@ -18,6 +18,7 @@ from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
+from zros.qos import SERVICE_PRIORITY
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity
 from zros.runtime.futures import ServiceFuture
@@ -30,6 +31,7 @@ from zros.services.errors import (
     ServiceUnavailableError,
     service_type,
 )
+from zros.transport.zenoh_qos import PRIORITY
 
 #: seconds a call may still wait for its answer once no server matches any more (the answer
 #: may be in transit: declarations can overtake replies); then it ends as unavailable
@@ -112,8 +114,8 @@ class Client(Entity):
         """Send a request (with what the wire attaches); Zenoh's reply channel (None when
         ``handler`` takes the replies)."""
         replies: Handler[Reply] | None = self._get(
-            self.key, handler, payload=data, timeout=timeout,
-            **self._wire.query_options(attachment),
+            self.key, handler, payload=data, timeout=timeout, priority=PRIORITY[SERVICE_PRIORITY],
+            express=True, **self._wire.query_options(attachment),
         )  # fmt: skip
         return replies
 

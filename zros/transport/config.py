@@ -102,6 +102,10 @@ def listen_endpoints(config: ZenohConfig) -> list[str]:
     return [str(endpoint) for endpoint in endpoints]
 
 
+#: how long (µs) a ``drop`` message in fragments may wait for room before Zenoh drops it
+FRAGMENTS_WAIT = 'transport/link/tx/queue/congestion_control/drop/max_wait_before_drop_fragments'
+
+
 def _zenoh_default(config: ZenohConfig, key: str) -> bool:
     """Whether ``config`` has Zenoh's default value for ``key`` (nobody set it)."""
     import zenoh
@@ -278,6 +282,10 @@ class TransportConfig:
             # default backoff waits 1 to 4 s)
             put('connect/retry', {'period_init_ms': 100, 'period_max_ms': 1000,
                                   'period_increase_factor': 2})  # fmt: skip
+        if _zenoh_default(config, FRAGMENTS_WAIT):
+            # a large message a full link cannot take is dropped after 25 ms instead of 50: the
+            # writer waits less, and loopback and LANs still take megabytes in that time
+            put(FRAGMENTS_WAIT, 25_000)
         if self.tls is not None:
             put('transport/link/tls/root_ca_certificate', self.tls.root_ca_certificate)
             put('transport/link/tls/verify_name_on_connect', self.tls.verify_name)

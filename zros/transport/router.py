@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, TypedDict
 
 from zros.transport.credentials import check_user, password_dictionary, secret_values
@@ -44,10 +44,48 @@ def _tls_settings(
     return settings
 
 
+#: what zros routers do to large messages (64 KiB on) sent with congestion control ``drop``
+#: (rmw_zenoh's and zros's default but for keep-all; the bridge's for best effort) as they
+#: leave: ``block_first``, so that the newest of them still crosses a congested link whole
+#: (under ``drop`` none does), and those at Zenoh's default priority go as ``data_low``, so that
+#: small messages overtake them; a sender's other choices stay (docs/connecting.md)
+LARGE_PAYLOADS: list[JsonValue] = [
+    {
+        'id': 'zros_large_payloads_last',
+        'messages': ['put'], 'flows': ['egress'], 'payload_size': '65536..',
+        'qos': {'congestion_control': 'drop', 'priority': 'data'},
+        'overwrite': {'congestion_control': 'block_first', 'priority': 'data_low'},
+    },
+    {
+        'id': 'zros_large_payloads_block_first',
+        'messages': ['put'], 'flows': ['egress'], 'payload_size': '65536..',
+        'qos': {'congestion_control': 'drop'},
+        'overwrite': {'congestion_control': 'block_first'},
+    },
+]  # fmt: skip
+
+
+def downsampling(rates: Mapping[str, float]) -> list[JsonValue]:
+    """Zenoh's downsampling settings sending each topic of ``rates`` (a ROS name, Zenoh's ``*``
+    and ``**`` allowed) at most that many times a second out of each link, on both wires
+    (the bridge's key ``name``, rmw_zenoh's ``<domain>/name/<type>/<hash>``)."""
+    rules: list[JsonValue] = []
+    for topic, rate in rates.items():
+        name = topic.strip('/')
+        if not name or '//' in name or not rate > 0:
+            raise TransportError(
+                f'cannot downsample {topic!r} to {rate} Hz: give /topic=HZ, HZ > 0'
+            )
+        rules += [{'key_expr': name, 'freq': rate}, {'key_expr': f'*/{name}/**', 'freq': rate}]
+    return [{'id': 'zros_downsample', 'messages': ['put'], 'flows': ['egress'], 'rules': rules}]
+
+
 class RouterOptions(TypedDict, total=False):
     """The keywords of :class:`Router` (for :func:`start_router`)."""
 
     shared_memory: bool
+    large_payloads: bool
+    downsample: Mapping[str, float] | None
     zenoh: dict[str, JsonValue] | None
     certificate: str | None
     private_key: str | None
@@ -62,7 +100,11 @@ class Router:
     Multicast scouting is off; shared memory is off unless asked, so clients behave as across
     a network. With ``certificate`` and ``private_key`` it listens on TLS (``tls/`` endpoints
     only); with ``client_ca`` too, clients must present a certificate that CA signed (mutual
-    TLS); with ``user`` and ``password``, they must present those.
+    TLS); with ``user`` and ``password``, they must present those. ``large_payloads`` applies
+    :data:`LARGE_PAYLOADS` (``zros router`` does by default: for a robot's router with a slow
+    link; it drops large messages of a burst faster than even a local link takes them);
+    ``downsample`` maps topics to the most messages a second each link gets of them
+    (:func:`downsampling`).
     """
 
     def __init__(
@@ -70,6 +112,8 @@ class Router:
         listen: Sequence[str] = ('tcp/127.0.0.1:0',),
         *,
         shared_memory: bool = False,
+        large_payloads: bool = False,
+        downsample: Mapping[str, float] | None = None,
         zenoh: dict[str, JsonValue] | None = None,
         certificate: str | None = None,
         private_key: str | None = None,
@@ -90,6 +134,10 @@ class Router:
             'timestamping': {'enabled': True},
             'transport': {'shared_memory': {'enabled': shared_memory}},
         }
+        if large_payloads:
+            settings['qos'] = {'network': LARGE_PAYLOADS}
+        if downsample:
+            settings['downsampling'] = downsampling(downsample)
         config = z.Config.from_json5(json.dumps(settings))
         extra = {**_tls_settings(listen, certificate, private_key, client_ca), **(zenoh or {})}
         secrets = [password, *secret_values(extra)]
