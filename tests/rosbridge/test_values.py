@@ -190,18 +190,26 @@ def test_fragments_join_into_the_message() -> None:
     assert png_text(json.loads(png_message('ab'))['data']) == 'ab'  # 1 pixel wide at least
 
 
-def test_a_subscription_s_fragment_size(rosbridge: Make, raw_client: Make, zros_node: Make) -> None:
+@pytest.mark.parametrize(('asked', 'size'), [(2000, 2000), (1, 1024)])
+def test_a_subscription_s_fragment_size(
+    rosbridge: Make, raw_client: Make, zros_node: Make, asked: int, size: int
+) -> None:
     client = raw_client(rosbridge())
-    message = zros.Message('std_msgs/msg/String', data='f' * 1000)
+    client.send(op='set_level', level='warning')
+    message = zros.Message('std_msgs/msg/String', data='f"\\' * 3000)  # escaped in fragments too
     first, _ = subscribe_and_publish(
-        client, zros_node, message, '/fragmented', 'fragment', fragment_size=100
+        client, zros_node, message, '/fragmented', 'fragment', fragment_size=asked
     )
     total = first['total']
     client.wait(lambda m: m.get('op') == 'fragment' and m['num'] == total - 1)
     parts = sorted(client.of('fragment', id=first['id']), key=lambda m: m['num'])
-    assert total == len(parts) > 1 and all(len(p['data']) <= 100 for p in parts)
+    assert total == len(parts) > 1 and all(len(p['data']) <= size for p in parts)
+    assert max(len(p['data']) for p in parts) == size  # below 1 KiB, 1 KiB is used
     assert json.loads(''.join(p['data'] for p in parts)) == {
         'op': 'publish',
         'topic': '/fragmented',
-        'msg': {'data': 'f' * 1000},
+        'msg': {'data': 'f"\\' * 3000},
     }
+    clamped = [m for m in client.of('status') if 'fragment_size' in m['msg']]
+    assert clamped == ([] if asked == size else [client.status('fragment_size 1 is below 1024')])
+    assert all(m['level'] == 'warning' for m in clamped)
