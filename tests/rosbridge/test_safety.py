@@ -55,6 +55,13 @@ def test_pages_of_other_sites_are_refused(
     assert len(lines) == 1 and lines[0].levelno == logging.WARNING and lines[0].exc_info is None
     assert '--allow-origin https://evil.example' in lines[0].getMessage()
     assert not gateway.clients
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    twice = [('Origin', 'http://localhost:5173'), ('Origin', 'https://evil.example')]
+    with pytest.raises(InvalidStatus) as refused:  # never judged by the first of two
+        connect(gateway.url, additional_headers=twice, open_timeout=TIMEOUT)
+    assert refused.value.response.status_code == 403
     # programs send no Origin; pages of this machine are the operator's
     for origin in (None, 'http://localhost:5173', 'http://127.0.0.1:8000', 'http://[::1]:3000'):
         client = raw_client(gateway, origin=origin)
@@ -387,6 +394,11 @@ def test_client_fragments_are_bounded(rosbridge: Make, raw_client: Make) -> None
     inner = json.dumps({'op': 'fragment', 'id': 'inner', 'data': '{}', 'num': 0, 'total': 1})
     client.send(op='fragment', id='outer', data=inner, num=0, total=1)
     assert 'fragments of fragments' in client.wait(lambda m: m.get('id') == 'inner')['msg']
+    # an id used again for another message starts that message afresh
+    client.send(op='fragment', id='again', data='{"op":', num=0, total=3)
+    client.send(op='fragment', id='again', data='{"op":"dance",', num=0, total=2)
+    client.send(op='fragment', id='again', data='"id":"again"}', num=1, total=2)
+    assert 'Unknown operation' in client.wait(lambda m: m.get('id') == 'again')['msg']
     # the oldest messages not yet whole go when the fragments held pass the message size
     small: RawClient = raw_client(rosbridge(max_message_size=100_000))
     for key in ('a', 'b', 'c'):
