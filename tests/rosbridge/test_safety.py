@@ -211,6 +211,21 @@ def test_a_service_of_the_graph_is_not_taken_over(
     assert not client.of('request')
 
 
+def test_a_client_advertises_its_own_service_again(
+    rosbridge: Make, raw_client: Make, zros_node: Make
+) -> None:
+    gateway = rosbridge()
+    client: RawClient = raw_client(gateway)
+    watcher = zros_node('watcher')
+    client.send(op='advertise_service', service='/mine', type=ADD, id='first')
+    own = gateway.node.fully_qualified_name
+    assert wait_for(lambda: service_providers(watcher, ['/mine']).get('/mine') == [own], TIMEOUT)
+    client.send(op='advertise_service', service='/mine', type=ADD, id='again')  # replaced
+    client.send(op='dance', id='after')
+    client.wait(lambda m: m.get('id') == 'after')
+    assert not client.of('status', id='first') and not client.of('status', id='again')
+
+
 def test_an_action_of_the_graph_is_not_taken_over(
     rosbridge: Make, raw_client: Make, zros_node: Make
 ) -> None:

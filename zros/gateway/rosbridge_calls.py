@@ -199,7 +199,10 @@ class Calls:
             service_type = self._node.registry.get_service(type_text)
         except ZrosError as exc:
             raise GatewayError(f'unknown service type {type_text}: {exc}') from None
-        self.check_unserved(name)
+        with self._lock:
+            ours = name in self._offered  # the graph shows it served by the gateway: replaced
+        if not ours:
+            self.check_unserved(name)
         self._withdraw(name, None)  # a service advertised again replaces the older one
         offered = _Offered(peer, name, service_type.Response)
         offered.service = self._node.create_service(service_type, name, self._forward(offered))
