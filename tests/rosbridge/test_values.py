@@ -21,7 +21,7 @@ import pytest
 import zros
 from tests.rosbridge.clients import RawClient
 from zros.cdr import default_registry
-from zros.gateway.rosbridge_frames import fragments, png_message
+from zros.gateway.rosbridge_frames import fragments, png_message, to_text, to_text_with
 
 Make = Callable[..., Any]
 TIMEOUT = 20.0
@@ -174,6 +174,32 @@ def test_png_and_fragments(rosbridge: Make, raw_client: Make, zros_node: Make) -
         'topic': '/big',
         'msg': {'data': 'x' * 5000},
     }
+
+
+def test_long_base64_is_spliced_into_the_json_unchanged() -> None:
+    from zros.cdr.registry import default_registry
+    from zros.gateway.rosbridge_values import BLOB_SIZE, Values, blob_mark
+
+    values = Values(default_registry(), lambda: (1, 2))
+    pixels = np.arange(BLOB_SIZE * 3, dtype=np.uint32).astype(np.uint8)
+    image = zros.Message('sensor_msgs/msg/Image', header={'frame_id': 'cam "1"'}, data=pixels)
+    blobs: list[str] = []
+    marked = values.to_json(image, blobs)
+    assert marked['data'] == blob_mark(0) and len(blobs) == 1
+    message = {'op': 'publish', 'topic': '/image', 'msg': marked}
+    whole = {'op': 'publish', 'topic': '/image', 'msg': values.to_json(image)}
+    assert to_text_with(message, blobs) == to_text(whole)  # what JSON's encoder would write
+    assert base64.b64decode(json.loads(to_text_with(message, blobs))['msg']['data']) == bytes(
+        pixels
+    )
+    several = {'a': blob_mark(0), 'b': [{'c': blob_mark(1)}], 'd': 'x'}
+    assert json.loads(to_text_with(several, ['AAAA', 'BBBB'])) == {
+        'a': 'AAAA',
+        'b': [{'c': 'BBBB'}],
+        'd': 'x',
+    }
+    with pytest.raises(ValueError, match='blob 0 is missing'):
+        to_text_with({'a': 'no mark'}, ['AAAA'])
 
 
 def test_fragments_join_into_the_message() -> None:

@@ -10,7 +10,8 @@
   costs that client's thread, not the thread delivering the topic to every subscriber.
 
 A :class:`Sample` is one message received on a topic; it encodes itself once per form (JSON,
-CBOR, raw CDR, PNG) whatever the number of subscribers that want that form.
+CBOR, raw CDR, PNG) whatever the number of subscribers that want that form. Its JSON text is
+written without the long base64 strings, which are spliced in after (:func:`to_text_with`).
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
+
+from zros.gateway.rosbridge_values import blob_mark
 
 if TYPE_CHECKING:
     from zros.cdr import JsonValue, Message
@@ -77,6 +80,20 @@ def frames_size(frames: Frames) -> int:
 def to_text(message: JsonObject) -> str:
     """A protocol message as JSON text (NaN is never written: values carry null instead)."""
     return json.dumps(message, separators=(',', ':'), allow_nan=False)
+
+
+def to_text_with(message: JsonObject, blobs: list[str]) -> str:
+    """:func:`to_text` of values holding :func:`blob_mark` marks, with the blobs put in their
+    place (in order: the JSON text has the values in the order they were made)."""
+    rest = to_text(message)
+    pieces: list[str] = []
+    for index, blob in enumerate(blobs):
+        head, mark, rest = rest.partition(blob_mark(index))
+        if not mark:
+            raise ValueError(f'blob {index} is missing from the JSON text')
+        pieces += (head, blob)
+    pieces.append(rest)
+    return ''.join(pieces)
 
 
 def to_cbor(message: JsonObject) -> bytes:
@@ -190,6 +207,8 @@ class Sample:
         if png:
             text = png_message(self._text(head, False))
         else:
-            text = to_text({**head, 'msg': self.values.to_json(self.message())})
+            blobs: list[str] = []
+            values = self.values.to_json(self.message(), blobs)
+            text = to_text_with({**head, 'msg': values}, blobs)
         self._cache[key] = (text,)
         return text
