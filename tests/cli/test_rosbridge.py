@@ -70,3 +70,32 @@ def test_a_port_out_of_range_is_a_usage_error(cli: Cli) -> None:
     result = cli.run('rosbridge', '--port', '70000')
     assert result.returncode == 2
     assert 'a port is 0 to 65535' in result.stderr
+
+
+def test_the_safety_options(cli: Cli, zros_node: Any) -> None:
+    from websockets.exceptions import InvalidStatus
+
+    listener = zros_node('listener').create_subscription('geometry_msgs/msg/Twist', '/cmd_vel')
+    running = cli.start(
+        'rosbridge', '--port', '0', '--read-only', '--client-buffer', '1MiB',
+        '--allow-origin', 'https://dashboard.example',
+    )  # fmt: skip
+    line = running.wait_line(lambda line: line.startswith('rosbridge: '))
+    assert 'read-only' in line
+    url = _url(line)
+    with pytest.raises(InvalidStatus) as refused:
+        RawClient(url, origin='https://evil.example')
+    assert refused.value.response.status_code == 403
+    client = RawClient(url, origin='https://dashboard.example')
+    try:
+        client.send(op='publish', topic='/cmd_vel', msg={'linear': {'x': 1.0}}, id='p')
+        status = client.wait(lambda m: m.get('id') == 'p', TIMEOUT)
+        assert status['op'] == 'status' and 'read-only' in status['msg']
+    finally:
+        client.close()
+    assert listener.read_message() is None
+    running.process.send_signal(signal.SIGINT)
+    code, _ = running.finish()
+    assert code == 0
+    refusals = [x for x in running.errors.text().splitlines() if 'evil.example' in x]
+    assert len(refusals) == 1 and '--allow-origin' in refusals[0]  # one line, naming the option

@@ -14,16 +14,21 @@ TIMEOUT = 20.0
 
 class RawClient:
     """A connection whose received messages (decoded JSON, CBOR as dicts, text kept) are
-    kept in order; :meth:`wait` finds one by predicate."""
+    kept in order; :meth:`wait` finds one by predicate. ``origin``: the ``Origin`` header a
+    browser on a page of that origin would send (none by default, as programs)."""
 
-    def __init__(self, url: str, ca: str | None = None, read: bool = True) -> None:
+    def __init__(
+        self, url: str, ca: str | None = None, read: bool = True, origin: str | None = None
+    ) -> None:
         from websockets.sync.client import connect
 
         context = None
         if ca is not None:
             context = ssl.create_default_context(cafile=ca)
         # entered as a context manager, which websockets asks of its connections (17.1)
-        self.connection = connect(url, ssl=context, max_size=None, open_timeout=TIMEOUT).__enter__()
+        self.connection = connect(
+            url, ssl=context, max_size=None, open_timeout=TIMEOUT, origin=origin
+        ).__enter__()
         self.received: list[dict[str, Any]] = []
         self.frames: list[str | bytes] = []
         self._arrived = threading.Condition()

@@ -4,6 +4,7 @@
   own (of the module's ``zros_wire``), on a free port.
 * ``roslibpy_client``: ``make(gateway)`` -> a connected ``roslibpy.Ros`` (asyncio transport,
   one event loop per client), closed after the test.
+* ``roslibjs``: ``make(gateway)`` -> a :class:`RoslibClient`, roslib from npm run by node.
 * ``raw_client``: ``make(gateway)`` -> a :class:`RawClient`, a plain WebSocket speaking the
   protocol by hand (for what the client libraries never send).
 """
@@ -16,6 +17,7 @@ from typing import Any
 import pytest
 
 from tests.rosbridge.clients import RawClient
+from tests.rosbridge.roslib_client import RoslibClient, require_roslib
 from zros.testing import wait_for
 
 pytest.importorskip('websockets', reason='the websockets library (the rosbridge extra) is missing')
@@ -65,6 +67,21 @@ def raw_client() -> Iterator[Callable[..., RawClient]]:
 
     def make(gateway: Any, **options: Any) -> RawClient:
         client = RawClient(gateway.url, **options)
+        made.append(client)
+        return client
+
+    yield make
+    for client in made:
+        client.close()
+
+
+@pytest.fixture
+def roslibjs() -> Iterator[Callable[[Any], RoslibClient]]:
+    require_roslib()
+    made: list[RoslibClient] = []
+
+    def make(gateway: Any) -> RoslibClient:
+        client = RoslibClient(gateway.url)
         made.append(client)
         return client
 

@@ -6,14 +6,14 @@ rosapi's topics, nodes and parameters."""
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import pytest
 
 import zros
-from tests.rosbridge.roslib_client import RoslibClient, require_roslib
+from tests.rosbridge.roslib_client import RoslibClient
 from zros.testing import spinning, wait_for
 
 Make = Callable[..., Any]
@@ -24,21 +24,6 @@ FIB = 'example_interfaces/action/Fibonacci'
 @pytest.fixture(params=['bridge', 'rmw_zenoh'])
 def zros_wire(request: pytest.FixtureRequest) -> str:
     return str(request.param)
-
-
-@pytest.fixture
-def roslibjs() -> Iterator[Callable[[Any], RoslibClient]]:
-    require_roslib()
-    made: list[RoslibClient] = []
-
-    def make(gateway: Any) -> RoslibClient:
-        client = RoslibClient(gateway.url)
-        made.append(client)
-        return client
-
-    yield make
-    for client in made:
-        client.close()
 
 
 def test_topics_both_ways(rosbridge: Make, roslibjs: Make, zros_node: Make) -> None:

@@ -21,7 +21,7 @@ import pytest
 import zros
 from tests.rosbridge.clients import RawClient
 from zros.cdr import default_registry
-from zros.gateway.rosbridge_frames import fragments, png_message
+from zros.gateway.rosbridge_frames import fragments, png_message, to_text, to_text_with
 
 Make = Callable[..., Any]
 TIMEOUT = 20.0
@@ -176,6 +176,32 @@ def test_png_and_fragments(rosbridge: Make, raw_client: Make, zros_node: Make) -
     }
 
 
+def test_long_base64_is_spliced_into_the_json_unchanged() -> None:
+    from zros.cdr.registry import default_registry
+    from zros.gateway.rosbridge_values import BLOB_SIZE, Values, blob_mark
+
+    values = Values(default_registry(), lambda: (1, 2))
+    pixels = np.arange(BLOB_SIZE * 3, dtype=np.uint32).astype(np.uint8)
+    image = zros.Message('sensor_msgs/msg/Image', header={'frame_id': 'cam "1"'}, data=pixels)
+    blobs: list[str] = []
+    marked = values.to_json(image, blobs)
+    assert marked['data'] == blob_mark(0) and len(blobs) == 1
+    message = {'op': 'publish', 'topic': '/image', 'msg': marked}
+    whole = {'op': 'publish', 'topic': '/image', 'msg': values.to_json(image)}
+    assert to_text_with(message, blobs) == to_text(whole)  # what JSON's encoder would write
+    assert base64.b64decode(json.loads(to_text_with(message, blobs))['msg']['data']) == bytes(
+        pixels
+    )
+    several = {'a': blob_mark(0), 'b': [{'c': blob_mark(1)}], 'd': 'x'}
+    assert json.loads(to_text_with(several, ['AAAA', 'BBBB'])) == {
+        'a': 'AAAA',
+        'b': [{'c': 'BBBB'}],
+        'd': 'x',
+    }
+    with pytest.raises(ValueError, match='blob 0 is missing'):
+        to_text_with({'a': 'no mark'}, ['AAAA'])
+
+
 def test_fragments_join_into_the_message() -> None:
     text = json.dumps({'op': 'publish', 'topic': '/t', 'msg': {'data': 'y' * 250}})
     frames = fragments(text, 100)
@@ -190,18 +216,26 @@ def test_fragments_join_into_the_message() -> None:
     assert png_text(json.loads(png_message('ab'))['data']) == 'ab'  # 1 pixel wide at least
 
 
-def test_a_subscription_s_fragment_size(rosbridge: Make, raw_client: Make, zros_node: Make) -> None:
+@pytest.mark.parametrize(('asked', 'size'), [(2000, 2000), (1, 1024)])
+def test_a_subscription_s_fragment_size(
+    rosbridge: Make, raw_client: Make, zros_node: Make, asked: int, size: int
+) -> None:
     client = raw_client(rosbridge())
-    message = zros.Message('std_msgs/msg/String', data='f' * 1000)
+    client.send(op='set_level', level='warning')
+    message = zros.Message('std_msgs/msg/String', data='f"\\' * 3000)  # escaped in fragments too
     first, _ = subscribe_and_publish(
-        client, zros_node, message, '/fragmented', 'fragment', fragment_size=100
+        client, zros_node, message, '/fragmented', 'fragment', fragment_size=asked
     )
     total = first['total']
     client.wait(lambda m: m.get('op') == 'fragment' and m['num'] == total - 1)
     parts = sorted(client.of('fragment', id=first['id']), key=lambda m: m['num'])
-    assert total == len(parts) > 1 and all(len(p['data']) <= 100 for p in parts)
+    assert total == len(parts) > 1 and all(len(p['data']) <= size for p in parts)
+    assert max(len(p['data']) for p in parts) == size  # below 1 KiB, 1 KiB is used
     assert json.loads(''.join(p['data'] for p in parts)) == {
         'op': 'publish',
         'topic': '/fragmented',
-        'msg': {'data': 'f' * 1000},
+        'msg': {'data': 'f"\\' * 3000},
     }
+    clamped = [m for m in client.of('status') if 'fragment_size' in m['msg']]
+    assert clamped == ([] if asked == size else [client.status('fragment_size 1 is below 1024')])
+    assert all(m['level'] == 'warning' for m in clamped)

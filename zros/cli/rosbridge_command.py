@@ -10,6 +10,7 @@ import argparse
 
 from zros.cli.shared import (
     add_connection_options,
+    add_gateway_safety_options,
     at_least_one,
     open_node,
     out,
@@ -44,10 +45,14 @@ def run(args: argparse.Namespace) -> int:
             tls_key=args.tls_key,
             max_message_size=args.max_message_size,
             queue_items=args.client_queue,
+            client_buffer=args.client_buffer,
+            allow_origins=args.allow_origin,
+            read_only=args.read_only,
+            allow_service_override=args.allow_service_override,
             throttle=args.throttle,
         )
         with gateway:
-            out(f'rosbridge: {gateway.url} ({node.wire} wire)')
+            out(f'rosbridge: {gateway.url} ({node.wire} wire{", read-only" * args.read_only})')
             return serve_until_interrupted()
 
 
@@ -79,5 +84,9 @@ def add_parser(
                         'to clients goes as fragments (default 10000000)')  # fmt: skip
     parser.add_argument('--client-queue', type=at_least_one, default=1000, metavar='N',
                         help='messages queued per client before its oldest are dropped '
-                        '(default 1000)')  # fmt: skip
+                        '(default 1000; --client-buffer bounds their bytes)')  # fmt: skip
+    add_gateway_safety_options(parser, '')
+    parser.add_argument('--allow-service-override', action='store_true',
+                        help='let clients serve services and actions another node of the graph '
+                        'serves already')  # fmt: skip
     add_connection_options(parser)

@@ -31,6 +31,8 @@ if TYPE_CHECKING:
     from zros.params.client import ParameterClient
 
 PREFIX = '/rosapi/'
+#: the services that change the robot (refused by a read-only gateway)
+WRITES = frozenset(('set_param', 'delete_param'))
 #: seconds a node has to answer a parameter request
 PARAMETER_TIMEOUT = 3.0
 #: how rclpy spells the primitive types in ``get_fields_and_field_types`` (rosapi's typedefs)
@@ -79,6 +81,10 @@ class Rosapi:
     def handles(self, service: str) -> bool:
         """Whether ``service`` (a resolved name) is one of rosapi's."""
         return service.startswith(PREFIX) and service[len(PREFIX) :] in self._handlers
+
+    def writes(self, service: str) -> bool:
+        """Whether ``service`` (one of rosapi's) changes the robot."""
+        return service[len(PREFIX) :] in WRITES
 
     def call(self, service: str, args: JsonObject) -> JsonObject:
         """The response values of a rosapi service (GatewayError says why there is none)."""

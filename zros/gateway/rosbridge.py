@@ -13,19 +13,27 @@ whatever the number of clients. Services, client-served services and actions
 The gateway spins the node it is given (client-served services, the cancel callbacks of
 client-served actions and action feedback run there):
 give it a node of its own.
+
+What a client may do is bounded (:class:`Limits`): browsers are accepted by the ``Origin`` of
+their page (:class:`~zros.gateway.origins.OriginPolicy`), a read-only gateway refuses every op
+that acts on the robot, a client may not take over a service or action another node serves,
+and each client's outbox holds at most ``client_buffer`` bytes.
 """
 
 from __future__ import annotations
 
+import http
 import itertools
 import logging
 import os
 import threading
 from collections.abc import Iterable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from zros.gateway.core import GatewayError, NameFilter, Taps, gateway_node
 from zros.gateway.listen import Listen
+from zros.gateway.origins import OriginPolicy
 from zros.gateway.rosapi import Rosapi
 from zros.gateway.rosbridge_calls import Calls
 from zros.gateway.rosbridge_client import ClientSession
@@ -36,6 +44,7 @@ from zros.gateway.throttle import Throttle
 if TYPE_CHECKING:
     from types import ModuleType
 
+    from websockets.http11 import Request, Response
     from websockets.sync.server import ServerConnection
 
     from zros.node import Node
@@ -50,7 +59,7 @@ DEFAULT_PORT = 9090
 MAX_MESSAGE_SIZE = 10_000_000
 #: a client's outbox: messages, and bytes
 QUEUE_ITEMS = 1000
-QUEUE_BYTES = 100_000_000
+CLIENT_BUFFER = 32 * 1024**2
 #: seconds a closing client has to answer the close handshake
 CLOSE_TIMEOUT = 2.0
 
@@ -66,13 +75,26 @@ def import_websockets() -> ModuleType:
     return server
 
 
+@dataclass(frozen=True)
+class Limits:
+    """What clients may do: ``read_only`` refuses every op that acts on the robot (publishing,
+    service calls, parameter sets, action goals, services and actions served by a client);
+    ``allow_service_override`` lets a client serve a service or action another node of the
+    graph serves already."""
+
+    read_only: bool = False
+    allow_service_override: bool = False
+
+
 class RosbridgeGateway:
     """A rosbridge v2 server showing the graph ``node`` sees (see the module docstring).
 
     ``topics_glob``, ``services_glob`` and ``params_glob`` are allow-lists of shell globs as
     rosbridge's (every name when empty); ``max_message_size`` bounds what a client may send in
-    one message; ``queue_items`` and ``queue_bytes`` bound each client's outbox. ``own_node``:
-    the gateway made ``node`` and destroys it on :meth:`close`.
+    one message; ``queue_items`` and ``client_buffer`` (bytes) bound each client's outbox.
+    ``allow_origins``: the origins of web pages accepted besides this machine's (``'*'``: any);
+    ``limits``: what clients may do. ``own_node``: the gateway made ``node`` and destroys it on
+    :meth:`close`.
     """
 
     def __init__(
@@ -85,18 +107,24 @@ class RosbridgeGateway:
         params_glob: Iterable[str] | None = None,
         max_message_size: int = MAX_MESSAGE_SIZE,
         queue_items: int = QUEUE_ITEMS,
-        queue_bytes: int = QUEUE_BYTES,
+        client_buffer: int = CLIENT_BUFFER,
+        allow_origins: Iterable[str] = (),
+        limits: Limits = Limits(),
         own_node: bool = False,
         throttle: Iterable[str] = (),
     ) -> None:
         server_module = import_websockets()
         listen.check()
-        if max_message_size < 1 or queue_items < 1 or queue_bytes < 1:
+        if max_message_size < 1 or queue_items < 1 or client_buffer < 1:
             raise GatewayError('the message size and the queue bounds must be at least 1')
         context = listen.ssl_context()
         self.node = node
         self._own_node = own_node
-        self._sizes = (max_message_size, queue_items, queue_bytes)
+        self._sizes = (max_message_size, queue_items, client_buffer)
+        self.origins = OriginPolicy(allow_origins)
+        self.limits = limits
+        if limits.read_only:
+            _log.info('read-only: clients may watch the robot, not act on it')
         self.values = Values(node.registry, self._now)
         self._taps = Taps(
             node, lambda: node.now().nanoseconds, limit=Throttle.parse(throttle).limit
@@ -108,7 +136,13 @@ class RosbridgeGateway:
             NameFilter.globs(services_glob),
             NameFilter.globs(params_glob),
         )
-        self.calls = Calls(node, self.values, NameFilter.globs(services_glob), rosapi)
+        self.calls = Calls(
+            node,
+            self.values,
+            NameFilter.globs(services_glob),
+            rosapi,
+            allow_override=limits.allow_service_override,
+        )
         self._lock = threading.Lock()
         self._clients: dict[int, ClientSession] = {}
         self._ids = itertools.count(1)
@@ -123,6 +157,7 @@ class RosbridgeGateway:
                 compression=None,
                 close_timeout=CLOSE_TIMEOUT,
                 server_header='zros rosbridge',
+                process_request=self._check_origin,
             )
         except OSError as exc:
             self._close_parts()
@@ -148,8 +183,19 @@ class RosbridgeGateway:
         while not self._closed.is_set() and self.node.ok():
             self.node.spin_once(0.2)
 
+    def _check_origin(self, connection: ServerConnection, request: Request) -> Response | None:
+        """Refuse (HTTP 403) the upgrade of a web page whose origin is not accepted."""
+        origins = request.headers.get_all('Origin')
+        if len(origins) > 1:  # browsers send one: refused whole, not by its first
+            origin: str | None = ', '.join(origins)
+        else:
+            origin = origins[0] if origins else None
+        if len(origins) <= 1 and self.origins.accepts(origin):
+            return None
+        return connection.respond(http.HTTPStatus.FORBIDDEN, self.origins.refuse(str(origin)))
+
     def _serve_client(self, connection: ServerConnection) -> None:
-        max_message_size, queue_items, queue_bytes = self._sizes
+        max_message_size, queue_items, client_buffer = self._sizes
         client = ClientSession(
             next(self._ids),
             connection,
@@ -157,7 +203,8 @@ class RosbridgeGateway:
             self.calls,
             max_message_size=max_message_size,
             queue_items=queue_items,
-            queue_bytes=queue_bytes,
+            queue_bytes=client_buffer,
+            read_only=self.limits.read_only,
         )
         with self._lock:
             if self._closed.is_set():
@@ -228,7 +275,10 @@ def serve(
     tls_key: str | os.PathLike[str] | None = None,
     max_message_size: int = MAX_MESSAGE_SIZE,
     queue_items: int = QUEUE_ITEMS,
-    queue_bytes: int = QUEUE_BYTES,
+    client_buffer: int = CLIENT_BUFFER,
+    allow_origins: Iterable[str] = (),
+    read_only: bool = False,
+    allow_service_override: bool = False,
     node: Node | None = None,
     name: str = 'zros_rosbridge',
     throttle: Iterable[str] = (),
@@ -239,8 +289,12 @@ def serve(
 
     Without ``node``, a node named ``name`` joins the graph with the connection ``settings``
     of :class:`zros.Node` (``connect``, ``wire``, ``transport``, ``tls``...). The gateway spins
-    its node: a node given here should be one nothing else spins. ``throttle``: ``REGEX=HZ``
-    rate limits of topics (:mod:`zros.gateway.throttle`).
+    its node: a node given here should be one nothing else spins.
+
+    Web pages of other machines are refused unless ``allow_origins`` lists their origin;
+    ``read_only`` lets clients watch only; ``allow_service_override`` lets a client serve a
+    service another node serves; ``client_buffer`` bounds the bytes queued for each client;
+    ``throttle`` holds ``REGEX=HZ`` rate limits of topics (:mod:`zros.gateway.throttle`).
     """
     listen = Listen(port, address, tls_cert, tls_key, 'the rosbridge server')
     own = node is None
@@ -255,7 +309,9 @@ def serve(
             params_glob=params_glob,
             max_message_size=max_message_size,
             queue_items=queue_items,
-            queue_bytes=queue_bytes,
+            client_buffer=client_buffer,
+            allow_origins=allow_origins,
+            limits=Limits(read_only, allow_service_override),
             own_node=own,
             throttle=throttle,
         )

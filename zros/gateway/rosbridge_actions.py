@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, TypeAlias
 from zros.actions import ActionError, GoalStatus
 from zros.errors import ZrosError
 from zros.gateway.core import GatewayError
+from zros.keyexpr.kinds import EntityKind
 
 if TYPE_CHECKING:
     from collections.abc import Awaitable
@@ -79,7 +80,8 @@ class _Advertised:
 
 class ServedActions:
     """The actions rosbridge clients serve. ``resolve(name, what)`` checks and resolves a
-    name; ``convert(cls, values)`` makes a message of JSON values (both raise GatewayError)."""
+    name; ``convert(cls, values)`` makes a message of JSON values; ``unserved(name, kind)``
+    refuses a name another node serves (all raise GatewayError)."""
 
     def __init__(
         self,
@@ -87,11 +89,13 @@ class ServedActions:
         values: Values,
         resolve: Callable[[JsonValue, str], str],
         convert: Callable[[type[Message], JsonValue], Message],
+        unserved: Callable[[str, EntityKind], None],
     ) -> None:
         self._node = node
         self._values = values
         self._resolve = resolve
         self._convert = convert
+        self._unserved = unserved
         self._lock = threading.Lock()
         self._advertised: dict[str, _Advertised] = {}
         self._ids = itertools.count(1)
@@ -111,6 +115,8 @@ class ServedActions:
             held = self._advertised.get(name)
             if held is not None and held.peer is not peer:
                 raise GatewayError(f'Action {name} is already advertised by another client')
+        if held is None:
+            self._unserved(name, EntityKind.ACTION_SERVER)
         self._withdraw(name, peer)  # advertised again by the same client: the new one replaces
         advertised = _Advertised(peer, name, text, type_text)
         with self._lock:

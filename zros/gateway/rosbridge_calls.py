@@ -7,6 +7,8 @@
 * ``advertise_service``: a client serves a ROS service. The gateway declares a zros service;
   each request goes to the client as a ``call_service`` with an id, and its
   ``service_response`` answers the ROS caller (``result: false`` gives the caller an error).
+  A service another node of the graph serves is refused (unless ``allow_override``): the
+  callers of a robot's service must not be answered by a web page.
 * ``send_action_goal``: a goal through a zros action client, with ``action_feedback``
   messages when asked and one ``action_result``; ``cancel_action_goal`` cancels it.
 * ``advertise_action`` and its ops: a client serves an action
@@ -29,7 +31,8 @@ from zros.gateway.core import ClientCache, GatewayError, NameFilter
 from zros.gateway.rosapi import Rosapi
 from zros.gateway.rosbridge_actions import ServedActions
 from zros.gateway.rosbridge_values import ConversionError, Values
-from zros.gateway.views import offered_services
+from zros.gateway.views import offered_services, owners
+from zros.keyexpr.kinds import EntityKind
 
 if TYPE_CHECKING:
     from collections.abc import Awaitable
@@ -66,14 +69,23 @@ class _Offered:
 
 
 class Calls:
-    """Service calls, client-served services and action goals of one gateway's clients."""
+    """Service calls, client-served services and action goals of one gateway's clients.
+    ``allow_override``: clients may serve services and actions other nodes serve."""
 
     def __init__(
-        self, node: Node, values: Values, allowed: NameFilter, rosapi: Rosapi, workers: int = 4
+        self,
+        node: Node,
+        values: Values,
+        allowed: NameFilter,
+        rosapi: Rosapi,
+        workers: int = 4,
+        *,
+        allow_override: bool = False,
     ) -> None:
         self._node = node
         self._values = values
         self._allowed = allowed
+        self.allow_override = allow_override
         self.rosapi = rosapi
         self._clients: ClientCache[Client] = ClientCache()
         self._actions: ClientCache[ActionClient] = ClientCache()
@@ -83,7 +95,7 @@ class Calls:
         self._ids = itertools.count(1)
         self._pool = concurrent.futures.ThreadPoolExecutor(workers, 'zros rosbridge calls')
         #: the actions clients serve
-        self.served = ServedActions(node, values, self._name, self._request)
+        self.served = ServedActions(node, values, self._name, self._request, self.check_unserved)
 
     def _name(self, name: JsonValue, what: str = 'service') -> str:
         if not isinstance(name, str):
@@ -103,6 +115,47 @@ class Calls:
             return self._values.from_json(cls, args if args is not None else {})
         except ConversionError as exc:
             raise GatewayError(str(exc)) from None
+
+    def reads(self, op: JsonObject) -> bool:
+        """Whether ``op`` only reads: a ``call_service`` of one of rosapi's reads."""
+        if op.get('op') != 'call_service':
+            return False
+        try:
+            name = self._name(op['service'])
+        except GatewayError:
+            return False
+        return self.rosapi.handles(name) and not self.rosapi.writes(name)
+
+    def refuse(self, peer: Peer, op: JsonObject, reason: str) -> None:
+        """Answer a refused ``call_service`` or ``send_action_goal`` as failed, so that the
+        client's caller does not wait for good (other ops have no answer)."""
+        if op.get('op') == 'call_service':
+            _Answer(peer, op, str(op['service'])).fail(reason)
+        elif op.get('op') == 'send_action_goal':
+            _Answer(peer, op, str(op['action']), 'action').fail(reason, STATUS_UNKNOWN)
+
+    def check_unserved(self, name: str, kind: EntityKind = EntityKind.SERVICE_SERVER) -> None:
+        """Refuse to serve ``name`` when another node serves it (unless overriding is
+        allowed): GatewayError names the nodes."""
+        if self.allow_override:
+            return
+        node = self._node
+        own, namespace = node.fully_qualified_name, node.scheme.namespace
+        wanted = (
+            {name} if kind is EntityKind.SERVICE_SERVER else {name, f'{name}/_action/send_goal'}
+        )
+        kinds = (kind, EntityKind.SERVICE_SERVER)
+        found = [
+            e
+            for e in node.graph.endpoints(kinds)
+            if e.node != own and e.ros_name(namespace) in wanted
+        ]
+        if found:
+            what = 'service' if kind is EntityKind.SERVICE_SERVER else 'action'
+            raise GatewayError(
+                f'{name} is served by {", ".join(owners(found, node.graph))}: a client may not '
+                f'take over a {what} of the graph (--allow-service-override allows it)'
+            )
 
     # --- calling -----------------------------------------------------------------------------
 
@@ -146,6 +199,10 @@ class Calls:
             service_type = self._node.registry.get_service(type_text)
         except ZrosError as exc:
             raise GatewayError(f'unknown service type {type_text}: {exc}') from None
+        with self._lock:
+            ours = name in self._offered  # the graph shows it served by the gateway: replaced
+        if not ours:
+            self.check_unserved(name)
         self._withdraw(name, None)  # a service advertised again replaces the older one
         offered = _Offered(peer, name, service_type.Response)
         offered.service = self._node.create_service(service_type, name, self._forward(offered))

@@ -5,10 +5,13 @@
 * ``png``: the JSON text as the pixels of a square-ish RGB image padded with newlines, base64
   in ``{"op": "png", "data": ...}`` (rosbridge's ``pngcompression.encode``).
 * A JSON text longer than the fragment size goes as ``{"op": "fragment", "id", "data", "num",
-  "total"}`` messages whose ``data`` joined give the text back.
+  "total"}`` messages whose ``data`` joined give the text back. They are made one at a time by
+  the writer of the client that asked for them (:class:`Fragmented`), so a small fragment size
+  costs that client's thread, not the thread delivering the topic to every subscriber.
 
 A :class:`Sample` is one message received on a topic; it encodes itself once per form (JSON,
-CBOR, raw CDR, PNG) whatever the number of subscribers that want that form.
+CBOR, raw CDR, PNG) whatever the number of subscribers that want that form. Its JSON text is
+written without the long base64 strings, which are spliced in after (:func:`to_text_with`).
 """
 
 from __future__ import annotations
@@ -16,27 +19,81 @@ from __future__ import annotations
 import base64
 import itertools
 import json
+import json.encoder
 import math
 import struct
 import zlib
-from typing import TYPE_CHECKING
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
+
+from zros.gateway.rosbridge_values import blob_mark
 
 if TYPE_CHECKING:
     from zros.cdr import JsonValue, Message
     from zros.gateway.json_types import JsonObject
     from zros.gateway.rosbridge_values import Values
 
-#: what one protocol message becomes: its frames, sent in order (text or binary)
-Frames = tuple[str | bytes, ...]
 COMPRESSIONS = ('none', 'png', 'cbor', 'cbor-raw')
 _fragment_ids = itertools.count(1)
+#: bytes of a fragment message besides its data (its id excepted)
+_FRAGMENT_HEAD = len('{"op":"fragment","id":,"data":"","num":,"total":}') + 2 * 8
+
+
+class Fragmented:
+    """A JSON text to send as ``fragment`` messages of ``size`` characters, made one by one as
+    they are iterated (the text is shared with every subscriber that wants it whole)."""
+
+    __slots__ = ('_head', 'size', 'text', 'total')
+
+    def __init__(self, text: str, size: int, message_id: JsonValue) -> None:
+        self.text = text
+        self.size = size
+        self.total = math.ceil(len(text) / size)
+        self._head = f'{{"op":"fragment","id":{to_text(message_id)},"data":'
+
+    def __iter__(self) -> Iterator[str]:
+        text, size, head, total = self.text, self.size, self._head, self.total
+        # the text is JSON: ASCII, where only quotes and backslashes need escaping again
+        escape = json.encoder.encode_basestring_ascii
+        for number, start in enumerate(range(0, len(text), size)):
+            yield f'{head}{escape(text[start : start + size])},"num":{number},"total":{total}}}'
+
+    @property
+    def nbytes(self) -> int:
+        """About the bytes its frames take (for the bound of a client's outbox)."""
+        return len(self.text) + self.total * (len(self._head) + _FRAGMENT_HEAD)
+
+
+#: what one protocol message becomes: its frames, sent in order (text or binary)
+Frames: TypeAlias = tuple[str | bytes, ...] | Fragmented
+
+
+def frames_size(frames: Frames) -> int:
+    """The bytes ``frames`` take on the wire (about, for fragments)."""
+    if isinstance(frames, Fragmented):
+        return frames.nbytes
+    return sum(len(frame) for frame in frames)
 
 
 def to_text(message: JsonObject) -> str:
     """A protocol message as JSON text (NaN is never written: values carry null instead)."""
     return json.dumps(message, separators=(',', ':'), allow_nan=False)
+
+
+def to_text_with(message: JsonObject, blobs: list[str]) -> str:
+    """:func:`to_text` of values holding :func:`blob_mark` marks, with the blobs put in their
+    place (in order: the JSON text has the values in the order they were made)."""
+    rest = to_text(message)
+    pieces: list[str] = []
+    for index, blob in enumerate(blobs):
+        head, mark, rest = rest.partition(blob_mark(index))
+        if not mark:
+            raise ValueError(f'blob {index} is missing from the JSON text')
+        pieces += (head, blob)
+    pieces.append(rest)
+    return ''.join(pieces)
 
 
 def to_cbor(message: JsonObject) -> bytes:
@@ -71,26 +128,19 @@ def png_message(text: str) -> str:
     return to_text({'op': 'png', 'data': base64.b64encode(png).decode('ascii')})
 
 
-def fragments(text: str, size: int, message_id: JsonValue = None) -> Frames:
+def split(text: str, size: int, message_id: JsonValue = None) -> Frames:
     """``text`` as one frame, or as fragment messages of ``size`` characters of it when
-    longer."""
+    longer (made as they are sent)."""
     if size <= 0 or len(text) <= size:
         return (text,)
     if message_id is None:
         message_id = f'fragment:{next(_fragment_ids)}'
-    total = math.ceil(len(text) / size)
-    return tuple(
-        to_text(
-            {
-                'op': 'fragment',
-                'id': message_id,
-                'data': text[start : start + size],
-                'num': number,
-                'total': total,
-            }
-        )
-        for number, start in enumerate(range(0, len(text), size))
-    )
+    return Fragmented(text, size, message_id)
+
+
+def fragments(text: str, size: int, message_id: JsonValue = None) -> tuple[str | bytes, ...]:
+    """The frames of :func:`split`, made now."""
+    return tuple(split(text, size, message_id))
 
 
 def encode(
@@ -102,7 +152,7 @@ def encode(
     text = to_text(message)
     if compression == 'png':
         text = png_message(text)
-    return fragments(text, fragment_size or 0, message.get('id'))
+    return split(text, fragment_size or 0, message.get('id'))
 
 
 class Sample:
@@ -145,17 +195,20 @@ class Sample:
         elif compression == 'cbor':
             frames = (to_cbor({**head, 'msg': self.values.to_cbor(self.message())}),)
         else:
-            frames = fragments(self._text(head, compression == 'png'), fragment_size)
+            frames = split(self._text(head, compression == 'png'), fragment_size)
         self._cache[key] = frames
         return frames
 
     def _text(self, head: JsonObject, png: bool) -> str:
         key = ('png' if png else 'json', -1)
         found = self._cache.get(key)
-        if found is None:
-            if png:
-                text = png_message(self._text(head, False))
-            else:
-                text = to_text({**head, 'msg': self.values.to_json(self.message())})
-            found = self._cache[key] = (text,)
-        return str(found[0])
+        if isinstance(found, tuple):
+            return str(found[0])
+        if png:
+            text = png_message(self._text(head, False))
+        else:
+            blobs: list[str] = []
+            values = self.values.to_json(self.message(), blobs)
+            text = to_text_with({**head, 'msg': values}, blobs)
+        self._cache[key] = (text,)
+        return text

@@ -25,6 +25,7 @@ from __future__ import annotations
 import base64
 import binascii
 import math
+import secrets
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
@@ -53,12 +54,20 @@ TYPED_ARRAY_TAGS = {
     'float64': (86, '<f8'),
 }
 _BINARY = ('uint8', 'char')
+#: base64 strings this long or longer may be spliced into the JSON text (``to_json``'s blobs)
+BLOB_SIZE = 4096
+_BLOB_NONCE = secrets.token_hex(16)  # no message can know it
 _FLOATS = ('float32', 'float64')
 
 
 class ConversionError(ZrosError):
     """A client's JSON does not make a message of the type (the text says why, in
     rosbridge's words)."""
+
+
+def blob_mark(index: int) -> str:
+    """What stands for the blob ``index`` in the values of :meth:`Values.to_json`."""
+    return f'zros-blob-{_BLOB_NONCE}-{index}'
 
 
 def short_name(type_name: str) -> str:
@@ -85,33 +94,40 @@ class Values:
 
     # --- to the client -----------------------------------------------------------------------
 
-    def to_json(self, message: Message) -> JsonObject:
-        """The JSON values of a message, as rosbridge's ``extract_values``."""
-        return self._out(message, self.definition(message.__msgtype__), cbor=False)
+    def to_json(self, message: Message, blobs: list[str] | None = None) -> JsonObject:
+        """The JSON values of a message, as rosbridge's ``extract_values``. With ``blobs``,
+        base64 strings of :data:`BLOB_SIZE` characters or more go there, each replaced by
+        :func:`blob_mark` of its index (JSON's encoder need not scan them: base64 has nothing
+        to escape)."""
+        return self._out(message, self.definition(message.__msgtype__), False, blobs)
 
     def to_cbor(self, message: Message) -> JsonObject:
         """The CBOR values of a message (typed arrays as ``cbor2.CBORTag``)."""
-        return self._out(message, self.definition(message.__msgtype__), cbor=True)
+        return self._out(message, self.definition(message.__msgtype__), True, None)
 
-    def _out(self, message: Message, definition: MessageDef, cbor: bool) -> JsonObject:
+    def _out(
+        self, message: Message, definition: MessageDef, cbor: bool, blobs: list[str] | None
+    ) -> JsonObject:
         values = {}
         for field in definition.fields:
             value = getattr(message, attribute_name(field.name))
-            values[field.name] = self._out_field(value, field.type, cbor)
+            values[field.name] = self._out_field(value, field.type, cbor, blobs)
         return values
 
-    def _out_field(self, value: FieldValue, kind: FieldType, cbor: bool) -> JsonValue:
+    def _out_field(
+        self, value: FieldValue, kind: FieldType, cbor: bool, blobs: list[str] | None
+    ) -> JsonValue:
         base = kind.base
         if kind.kind is Kind.SCALAR:
             if kind.is_nested:
-                return self._out(value, self.definition(base), cbor)
+                return self._out(value, self.definition(base), cbor, blobs)
             if base in _FLOATS:
                 number = float(value)
                 return number if cbor or math.isfinite(number) else None
             return value if kind.is_string else value.item() if hasattr(value, 'item') else value
         if kind.is_nested:
             definition = self.definition(base)
-            return [self._out(item, definition, cbor) for item in value]
+            return [self._out(item, definition, cbor, blobs) for item in value]
         if kind.is_string:
             return list(value)
         array = np.asarray(value)
@@ -120,7 +136,11 @@ class Values:
                 return array.astype(np.uint8, copy=False).tobytes()
             if kind.kind is not Kind.BOUNDED:
                 data = np.ascontiguousarray(array, np.uint8).data  # a buffer: no copy
-                return base64.b64encode(data).decode('ascii')
+                text = base64.b64encode(data).decode('ascii')
+                if blobs is None or len(text) < BLOB_SIZE:
+                    return text
+                blobs.append(text)
+                return blob_mark(len(blobs) - 1)
         if cbor and base in TYPED_ARRAY_TAGS:
             import cbor2
 
