@@ -88,7 +88,8 @@ def test_a_keep_last_writer_never_waits_for_a_slow_link_and_the_newest_arrives(r
 
     assert wait_for(drained, 15)  # the last image on its way arrived
     # the link takes 0.72 s an image: the one on its way when the last was written is at most
-    # 8 older, and Zenoh drops what comes while one is on its way (block_first)
+    # 8 older, and Zenoh drops what comes while one is on its way (block_first); zenoh-ext's
+    # repair to the newest (as DDS's) did more harm than good here (docs/qos.md)
     assert arrived and arrived[-1] >= 100 - 10, f'the last images that arrived: {arrived[-3:]}'
     assert arrived == sorted(set(arrived))  # in order, nothing replayed
     assert 5 < seen.received < 30  # about what the link carries in 10 s, as it was written
