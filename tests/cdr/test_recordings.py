@@ -35,6 +35,9 @@ EXPECTED_COUNTS = {
     'wbag_2.mcap': 1240,
     'wbag_3.mcap': 1240,
     'wbag_4.mcap': 1108,
+    'nav2_turtlebot.mcap': 8197,
+    'rosbagFrankaPandaRos2.bag.db3': 112,
+    'tf_example.db3': 518,
 }
 
 Record = tuple[str, str, bytes]  # type name, embedded definition, message bytes
