@@ -1,0 +1,129 @@
+"""The front of ``zros foxglove`` on its own, before a stand-in of the SDK's server: what it
+drops for a client that does not read (message data only, the oldest first), and what it
+tells that client."""
+
+from __future__ import annotations
+
+import json
+import socket
+import threading
+from collections.abc import Iterator
+
+import pytest
+
+from zros.gateway.foxglove_front import SDK_SUBPROTOCOL, Front
+from zros.gateway.listen import Listen
+from zros.gateway.origins import OriginPolicy
+from zros.testing import wait_for
+
+TIMEOUT = 20.0
+DATA_BYTES = 100_000
+FRAMES = 200  # 20 MB: more than the client's socket, the front's socket and the bound hold
+
+
+def _frame(opcode: int, payload: bytes) -> bytes:
+    """A server's (unmasked) WebSocket frame."""
+    size = len(payload)
+    if size < 126:
+        return bytes((0x80 | opcode, size)) + payload
+    if size < 65536:
+        return bytes((0x80 | opcode, 126)) + size.to_bytes(2, 'big') + payload
+    return bytes((0x80 | opcode, 127)) + size.to_bytes(8, 'big') + payload
+
+
+def _read_frames(sock: socket.socket) -> list[tuple[int, bytes]]:
+    """Every frame until the peer closes: (opcode, payload)."""
+    data = bytearray()
+    while chunk := sock.recv(1 << 20):
+        data += chunk
+    frames, position = [], 0
+    while position < len(data):
+        opcode, size = data[position] & 0x0F, data[position + 1] & 0x7F
+        position += 2
+        if size >= 126:
+            width = 2 if size == 126 else 8
+            size = int.from_bytes(data[position : position + width], 'big')
+            position += width
+        frames.append((opcode, bytes(data[position : position + size])))
+        position += size
+    return frames
+
+
+class _Server:
+    """A stand-in of the SDK's server: answers one upgrade, then sends ``frames`` and closes."""
+
+    def __init__(self, frames: list[bytes]) -> None:
+        self.socket = socket.create_server(('127.0.0.1', 0))
+        self.port = self.socket.getsockname()[1]
+        self.request = b''
+        self.sent = threading.Event()
+        self._frames = frames
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        connection, _ = self.socket.accept()
+        with connection:
+            while b'\r\n\r\n' not in self.request:
+                self.request += connection.recv(4096)
+            connection.sendall(
+                b'HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\n'
+                b'Connection: Upgrade\r\nSec-WebSocket-Accept: x\r\n'
+                b'Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n'
+            )
+            connection.sendall(b''.join(self._frames))
+            self.sent.set()
+
+    def close(self) -> None:
+        self.socket.close()
+        self._thread.join(TIMEOUT)
+
+
+@pytest.fixture
+def front() -> Iterator[list[Front]]:
+    made: list[Front] = []
+    yield made
+    for item in made:
+        item.close()
+
+
+def test_a_client_that_does_not_read_loses_only_its_oldest_messages(front: list[Front]) -> None:
+    frames, texts = [], []
+    for index in range(FRAMES):
+        frames.append(_frame(0x2, bytes([1]) + index.to_bytes(4, 'little') + bytes(DATA_BYTES)))
+        if index % 10 == 0:
+            text = json.dumps({'op': 'advertise', 'channels': [], 'n': index}).encode()
+            texts.append(text)
+            frames.append(_frame(0x1, text))
+            frames.append(_frame(0x2, bytes([2]) + index.to_bytes(8, 'little')))  # a time
+    server = _Server(frames)
+    bound = 1_000_000
+    served = Front(Listen(0), ('127.0.0.1', server.port), OriginPolicy(), bound)
+    front.append(served)
+    client = socket.socket()
+    client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # reads nothing meanwhile
+    client.connect(('127.0.0.1', served.port))
+    client.sendall(
+        b'GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n'
+        b'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n'
+        b'Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n'
+    )
+    assert server.sent.wait(TIMEOUT)  # the front took all of it while the client slept
+    assert wait_for(lambda: served.dropped > 0, TIMEOUT)
+    head = b''
+    while b'\r\n\r\n' not in head:
+        head += client.recv(1)
+    assert b'Sec-WebSocket-Protocol: foxglove.websocket.v1' in head
+    assert f'Sec-WebSocket-Protocol: {SDK_SUBPROTOCOL}'.encode() in server.request
+    received = _read_frames(client)
+    client.close()
+    server.close()
+    data = [int.from_bytes(p[1:5], 'little') for op, p in received if op == 0x2 and p[0] == 1]
+    statuses = [json.loads(p) for op, p in received if op == 0x1 and b'"status"' in p]
+    assert [p for op, p in received if op == 0x1 and b'advertise' in p] == texts  # all, in order
+    assert len([p for op, p in received if op == 0x2 and p[0] == 2]) == FRAMES // 10
+    assert data == sorted(data) and data[-1] == FRAMES - 1  # the newest arrive, in order
+    assert len(data) + served.dropped == FRAMES
+    assert served.dropped >= FRAMES // 4  # past the sockets' buffers and the bound
+    assert 1 <= len(statuses) == served.reported
+    assert statuses[0]['level'] == 1 and 'does not read fast enough' in statuses[0]['message']
