@@ -102,7 +102,6 @@ def test_the_command_serves_a_bag(
             'certificate /nonexistent.pem does not exist',
         ),
         (['--bag', '/nonexistent/bag'], 'nonexistent'),
-        (['--client-buffer', '0'], 'at least 1 byte'),
     ],
 )
 def test_bad_arguments_fail_with_a_message(cli: Cli, args: list[str], error: str) -> None:
