@@ -17,8 +17,10 @@ from zros.gateway.origins import OriginPolicy
 from zros.testing import wait_for
 
 TIMEOUT = 20.0
-DATA_BYTES = 100_000
-FRAMES = 200  # 20 MB: more than the client's socket, the front's socket and the bound hold
+#: message sizes and counts: 20 MB and 45 MB, more than the sockets and the bound hold
+#: (messages of 1.5 MB are larger than what the front reads at once: they move in the kernel
+#: while the client keeps up, and into a buffer of their own when it stops)
+SIZES = {'100kB': (100_000, 200), '1.5MB': (1_500_000, 30)}
 
 
 def _frame(opcode: int, payload: bytes) -> bytes:
@@ -87,43 +89,76 @@ def front() -> Iterator[list[Front]]:
         item.close()
 
 
-def test_a_client_that_does_not_read_loses_only_its_oldest_messages(front: list[Front]) -> None:
+def _message(index: int, size: int) -> bytes:
+    return bytes([1]) + index.to_bytes(4, 'little') + bytes([index % 251]) * size
+
+
+def _upgrade(port: int, receive_buffer: int | None = None) -> socket.socket:
+    client = socket.socket()
+    if receive_buffer is not None:
+        client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, receive_buffer)
+    client.connect(('127.0.0.1', port))
+    client.sendall(
+        b'GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n'
+        b'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n'
+        b'Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n'
+    )
+    return client
+
+
+def _head(client: socket.socket) -> bytes:
+    head = b''
+    while b'\r\n\r\n' not in head:
+        head += client.recv(1)
+    return head
+
+
+@pytest.mark.parametrize(('size', 'count'), SIZES.values(), ids=SIZES)
+def test_a_client_that_reads_gets_every_byte(front: list[Front], size: int, count: int) -> None:
+    frames = [_frame(0x2, _message(index, size)) for index in range(count)]
+    server = _Server(frames)
+    served = Front(Listen(0), ('127.0.0.1', server.port), OriginPolicy(), 2 * size * count)
+    front.append(served)
+    client = _upgrade(served.port)
+    _head(client)
+    received = _read_frames(client)
+    client.close()
+    server.close()
+    assert [payload for _, payload in received] == [_message(i, size) for i in range(count)]
+    assert served.dropped == 0
+
+
+@pytest.mark.parametrize(('size', 'count'), SIZES.values(), ids=SIZES)
+def test_a_client_that_does_not_read_loses_only_its_oldest_messages(
+    front: list[Front], size: int, count: int
+) -> None:
     frames, texts = [], []
-    for index in range(FRAMES):
-        frames.append(_frame(0x2, bytes([1]) + index.to_bytes(4, 'little') + bytes(DATA_BYTES)))
+    for index in range(count):
+        frames.append(_frame(0x2, _message(index, size)))
         if index % 10 == 0:
             text = json.dumps({'op': 'advertise', 'channels': [], 'n': index}).encode()
             texts.append(text)
             frames.append(_frame(0x1, text))
             frames.append(_frame(0x2, bytes([2]) + index.to_bytes(8, 'little')))  # a time
     server = _Server(frames)
-    bound = 1_000_000
-    served = Front(Listen(0), ('127.0.0.1', server.port), OriginPolicy(), bound)
+    served = Front(Listen(0), ('127.0.0.1', server.port), OriginPolicy(), 4 * size)
     front.append(served)
-    client = socket.socket()
-    client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # reads nothing meanwhile
-    client.connect(('127.0.0.1', served.port))
-    client.sendall(
-        b'GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n'
-        b'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n'
-        b'Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n'
-    )
+    client = _upgrade(served.port, receive_buffer=4096)  # then reads nothing for a while
     assert server.sent.wait(TIMEOUT)  # the front took all of it while the client slept
     assert wait_for(lambda: served.dropped > 0, TIMEOUT)
-    head = b''
-    while b'\r\n\r\n' not in head:
-        head += client.recv(1)
-    assert b'Sec-WebSocket-Protocol: foxglove.websocket.v1' in head
+    assert b'Sec-WebSocket-Protocol: foxglove.websocket.v1' in _head(client)
     assert f'Sec-WebSocket-Protocol: {SDK_SUBPROTOCOL}'.encode() in server.request
     received = _read_frames(client)
     client.close()
     server.close()
-    data = [int.from_bytes(p[1:5], 'little') for op, p in received if op == 0x2 and p[0] == 1]
+    messages = [p for op, p in received if op == 0x2 and p[0] == 1]
+    data = [int.from_bytes(p[1:5], 'little') for p in messages]
+    assert messages == [_message(i, size) for i in data]  # whole
     statuses = [json.loads(p) for op, p in received if op == 0x1 and b'"status"' in p]
     assert [p for op, p in received if op == 0x1 and b'advertise' in p] == texts  # all, in order
-    assert len([p for op, p in received if op == 0x2 and p[0] == 2]) == FRAMES // 10
-    assert data == sorted(data) and data[-1] == FRAMES - 1  # the newest arrive, in order
-    assert len(data) + served.dropped == FRAMES
-    assert served.dropped >= FRAMES // 4  # past the sockets' buffers and the bound
+    assert len([p for op, p in received if op == 0x2 and p[0] == 2]) == count // 10
+    assert data == sorted(data) and data[-1] == count - 1  # the newest arrive, in order
+    assert len(data) + served.dropped == count
+    assert served.dropped >= count // 4  # past the sockets' buffers and the bound
     assert 1 <= len(statuses) == served.reported
     assert statuses[0]['level'] == 1 and 'does not read fast enough' in statuses[0]['message']

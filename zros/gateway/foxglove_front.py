@@ -20,8 +20,11 @@ public address (with TLS, if any) and, per connection:
 from __future__ import annotations
 
 import collections
+import contextlib
+import fcntl
 import json
 import logging
+import os
 import secrets
 import selectors
 import socket
@@ -57,6 +60,10 @@ _CHUNK = 1024 * 1024
 _CLIENT_BACKLOG = 1024 * 1024
 #: buffers given to one sendmsg
 _GATHER = 256
+#: fcntl's pipe size commands (Linux)
+_F_SETPIPE_SZ = 1031
+_F_GETPIPE_SZ = 1032
+_SPLICE_FLAGS = getattr(os, 'SPLICE_F_MOVE', 0) | getattr(os, 'SPLICE_F_NONBLOCK', 0)
 _OP_BINARY = 0x2
 _MESSAGE_DATA = 1  # the Foxglove protocol's binary opcode of a message
 
@@ -217,6 +224,33 @@ def _frame_end(data: bytearray | memoryview, start: int, end: int) -> int:
     return start + 10 + int.from_bytes(data[start + 2 : start + 10], 'big')
 
 
+def _whole_frames(data: bytearray, start: int, end: int) -> tuple[int, int]:
+    """Where the whole frames from ``start`` on end in ``data[:end]``, and where the frame
+    after them ends (-1: its header is not whole yet).
+
+    A run of frames of one size (a topic of fixed-size messages) is skipped at C speed: from
+    a frame's start, the frames after it have the same size as long as their headers repeat
+    the same bytes at the same stride (a 2 or 4 byte header: length under 64 KiB)."""
+    position = start
+    while True:
+        frame_end = _frame_end(data, position, end)
+        if frame_end < 0 or frame_end > end:
+            return position, frame_end
+        stride = frame_end - position
+        size = data[position + 1] & 0x7F
+        count = (end - position) // stride
+        if size == 127 or count < 4:
+            position = frame_end
+            continue
+        header = 2 if size < 126 else 4
+        stop = position + count * stride
+        same = count
+        for offset in range(header):
+            column = data[position + offset : stop : stride]
+            same = min(same, count - len(column.lstrip(column[:1])))
+        position += same * stride
+
+
 def _droppable(frame: bytearray | bytes | memoryview) -> bool:
     """Whether a whole frame is message data (binary, final, Foxglove opcode 1)."""
     first = frame[0]
@@ -242,6 +276,12 @@ class _Connection:
         self._end = 0  # the end of what rx holds
         self._big: memoryview | None = None  # a frame larger than rx, being received
         self._big_fill = 0
+        self._rest = False  # _big is the rest of a frame the client has begun
+        # a large frame moving from socket to socket in the kernel, while the client keeps up
+        self._pipe: tuple[int, int] | None = None
+        self._pipe_size = 0
+        self._piped = 0  # bytes in the pipe, for the client
+        self._stream_left = 0  # bytes of the frame still to move into the pipe
         self._spare: bytearray | None = None  # a big frame's buffer, for the next one
         self._sending: memoryview | None = None  # what the client is being sent now
         self._kept: collections.deque[memoryview | bytes] = collections.deque()  # before _queue
@@ -311,6 +351,9 @@ class _Connection:
             self.client.close()
             if self.upstream is not None:
                 self.upstream.close()
+            if self._pipe is not None:
+                os.close(self._pipe[0])
+                os.close(self._pipe[1])
 
     # --- the relay -------------------------------------------------------------------------
 
@@ -399,6 +442,10 @@ class _Connection:
     def _from_server(self) -> None:
         """Read what the server sent and pass its whole frames on."""
         while True:
+            if self._stream_left:
+                if not self._stream():
+                    return
+                continue
             if self._big is not None:
                 got = self._receive(self._big[self._big_fill :])
                 if not got:
@@ -406,7 +453,12 @@ class _Connection:
                 self._big_fill += got
                 if self._big_fill == len(self._big):
                     frame, self._big = self._big, None
-                    self._frames([frame])
+                    if self._rest:  # sent next, before any other frame
+                        self._rest = False
+                        self._sending = frame
+                        self._to_client()
+                    else:
+                        self._frames([frame])
                 continue
             if self._end == len(self._rx):  # make room: move the partial frame first
                 left = self._end - self._start
@@ -421,33 +473,92 @@ class _Connection:
     def _split(self) -> None:
         """Pass on the whole frames rx holds; a frame too large for rx gets a buffer."""
         rx, start, end = self._rx, self._start, self._end
-        position = start
-        while True:
-            frame_end = _frame_end(rx, position, end)
-            if frame_end < 0 or frame_end > end:
-                break
-            position = frame_end
+        position, frame_end = _whole_frames(rx, start, end)
         if position > start:
             self._run(self._rx_view[start:position])
         self._start = position
-        if frame_end > position + _CHUNK:  # too large for rx: a buffer of its own
-            size = frame_end - position
-            spare, self._spare = self._spare, None
-            buffer = spare if spare is not None and len(spare) >= size else bytearray(size)
-            self._big = memoryview(buffer)[:size]
-            self._big_fill = end - position
-            self._big[: self._big_fill] = self._rx_view[position:end]
+        if frame_end > position + _CHUNK:  # too large for rx
             self._start = self._end = 0
+            head = self._rx_view[position:end]
+            if not self._pending() and self._can_splice():
+                # the client keeps up: the frame goes from socket to socket in the kernel
+                sent = self._send_now(head)
+                if sent == len(head):
+                    self._stream_left = frame_end - end
+                    return
+                self._begin_rest(head[sent:], frame_end - end)
+                return
+            self._begin_big(frame_end - position, head)
         elif self._start == self._end:
             self._start = self._end = 0
+
+    def _take(self, size: int) -> memoryview:
+        """A buffer of ``size`` bytes (the spare one, if large enough)."""
+        spare, self._spare = self._spare, None
+        buffer = spare if spare is not None and len(spare) >= size else bytearray(size)
+        return memoryview(buffer)[:size]
+
+    def _begin_big(self, size: int, head: memoryview) -> None:
+        """Receive a frame of ``size`` bytes, ``head`` its start, into a buffer of its own."""
+        self._big = self._take(size)
+        self._big_fill = len(head)
+        self._big[: self._big_fill] = head
+
+    def _begin_rest(self, head: memoryview, left: int) -> None:
+        """Receive the unsent rest of a begun frame (``head`` and ``left`` more bytes)."""
+        self._begin_big(len(head) + left, head)
+        self._rest = True
+
+    def _can_splice(self) -> bool:
+        """Whether frames can move in the kernel (plain sockets, Linux): opens the pipe."""
+        if self._pipe is None:
+            if self.front._tls is not None or not hasattr(os, 'splice'):
+                return False
+            self._pipe = os.pipe2(os.O_NONBLOCK | os.O_CLOEXEC)
+            with contextlib.suppress(OSError):  # a smaller pipe where the system says so
+                fcntl.fcntl(self._pipe[1], _F_SETPIPE_SZ, _CHUNK)
+            self._pipe_size = fcntl.fcntl(self._pipe[1], _F_GETPIPE_SZ)
+        return True
+
+    def _send_now(self, data: memoryview) -> int:
+        try:
+            return self.client.send(data)
+        except (BlockingIOError, ssl.SSLWantWriteError, ssl.SSLWantReadError):
+            return 0
+
+    def _stream(self) -> bool:
+        """Move the streamed frame on (server to pipe to client); False when the server has
+        nothing more now. A client that stops taking it gets its rest from a buffer."""
+        assert self._pipe is not None and self.upstream is not None
+        moved = -1
+        room = self._pipe_size - self._piped
+        if room > 0:
+            try:
+                moved = os.splice(
+                    self.upstream.fileno(),
+                    self._pipe[1],
+                    min(room, self._stream_left),
+                    flags=_SPLICE_FLAGS,
+                )
+            except BlockingIOError:
+                moved = -1
+            if moved == 0:
+                self._upstream_done = True
+                return False
+            if moved > 0:
+                self._piped += moved
+                self._stream_left -= moved
+        self._to_client()
+        if self._stream_left and self._piped >= self._pipe_size:  # the client stopped taking
+            self._begin_rest(memoryview(b''), self._stream_left)
+            self._stream_left = 0
+            return True
+        return moved > 0
 
     def _run(self, frames: memoryview) -> None:
         """Whole frames from rx: sent at once while the client keeps up, else queued."""
         if not self._pending():
-            try:
-                sent = self.client.send(frames)
-            except (BlockingIOError, ssl.SSLWantWriteError, ssl.SSLWantReadError):
-                sent = 0
+            sent = self._send_now(frames)
             if sent == len(frames):
                 return
             if sent:  # the rest of a frame the client has begun
@@ -520,7 +631,7 @@ class _Connection:
             self._spare = buffer
 
     def _pending(self) -> bool:
-        return self._sending is not None or bool(self._kept) or bool(self._queue)
+        return self._piped > 0 or self._sending is not None or bool(self._kept) or bool(self._queue)
 
     def _next(self) -> memoryview | None:
         for queue in (self._kept, self._queue):
@@ -532,6 +643,18 @@ class _Connection:
 
     def _to_client(self) -> None:
         """Send the client what it can take now."""
+        if self._piped:
+            assert self._pipe is not None
+            try:
+                self._piped -= os.splice(
+                    self._pipe[0], self.client.fileno(), self._piped, flags=_SPLICE_FLAGS
+                )
+            except BlockingIOError:
+                return
+            if self._piped:
+                return
+        if self._stream_left or self._rest:
+            return  # the rest of the frame begun comes first
         while True:
             if self._sending is None:
                 self._sending = self._next()
