@@ -162,3 +162,30 @@ def test_a_client_that_does_not_read_loses_only_its_oldest_messages(
     assert served.dropped >= count // 4  # past the sockets' buffers and the bound
     assert 1 <= len(statuses) == served.reported
     assert statuses[0]['level'] == 1 and 'does not read fast enough' in statuses[0]['message']
+
+
+def test_the_sdk_listens_where_a_page_cannot_guess() -> None:
+    """A web page may try ws://127.0.0.1:PORT for every port; on Linux the SDK's server, which
+    checks no Origin, listens on a random address of 127.0.0.0/8 instead."""
+    import ipaddress
+    import sys
+
+    from zros.gateway.foxglove_front import private_loopback
+
+    addresses = {private_loopback() for _ in range(5)}
+    assert all(ipaddress.ip_address(a).is_loopback for a in addresses)
+    if sys.platform.startswith('linux'):
+        assert '127.0.0.1' not in addresses and len(addresses) > 1
+
+
+def test_closing_ends_a_connection_still_in_its_handshake(front: list[Front]) -> None:
+    import time
+
+    served = Front(Listen(0), ('127.0.0.1', 9), OriginPolicy(), 1000)
+    with socket.create_connection(('127.0.0.1', served.port)) as silent:
+        silent.sendall(b'GET / HTTP/1.1\r\n')  # and nothing more
+        assert wait_for(lambda: len(served._threads) == 1, TIMEOUT)
+        start = time.monotonic()
+        served.close()
+        assert time.monotonic() - start < 2.0  # not the handshake's timeout
+        assert silent.recv(10) == b''

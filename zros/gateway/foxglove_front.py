@@ -95,7 +95,7 @@ class Front:
         self.port: int = self._socket.getsockname()[1]
         self._stop_r, self._stop_w = socket.socketpair()
         self._lock = threading.Lock()
-        self._threads: set[threading.Thread] = set()
+        self._threads: dict[threading.Thread, socket.socket] = {}  # and their clients
         self._closed = False
         self.dropped = 0  #: message frames dropped for slow clients, all clients together
         self.reported = 0  #: warnings sent to slow clients
@@ -120,7 +120,7 @@ class Front:
                     name='zros foxglove client',
                     daemon=True,
                 )
-                self._threads.add(thread)
+                self._threads[thread] = client
             thread.start()
 
     def _serve(self, client: socket.socket, address: tuple[object, ...]) -> None:
@@ -131,7 +131,7 @@ class Front:
             _log.debug('the connection of %s failed', name, exc_info=True)
         finally:
             with self._lock:
-                self._threads.discard(threading.current_thread())
+                self._threads.pop(threading.current_thread(), None)
 
     def close(self) -> None:
         """Stop listening and end every connection."""
@@ -139,9 +139,12 @@ class Front:
             if self._closed:
                 return
             self._closed = True
-            threads = list(self._threads)
+            threads = dict(self._threads)
         self._socket.close()
         self._stop_w.send(b'x')  # never read: every connection's loop sees it and ends
+        for client in threads.values():  # and a connection still in its handshake
+            with contextlib.suppress(OSError):
+                client.shutdown(socket.SHUT_RDWR)
         for thread in [self._thread, *threads]:
             thread.join(5.0)
         self._stop_r.close()
