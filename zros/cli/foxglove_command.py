@@ -110,9 +110,9 @@ def add_parser(
                         help='serve this recording instead of the live graph')  # fmt: skip
     parser.add_argument('--tls-cert', metavar='PEM', help='certificate: serve wss://')
     parser.add_argument('--tls-key', metavar='PEM', help='its private key (PKCS#8)')
-    parser.add_argument('--message-backlog', type=at_least_one, default=1024, metavar='N',
+    parser.add_argument('--message-backlog', type=at_least_one, default=32, metavar='N',
                         help='messages the Foxglove SDK queues per client on their way out '
-                        '(default 1024; --client-buffer bounds the bytes)')  # fmt: skip
+                        '(default 32; --client-buffer bounds the bytes)')  # fmt: skip
     parser.add_argument('--sim-time', action=argparse.BooleanOptionalAction, default=None,
                         help='publish /clock as the server time (default: if /clock has a '
                         'publisher at the start)')  # fmt: skip

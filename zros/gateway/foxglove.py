@@ -25,7 +25,12 @@ from zros.errors import ZrosError
 from zros.gateway.assets import Assets
 from zros.gateway.core import GatewayError, GraphWatcher, NameFilter, Taps, gateway_node
 from zros.gateway.foxglove_calls import ENCODINGS, ClientChannels, ServiceOffer
-from zros.gateway.foxglove_common import ServerOptions, import_sdk, ros2msg_schema
+from zros.gateway.foxglove_common import (
+    DEFAULT_BACKLOG,
+    ServerOptions,
+    import_sdk,
+    ros2msg_schema,
+)
 from zros.gateway.foxglove_front import CLIENT_BUFFER
 from zros.gateway.foxglove_params import Parameters
 from zros.gateway.origins import FOXGLOVE_APP
@@ -438,7 +443,7 @@ def serve(
     bag: str | os.PathLike[str] | None = None,
     tls_cert: str | os.PathLike[str] | None = None,
     tls_key: str | os.PathLike[str] | None = None,
-    message_backlog: int = 1024,
+    message_backlog: int = DEFAULT_BACKLOG,
     client_buffer: int = CLIENT_BUFFER,
     allow_origins: Iterable[str] = (FOXGLOVE_APP,),
     read_only: bool = False,

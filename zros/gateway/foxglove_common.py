@@ -37,8 +37,12 @@ SdkOption = Any
 
 #: foxglove_bridge's port
 DEFAULT_PORT = 8765
-#: messages each client's outbox holds before the oldest are dropped (the SDK's default)
-DEFAULT_BACKLOG = 1024
+#: messages the SDK queues for each client before dropping the oldest. The front reads them at
+#: once; they wait only when its thread is starved of CPU and the loopback socket between them
+#: is full (its megabytes absorb bursts of small messages): then they are camera images, and
+#: the SDK's own default (1,024) was gigabytes. Its control messages share the bound: a
+#: client whose control queue overflows is disconnected by the SDK.
+DEFAULT_BACKLOG = 32
 
 
 def import_sdk() -> ModuleType:

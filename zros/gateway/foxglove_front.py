@@ -140,6 +140,8 @@ class Front:
                 return
             self._closed = True
             threads = dict(self._threads)
+        with contextlib.suppress(OSError):  # wakes the accepting thread (close alone does not)
+            self._socket.shutdown(socket.SHUT_RDWR)
         self._socket.close()
         self._stop_w.send(b'x')  # never read: every connection's loop sees it and ends
         for client in threads.values():  # and a connection still in its handshake
@@ -285,7 +287,10 @@ class _Connection:
         self._pipe_size = 0
         self._piped = 0  # bytes in the pipe, for the client
         self._stream_left = 0  # bytes of the frame still to move into the pipe
-        self._spare: bytearray | None = None  # a big frame's buffer, for the next one
+        # big frames' buffers, for the next ones: reused, not given back to malloc, whose
+        # arenas (one per thread that allocates) each keep megabytes of what is freed
+        self._pool: list[bytearray] = []
+        self._pooled = 0
         self._sending: memoryview | None = None  # what the client is being sent now
         self._kept: collections.deque[memoryview | bytes] = collections.deque()  # before _queue
         self._queue: collections.deque[memoryview | bytes] = collections.deque()
@@ -496,10 +501,13 @@ class _Connection:
             self._start = self._end = 0
 
     def _take(self, size: int) -> memoryview:
-        """A buffer of ``size`` bytes (the spare one, if large enough)."""
-        spare, self._spare = self._spare, None
-        buffer = spare if spare is not None and len(spare) >= size else bytearray(size)
-        return memoryview(buffer)[:size]
+        """A buffer of ``size`` bytes (a kept one, if one is large enough)."""
+        for index, kept in enumerate(self._pool):
+            if len(kept) >= size:
+                del self._pool[index]
+                self._pooled -= len(kept)
+                return memoryview(kept)[:size]
+        return memoryview(bytearray(size))[:size]
 
     def _begin_big(self, size: int, head: memoryview) -> None:
         """Receive a frame of ``size`` bytes, ``head`` its start, into a buffer of its own."""
@@ -626,12 +634,16 @@ class _Connection:
         self._queued += len(status)
 
     def _recycle(self, frame: memoryview | bytes) -> None:
-        """Keep a big frame's buffer for the next big frame."""
+        """Keep a big frame's buffer for the next big frames (at most half the client's
+        bound in all; the smallest go first)."""
         buffer = frame.obj if isinstance(frame, memoryview) else None
-        if isinstance(buffer, bytearray) and (
-            self._spare is None or len(buffer) > len(self._spare)
-        ):
-            self._spare = buffer
+        if not isinstance(buffer, bytearray) or buffer is self._rx:
+            return
+        self._pool.append(buffer)
+        self._pooled += len(buffer)
+        self._pool.sort(key=len, reverse=True)
+        while self._pooled > self.front.client_buffer // 2 and self._pool:
+            self._pooled -= len(self._pool.pop())
 
     def _pending(self) -> bool:
         return self._piped > 0 or self._sending is not None or bool(self._kept) or bool(self._queue)
