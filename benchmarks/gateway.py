@@ -58,6 +58,7 @@ from gateway_paths import (  # noqa: E402
 )
 from transport_roles import total  # noqa: E402
 
+from tests.gateway.foxglove_client import SDK_PROTOCOL as SDK  # noqa: E402
 from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
 
 LATENCY_HZ = 200.0
@@ -218,9 +219,10 @@ def interleaved(kind: str, count: int, endpoint: str) -> dict[str, dict[str, Any
         paths['gateway'] = ClientPath(gateway, kind, endpoint, '1', publish=True)
         paths['gateway_lean'] = ClientPath(gateway, kind, endpoint, '4', publish=True, lean=True)
         command = [*here, '--role', 'sdk', '--tag', '2', '--timeout', '300']
-        paths['sdk'] = ClientPath(command, kind, endpoint, '2', publish=False)
+        # the SDK's own server accepts its subprotocol only (zros foxglove's front both)
+        paths['sdk'] = ClientPath(command, kind, endpoint, '2', publish=False, protocol=SDK)
         command = [*here, '--role', 'zenoh_sdk', '--tag', '3', '--timeout', '3600']
-        paths['zenoh_sdk'] = ClientPath(command, kind, endpoint, '3', publish=True)
+        paths['zenoh_sdk'] = ClientPath(command, kind, endpoint, '3', publish=True, protocol=SDK)
         turns: dict[str, list[dict[str, Any]]] = {name: [] for name in PATHS}
         for _ in range(TURNS + 1):
             for name in PATHS:

@@ -55,7 +55,7 @@ def gateway_command(endpoint: str) -> list[str]:
     zros = shutil.which('zros', path=str(Path(sys.executable).parent))
     assert zros is not None, 'the zros command is not installed beside this Python'
     return [zros, 'foxglove', '--connect', endpoint, '--port', '0', '--no-sim-time',
-            '--message-backlog', '1000000']  # fmt: skip
+            '--message-backlog', '1000000', '--client-buffer', '16GiB']  # fmt: skip
 
 
 def start_server(command: list[str]) -> tuple[subprocess.Popen[str], str]:
@@ -98,10 +98,10 @@ class ClientPath:
 
     def __init__(
         self, command: list[str], kind: str, endpoint: str, tag: str, *, publish: bool,
-        lean: bool = False,
+        lean: bool = False, protocol: str | None = None,
     ) -> None:  # fmt: skip
         self.server, url = start_server(command)
-        self.client = FoxgloveClient(url, script=LEAN if lean else SCRIPT)
+        self.client = FoxgloveClient(url, script=LEAN if lean else SCRIPT, protocol=protocol)
         self.publisher = _publisher(kind, endpoint, tag) if publish else None
         # the topic shows once the publisher is up; the publisher waits for the tap this makes
         self.subscription = self.client.subscribe(topic(tag), 60, quiet=True)

@@ -1,7 +1,10 @@
 """Fixtures of the gateway tests: Foxglove gateways on the test router, and real clients.
 
-* ``foxglove_client``: ``make(url, ca=None)`` -> a :class:`FoxgloveClient` (``@foxglove/ws-protocol``
-  run by node); skips where node or npm is missing (fails instead with ZROS_TEST_NODE_REQUIRED=1).
+* ``foxglove_client``: ``make(url, ca=None, origin=None)`` -> a :class:`FoxgloveClient`
+  (``@foxglove/ws-protocol`` run by node), once offering the library's subprotocol
+  (``foxglove.websocket.v1``, as Lichtblick does) and once only the SDK's (``foxglove.sdk.v1``,
+  as the Foxglove app does); skips where node or npm is missing (fails instead with
+  ZROS_TEST_NODE_REQUIRED=1).
 * ``gateway``: ``make(**serve_options)`` -> a running ``FoxgloveGateway`` on its own node
   (of the module's ``zros_wire``), on a free port.
 """
@@ -13,16 +16,21 @@ from typing import Any
 
 import pytest
 
-from tests.gateway.foxglove_client import FoxgloveClient, require
+from tests.gateway.foxglove_client import (
+    LIBRARY_PROTOCOL,
+    SDK_PROTOCOL,
+    FoxgloveClient,
+    require,
+)
 
 
-@pytest.fixture
-def foxglove_client() -> Iterator[Callable[..., FoxgloveClient]]:
+@pytest.fixture(params=[LIBRARY_PROTOCOL, SDK_PROTOCOL])
+def foxglove_client(request: pytest.FixtureRequest) -> Iterator[Callable[..., FoxgloveClient]]:
     require()
     made: list[FoxgloveClient] = []
 
-    def make(url: str, ca: str | None = None) -> FoxgloveClient:
-        client = FoxgloveClient(url, ca)
+    def make(url: str, ca: str | None = None, origin: str | None = None) -> FoxgloveClient:
+        client = FoxgloveClient(url, ca, protocol=request.param, origin=origin)
         made.append(client)
         return client
 

@@ -147,14 +147,30 @@ class NodeProcess:
                 self.process.wait(5)
 
 
+#: the subprotocol ``@foxglove/ws-protocol`` offers (Lichtblick, the library's README)
+LIBRARY_PROTOCOL = 'foxglove.websocket.v1'
+#: the one the Foxglove SDK's servers and the Foxglove app use
+SDK_PROTOCOL = 'foxglove.sdk.v1'
+
+
 class FoxgloveClient(NodeProcess):
     """One Foxglove client connected to ``url`` (``node/client.js``, or a ``script`` speaking
-    the same JSON lines)."""
+    the same JSON lines). It offers the library's own subprotocol unless ``protocol`` names
+    another; ``origin``: it sends that ``Origin``, as a browser's page would."""
 
     def __init__(
-        self, url: str, ca: str | os.PathLike[str] | None = None, script: Path = SCRIPT
+        self,
+        url: str,
+        ca: str | os.PathLike[str] | None = None,
+        script: Path = SCRIPT,
+        protocol: str | None = None,
+        origin: str | None = None,
     ) -> None:
-        super().__init__(['node', str(script), url] + ([str(ca)] if ca is not None else []))
+        args = ['node', str(script), url]
+        for flag, value in (('--ca', ca), ('--protocol', protocol), ('--origin', origin)):
+            if value is not None:
+                args += [flag, str(value)]
+        super().__init__(args)
 
     # --- what tests do -----------------------------------------------------------------------
 

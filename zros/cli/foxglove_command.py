@@ -14,6 +14,7 @@ from typing import TypedDict
 from zros.cli.shared import (
     CommandError,
     add_connection_options,
+    add_gateway_safety_options,
     at_least_one,
     open_node,
     out,
@@ -33,9 +34,13 @@ class _Settings(TypedDict):
     tls_cert: str | None
     tls_key: str | None
     message_backlog: int
+    client_buffer: int
+    allow_origins: Iterable[str]
 
 
 def _settings(args: argparse.Namespace) -> _Settings:
+    from zros.gateway.origins import FOXGLOVE_APP
+
     return {
         'port': args.port,
         'address': args.address,
@@ -45,6 +50,8 @@ def _settings(args: argparse.Namespace) -> _Settings:
         'tls_cert': args.tls_cert,
         'tls_key': args.tls_key,
         'message_backlog': args.message_backlog,
+        'client_buffer': args.client_buffer,
+        'allow_origins': [FOXGLOVE_APP, *args.allow_origin],
     }
 
 
@@ -67,12 +74,14 @@ def run(args: argparse.Namespace) -> int:
             include_hidden=args.include_hidden,
             sim_time=args.sim_time,
             throttle=args.throttle,
+            read_only=args.read_only,
             **_settings(args),
         )
         assert isinstance(gateway, FoxgloveGateway)  # not a bag: a live gateway
         with gateway:
             sim = ', sim time from /clock' if gateway.sim_time else ''
-            out(f'Foxglove: {gateway.url} ({node.wire} wire{sim})')
+            read_only = ', read-only' if gateway.read_only else ''
+            out(f'Foxglove: {gateway.url} ({node.wire} wire{sim}{read_only})')
             return serve_until_interrupted()
 
 
@@ -107,10 +116,11 @@ def add_parser(
                         help='serve this recording instead of the live graph')  # fmt: skip
     parser.add_argument('--tls-cert', metavar='PEM', help='certificate: serve wss://')
     parser.add_argument('--tls-key', metavar='PEM', help='its private key (PKCS#8)')
-    parser.add_argument('--message-backlog', type=at_least_one, default=1024, metavar='N',
-                        help='messages queued per client before its oldest are dropped '
-                        '(default 1024)')  # fmt: skip
+    parser.add_argument('--message-backlog', type=at_least_one, default=32, metavar='N',
+                        help='messages the Foxglove SDK queues per client on their way out '
+                        '(default 32; --client-buffer bounds the bytes)')  # fmt: skip
     parser.add_argument('--sim-time', action=argparse.BooleanOptionalAction, default=None,
                         help='publish /clock as the server time (default: if /clock has a '
                         'publisher at the start)')  # fmt: skip
+    add_gateway_safety_options(parser, ' and https://app.foxglove.dev (the Foxglove web app)')
     add_connection_options(parser)

@@ -2,8 +2,9 @@
 
 An asset folder is a folder of packages (``<dir>/<pkg>/meshes/base.stl``), an install prefix
 (``<dir>/share/<pkg>/...``, as colcon installs), or one package's own folder (its name, or its
-``package.xml``, names the package). Nothing outside those folders is ever read: URIs with
-``..``, absolute package paths and symbolic links leading out are refused.
+``package.xml``, names the package). Nothing outside those folders is ever read: a package
+name must be a ROS package name, and the file a URI names must lie inside an asset folder once
+``..`` and symbolic links are resolved (a link leading out, even a package folder's, is refused).
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ _log = logging.getLogger('zros.gateway')
 #: the largest file served (the SDK sends an asset in one message)
 MAX_ASSET_BYTES = 256 * 1024 * 1024
 _PACKAGE_NAME = re.compile(r'<name>\s*([A-Za-z0-9_]+)\s*</name>')
+#: what a ROS package may be called (REP 144, with the capitals and dashes found in the wild)
+_VALID_PACKAGE = re.compile(r'[A-Za-z][A-Za-z0-9_-]*')
 
 
 def _package_name(folder: Path) -> str:
@@ -57,8 +60,10 @@ class Assets:
         parsed = urllib.parse.urlparse(uri)
         if parsed.scheme == 'package':
             package = parsed.netloc
+            if not _VALID_PACKAGE.fullmatch(package):
+                raise GatewayError(f'{uri}: {package!r} is not a package name')
             relative = urllib.parse.unquote(parsed.path).lstrip('/')
-            roots = self._package_roots(package) if package else []
+            roots = self._package_roots(package)
             if not roots:
                 raise GatewayError(f'{uri}: no package {package!r} in the asset folders')
         elif parsed.scheme == 'file':
@@ -74,7 +79,7 @@ class Assets:
             raise GatewayError(f'{uri}: the path must stay inside the package')
         for root in roots:
             candidate = (root / relative).resolve()
-            if not candidate.is_relative_to(root):
+            if not any(candidate.is_relative_to(folder) for folder in self.folders):
                 raise GatewayError(f'{uri}: the path leads outside the asset folders')
             if candidate.is_file():
                 return candidate

@@ -23,10 +23,17 @@ from typing import TYPE_CHECKING, TypeVar
 
 from zros.errors import ZrosError
 from zros.gateway.assets import Assets
-from zros.gateway.core import GraphWatcher, NameFilter, Taps, gateway_node
+from zros.gateway.core import GatewayError, GraphWatcher, NameFilter, Taps, gateway_node
 from zros.gateway.foxglove_calls import ENCODINGS, ClientChannels, ServiceOffer
-from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk, ros2msg_schema
+from zros.gateway.foxglove_common import (
+    DEFAULT_BACKLOG,
+    ServerOptions,
+    import_sdk,
+    ros2msg_schema,
+)
+from zros.gateway.foxglove_front import CLIENT_BUFFER
 from zros.gateway.foxglove_params import Parameters
+from zros.gateway.origins import FOXGLOVE_APP
 from zros.gateway.throttle import Throttle
 from zros.gateway.views import offered_services, owners, parameter_nodes, service_providers
 from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
@@ -62,6 +69,8 @@ class FoxgloveGateway:
     parameters (``/node.name``) offered; hidden names (``/_x``) only with ``include_hidden``.
     ``asset_paths`` are the folders ``package://`` URIs are served from. ``sim_time`` makes the
     server publish ``/clock`` as its time (None: when ``/clock`` has a publisher at the start).
+    ``read_only``: clients only watch (no publishing, service calls or parameter sets); else
+    they publish only on topics ``topics`` and ``exclude`` select.
     ``own_node``: the gateway made ``node`` and destroys it on :meth:`close`.
     """
 
@@ -77,6 +86,7 @@ class FoxgloveGateway:
         include_hidden: bool = False,
         asset_paths: Iterable[str | os.PathLike[str]] = (),
         sim_time: bool | None = None,
+        read_only: bool = False,
         own_node: bool = False,
         throttle: Iterable[str] = (),
     ) -> None:
@@ -86,6 +96,7 @@ class FoxgloveGateway:
         self.node = node
         self.options = options or ServerOptions()
         self._own_node = own_node
+        self.read_only = read_only
         self._topics = NameFilter.regexes(topics, exclude)
         self._include_hidden = include_hidden
         self._assets = Assets(asset_paths) if asset_paths else None
@@ -101,28 +112,19 @@ class FoxgloveGateway:
         self._sim_now = 0
         self._taps = Taps(node, self.now, limit=Throttle.parse(throttle).limit)
         self._context = foxglove.Context()
-        capabilities = [
-            Capability.ClientPublish,
-            Capability.Services,
-            Capability.Parameters,
-            Capability.ConnectionGraph,
-        ]
+        capabilities = [Capability.Parameters, Capability.ConnectionGraph]
+        if not read_only:
+            capabilities += [Capability.ClientPublish, Capability.Services]
         if sim_time:
             capabilities.append(Capability.Time)
-        self._slow = SlowClients(self.options.message_backlog)
-        try:
-            self._server = self.options.start(
-                capabilities=capabilities,
-                server_listener=_Listener(self),
-                supported_encodings=list(ENCODINGS),
-                asset_handler=self._assets.fetch if self._assets is not None else None,
-                context=self._context,
-            )
-        except BaseException:
-            self._slow.close()
-            raise
-        self._slow.attach(self._server)
-        self.port: int = self._server.port
+        self._server, self._front = self.options.start(
+            capabilities=capabilities,
+            server_listener=_Listener(self),
+            supported_encodings=list(ENCODINGS),
+            asset_handler=self._assets.fetch if self._assets is not None else None,
+            context=self._context,
+        )
+        self.port: int = self._front.port
         self.url = self.options.url(self.port)
         self.clients = ClientChannels(node, self._offered_qos, self.status)
         self.services = ServiceOffer(node, self._server, NameFilter.regexes(services))
@@ -137,7 +139,12 @@ class FoxgloveGateway:
         if sim_time:
             self._clock = self._follow_clock()
         self._watcher = GraphWatcher(node, self._follow_graph)
-        _log.info('Foxglove server on %s (%s wire)', self.url, node.wire)
+        _log.info(
+            'Foxglove server on %s (%s wire%s)',
+            self.url,
+            node.wire,
+            ', read-only' if read_only else '',
+        )
 
     # --- time --------------------------------------------------------------------------------
 
@@ -191,7 +198,7 @@ class FoxgloveGateway:
             if self._wanted(name)
         }
         self._update_channels(topics)
-        services = self._all_services()
+        services = {} if self.read_only else self._all_services()
         self.services.update(
             {n: t for n, t in services.items() if self._include_hidden or not is_hidden(n)}
         )
@@ -253,6 +260,28 @@ class FoxgloveGateway:
         self._server.publish_connection_graph(connection_graph)
         self._graph_published = view
 
+    # --- clients acting on the graph -----------------------------------------------------------
+
+    def advertise(self, client: int, channel: ClientChannel) -> None:
+        """A client announced a channel: its publisher, if this gateway lets clients publish
+        there (GatewayError says why not)."""
+        if self.read_only:
+            raise GatewayError(f'{channel.topic}: this server is read-only')
+        try:
+            name = self.node.resolve_name(channel.topic)
+        except ZrosError:  # an invalid name: the publisher refuses it, with the reason
+            name = channel.topic
+        if not self._wanted(name):
+            raise GatewayError(f'{channel.topic}: not among the topics this server offers')
+        self.clients.advertise(client, channel)
+
+    def set_parameters(self, parameters: list[Parameter]) -> list[Parameter]:
+        """Set parameters (refused when read-only: their values as they are)."""
+        if self.read_only:
+            self.status('parameters may not be set: this server is read-only', 'error')
+            return self.parameters.get([p.name for p in parameters])
+        return self.parameters.set(parameters)
+
     # --- watching ----------------------------------------------------------------------------
 
     def watch(self, client: int, channel_id: int) -> None:
@@ -310,8 +339,13 @@ class FoxgloveGateway:
 
     @property
     def slow_client_reports(self) -> int:
-        """How many times a client's outbox overflowed (and the clients were told)."""
-        return self._slow.reported
+        """How many warnings slow clients got (their oldest messages dropped)."""
+        return self._front.reported
+
+    @property
+    def dropped(self) -> int:
+        """Messages dropped so far for clients that did not read fast enough."""
+        return self._front.dropped
 
     def close(self) -> None:
         """Stop the server and release every Zenoh entity (and the node, if the gateway made
@@ -320,8 +354,8 @@ class FoxgloveGateway:
             return
         self._closed = True
         self._watcher.close()
+        self._front.close()
         self._server.stop()
-        self._slow.close()
         if self._clock is not None:
             self._clock.close()
         self._taps.close()
@@ -367,9 +401,7 @@ class _Listener:
         self._guard(f'unsubscribing {channel.topic}', self._gateway.unwatch, client.id, channel.id)
 
     def on_client_advertise(self, client: Client, channel: ClientChannel) -> None:
-        self._guard(
-            f'advertising {channel.topic}', self._gateway.clients.advertise, client.id, channel
-        )
+        self._guard(f'advertising {channel.topic}', self._gateway.advertise, client.id, channel)
 
     def on_client_unadvertise(self, client: Client, client_channel_id: int) -> None:
         self._gateway.clients.unadvertise(client.id, client_channel_id)
@@ -385,7 +417,7 @@ class _Listener:
     def on_set_parameters(
         self, client: Client, parameters: list[Parameter], request_id: str | None = None
     ) -> list[Parameter]:
-        return self._guard('setting parameters', self._gateway.parameters.set, parameters) or []
+        return self._guard('setting parameters', self._gateway.set_parameters, parameters) or []
 
     def on_parameters_subscribe(self, param_names: list[str]) -> None:
         self._guard('following parameters', self._gateway.parameters.subscribe, param_names)
@@ -413,7 +445,10 @@ def serve(
     bag: str | os.PathLike[str] | None = None,
     tls_cert: str | os.PathLike[str] | None = None,
     tls_key: str | os.PathLike[str] | None = None,
-    message_backlog: int = 1024,
+    message_backlog: int = DEFAULT_BACKLOG,
+    client_buffer: int = CLIENT_BUFFER,
+    allow_origins: Iterable[str] = (FOXGLOVE_APP,),
+    read_only: bool = False,
     sim_time: bool | None = None,
     node: Node | None = None,
     name: str = 'zros_foxglove',
@@ -423,11 +458,25 @@ def serve(
     """Serve the robot (or, with ``bag``, a recording) to Foxglove at
     ``ws://address:port``; returns the running server (``close()`` it, or use ``with``).
 
+    Browsers connect from pages of this machine and of ``allow_origins`` (the Foxglove web
+    app's by default; ``'*'``: any page); programs (no ``Origin``) always. Each client may have
+    ``client_buffer`` bytes queued before its oldest messages are dropped. ``read_only``: clients
+    only watch.
+
     Without ``node``, a node named ``name`` joins the graph with the connection ``settings``
     of :class:`zros.Node` (``connect``, ``wire``, ``transport``, ``tls``...). ``throttle``:
     ``REGEX=HZ`` rate limits of live topics (:mod:`zros.gateway.throttle`).
     """
-    options = ServerOptions(port, address, tls_cert, tls_key, message_backlog, name='zros')
+    options = ServerOptions(
+        port,
+        address,
+        tls_cert,
+        tls_key,
+        message_backlog,
+        name='zros',
+        allow_origins=tuple(allow_origins),
+        client_buffer=client_buffer,
+    )
     if bag is not None:
         from zros.gateway.foxglove_bag import BagGateway
 
@@ -446,6 +495,7 @@ def serve(
             include_hidden=include_hidden,
             asset_paths=asset_paths,
             sim_time=sim_time,
+            read_only=read_only,
             own_node=own,
             throttle=throttle,
         )

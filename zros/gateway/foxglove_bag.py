@@ -25,7 +25,7 @@ from zros.bag.types import BagTypes
 from zros.errors import ZrosError
 from zros.gateway.assets import Assets
 from zros.gateway.core import GatewayError, NameFilter
-from zros.gateway.foxglove_common import ServerOptions, SlowClients, import_sdk, ros2msg_schema
+from zros.gateway.foxglove_common import ServerOptions, import_sdk, ros2msg_schema
 from zros.pubsub.taps import matched_qos
 
 if TYPE_CHECKING:
@@ -110,9 +110,8 @@ class BagGateway:
         self._ended = False
         self._stopping = False
         self.published = 0  #: messages sent so far
-        self._slow = SlowClients(self.options.message_backlog)
         try:
-            self._server = self.options.start(
+            self._server, self._front = self.options.start(
                 capabilities=[Capability.PlaybackControl, Capability.Time],
                 playback_time_range=(self.start_ns, max(self.end_ns, self.start_ns + 1)),
                 server_listener=_BagListener(self),
@@ -120,11 +119,9 @@ class BagGateway:
                 context=self._context,
             )
         except BaseException:
-            self._slow.close()
             self.source.close()
             raise
-        self._slow.attach(self._server)
-        self.port: int = self._server.port
+        self.port: int = self._front.port
         self.url = self.options.url(self.port)
         self._thread = threading.Thread(target=self._run, name='zros foxglove bag', daemon=True)
         self._thread.start()
@@ -286,8 +283,8 @@ class BagGateway:
         self._stopping = True
         self.clock.interrupt()
         self._thread.join(5.0)
+        self._front.close()
         self._server.stop()
-        self._slow.close()
         self.source.close()
 
     def __enter__(self) -> BagGateway:

@@ -1,30 +1,26 @@
 """What the live and the bag Foxglove servers share: starting the SDK's WebSocket server
-safely, telling clients that fall behind, and the schemas of ROS types.
+behind the front that guards it, and the schemas of ROS types.
 
-The Foxglove SDK (``foxglove-sdk`` on PyPI, the ``foxglove`` extra) owns the WebSocket side:
-the protocol, a bounded outbox per client (``message_backlog_size`` messages; when it is full
-the oldest data messages go), TLS. It does not tell a client that its messages were dropped;
-it only logs ``outbox for client <address> full`` (at most every 30 s, for all its clients).
-:class:`SlowClients` watches that log line and sends every client a warning status naming the
-slow one (at most once per ``REPORT_PERIOD`` for one client: statuses go through the control
-queue, which the SDK bounds too, and disconnects a client when it overflows).
+The Foxglove SDK (``foxglove-sdk`` on PyPI, the ``foxglove`` extra) owns the protocol; it
+listens on a private loopback address, plain. Clients reach it through
+:class:`~zros.gateway.foxglove_front.Front` on the public address, which checks their
+``Origin``, accepts both names of the protocol, terminates TLS and bounds each client's queue
+in bytes. The SDK's own outbox (``message_backlog_size`` messages) lies between the two and
+stays short: the front always reads it.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-import queue
-import re
-import threading
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
 from zros.gateway.core import GatewayError
+from zros.gateway.foxglove_front import CLIENT_BUFFER, Front, private_loopback
 from zros.gateway.listen import Listen
+from zros.gateway.origins import FOXGLOVE_APP, OriginPolicy
 
 if TYPE_CHECKING:
     from types import ModuleType
@@ -41,13 +37,12 @@ SdkOption = Any
 
 #: foxglove_bridge's port
 DEFAULT_PORT = 8765
-#: messages each client's outbox holds before the oldest are dropped (the SDK's default)
-DEFAULT_BACKLOG = 1024
-#: seconds between two statuses about the same slow client
-REPORT_PERIOD = 5.0
-#: the SDK logger and line that say a client's outbox overflowed
-_SDK_SEND_LOGGER = 'foxglove.websocket.connected_client.send_lossy'
-_OUTBOX_FULL = re.compile(r'outbox for client (\S+) full')
+#: messages the SDK queues for each client before dropping the oldest. The front reads them at
+#: once; they wait only when its thread is starved of CPU and the loopback socket between them
+#: is full (its megabytes absorb bursts of small messages): then they are camera images, and
+#: the SDK's own default (1,024) was gigabytes. Its control messages share the bound: a
+#: client whose control queue overflows is disconnected by the SDK.
+DEFAULT_BACKLOG = 32
 
 
 def import_sdk() -> ModuleType:
@@ -67,8 +62,10 @@ class ServerOptions:
 
     ``address`` defaults to loopback; any other address is reachable from the network and
     logs a warning. ``tls_cert`` and ``tls_key`` (PEM files, the key in PKCS#8 as
-    ``zros tls init`` writes it) make it ``wss://``. ``message_backlog`` bounds each client's
-    outbox (messages).
+    ``zros tls init`` writes it) make it ``wss://``. ``message_backlog`` bounds the SDK's
+    outbox of each client (messages), ``client_buffer`` the front's queue of each (bytes).
+    Browsers are accepted from pages of this machine and of ``allow_origins`` (``'*'``: any);
+    programs, which send no ``Origin``, always.
     """
 
     port: int = DEFAULT_PORT
@@ -77,6 +74,8 @@ class ServerOptions:
     tls_key: str | os.PathLike[str] | None = None
     message_backlog: int = DEFAULT_BACKLOG
     name: str = 'zros'
+    allow_origins: tuple[str, ...] = (FOXGLOVE_APP,)
+    client_buffer: int = CLIENT_BUFFER
 
     def _listen(self) -> Listen:
         return Listen(self.port, self.address, self.tls_cert, self.tls_key, 'the Foxglove server')
@@ -93,101 +92,40 @@ class ServerOptions:
             raise GatewayError(
                 f'the message backlog must be at least 1, not {self.message_backlog}'
             )
+        if self.client_buffer < 1:
+            raise GatewayError(
+                f'the client buffer must be at least 1 byte, not {self.client_buffer}'
+            )
 
-    def start(self, **settings: SdkOption) -> WebSocketServer:
+    def start(self, **settings: SdkOption) -> tuple[WebSocketServer, Front]:
         """Start the SDK's server with these options and ``settings`` (capabilities, listener,
-        context...); GatewayError when it cannot listen."""
+        context...), and the front clients reach it through; GatewayError when either cannot
+        listen."""
         foxglove = import_sdk()
         self.check()
-        cert, key = self._listen().tls_files()
+        listen = self._listen()
+        origins = OriginPolicy(self.allow_origins)
+        host = private_loopback()
         try:
             server: WebSocketServer = foxglove.start_server(
                 name=self.name,
-                host=self.address,
-                port=self.port,
+                host=host,
+                port=0,
                 message_backlog_size=self.message_backlog,
-                tls_cert=cert,
-                tls_key=key,
                 **settings,
             )
-        except RuntimeError as exc:  # the SDK's FoxgloveError: a port in use, no such host, bad TLS
-            raise GatewayError(
-                f'cannot start the Foxglove server on {self.address}:{self.port}: {exc}'
-            ) from None
-        return server
+        except RuntimeError as exc:  # the SDK's FoxgloveError
+            raise GatewayError(f'cannot start the Foxglove server on {host}: {exc}') from None
+        try:
+            front = Front(listen, (host, server.port), origins, self.client_buffer)
+        except BaseException:
+            server.stop()
+            raise
+        return server, front
 
     def url(self, port: int) -> str:
         """The address clients open."""
         return self._listen().url(port)
-
-
-class _OutboxLog(logging.Handler):
-    def __init__(self, found: Callable[[str], None]) -> None:
-        super().__init__(logging.INFO)
-        self._found = found
-
-    def emit(self, record: logging.LogRecord) -> None:
-        match = _OUTBOX_FULL.search(record.getMessage())
-        if match is not None:
-            self._found(match.group(1))
-
-
-class SlowClients:
-    """Tells every client, with a warning status, when a client's outbox overflowed (its
-    oldest messages are being dropped). Statuses are sent from a thread of its own, never from
-    inside the SDK. ``overflows`` counts the overflows the SDK logged, ``reported`` the statuses
-    sent."""
-
-    def __init__(self, backlog: int) -> None:
-        self._backlog = backlog
-        self._server: WebSocketServer | None = None
-        self._found: queue.SimpleQueue[str | None] = queue.SimpleQueue()
-        self._last: dict[str, float] = {}  # client address -> when last reported
-        self.overflows = 0
-        self.reported = 0
-        self._handler = _OutboxLog(self._found.put)
-        logger = logging.getLogger(_SDK_SEND_LOGGER)
-        if logger.getEffectiveLevel() > logging.INFO:
-            logger.setLevel(logging.INFO)  # before the server starts: the SDK caches levels
-        logger.addHandler(self._handler)
-        self._thread = threading.Thread(target=self._run, name='zros foxglove status', daemon=True)
-
-    def attach(self, server: WebSocketServer) -> None:
-        """Start reporting to the clients of ``server``."""
-        self._server = server
-        self._thread.start()
-
-    def _run(self) -> None:
-        import foxglove
-
-        while (address := self._found.get()) is not None:
-            self.overflows += 1
-            now = time.monotonic()
-            if now - self._last.get(address, -REPORT_PERIOD) < REPORT_PERIOD:
-                continue
-            if len(self._last) > 1000:  # addresses of long gone clients
-                self._last.clear()
-            self._last[address] = now
-            self.reported += 1
-            message = (
-                f'client {address} does not read fast enough: its oldest messages are being '
-                f'dropped (each client has room for {self._backlog} messages)'
-            )
-            _log.warning(message)
-            try:
-                assert self._server is not None  # reporting starts once attached
-                self._server.publish_status(
-                    message, foxglove.StatusLevel.Warning, id=f'zros.slow.{address}'
-                )
-            except Exception:  # the server stopped meanwhile; this thread must keep draining
-                _log.debug('could not send a status', exc_info=True)
-
-    def close(self) -> None:
-        """Stop reporting."""
-        logging.getLogger(_SDK_SEND_LOGGER).removeHandler(self._handler)
-        self._found.put(None)
-        if self._thread.is_alive():
-            self._thread.join(5.0)
 
 
 def ros2msg_schema(registry: TypeRegistry, type_name: str) -> foxglove.Schema | None:

@@ -4,7 +4,11 @@
 // protocol) with a thin command layer: one JSON command per stdin line, one JSON event per
 // stdout line. Binary data travels as base64; 64-bit times as decimal strings.
 //
-//   node client.js URL [CA_FILE]
+//   node client.js URL [--ca FILE] [--protocol NAME] [--origin ORIGIN]
+//
+// The socket offers the library's own subprotocol (FoxgloveClient.SUPPORTED_SUBPROTOCOL,
+// foxglove.websocket.v1), as its README opens one, unless --protocol names another (the
+// Foxglove SDK's foxglove.sdk.v1); --origin sends an Origin header, as a browser's page would.
 //
 // Commands: subscribe {channelId, quiet?, latency?}, unsubscribe {subscriptionId}, quiet
 // {subscriptionId, latency} (count its messages, the seconds from the first to the last and,
@@ -22,9 +26,19 @@ const { FoxgloveClient } = require('@foxglove/ws-protocol');
 const WebSocket = require('ws');
 const { emit, serve, stats, tally } = require('./lines');
 
-const [url, caFile] = process.argv.slice(2);
-const options = caFile ? { ca: fs.readFileSync(caFile) } : {};
-const ws = new WebSocket(url, ['foxglove.sdk.v1'], options);
+const [url, ...rest] = process.argv.slice(2);
+const flags = {};
+for (let i = 0; i + 1 < rest.length; i += 2) {
+  flags[rest[i].replace(/^--/, '')] = rest[i + 1];
+}
+const options = {};
+if (flags.ca) {
+  options.ca = fs.readFileSync(flags.ca);
+}
+if (flags.origin) {
+  options.origin = flags.origin;
+}
+const ws = new WebSocket(url, [flags.protocol || FoxgloveClient.SUPPORTED_SUBPROTOCOL], options);
 const client = new FoxgloveClient({ ws });
 
 function b64(view) {
@@ -49,6 +63,11 @@ client.on('error', (error) => {
   }
 });
 client.on('close', (event) => emit({ ev: 'close', code: event && event.code }));
+// the HTTP answer to a refused upgrade (the library reports only that the socket failed)
+ws.on('unexpected-response', (request, response) => {
+  emit({ ev: 'refused', status: response.statusCode });
+  ws.terminate();
+});
 client.on('serverInfo', (info) => emit({ ev: 'serverInfo', info }));
 client.on('status', (status) => emit({ ev: 'status', status }));
 client.on('removeStatus', (message) => emit({ ev: 'removeStatus', statusIds: message.statusIds }));
