@@ -165,6 +165,15 @@ def test_times_are_nanoseconds_zros_time_or_a_stamp_message() -> None:
         buffer.lookup_transform('a', 'b', -1)
     with pytest.raises(InvalidArgumentException, match='source_frame is empty'):
         buffer.lookup_transform('a', '', 0)
+    with pytest.raises(
+        InvalidArgumentException, match=r'target_frame must be a frame name \(str\), not int'
+    ):
+        buffer.lookup_transform(7, 'b', 0)  # type: ignore[arg-type]
+    for times in (np.array([1.5, 2.5]), np.zeros((2, 2), dtype=np.int64)):
+        with pytest.raises(
+            InvalidArgumentException, match='times must be a 1-D array of integer nanoseconds'
+        ):
+            buffer.lookup_transforms('a', 'b', times)
 
 
 def test_same_frame_is_the_identity_and_leading_slashes_are_ignored() -> None:
