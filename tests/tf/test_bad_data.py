@@ -141,14 +141,14 @@ def test_memory_is_bounded_by_the_cache_time() -> None:
     assert edge.length == 1001  # 1 s before the newest, both ends included
     assert edge.oldest == 18_999 * 10**6
     assert edge.received == 20_000
-    held = buffer._edges['base']
+    held = buffer._tree.edges['base']
     assert len(held._stamps) <= 4096  # the room did not grow with what went through
 
 
 def test_a_live_buffer_holds_a_bounded_number_of_frames_and_rows(
     caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from zros.tf import buffer as module
+    from zros.tf import frames as module
 
     monkeypatch.setattr(module, 'MAX_FRAMES', 5)
     monkeypatch.setattr(module, 'MAX_EDGE_LENGTH', 100)

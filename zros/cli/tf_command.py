@@ -138,7 +138,7 @@ def _echo_bag(args: argparse.Namespace) -> int:
     import numpy as np
 
     from zros.tf import Buffer
-    from zros.tf.buffer import transform_message
+    from zros.tf.messages import transform_message
 
     buffer = Buffer.from_bag(args.bag)
     changes = buffer.stamps(args.target, args.source)

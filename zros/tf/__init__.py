@@ -13,7 +13,7 @@ of stamps at numpy speed; :func:`trajectory` gives a frame's path as columns.
 from __future__ import annotations
 
 from zros.tf.broadcasters import StaticTransformBroadcaster, TransformBroadcaster
-from zros.tf.buffer import Buffer, EdgeInfo
+from zros.tf.buffer import Buffer
 from zros.tf.errors import (
     ConnectivityException,
     ExtrapolationException,
@@ -23,6 +23,7 @@ from zros.tf.errors import (
 )
 from zros.tf.listener import TransformListener
 from zros.tf.recording import trajectory
+from zros.tf.report import EdgeInfo
 
 __all__ = [
     'Buffer',

@@ -9,24 +9,24 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from zros.cdr import Message, get_class
+from zros.cdr import Message
 from zros.runtime.clock import Duration
 from zros.runtime.signal import Signal, interrupted
 from zros.tf import checks
 from zros.tf.bag_transforms import read_transforms
-from zros.tf.cache import EdgeCache, OutOfRange
+from zros.tf.cache import OutOfRange
 from zros.tf.checks import Authority
 from zros.tf.errors import (
     ExtrapolationException,
     InvalidArgumentException,
     TransformException,
 )
-from zros.tf.many import Many, compose_many, invert_many, sample
+from zros.tf.frames import Frames
+from zros.tf.messages import transform_message
 from zros.tf.quaternions import (
     IDENTITY,
     Pose7,
@@ -34,8 +34,11 @@ from zros.tf.quaternions import (
     invert,
     rotate,
 )
-from zros.tf.times import TimeLike, TimeoutLike, format_time, nanoseconds, seconds
-from zros.tf.tree import Chain, ancestors, clean_frame, find_chain
+from zros.tf.report import EdgeInfo, frames_as_string, frames_as_yaml
+from zros.tf.stamped import transform_stamped
+from zros.tf.times import TimeLike, TimeoutLike, nanoseconds, seconds
+from zros.tf.tree import clean_frame
+from zros.tf.walk import edge_data, extrapolation, latest_common, sample_chain, through
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -43,35 +46,6 @@ if TYPE_CHECKING:
     from zros.bag import Bag
 
 _NS = 1_000_000_000
-#: frames a live buffer takes before refusing new ones (a flood of names must not grow it)
-MAX_FRAMES = 10_000
-#: transforms one live edge keeps, whatever its rate
-MAX_EDGE_LENGTH = 100_000
-
-
-@dataclass(frozen=True)
-class EdgeInfo:
-    """What the buffer holds for one frame (``all_frames_as_yaml``, ``zros tf frames``)."""
-
-    frame: str
-    parent: str
-    authority: str
-    static: bool
-    length: int  #: transforms held
-    oldest: int  #: ns
-    newest: int  #: ns
-    received: int  #: transforms accepted since the edge was made
-
-    @property
-    def rate(self) -> float:
-        """Transforms per second over what is held (tf2's figure: 10000 for a static one)."""
-        span = max((self.newest - self.oldest) / _NS, 0.0001)
-        return (1 if self.static else self.length) / span
-
-    @property
-    def buffer_length(self) -> float:
-        """Seconds between the oldest and the newest transform held."""
-        return (self.newest - self.oldest) / _NS
 
 
 class Buffer:
@@ -90,13 +64,10 @@ class Buffer:
     def __init__(self, cache_time: float | Duration | None = 10.0) -> None:
         window = seconds(cache_time)
         self.cache_time: int | None = None if window is None else round(window * _NS)
-        self._edges: dict[str, EdgeCache] = {}
-        self._frames: set[str] = set()
-        self._version = 0
-        self._chains: dict[tuple[str, str], Chain] = {}
         self._lock = threading.Lock()
         self._arrived = Signal()
         self.rejections = checks.Rejections()  #: refused transforms: ``.counts`` by tf2 code
+        self._tree = Frames(self.cache_time, self.rejections)  # under _lock
 
     # --- filling -------------------------------------------------------------------------
 
@@ -141,117 +112,42 @@ class Buffer:
             return False
         pose = checks.normalized(pose)
         with self._lock:
-            edge = self._edge_for(parent, child, stamp, authority, static)
+            edge = self._tree.edge_for(parent, child, stamp, authority, static)
             if edge is None:
                 return False
             refused = edge.insert(stamp, pose)
             if refused is None:
                 edge.authority = authority
                 if edge.static:  # chains fold static edges into constants: fold anew
-                    self._version += 1
-                    self._chains.clear()
+                    self._tree.changed()
                 return True
         if refused == 'TF_OLD_DATA':
-            message = (
-                f'TF_OLD_DATA ignoring data from the past for frame {child} at time '
-                f'{format_time(stamp)} according to authority {authority}: the buffer keeps '
-                f'{format_time(edge.max_age or 0)} s before its newest transform, at '
-                f'{format_time(edge.newest)}'
-            )
+            message = checks.old_data(child, stamp, authority, edge.max_age or 0, edge.newest)
         else:
-            message = (
-                f'TF_REPEATED_DATA ignoring data with redundant timestamp for frame {child} '
-                f'(parent {edge.parent}) at time {format_time(stamp)} according to authority '
-                f'{authority}'
-            )
+            message = checks.repeated_data(child, edge.parent, stamp, authority)
         self.rejections.report(refused, authority, child, message)
         return False
-
-    def _edge_for(
-        self, parent: str, child: str, stamp: int, authority: Authority, static: bool
-    ) -> EdgeCache | None:
-        """The edge to insert into (made if new); None when the transform is refused."""
-        edge = self._edges.get(child)
-        if edge is not None:
-            if edge.parent == parent:
-                return edge
-            expired = (
-                not edge.static
-                and self.cache_time is not None
-                and stamp - edge.newest > self.cache_time
-            )
-            if not expired:
-                message = (
-                    f'TF_TWO_PARENTS: Ignoring transform for child_frame_id "{child}" from '
-                    f'authority "{authority}" with frame_id "{parent}": "{child}" already has '
-                    f'the parent "{edge.parent}" (from authority "{edge.authority}"), and a '
-                    'frame has one parent'
-                )
-                self.rejections.report(checks.TWO_PARENTS, authority, child, message)
-                return None
-        chain = ancestors(self._edges, parent)
-        if child in chain:
-            loop = ' -> '.join([child, *chain[: chain.index(child) + 1]])
-            message = (
-                f'TF_LOOP: Ignoring transform for child_frame_id "{child}" from authority '
-                f'"{authority}" with frame_id "{parent}": it would close a loop ({loop})'
-            )
-            self.rejections.report(checks.LOOP, authority, child, message)
-            return None
-        if edge is None and self.cache_time is not None and len(self._edges) >= MAX_FRAMES:
-            message = (
-                f'TF_TOO_MANY_FRAMES: Ignoring transform for child_frame_id "{child}" from '
-                f'authority "{authority}": the buffer holds {MAX_FRAMES} frames already'
-            )
-            self.rejections.report(checks.TOO_MANY_FRAMES, authority, child, message)
-            return None
-        edge = EdgeCache(
-            parent,
-            static=static,
-            max_age=self.cache_time,
-            max_length=None if self.cache_time is None else MAX_EDGE_LENGTH,
-        )
-        self._edges[child] = edge
-        self._frames.add(child)
-        self._frames.add(parent)
-        self._version += 1
-        self._chains.clear()
-        return edge
 
     def clear(self) -> None:
         """Forget every transform."""
         with self._lock:
-            self._edges.clear()
-            self._frames.clear()
-            self._chains.clear()
-            self._version += 1
+            self._tree.clear()
 
     # --- single lookups --------------------------------------------------------------------
-
-    def _chain(self, target: str, source: str) -> Chain:
-        key = (target, source)
-        chain = self._chains.get(key)
-        if chain is None:
-            chain = find_chain(self._edges, self._frames, target, source, self._version)
-            if len(self._chains) > 10_000:
-                self._chains.clear()
-            self._chains[key] = chain
-        return chain
 
     def _pose(self, target: str, source: str, stamp: int) -> tuple[Pose7, int]:
         """T_target_source at ``stamp`` (0: the latest common time), and the stamp used."""
         if target == source:
-            if source not in self._frames:
-                find_chain(self._edges, self._frames, target, source, self._version)
+            self._tree.check_known(target, source)
             return IDENTITY, stamp
-        chain = self._chain(target, source)
+        chain = self._tree.chain(target, source)
         if stamp == 0:
-            stamp = _latest_common(chain)
+            stamp = latest_common(chain)
         try:
-            up = _through(chain.up_steps, stamp)
-            down = _through(chain.down_steps, stamp)
+            up = through(chain.up_steps, stamp)
+            down = through(chain.down_steps, stamp)
         except OutOfRange as exc:
-            raise _extrapolation(chain, stamp, exc) from None
+            raise extrapolation(chain, stamp, exc) from None
         if not chain.down:
             return up, stamp
         return compose(invert(down), up), stamp
@@ -375,39 +271,19 @@ class Buffer:
         count = len(stamps)
         with self._lock:
             if target == source:
-                if source not in self._frames:
-                    find_chain(self._edges, self._frames, target, source, self._version)
+                self._tree.check_known(target, source)
                 chain = None
             else:
-                chain = self._chain(target, source)
+                chain = self._tree.chain(target, source)
                 snapshot = [
-                    (edge, _edge_data(edge, self.cache_time is not None)) for _, edge in chain.edges
+                    (edge, edge_data(edge, self.cache_time is not None)) for _, edge in chain.edges
                 ]
         if chain is None:
             translations = np.zeros((count, 3))
             rotations = np.zeros((count, 4))
             rotations[:, 3] = 1.0
             return translations, rotations
-        data = dict(snapshot)
-        valid = np.ones(count, dtype=bool)
-
-        def walk(edges: tuple[tuple[str, EdgeCache], ...]) -> Many:
-            pose: Many = IDENTITY
-            for _, edge in edges:
-                edge_stamps, rows = data[edge]
-                sampled, covered = sample(edge.static, edge_stamps, rows, stamps)
-                if covered is not None:
-                    valid[:] &= covered
-                pose = compose_many(sampled, pose)
-            return pose
-
-        up = walk(chain.up)
-        pose = compose_many(invert_many(walk(chain.down)), up) if chain.down else up
-        if len(pose) == 7:
-            t = np.array(np.broadcast_to(np.asarray(pose[:3]), (count, 3)))
-            q = np.array(np.broadcast_to(np.asarray(pose[3:]), (count, 4)))
-        else:
-            t, q = pose
+        t, q, valid = sample_chain(chain, dict(snapshot), stamps)
         if not valid.all():
             first = int(np.argmin(valid))
             if strict:
@@ -428,7 +304,7 @@ class Buffer:
         with self._lock:
             if target == source:
                 return np.zeros(0, dtype=np.int64)
-            chain = self._chain(target, source)
+            chain = self._tree.chain(target, source)
             moving = [edge.stamps.copy() for _, edge in chain.moving]
         if not moving:
             return np.zeros(0, dtype=np.int64)
@@ -447,8 +323,6 @@ class Buffer:
     ) -> Message:
         """``obj`` (a ``PointStamped``, ``PoseStamped``, ``Vector3Stamped`` or
         ``PoseWithCovarianceStamped``) in ``target_frame``, at its header's stamp."""
-        from zros.tf.stamped import transform_stamped
-
         transform = self.lookup_transform(
             target_frame, obj.header.frame_id, obj.header.stamp, timeout
         )
@@ -491,37 +365,24 @@ class Buffer:
                     newest=edge.newest,
                     received=edge.received,
                 )
-                for frame, edge in sorted(self._edges.items())
+                for frame, edge in sorted(self._tree.edges.items())
                 if len(edge)
             ]
 
     def frames(self) -> set[str]:
         """Every frame the buffer knows."""
         with self._lock:
-            return set(self._frames)
+            return set(self._tree.names)
 
     def all_frames_as_string(self) -> str:
         """One line per frame with a parent, as tf2 writes it."""
-        return ''.join(f'Frame {e.frame} exists with parent {e.parent}.\n' for e in self.edges())
+        return frames_as_string(self.edges())
 
     def all_frames_as_yaml(self, current_time: TimeLike | None = None) -> str:
         """The frames as tf2's YAML (parent, broadcaster, rate, most recent and oldest
         transform, buffer length; the delay too when ``current_time`` is given)."""
         now = None if current_time is None else nanoseconds(current_time, 'current_time')
-        lines = []
-        for e in self.edges():
-            lines += [
-                f'{e.frame}: ',
-                f"  parent: '{e.parent}'",
-                f"  broadcaster: '{e.authority}'",
-                f'  rate: {e.rate:.3f}',
-                f'  most_recent_transform: {e.newest / _NS:.3f}',
-                f'  oldest_transform: {e.oldest / _NS:.3f}',
-            ]
-            if now:
-                lines.append(f'  transform_delay: {(now - e.newest) / _NS:.3f}')
-            lines.append(f'  buffer_length: {e.buffer_length:.3f}')
-        return '\n'.join(lines) + ('\n' if lines else '')
+        return frames_as_yaml(self.edges(), now)
 
     # --- recordings ----------------------------------------------------------------------------
 
@@ -558,33 +419,20 @@ class Buffer:
     ) -> int:
         """Add a batch of checked transforms of one edge; how many it refused."""
         with self._lock:
-            edge = self._edge_for(parent, child, int(stamps[-1]), authority, static)
+            edge = self._tree.edge_for(parent, child, int(stamps[-1]), authority, static)
             if edge is None:
                 return len(stamps)
             repeated = edge.extend(stamps, rows)
             edge.authority = authority
-            self._version += 1
-            self._chains.clear()
+            self._tree.changed()
         if repeated:
-            message = (
-                f'TF_REPEATED_DATA ignoring {repeated} transforms with redundant timestamps for '
-                f'frame {child} (parent {parent}) according to authority {authority}'
-            )
-            self.rejections.report('TF_REPEATED_DATA', authority, child, message)
+            message = checks.repeated_batch(repeated, child, parent, authority)
+            self.rejections.report(checks.REPEATED_DATA, authority, child, message)
         return repeated
 
     def __repr__(self) -> str:
         window = 'all' if self.cache_time is None else f'{self.cache_time / _NS:g} s'
-        return f'<zros.tf.Buffer {len(self._frames)} frames, cache {window}>'
-
-
-def _through(steps: tuple[EdgeCache | Pose7, ...], stamp: int) -> Pose7:
-    """The chain's steps at ``stamp`` composed (the top of the walk in its bottom)."""
-    pose = IDENTITY
-    for number, step in enumerate(steps):
-        here = step if isinstance(step, tuple) else step.at(stamp)
-        pose = here if number == 0 else compose(here, pose)
-    return pose
+        return f'<zros.tf.Buffer {len(self._tree.names)} frames, cache {window}>'
 
 
 def _succeeds(attempt: Callable[[], object]) -> bool:
@@ -594,91 +442,3 @@ def _succeeds(attempt: Callable[[], object]) -> bool:
     except TransformException:
         return False
     return True
-
-
-def _latest_common(chain: Chain) -> int:
-    moving = chain.moving
-    if not moving:
-        return 0
-    return min(edge.newest for _, edge in moving)
-
-
-def _extrapolation(chain: Chain, stamp: int, exc: OutOfRange) -> ExtrapolationException:
-    route = f'when looking up transform from frame [{chain.source}] to frame [{chain.target}]'
-    if exc.side == 'only':
-        head = (
-            f'Lookup would require extrapolation at time {format_time(stamp)}, but only time '
-            f'{format_time(exc.oldest)} is in the buffer, {route}'
-        )
-    elif exc.side == 'past':
-        head = (
-            'Lookup would require extrapolation into the past. Requested time '
-            f'{format_time(stamp)} but the earliest data is at time {format_time(exc.oldest)}, '
-            f'{route}'
-        )
-    else:
-        head = (
-            'Lookup would require extrapolation into the future. Requested time '
-            f'{format_time(stamp)} but the latest data is at time {format_time(exc.newest)}, '
-            f'{route}'
-        )
-    moving = chain.moving
-    low = max(edge.oldest for _, edge in moving)
-    high = min(edge.newest for _, edge in moving)
-    if low <= high:
-        covered = f'the chain has data from {format_time(low)} to {format_time(high)}'
-    else:
-        spans = ', '.join(
-            f'{edge.parent} -> {child} [{format_time(edge.oldest)}, {format_time(edge.newest)}]'
-            for child, edge in moving
-        )
-        covered = f'no instant is covered by every moving edge of the chain ({spans})'
-    return ExtrapolationException(f'{head}; {covered}')
-
-
-def _edge_data(edge: EdgeCache, copy: bool) -> tuple[np.ndarray, np.ndarray]:
-    stamps: np.ndarray = edge.stamps
-    rows: np.ndarray = edge.rows
-    if copy:
-        return stamps.copy(), rows.copy()
-    return stamps, rows
-
-
-def transform_message(target: str, source: str, stamp: int, pose: Pose7) -> Message:
-    """A ``geometry_msgs/msg/TransformStamped`` of ``source`` in ``target``."""
-    sec, nanosec = divmod(stamp, _NS)
-    x, y, z, qx, qy, qz, qw = pose
-    c = _classes()
-    return c.stamped(  # positional: a third cheaper than keywords, on the path of every lookup
-        c.header(c.time(sec, nanosec), target),
-        source,
-        c.transform(c.vector(x, y, z), c.quaternion(qx, qy, qz, qw)),
-    )
-
-
-@dataclass(frozen=True)
-class _Classes:
-    stamped: type[Message]
-    header: type[Message]
-    time: type[Message]
-    transform: type[Message]
-    vector: type[Message]
-    quaternion: type[Message]
-
-
-_CLASSES: list[_Classes] = []
-
-
-def _classes() -> _Classes:
-    if not _CLASSES:
-        _CLASSES.append(
-            _Classes(
-                get_class('geometry_msgs/msg/TransformStamped'),
-                get_class('std_msgs/msg/Header'),
-                get_class('builtin_interfaces/msg/Time'),
-                get_class('geometry_msgs/msg/Transform'),
-                get_class('geometry_msgs/msg/Vector3'),
-                get_class('geometry_msgs/msg/Quaternion'),
-            )
-        )
-    return _CLASSES[0]

@@ -13,6 +13,7 @@ from collections import Counter
 from collections.abc import Hashable
 
 from zros.tf.quaternions import Pose7
+from zros.tf.times import format_time
 
 _log = logging.getLogger('zros.tf')
 
@@ -24,6 +25,8 @@ DENORMALIZED_QUATERNION = 'TF_DENORMALIZED_QUATERNION'
 LOOP = 'TF_LOOP'
 TWO_PARENTS = 'TF_TWO_PARENTS'
 TOO_MANY_FRAMES = 'TF_TOO_MANY_FRAMES'
+OLD_DATA = 'TF_OLD_DATA'
+REPEATED_DATA = 'TF_REPEATED_DATA'
 
 #: (code, sender, frame) triples told apart; past this, refusals are only counted
 MAX_TOLD = 4096
@@ -64,6 +67,58 @@ def check(child: str, parent: str, pose: Pose7, authority: Authority) -> tuple[s
             f'({qx:f} {qy:f} {qz:f} {qw:f})'
         )
     return None
+
+
+def old_data(child: str, stamp: int, authority: Authority, kept: int, newest: int) -> str:
+    """A transform older than what the edge keeps before its newest one."""
+    return (
+        f'TF_OLD_DATA ignoring data from the past for frame {child} at time '
+        f'{format_time(stamp)} according to authority {authority}: the buffer keeps '
+        f'{format_time(kept)} s before its newest transform, at {format_time(newest)}'
+    )
+
+
+def repeated_data(child: str, parent: str, stamp: int, authority: Authority) -> str:
+    """A transform at a stamp the edge already holds."""
+    return (
+        f'TF_REPEATED_DATA ignoring data with redundant timestamp for frame {child} '
+        f'(parent {parent}) at time {format_time(stamp)} according to authority {authority}'
+    )
+
+
+def repeated_batch(count: int, child: str, parent: str, authority: Authority) -> str:
+    """``count`` transforms of a recording's batch at stamps the edge already holds."""
+    return (
+        f'TF_REPEATED_DATA ignoring {count} transforms with redundant timestamps for '
+        f'frame {child} (parent {parent}) according to authority {authority}'
+    )
+
+
+def two_parents(
+    child: str, parent: str, authority: Authority, old_parent: str, old_authority: Authority
+) -> str:
+    """A transform naming a second parent for a frame."""
+    return (
+        f'TF_TWO_PARENTS: Ignoring transform for child_frame_id "{child}" from '
+        f'authority "{authority}" with frame_id "{parent}": "{child}" already has '
+        f'the parent "{old_parent}" (from authority "{old_authority}"), and a frame has one parent'
+    )
+
+
+def loop(child: str, parent: str, authority: Authority, cycle: str) -> str:
+    """A transform that would close a loop in the tree."""
+    return (
+        f'TF_LOOP: Ignoring transform for child_frame_id "{child}" from authority '
+        f'"{authority}" with frame_id "{parent}": it would close a loop ({cycle})'
+    )
+
+
+def too_many_frames(child: str, authority: Authority, limit: int) -> str:
+    """A new frame past the buffer's limit."""
+    return (
+        f'TF_TOO_MANY_FRAMES: Ignoring transform for child_frame_id "{child}" from '
+        f'authority "{authority}": the buffer holds {limit} frames already'
+    )
 
 
 def normalized(pose: Pose7) -> Pose7:
