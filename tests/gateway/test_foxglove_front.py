@@ -85,8 +85,9 @@ class _Server:
 
 
 @pytest.fixture
-def front() -> Iterator[list[Front]]:
-    made: list[Front] = []
+def front() -> Iterator[list[Front | FrontProcess]]:
+    """The fronts a test made, in its process or in their own, closed after it."""
+    made: list[Front | FrontProcess] = []
     yield made
     for item in made:
         item.close()
@@ -117,7 +118,9 @@ def _head(client: socket.socket) -> bytes:
 
 
 @pytest.mark.parametrize(('size', 'count'), SIZES.values(), ids=SIZES)
-def test_a_client_that_reads_gets_every_byte(front: list[Front], size: int, count: int) -> None:
+def test_a_client_that_reads_gets_every_byte(
+    front: list[Front | FrontProcess], size: int, count: int
+) -> None:
     frames = [_frame(0x2, _message(index, size)) for index in range(count)]
     server = _Server(frames)
     served = Front(Listen(0), ('127.0.0.1', server.port), OriginPolicy(), 2 * size * count)
@@ -133,7 +136,7 @@ def test_a_client_that_reads_gets_every_byte(front: list[Front], size: int, coun
 
 @pytest.mark.parametrize(('size', 'count'), SIZES.values(), ids=SIZES)
 def test_a_client_that_does_not_read_loses_only_its_oldest_messages(
-    front: list[Front], size: int, count: int
+    front: list[Front | FrontProcess], size: int, count: int
 ) -> None:
     frames, texts = [], []
     for index in range(count):
@@ -181,7 +184,9 @@ def test_the_sdk_listens_where_a_page_cannot_guess() -> None:
         assert '127.0.0.1' not in addresses and len(addresses) > 1
 
 
-def test_closing_ends_a_connection_still_in_its_handshake(front: list[Front]) -> None:
+def test_closing_ends_a_connection_still_in_its_handshake(
+    front: list[Front | FrontProcess],
+) -> None:
     import time
 
     served = Front(Listen(0), ('127.0.0.1', 9), OriginPolicy(), 1000)
@@ -197,23 +202,15 @@ def test_closing_ends_a_connection_still_in_its_handshake(front: list[Front]) ->
 # --- the front in a process of its own -----------------------------------------------------
 
 
-@pytest.fixture
-def front_process() -> Iterator[list[FrontProcess]]:
-    made: list[FrontProcess] = []
-    yield made
-    for item in made:
-        item.close()
-
-
 def test_the_process_reports_its_drops_and_warnings_to_the_gateway(
-    front_process: list[FrontProcess], caplog: pytest.LogCaptureFixture
+    front: list[Front | FrontProcess], caplog: pytest.LogCaptureFixture
 ) -> None:
     """The counters and the log lines of the front's process reach the gateway's process."""
     size, count = SIZES['100kB']
     server = _Server([_frame(0x2, _message(index, size)) for index in range(count)])
     with caplog.at_level(logging.WARNING, 'zros.gateway'):
         served = FrontProcess(Listen(0), ('127.0.0.1', server.port), (), 4 * size)
-        front_process.append(served)
+        front.append(served)
         client = _upgrade(served.port, receive_buffer=4096)  # then reads nothing for a while
         assert server.sent.wait(TIMEOUT)
         assert wait_for(lambda: served.dropped > 0 and served.reported > 0, TIMEOUT)
@@ -230,7 +227,7 @@ def test_the_process_reports_its_drops_and_warnings_to_the_gateway(
 
 
 def test_an_error_of_the_process_is_the_gateways_error(
-    front_process: list[FrontProcess],
+    front: list[Front | FrontProcess],
 ) -> None:
     with socket.socket() as taken:
         taken.bind(('127.0.0.1', 0))
@@ -243,15 +240,15 @@ def test_an_error_of_the_process_is_the_gateways_error(
 
 
 def test_a_refused_origin_is_logged_by_the_gateway(
-    front_process: list[FrontProcess], caplog: pytest.LogCaptureFixture
+    front: list[Front | FrontProcess], caplog: pytest.LogCaptureFixture
 ) -> None:
     with caplog.at_level(logging.WARNING, 'zros.gateway'):
         served = FrontProcess(Listen(0), ('127.0.0.1', 9), ('*',), 1000)
-        front_process.append(served)
+        front.append(served)
         assert 'every web page may open this gateway' in caplog.text  # said before it listens
     served.close()
     served = FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
-    front_process.append(served)
+    front.append(served)
     with caplog.at_level(logging.WARNING, 'zros.gateway'):
         with socket.create_connection(('127.0.0.1', served.port)) as client:
             client.sendall(
@@ -262,16 +259,24 @@ def test_a_refused_origin_is_logged_by_the_gateway(
         assert wait_for(lambda: 'https://evil.example' in caplog.text, TIMEOUT)
 
 
-def test_the_process_imports_neither_zenoh_nor_the_sdk() -> None:
+def test_the_process_imports_neither_zenoh_nor_the_sdk(
+    front: list[Front | FrontProcess],
+) -> None:
     """What the front's process imports: its module, and nothing of Zenoh, the SDK or numpy
     (they would cost memory and start-up time in a process that only relays bytes)."""
     import subprocess
     import sys
+    from pathlib import Path
 
-    code = (
-        'import sys, zros.gateway.foxglove_front_process as m, zros.gateway.foxglove_front; '
-        'print(" ".join(sorted(sys.modules)))'
-    )
+    served = FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
+    front.append(served)
+    maps = Path(f'/proc/{served.pid}/maps')
+    if maps.exists():  # the libraries the running child has loaded
+        libraries = maps.read_text()
+        assert 'zenoh' not in libraries and 'foxglove' not in libraries
+        assert 'numpy' not in libraries
+
+    code = 'import sys, zros.gateway.foxglove_front_process; print(" ".join(sorted(sys.modules)))'
     loaded = subprocess.run(
         [sys.executable, '-c', code], capture_output=True, text=True, check=True
     ).stdout.split()
