@@ -284,3 +284,29 @@ def test_the_process_imports_neither_zenoh_nor_the_sdk(
     heavy = [m for m in loaded if m.split('.')[0] in ('zenoh', 'foxglove', 'numpy')]
     assert not heavy
     assert 'zros.gateway.core' not in loaded and 'zros.transport' not in loaded
+
+
+def test_a_process_that_ends_before_listening_is_an_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from zros.gateway import foxglove_front_process
+
+    child = 'import sys; print("not a report"); sys.exit(3)  # {}'
+    monkeypatch.setattr(foxglove_front_process, '_CHILD', child)
+    with pytest.raises(GatewayError, match=r'ended before listening \(exit code 3\)'):
+        FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
+
+
+def test_a_process_that_neither_answers_nor_ends_is_killed(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    from zros.gateway import foxglove_front_process
+
+    child = 'import signal; signal.pause()  # {}'  # reads not its stdin, ends only when killed
+    monkeypatch.setattr(foxglove_front_process, '_CHILD', child)
+    monkeypatch.setattr(foxglove_front_process, 'START_TIMEOUT', 1.0)
+    monkeypatch.setattr(foxglove_front_process, 'CLOSE_TIMEOUT', 1.0)
+    with caplog.at_level(logging.WARNING, 'zros.gateway'):
+        with pytest.raises(GatewayError, match='the Foxglove front did not start in 1 s'):
+            FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
+    assert 'the Foxglove front did not end in 1 s: killed' in caplog.text
