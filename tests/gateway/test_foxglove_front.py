@@ -306,7 +306,9 @@ def test_a_process_that_neither_answers_nor_ends_is_killed(
     monkeypatch.setattr(foxglove_front_process, '_CHILD', child)
     monkeypatch.setattr(foxglove_front_process, 'START_TIMEOUT', 1.0)
     monkeypatch.setattr(foxglove_front_process, 'CLOSE_TIMEOUT', 1.0)
-    with caplog.at_level(logging.WARNING, 'zros.gateway'):
-        with pytest.raises(GatewayError, match='the Foxglove front did not start in 1 s'):
-            FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
+    with (
+        caplog.at_level(logging.WARNING, 'zros.gateway'),
+        pytest.raises(GatewayError, match='the Foxglove front did not start in 1 s'),
+    ):
+        FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
     assert 'the Foxglove front did not end in 1 s: killed' in caplog.text
