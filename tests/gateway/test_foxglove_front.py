@@ -5,13 +5,16 @@ tells that client."""
 from __future__ import annotations
 
 import json
+import logging
 import socket
 import threading
 from collections.abc import Iterator
 
 import pytest
 
+from zros.gateway.errors import GatewayError
 from zros.gateway.foxglove_front import SDK_SUBPROTOCOL, Front
+from zros.gateway.foxglove_front_process import FrontProcess
 from zros.gateway.listen import Listen
 from zros.gateway.origins import OriginPolicy
 from zros.testing import wait_for
@@ -82,8 +85,9 @@ class _Server:
 
 
 @pytest.fixture
-def front() -> Iterator[list[Front]]:
-    made: list[Front] = []
+def front() -> Iterator[list[Front | FrontProcess]]:
+    """The fronts a test made, in its process or in their own, closed after it."""
+    made: list[Front | FrontProcess] = []
     yield made
     for item in made:
         item.close()
@@ -114,7 +118,9 @@ def _head(client: socket.socket) -> bytes:
 
 
 @pytest.mark.parametrize(('size', 'count'), SIZES.values(), ids=SIZES)
-def test_a_client_that_reads_gets_every_byte(front: list[Front], size: int, count: int) -> None:
+def test_a_client_that_reads_gets_every_byte(
+    front: list[Front | FrontProcess], size: int, count: int
+) -> None:
     frames = [_frame(0x2, _message(index, size)) for index in range(count)]
     server = _Server(frames)
     served = Front(Listen(0), ('127.0.0.1', server.port), OriginPolicy(), 2 * size * count)
@@ -130,7 +136,7 @@ def test_a_client_that_reads_gets_every_byte(front: list[Front], size: int, coun
 
 @pytest.mark.parametrize(('size', 'count'), SIZES.values(), ids=SIZES)
 def test_a_client_that_does_not_read_loses_only_its_oldest_messages(
-    front: list[Front], size: int, count: int
+    front: list[Front | FrontProcess], size: int, count: int
 ) -> None:
     frames, texts = [], []
     for index in range(count):
@@ -178,7 +184,9 @@ def test_the_sdk_listens_where_a_page_cannot_guess() -> None:
         assert '127.0.0.1' not in addresses and len(addresses) > 1
 
 
-def test_closing_ends_a_connection_still_in_its_handshake(front: list[Front]) -> None:
+def test_closing_ends_a_connection_still_in_its_handshake(
+    front: list[Front | FrontProcess],
+) -> None:
     import time
 
     served = Front(Listen(0), ('127.0.0.1', 9), OriginPolicy(), 1000)
@@ -189,3 +197,118 @@ def test_closing_ends_a_connection_still_in_its_handshake(front: list[Front]) ->
         served.close()
         assert time.monotonic() - start < 2.0  # not the handshake's timeout
         assert silent.recv(10) == b''
+
+
+# --- the front in a process of its own -----------------------------------------------------
+
+
+def test_the_process_reports_its_drops_and_warnings_to_the_gateway(
+    front: list[Front | FrontProcess], caplog: pytest.LogCaptureFixture
+) -> None:
+    """The counters and the log lines of the front's process reach the gateway's process."""
+    size, count = SIZES['100kB']
+    server = _Server([_frame(0x2, _message(index, size)) for index in range(count)])
+    with caplog.at_level(logging.WARNING, 'zros.gateway'):
+        served = FrontProcess(Listen(0), ('127.0.0.1', server.port), (), 4 * size)
+        front.append(served)
+        client = _upgrade(served.port, receive_buffer=4096)  # then reads nothing for a while
+        assert server.sent.wait(TIMEOUT)
+        assert wait_for(lambda: served.dropped > 0 and served.reported > 0, TIMEOUT)
+        assert wait_for(lambda: 'does not read fast enough' in caplog.text, TIMEOUT)
+        assert b' 101 ' in _head(client)
+        received = _read_frames(client)
+        client.close()
+        server.close()
+        served.close()
+    assert served._process.returncode == 0
+    messages = [p for op, p in received if op == 0x2 and p[0] == 1]
+    assert len(messages) + served.dropped == count  # the last counts came before it ended
+    assert served.reported == len([p for op, p in received if op == 0x1])
+
+
+def test_an_error_of_the_process_is_the_gateways_error(
+    front: list[Front | FrontProcess],
+) -> None:
+    with socket.socket() as taken:
+        taken.bind(('127.0.0.1', 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with pytest.raises(
+            GatewayError, match=f'cannot start the Foxglove server on 127.0.0.1:{port}: '
+        ):
+            FrontProcess(Listen(port), ('127.0.0.1', 9), (), 1000)
+
+
+def test_a_refused_origin_is_logged_by_the_gateway(
+    front: list[Front | FrontProcess], caplog: pytest.LogCaptureFixture
+) -> None:
+    with caplog.at_level(logging.WARNING, 'zros.gateway'):
+        served = FrontProcess(Listen(0), ('127.0.0.1', 9), ('*',), 1000)
+        front.append(served)
+        assert 'every web page may open this gateway' in caplog.text  # said before it listens
+    served.close()
+    served = FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
+    front.append(served)
+    with caplog.at_level(logging.WARNING, 'zros.gateway'):
+        with socket.create_connection(('127.0.0.1', served.port)) as client:
+            client.sendall(
+                b'GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n'
+                b'Origin: https://evil.example\r\n\r\n'
+            )
+            assert _head(client).startswith(b'HTTP/1.1 403')
+        assert wait_for(lambda: 'https://evil.example' in caplog.text, TIMEOUT)
+
+
+def test_the_process_imports_neither_zenoh_nor_the_sdk(
+    front: list[Front | FrontProcess],
+) -> None:
+    """What the front's process imports: its module, and nothing of Zenoh, the SDK or numpy
+    (they would cost memory and start-up time in a process that only relays bytes)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    served = FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
+    front.append(served)
+    maps = Path(f'/proc/{served.pid}/maps')
+    if maps.exists():  # the libraries the running child has loaded
+        libraries = maps.read_text()
+        assert 'zenoh' not in libraries and 'foxglove' not in libraries
+        assert 'numpy' not in libraries
+
+    code = 'import sys, zros.gateway.foxglove_front_process; print(" ".join(sorted(sys.modules)))'
+    loaded = subprocess.run(
+        [sys.executable, '-c', code], capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert 'zros.gateway.foxglove_front_process' in loaded
+    heavy = [m for m in loaded if m.split('.')[0] in ('zenoh', 'foxglove', 'numpy')]
+    assert not heavy
+    assert 'zros.gateway.core' not in loaded and 'zros.transport' not in loaded
+
+
+def test_a_process_that_ends_before_listening_is_an_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from zros.gateway import foxglove_front_process
+
+    child = 'import sys; print("not a report"); sys.exit(3)  # {}'
+    monkeypatch.setattr(foxglove_front_process, '_CHILD', child)
+    with pytest.raises(GatewayError, match=r'ended before listening \(exit code 3\)'):
+        FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
+
+
+def test_a_process_that_neither_answers_nor_ends_is_killed(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    from zros.gateway import foxglove_front_process
+
+    child = 'import signal; signal.pause()  # {}'  # reads not its stdin, ends only when killed
+    monkeypatch.setattr(foxglove_front_process, '_CHILD', child)
+    monkeypatch.setattr(foxglove_front_process, 'START_TIMEOUT', 1.0)
+    monkeypatch.setattr(foxglove_front_process, 'CLOSE_TIMEOUT', 1.0)
+    with (
+        caplog.at_level(logging.WARNING, 'zros.gateway'),
+        pytest.raises(GatewayError, match='the Foxglove front did not start in 1 s'),
+    ):
+        FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
+    assert 'the Foxglove front did not end in 1 s: killed' in caplog.text

@@ -27,7 +27,7 @@ from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 
-from zros.errors import ZrosError
+from zros.gateway.errors import GatewayError as GatewayError  # noqa: PLC0414 (re-exported)
 from zros.pubsub.taps import GraphTopic, RawTap, matched_qos
 from zros.qos import Durability, QoS
 from zros.runtime.signal import Signal
@@ -49,11 +49,6 @@ SETTLE = 0.05
 _POLL = 0.25
 #: latched topics this deep or less keep their last messages for later watchers
 REPLAY_DEPTH = 10
-
-
-class GatewayError(ZrosError):
-    """A gateway cannot start as asked (a bad pattern, a port in use...) or a client's request
-    cannot be carried out."""
 
 
 class NameFilter:

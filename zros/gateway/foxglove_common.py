@@ -5,8 +5,10 @@ The Foxglove SDK (``foxglove-sdk`` on PyPI, the ``foxglove`` extra) owns the pro
 listens on a private loopback address, plain. Clients reach it through
 :class:`~zros.gateway.foxglove_front.Front` on the public address, which checks their
 ``Origin``, accepts both names of the protocol, terminates TLS and bounds each client's queue
-in bytes. The SDK's own outbox (``message_backlog_size`` messages) lies between the two and
-stays short: the front always reads it.
+in bytes; the front runs in a process of its own
+(:class:`~zros.gateway.foxglove_front_process.FrontProcess`). The SDK's own outbox
+(``message_backlog_size`` messages) lies between the two and stays short: the front always
+reads it.
 """
 
 from __future__ import annotations
@@ -17,10 +19,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
-from zros.gateway.core import GatewayError
-from zros.gateway.foxglove_front import CLIENT_BUFFER, Front, private_loopback
+from zros.gateway.errors import GatewayError
+from zros.gateway.foxglove_front import CLIENT_BUFFER, private_loopback
+from zros.gateway.foxglove_front_process import FrontProcess
 from zros.gateway.listen import Listen
-from zros.gateway.origins import FOXGLOVE_APP, OriginPolicy
+from zros.gateway.origins import FOXGLOVE_APP
 
 if TYPE_CHECKING:
     from types import ModuleType
@@ -97,14 +100,13 @@ class ServerOptions:
                 f'the client buffer must be at least 1 byte, not {self.client_buffer}'
             )
 
-    def start(self, **settings: SdkOption) -> tuple[WebSocketServer, Front]:
+    def start(self, **settings: SdkOption) -> tuple[WebSocketServer, FrontProcess]:
         """Start the SDK's server with these options and ``settings`` (capabilities, listener,
-        context...), and the front clients reach it through; GatewayError when either cannot
-        listen."""
+        context...), and the front clients reach it through, in a process of its own;
+        GatewayError when either cannot listen."""
         foxglove = import_sdk()
         self.check()
         listen = self._listen()
-        origins = OriginPolicy(self.allow_origins)
         host = private_loopback()
         try:
             server: WebSocketServer = foxglove.start_server(
@@ -117,7 +119,9 @@ class ServerOptions:
         except RuntimeError as exc:  # the SDK's FoxgloveError
             raise GatewayError(f'cannot start the Foxglove server on {host}: {exc}') from None
         try:
-            front = Front(listen, (host, server.port), origins, self.client_buffer)
+            front = FrontProcess(
+                listen, (host, server.port), self.allow_origins, self.client_buffer
+            )
         except BaseException:
             server.stop()
             raise

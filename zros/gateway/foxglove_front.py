@@ -15,6 +15,9 @@ public address (with TLS, if any) and, per connection:
   (``client_buffer``): past it the oldest message data frames are dropped (never a text or
   control frame), the client gets a warning status (at most one a second) and the log counts
   the drops. The SDK's side is always read, so neither it nor Zenoh waits for a slow client.
+
+``zros foxglove`` runs the front in a process of its own, off the gateway's GIL
+(:mod:`zros.gateway.foxglove_front_process`): this module imports nothing of Zenoh or the SDK.
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from zros.gateway.core import GatewayError
+from zros.gateway.errors import GatewayError
 
 if TYPE_CHECKING:
     from zros.gateway.listen import Listen

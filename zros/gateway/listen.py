@@ -10,9 +10,7 @@ import ssl
 from dataclasses import dataclass
 from pathlib import Path
 
-from zros.gateway.core import GatewayError
-from zros.transport.errors import TlsFileError
-from zros.transport.tlsfiles import check_tls_files
+from zros.gateway.errors import GatewayError
 
 _log = logging.getLogger('zros.gateway')
 
@@ -51,6 +49,11 @@ class Listen:
         if (self.tls_cert is None) != (self.tls_key is None):
             raise GatewayError('TLS needs both a certificate and its private key')
         if self.tls_cert is not None and self.tls_key is not None:
+            # here, not at the top: the front's process uses Listen, and zros.transport loads
+            # Zenoh
+            from zros.transport.errors import TlsFileError
+            from zros.transport.tlsfiles import check_tls_files
+
             try:
                 check_tls_files(None, os.fspath(self.tls_cert), os.fspath(self.tls_key))
             except TlsFileError as exc:
