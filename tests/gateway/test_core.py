@@ -10,9 +10,18 @@ from typing import Any
 import pytest
 
 import zros
-from zros.gateway.core import GatewayError, GraphWatcher, NameFilter, SendQueue, Taps
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.graph_watcher import GraphWatcher
+from zros.gateway.common.send_queue import SendQueue
+from zros.gateway.common.views import (
+    endpoint_owner,
+    offered_services,
+    parameter_nodes,
+    service_providers,
+)
+from zros.gateway.common.watched_topics import Taps
 from zros.gateway.foxglove_calls import message_from_json
-from zros.gateway.views import endpoint_owner, offered_services, parameter_nodes, service_providers
 from zros.pubsub.taps import RawTap, graph_topics
 from zros.qos import QoS
 from zros.testing import wait_for

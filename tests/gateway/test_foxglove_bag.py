@@ -15,7 +15,7 @@ from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.cdr import default_registry
 from zros.cdr.message import decode
 from zros.cdr.render import render_bundle
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
 from zros.qos import LATCHED, QoS
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')

@@ -15,7 +15,7 @@ import pytest
 
 import zros
 from tests.gateway.foxglove_client import FoxgloveClient, image
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
 from zros.gateway.foxglove_common import ServerOptions
 from zros.testing import wait_for
 

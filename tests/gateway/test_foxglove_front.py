@@ -11,9 +11,9 @@ from collections.abc import Iterator
 
 import pytest
 
+from zros.gateway.common.listen import Listen
+from zros.gateway.common.origins import OriginPolicy
 from zros.gateway.foxglove_front import SDK_SUBPROTOCOL, Front
-from zros.gateway.listen import Listen
-from zros.gateway.origins import OriginPolicy
 from zros.testing import wait_for
 
 TIMEOUT = 20.0

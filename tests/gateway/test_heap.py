@@ -1,4 +1,4 @@
-"""A gateway process reuses the blocks of the big messages it relays (zros.gateway.heap)."""
+"""A gateway process reuses the blocks of the big messages it relays (zros.gateway.common.heap)."""
 
 from __future__ import annotations
 
@@ -9,14 +9,14 @@ from typing import Any
 
 import pytest
 
-from zros.gateway import heap
+from zros.gateway.common import heap
 
 #: three 1080p rgb8 images allocated and freed on a thread, again and again (a gateway's
 #: copies of a message are as many and as large); prints the page faults of one round
 ROUNDS = """
 import resource, sys, threading
 if sys.argv[1] == 'keep':
-    from zros.gateway.heap import keep_large_blocks
+    from zros.gateway.common.heap import keep_large_blocks
     assert keep_large_blocks()
 
 def faults():

@@ -6,7 +6,7 @@ import logging
 
 import pytest
 
-from zros.gateway.origins import FOXGLOVE_APP, OriginPolicy
+from zros.gateway.common.origins import FOXGLOVE_APP, OriginPolicy
 
 
 @pytest.mark.parametrize(

@@ -10,8 +10,9 @@ import pytest
 
 import zros
 from tests.cli.conftest import ZROS, Cli
-from zros.gateway.core import GatewayError, Taps
-from zros.gateway.throttle import Throttle
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.throttle import Throttle
+from zros.gateway.common.watched_topics import Taps
 from zros.pubsub.taps import graph_topics
 from zros.testing import wait_for
 from zros.transport import Router

@@ -18,7 +18,7 @@ import pytest
 import zros
 from tests.rosbridge.clients import RawClient
 from tests.rosbridge.test_values import EDGES, edges  # noqa: F401  (registers the type)
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
 from zros.testing import wait_for
 
 Make = Callable[..., Any]

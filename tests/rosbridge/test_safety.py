@@ -21,9 +21,9 @@ import pytest
 import zros
 from tests.rosbridge.clients import RawClient
 from tests.rosbridge.roslib_client import RoslibClient
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.views import service_providers
 from zros.gateway.rosbridge_client import MAX_FRAGMENTS
-from zros.gateway.views import service_providers
 from zros.testing import spinning, wait_for
 
 Make = Callable[..., Any]

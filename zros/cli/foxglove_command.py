@@ -39,7 +39,7 @@ class _Settings(TypedDict):
 
 
 def _settings(args: argparse.Namespace) -> _Settings:
-    from zros.gateway.origins import FOXGLOVE_APP
+    from zros.gateway.common.origins import FOXGLOVE_APP
 
     return {
         'port': args.port,
@@ -56,8 +56,8 @@ def _settings(args: argparse.Namespace) -> _Settings:
 
 
 def run(args: argparse.Namespace) -> int:
+    from zros.gateway.common.heap import keep_large_blocks
     from zros.gateway.foxglove import FoxgloveGateway, serve
-    from zros.gateway.heap import keep_large_blocks
 
     keep_large_blocks()  # this process relays big messages: reuse their buffers
     if args.bag is not None:

@@ -16,7 +16,7 @@ import urllib.parse
 from collections.abc import Iterable
 from pathlib import Path
 
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
 
 _log = logging.getLogger('zros.gateway')
 

@@ -23,7 +23,14 @@ from typing import TYPE_CHECKING, TypeVar
 
 from zros.errors import ZrosError
 from zros.gateway.assets import Assets
-from zros.gateway.core import GatewayError, GraphWatcher, NameFilter, Taps, gateway_node
+from zros.gateway.common.entities import gateway_node
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.graph_watcher import GraphWatcher
+from zros.gateway.common.origins import FOXGLOVE_APP
+from zros.gateway.common.throttle import Throttle
+from zros.gateway.common.views import offered_services, owners, parameter_nodes, service_providers
+from zros.gateway.common.watched_topics import Taps
 from zros.gateway.foxglove_calls import ENCODINGS, ClientChannels, ServiceOffer
 from zros.gateway.foxglove_common import (
     DEFAULT_BACKLOG,
@@ -33,9 +40,6 @@ from zros.gateway.foxglove_common import (
 )
 from zros.gateway.foxglove_front import CLIENT_BUFFER
 from zros.gateway.foxglove_params import Parameters
-from zros.gateway.origins import FOXGLOVE_APP
-from zros.gateway.throttle import Throttle
-from zros.gateway.views import offered_services, owners, parameter_nodes, service_providers
 from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
 from zros.qos import QoS, Reliability
 

@@ -24,7 +24,8 @@ from zros.bag.rosbag2_yaml import parse_qos_profiles
 from zros.bag.types import BagTypes
 from zros.errors import ZrosError
 from zros.gateway.assets import Assets
-from zros.gateway.core import GatewayError, NameFilter
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import NameFilter
 from zros.gateway.foxglove_common import ServerOptions, import_sdk, ros2msg_schema
 from zros.pubsub.taps import matched_qos
 

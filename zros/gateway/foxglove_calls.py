@@ -19,7 +19,9 @@ from typing import TYPE_CHECKING
 from zros.cdr import CdrError
 from zros.cdr.message import decode, encode
 from zros.errors import ZrosError
-from zros.gateway.core import ClientCache, GatewayError, NameFilter, publisher_qos
+from zros.gateway.common.entities import ClientCache, publisher_qos
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import NameFilter
 from zros.gateway.foxglove_common import ros2msg_schema
 from zros.qos import QoS
 

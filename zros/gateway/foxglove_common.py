@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from zros.errors import ZrosError
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.listen import Listen
+from zros.gateway.common.origins import FOXGLOVE_APP, OriginPolicy
 from zros.gateway.foxglove_front import CLIENT_BUFFER, Front, private_loopback
-from zros.gateway.listen import Listen
-from zros.gateway.origins import FOXGLOVE_APP, OriginPolicy
 
 if TYPE_CHECKING:
     from types import ModuleType

@@ -34,11 +34,11 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
 
 if TYPE_CHECKING:
-    from zros.gateway.listen import Listen
-    from zros.gateway.origins import OriginPolicy
+    from zros.gateway.common.listen import Listen
+    from zros.gateway.common.origins import OriginPolicy
 
 _log = logging.getLogger('zros.gateway')
 

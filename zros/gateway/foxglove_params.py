@@ -16,7 +16,8 @@ from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
 from zros.errors import ZrosError
-from zros.gateway.core import ClientCache, NameFilter
+from zros.gateway.common.entities import ClientCache
+from zros.gateway.common.filters import NameFilter
 from zros.params.values import ParameterType
 from zros.qos import PARAMETER_EVENTS
 

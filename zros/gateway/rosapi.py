@@ -19,14 +19,16 @@ from typing import TYPE_CHECKING
 
 from zros.cdr.model import Kind, MessageDef
 from zros.errors import ZrosError
-from zros.gateway.core import ClientCache, GatewayError, NameFilter
+from zros.gateway.common.entities import ClientCache
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.views import endpoint_owner, offered_services, owners, parameter_nodes
 from zros.gateway.rosbridge_values import short_name
-from zros.gateway.views import endpoint_owner, offered_services, owners, parameter_nodes
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.taps import is_hidden
 
 if TYPE_CHECKING:
-    from zros.gateway.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject
     from zros.node import Node
     from zros.params.client import ParameterClient
 

@@ -15,8 +15,8 @@ client-served actions and action feedback run there):
 give it a node of its own.
 
 What a client may do is bounded (:class:`Limits`): browsers are accepted by the ``Origin`` of
-their page (:class:`~zros.gateway.origins.OriginPolicy`), a read-only gateway refuses every op
-that acts on the robot, a client may not take over a service or action another node serves,
+their page (:class:`~zros.gateway.common.origins.OriginPolicy`), a read-only gateway refuses
+every op that acts on the robot, a client may not take over a service or action another node serves,
 and each client's outbox holds at most ``client_buffer`` bytes.
 """
 
@@ -31,15 +31,18 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from zros.gateway.core import GatewayError, NameFilter, Taps, gateway_node
-from zros.gateway.listen import Listen
-from zros.gateway.origins import OriginPolicy
+from zros.gateway.common.entities import gateway_node
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.listen import Listen
+from zros.gateway.common.origins import OriginPolicy
+from zros.gateway.common.throttle import Throttle
+from zros.gateway.common.watched_topics import Taps
 from zros.gateway.rosapi import Rosapi
 from zros.gateway.rosbridge_calls import Calls
 from zros.gateway.rosbridge_client import ClientSession
 from zros.gateway.rosbridge_topics import Topics
 from zros.gateway.rosbridge_values import Values
-from zros.gateway.throttle import Throttle
 
 if TYPE_CHECKING:
     from types import ModuleType
@@ -294,7 +297,7 @@ def serve(
     Web pages of other machines are refused unless ``allow_origins`` lists their origin;
     ``read_only`` lets clients watch only; ``allow_service_override`` lets a client serve a
     service another node serves; ``client_buffer`` bounds the bytes queued for each client;
-    ``throttle`` holds ``REGEX=HZ`` rate limits of topics (:mod:`zros.gateway.throttle`).
+    ``throttle`` holds ``REGEX=HZ`` rate limits of topics (:mod:`zros.gateway.common.throttle`).
     """
     listen = Listen(port, address, tls_cert, tls_key, 'the rosbridge server')
     own = node is None

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, TypeAlias
 
 from zros.actions import ActionError, GoalStatus
 from zros.errors import ZrosError
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
 from zros.keyexpr.kinds import EntityKind
 
 if TYPE_CHECKING:
@@ -38,7 +38,7 @@ if TYPE_CHECKING:
 
     from zros.actions import ActionServer, ServerGoalHandle
     from zros.cdr import JsonValue, Message
-    from zros.gateway.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject
     from zros.gateway.rosbridge_topics import Peer
     from zros.gateway.rosbridge_values import Values
     from zros.node import Node

@@ -27,11 +27,13 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, TypeVar
 
 from zros.errors import ZrosError
-from zros.gateway.core import ClientCache, GatewayError, NameFilter
+from zros.gateway.common.entities import ClientCache
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.views import offered_services, owners
 from zros.gateway.rosapi import Rosapi
 from zros.gateway.rosbridge_actions import ServedActions
 from zros.gateway.rosbridge_values import ConversionError, Values
-from zros.gateway.views import offered_services, owners
 from zros.keyexpr.kinds import EntityKind
 
 if TYPE_CHECKING:
@@ -39,7 +41,7 @@ if TYPE_CHECKING:
 
     from zros.actions import ActionClient, ClientGoalHandle
     from zros.cdr import JsonValue, Message
-    from zros.gateway.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject
     from zros.gateway.rosbridge_topics import Peer
     from zros.node import Node
     from zros.services import Client, Service

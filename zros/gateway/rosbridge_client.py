@@ -6,8 +6,8 @@ back as a ``status`` message of level ``error`` naming the op (and its ``id``), 
 logs it. A client chooses which statuses it gets with ``set_level`` (``error`` by default, as
 the rosbridge v2 protocol says).
 
-What the client is sent goes through a :class:`~zros.gateway.core.SendQueue` (bounded in
-messages and in bytes) drained by a writer thread of its own: a client that reads slowly loses
+What the client is sent goes through a :class:`~zros.gateway.common.send_queue.SendQueue` (bounded
+in messages and in bytes) drained by a writer thread of its own: a client that reads slowly loses
 its oldest messages (counted in the log and told with an ``error`` status, each at most once a
 second) and never holds up the graph or the other clients.
 
@@ -30,14 +30,15 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from zros.errors import ZrosError
-from zros.gateway.core import GatewayError, SendQueue
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.send_queue import SendQueue
 from zros.gateway.rosbridge_frames import Frames, encode, frames_size
 
 if TYPE_CHECKING:
     from websockets.sync.server import ServerConnection
 
     from zros.cdr import JsonValue
-    from zros.gateway.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject
     from zros.gateway.rosbridge_calls import Calls
     from zros.gateway.rosbridge_topics import Topics
 

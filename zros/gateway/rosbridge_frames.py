@@ -32,7 +32,7 @@ from zros.gateway.rosbridge_values import blob_mark
 
 if TYPE_CHECKING:
     from zros.cdr import JsonValue, Message
-    from zros.gateway.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject
     from zros.gateway.rosbridge_values import Values
 
 COMPRESSIONS = ('none', 'png', 'cbor', 'cbor-raw')

@@ -1,13 +1,13 @@
 """Topics for rosbridge clients: ``subscribe``/``unsubscribe`` and ``advertise``/``publish``.
 
-A topic someone subscribes to gets one raw Zenoh tap (:class:`~zros.gateway.core.Taps`, with
-the QoS of its publishers) whatever the number of clients; each sample is wrapped once in a
-:class:`~zros.gateway.rosbridge_frames.Sample` and offered to every subscription, which puts
-it into its client's bounded outbox as the client asked: at most one message per
-``throttle_rate`` ms, the newest ``queue_length`` held meanwhile (oldest dropped), in its
-``compression``, cut into ``fragment_size`` fragments. Several ``subscribe`` messages of one
-client for one topic make one subscription with the lowest throttle rate and fragment size,
-the shortest queue and the heaviest compression, as rosbridge merges them.
+A topic someone subscribes to gets one raw Zenoh tap
+(:class:`~zros.gateway.common.watched_topics.Taps`, with the QoS of its publishers) whatever the
+number of clients; each sample is wrapped once in a :class:`~zros.gateway.rosbridge_frames.Sample`
+and offered to every subscription, which puts it into its client's bounded outbox as the client
+asked: at most one message per ``throttle_rate`` ms, the newest ``queue_length`` held meanwhile
+(oldest dropped), in its ``compression``, cut into ``fragment_size`` fragments. Several
+``subscribe`` messages of one client for one topic make one subscription with the lowest throttle
+rate and fragment size, the shortest queue and the heaviest compression, as rosbridge merges them.
 
 Publishing goes through one zros publisher per topic, shared by the clients that advertise
 it (latched when asked: transient local, depth 1).
@@ -24,14 +24,17 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
 from zros.errors import ZrosError
-from zros.gateway.core import GatewayError, NameFilter, Taps, publisher_qos
+from zros.gateway.common.entities import publisher_qos
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.watched_topics import Taps
 from zros.gateway.rosbridge_frames import COMPRESSIONS, Frames, Sample
 from zros.gateway.rosbridge_values import ConversionError, Values, short_name
 from zros.pubsub.taps import GraphTopic, graph_topics
 
 if TYPE_CHECKING:
     from zros.cdr import JsonValue, Message
-    from zros.gateway.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject
     from zros.node import Node
     from zros.pubsub import Publisher
 

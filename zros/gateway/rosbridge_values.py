@@ -37,7 +37,7 @@ from zros.errors import ZrosError
 
 if TYPE_CHECKING:
     from zros.cdr import FieldValue, JsonValue, Message, TypeRegistry
-    from zros.gateway.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject
 
 TIME_TYPES = ('builtin_interfaces/msg/Time', 'builtin_interfaces/msg/Duration')
 HEADER = 'std_msgs/msg/Header'

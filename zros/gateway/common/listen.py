@@ -10,7 +10,7 @@ import ssl
 from dataclasses import dataclass
 from pathlib import Path
 
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
 from zros.transport.errors import TlsFileError
 from zros.transport.tlsfiles import check_tls_files
 

@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import TypeVar
 
-from zros.gateway.core import GatewayError
+from zros.gateway.common.errors import GatewayError
 
 _T = TypeVar('_T')
 

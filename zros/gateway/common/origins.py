@@ -14,7 +14,7 @@ import logging
 from collections.abc import Iterable
 from urllib.parse import urlsplit
 
-from zros.gateway.listen import is_loopback
+from zros.gateway.common.listen import is_loopback
 
 _log = logging.getLogger('zros.gateway')
 
