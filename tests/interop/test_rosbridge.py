@@ -21,7 +21,7 @@ import roslibpy
 import zros
 from tests.interop.conftest import Interop
 from tests.rosbridge.roslib_client import RoslibClient, require_roslib
-from zros.gateway.rosbridge import serve
+from zros.gateway.rosbridge.server import serve
 from zros.testing import wait_for
 
 TIMEOUT = 20.0

@@ -25,7 +25,7 @@ pytest.importorskip('websockets', reason='the websockets library (the rosbridge 
 
 @pytest.fixture
 def rosbridge(zros_node: Callable[..., Any]) -> Iterator[Callable[..., Any]]:
-    from zros.gateway.rosbridge import serve
+    from zros.gateway.rosbridge.server import serve
 
     made: list[Any] = []
 

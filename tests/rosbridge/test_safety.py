@@ -23,7 +23,7 @@ from tests.rosbridge.clients import RawClient
 from tests.rosbridge.roslib_client import RoslibClient
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.views import service_providers
-from zros.gateway.rosbridge_client import MAX_FRAGMENTS
+from zros.gateway.rosbridge.client import MAX_FRAGMENTS
 from zros.testing import spinning, wait_for
 
 Make = Callable[..., Any]

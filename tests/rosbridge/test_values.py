@@ -21,7 +21,7 @@ import pytest
 import zros
 from tests.rosbridge.clients import RawClient
 from zros.cdr import default_registry
-from zros.gateway.rosbridge_frames import fragments, png_message, to_text, to_text_with
+from zros.gateway.rosbridge.frames import fragments, png_message, to_text, to_text_with
 
 Make = Callable[..., Any]
 TIMEOUT = 20.0
@@ -178,7 +178,7 @@ def test_png_and_fragments(rosbridge: Make, raw_client: Make, zros_node: Make) -
 
 def test_long_base64_is_spliced_into_the_json_unchanged() -> None:
     from zros.cdr.registry import default_registry
-    from zros.gateway.rosbridge_values import BLOB_SIZE, Values, blob_mark
+    from zros.gateway.rosbridge.conversion import BLOB_SIZE, Values, blob_mark
 
     values = Values(default_registry(), lambda: (1, 2))
     pixels = np.arange(BLOB_SIZE * 3, dtype=np.uint32).astype(np.uint8)

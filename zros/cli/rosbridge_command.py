@@ -31,7 +31,7 @@ def globs(values: list[str] | None) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from zros.gateway.rosbridge import serve
+    from zros.gateway.rosbridge.server import serve
 
     with open_node(args) as node:
         gateway = serve(

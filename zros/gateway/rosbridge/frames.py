@@ -28,12 +28,13 @@ from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
-from zros.gateway.rosbridge_values import blob_mark
+from zros.cdr import decode
+from zros.gateway.rosbridge.conversion import blob_mark
 
 if TYPE_CHECKING:
     from zros.cdr import JsonValue, Message
     from zros.gateway.common.json_types import JsonObject
-    from zros.gateway.rosbridge_values import Values
+    from zros.gateway.rosbridge.conversion import Values
 
 COMPRESSIONS = ('none', 'png', 'cbor', 'cbor-raw')
 _fragment_ids = itertools.count(1)
@@ -175,8 +176,6 @@ class Sample:
     def message(self) -> Message:
         """The decoded message (CdrError when the bytes do not decode)."""
         if self._message is None:
-            from zros.cdr import decode
-
             self._message = decode(self.cls, self.data)
         return self._message
 

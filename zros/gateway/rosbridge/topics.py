@@ -2,7 +2,7 @@
 
 A topic someone subscribes to gets one raw Zenoh tap
 (:class:`~zros.gateway.common.watched_topics.Taps`, with the QoS of its publishers) whatever the
-number of clients; each sample is wrapped once in a :class:`~zros.gateway.rosbridge_frames.Sample`
+number of clients; each sample is wrapped once in a :class:`~zros.gateway.rosbridge.frames.Sample`
 and offered to every subscription, which puts it into its client's bounded outbox as the client
 asked: at most one message per ``throttle_rate`` ms, the newest ``queue_length`` held meanwhile
 (oldest dropped), in its ``compression``, cut into ``fragment_size`` fragments. Several
@@ -28,8 +28,8 @@ from zros.gateway.common.entities import publisher_qos
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.watched_topics import Taps
-from zros.gateway.rosbridge_frames import COMPRESSIONS, Frames, Sample
-from zros.gateway.rosbridge_values import ConversionError, Values, short_name
+from zros.gateway.rosbridge.conversion import ConversionError, Values, short_name
+from zros.gateway.rosbridge.frames import COMPRESSIONS, Frames, Sample
 from zros.pubsub.taps import GraphTopic, graph_topics
 
 if TYPE_CHECKING:

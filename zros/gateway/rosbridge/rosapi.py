@@ -18,12 +18,13 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from zros.cdr.model import Kind, MessageDef
+from zros.cdr.naming import attribute_name
 from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.views import endpoint_owner, offered_services, owners, parameter_nodes
-from zros.gateway.rosbridge_values import short_name
+from zros.gateway.rosbridge.conversion import short_name
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.taps import is_hidden
 
@@ -249,7 +250,7 @@ class Rosapi:
             elif kind.is_nested:
                 examples.append('{}')
             else:
-                examples.append(str(getattr(defaults, _attribute(field.name))))
+                examples.append(str(getattr(defaults, attribute_name(field.name))))
         return {
             'type': short_name(definition.name),
             'fieldnames': names,
@@ -373,9 +374,3 @@ def _text(args: JsonObject, field: str) -> str:
     if not isinstance(value, str):
         raise GatewayError(f'the field {field} must be a string, not {value!r}')
     return value
-
-
-def _attribute(name: str) -> str:
-    from zros.cdr.naming import attribute_name
-
-    return attribute_name(name)

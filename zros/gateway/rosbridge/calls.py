@@ -1,9 +1,9 @@
 """Services and actions for rosbridge clients.
 
-* ``call_service``: rosapi's services are answered by :class:`~zros.gateway.rosapi.Rosapi`;
-  any other goes through a zros service client (the type is the graph's), without blocking the
-  client's other requests. The answer is a ``service_response`` (``result: false`` with the
-  reason when the call failed).
+* ``call_service``: rosapi's services are answered by
+  :class:`~zros.gateway.rosbridge.rosapi.Rosapi`; any other goes through a zros service client
+  (the type is the graph's), without blocking the client's other requests. The answer is a
+  ``service_response`` (``result: false`` with the reason when the call failed).
 * ``advertise_service``: a client serves a ROS service. The gateway declares a zros service;
   each request goes to the client as a ``call_service`` with an id, and its
   ``service_response`` answers the ROS caller (``result: false`` gives the caller an error).
@@ -12,7 +12,7 @@
 * ``send_action_goal``: a goal through a zros action client, with ``action_feedback``
   messages when asked and one ``action_result``; ``cancel_action_goal`` cancels it.
 * ``advertise_action`` and its ops: a client serves an action
-  (:mod:`~zros.gateway.rosbridge_actions`, reached as :attr:`Calls.served`).
+  (:mod:`~zros.gateway.rosbridge.actions`, reached as :attr:`Calls.served`).
 """
 
 from __future__ import annotations
@@ -31,9 +31,9 @@ from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.views import offered_services, owners
-from zros.gateway.rosapi import Rosapi
-from zros.gateway.rosbridge_actions import ServedActions
-from zros.gateway.rosbridge_values import ConversionError, Values
+from zros.gateway.rosbridge.actions import ServedActions
+from zros.gateway.rosbridge.conversion import ConversionError, Values
+from zros.gateway.rosbridge.rosapi import Rosapi
 from zros.keyexpr.kinds import EntityKind
 
 if TYPE_CHECKING:
@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from zros.actions import ActionClient, ClientGoalHandle
     from zros.cdr import JsonValue, Message
     from zros.gateway.common.json_types import JsonObject
-    from zros.gateway.rosbridge_topics import Peer
+    from zros.gateway.rosbridge.topics import Peer
     from zros.node import Node
     from zros.services import Client, Service
 

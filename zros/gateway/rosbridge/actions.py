@@ -39,8 +39,8 @@ if TYPE_CHECKING:
     from zros.actions import ActionServer, ServerGoalHandle
     from zros.cdr import JsonValue, Message
     from zros.gateway.common.json_types import JsonObject
-    from zros.gateway.rosbridge_topics import Peer
-    from zros.gateway.rosbridge_values import Values
+    from zros.gateway.rosbridge.conversion import Values
+    from zros.gateway.rosbridge.topics import Peer
     from zros.node import Node
 
 _log = logging.getLogger('zros.gateway')

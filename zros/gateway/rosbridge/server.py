@@ -2,13 +2,13 @@
 roslibjs and roslibpy, in front of the ROS graph reached over Zenoh.
 
 The server is the websockets library's threaded server (the ``rosbridge`` extra): each client
-has a thread reading its messages (:mod:`~zros.gateway.rosbridge_client`) and one writing its
-bounded outbox. Topics (:mod:`~zros.gateway.rosbridge_topics`) are tapped raw, only while a
+has a thread reading its messages (:mod:`~zros.gateway.rosbridge.client`) and one writing its
+bounded outbox. Topics (:mod:`~zros.gateway.rosbridge.topics`) are tapped raw, only while a
 client subscribes, and each message is converted once per form (JSON, CBOR, raw CDR, PNG)
 whatever the number of clients. Services, client-served services and actions
-(:mod:`~zros.gateway.rosbridge_calls`), and actions clients serve
-(:mod:`~zros.gateway.rosbridge_actions`) go through zros clients and servers; rosapi's services
-(:mod:`~zros.gateway.rosapi`) are answered by the gateway itself.
+(:mod:`~zros.gateway.rosbridge.calls`), and actions clients serve
+(:mod:`~zros.gateway.rosbridge.actions`) go through zros clients and servers; rosapi's services
+(:mod:`~zros.gateway.rosbridge.rosapi`) are answered by the gateway itself.
 
 The gateway spins the node it is given (client-served services, the cancel callbacks of
 client-served actions and action feedback run there):
@@ -38,11 +38,11 @@ from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import OriginPolicy
 from zros.gateway.common.throttle import Throttle
 from zros.gateway.common.watched_topics import Taps
-from zros.gateway.rosapi import Rosapi
-from zros.gateway.rosbridge_calls import Calls
-from zros.gateway.rosbridge_client import ClientSession
-from zros.gateway.rosbridge_topics import Topics
-from zros.gateway.rosbridge_values import Values
+from zros.gateway.rosbridge.calls import Calls
+from zros.gateway.rosbridge.client import ClientSession
+from zros.gateway.rosbridge.conversion import Values
+from zros.gateway.rosbridge.rosapi import Rosapi
+from zros.gateway.rosbridge.topics import Topics
 
 if TYPE_CHECKING:
     from types import ModuleType

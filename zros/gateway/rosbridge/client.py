@@ -32,15 +32,15 @@ from typing import TYPE_CHECKING
 from zros.errors import ZrosError
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.send_queue import SendQueue
-from zros.gateway.rosbridge_frames import Frames, encode, frames_size
+from zros.gateway.rosbridge.frames import Frames, encode, frames_size
 
 if TYPE_CHECKING:
     from websockets.sync.server import ServerConnection
 
     from zros.cdr import JsonValue
     from zros.gateway.common.json_types import JsonObject
-    from zros.gateway.rosbridge_calls import Calls
-    from zros.gateway.rosbridge_topics import Topics
+    from zros.gateway.rosbridge.calls import Calls
+    from zros.gateway.rosbridge.topics import Topics
 
 _log = logging.getLogger('zros.gateway')
 
