@@ -42,7 +42,7 @@ def foxglove_client(request: pytest.FixtureRequest) -> Iterator[Callable[..., Fo
 @pytest.fixture
 def gateway(zros_node: Callable[..., Any]) -> Iterator[Callable[..., Any]]:
     pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
-    from zros.gateway.foxglove import serve
+    from zros.gateway.foxglove.server import serve
 
     made: list[Any] = []
 

@@ -21,7 +21,7 @@ from zros.gateway.common.views import (
     service_providers,
 )
 from zros.gateway.common.watched_topics import Taps
-from zros.gateway.foxglove_calls import message_from_json
+from zros.gateway.foxglove.calls import message_from_json
 from zros.pubsub.taps import RawTap, graph_topics
 from zros.qos import QoS
 from zros.testing import wait_for

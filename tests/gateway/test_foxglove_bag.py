@@ -20,7 +20,7 @@ from zros.qos import LATCHED, QoS
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
 
-from zros.gateway.foxglove import serve
+from zros.gateway.foxglove.server import serve
 
 Make = Callable[..., Any]
 START = 1_000 * 10**9
@@ -184,7 +184,7 @@ def test_latched_messages_beyond_the_bound_are_not_kept(
     monkeypatch: pytest.MonkeyPatch,
     caplog: pytest.LogCaptureFixture,
 ) -> None:
-    from zros.gateway import foxglove_bag
+    from zros.gateway.foxglove import bag_server as foxglove_bag
 
     monkeypatch.setattr(foxglove_bag, 'LATCHED_BYTES', 8)
     bag_server(recording[0])

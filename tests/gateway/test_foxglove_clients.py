@@ -16,7 +16,7 @@ import pytest
 import zros
 from tests.gateway.foxglove_client import FoxgloveClient, image
 from zros.gateway.common.errors import GatewayError
-from zros.gateway.foxglove_common import ServerOptions
+from zros.gateway.foxglove.sdk import ServerOptions
 from zros.testing import wait_for
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
@@ -126,7 +126,7 @@ def test_a_port_in_use_is_refused(gateway: Make) -> None:
 def test_without_the_sdk_the_error_says_what_to_install(
     monkeypatch: pytest.MonkeyPatch, zros_node: Make
 ) -> None:
-    from zros.gateway.foxglove import serve
+    from zros.gateway.foxglove.server import serve
 
     monkeypatch.setitem(sys.modules, 'foxglove', None)
     with pytest.raises(GatewayError, match=r'zros\[foxglove\]'):
@@ -194,7 +194,7 @@ def test_assets_are_served_from_the_named_folders_only(
 def test_an_asset_beyond_the_size_bound_is_refused(
     asset_folders: dict[str, Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from zros.gateway import assets
+    from zros.gateway.foxglove import assets
 
     monkeypatch.setattr(assets, 'MAX_ASSET_BYTES', 4)
     served = assets.Assets([asset_folders['own']])

@@ -13,7 +13,7 @@ import pytest
 
 from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import OriginPolicy
-from zros.gateway.foxglove_front import SDK_SUBPROTOCOL, Front
+from zros.gateway.foxglove.front import SDK_SUBPROTOCOL, Front
 from zros.testing import wait_for
 
 TIMEOUT = 20.0
@@ -170,7 +170,7 @@ def test_the_sdk_listens_where_a_page_cannot_guess() -> None:
     import ipaddress
     import sys
 
-    from zros.gateway.foxglove_front import private_loopback
+    from zros.gateway.foxglove.front import private_loopback
 
     addresses = {private_loopback() for _ in range(5)}
     assert all(ipaddress.ip_address(a).is_loopback for a in addresses)

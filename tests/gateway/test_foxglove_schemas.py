@@ -16,7 +16,7 @@ from zros.cdr.registry import TypeRegistry
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
 
-from zros.gateway.foxglove_common import ros2msg_schema
+from zros.gateway.foxglove.sdk import ros2msg_schema
 
 #: (recording, type): rosbag2 recordings of Jazzy-era types
 STANDARD = [

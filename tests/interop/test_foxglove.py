@@ -18,7 +18,7 @@ pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is
 import zros
 from tests.gateway.foxglove_client import FoxgloveClient, require
 from tests.interop.conftest import Interop
-from zros.gateway.foxglove import serve
+from zros.gateway.foxglove.server import serve
 from zros.testing import wait_for
 
 TIMEOUT = 20.0

@@ -57,7 +57,7 @@ def _settings(args: argparse.Namespace) -> _Settings:
 
 def run(args: argparse.Namespace) -> int:
     from zros.gateway.common.heap import keep_large_blocks
-    from zros.gateway.foxglove import FoxgloveGateway, serve
+    from zros.gateway.foxglove.server import FoxgloveGateway, serve
 
     keep_large_blocks()  # this process relays big messages: reuse their buffers
     if args.bag is not None:

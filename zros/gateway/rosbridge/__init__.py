@@ -23,6 +23,6 @@ __all__ = ['RosbridgeGateway', 'serve']
 
 
 def __getattr__(name: str) -> object:
-    if name in __all__:
-        return getattr(importlib.import_module('zros.gateway.rosbridge.server'), name)
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    if name not in __all__:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    return getattr(importlib.import_module(f'{__name__}.server'), name)

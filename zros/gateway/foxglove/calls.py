@@ -16,13 +16,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from zros.cdr import CdrError
+from zros.cdr import CdrError, TypeRegistry
 from zros.cdr.message import decode, encode
 from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache, publisher_qos
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
-from zros.gateway.foxglove_common import ros2msg_schema
+from zros.gateway.foxglove.sdk import ros2msg_schema
+from zros.pubsub import Publisher
 from zros.qos import QoS
 
 if TYPE_CHECKING:
@@ -70,8 +71,6 @@ class ClientChannels:
     def advertise(self, client: int, channel: ClientChannel) -> None:
         """A client announced a channel (the SDK's ``ClientChannel``): make its publisher
         (GatewayError says why not)."""
-        from zros.pubsub import Publisher
-
         topic, encoding, type_name = channel.topic, channel.encoding, channel.schema_name
         schema_encoding, schema = channel.schema_encoding, channel.schema
         if encoding not in ENCODINGS:
@@ -101,8 +100,6 @@ class ClientChannels:
     def _client_type(self, topic: str, type_name: str, schema: bytes) -> type[Message]:
         """The class of a type only a client's schema defines, in a registry of the clients'
         own (never the node's, which the process shares)."""
-        from zros.cdr import TypeRegistry
-
         registry = TypeRegistry(self._node.registry.distro)
         try:
             registry.register_bundle(type_name, schema.decode(), f'a Foxglove client ({topic})')

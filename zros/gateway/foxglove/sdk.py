@@ -20,7 +20,7 @@ from zros.errors import ZrosError
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import FOXGLOVE_APP, OriginPolicy
-from zros.gateway.foxglove_front import CLIENT_BUFFER, Front, private_loopback
+from zros.gateway.foxglove.front import CLIENT_BUFFER, Front, private_loopback
 
 if TYPE_CHECKING:
     from types import ModuleType

@@ -15,10 +15,14 @@ import threading
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
+from zros.cdr import CdrError
+from zros.cdr.message import decode
 from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.filters import NameFilter
-from zros.params.values import ParameterType
+from zros.params.descriptor import Parameter
+from zros.params.values import ParameterType, from_message
+from zros.pubsub.taps import RawTap
 from zros.qos import PARAMETER_EVENTS
 
 if TYPE_CHECKING:
@@ -147,8 +151,6 @@ class Parameters:
     def set(self, parameters: Iterable[foxglove.Parameter]) -> list[foxglove.Parameter]:
         """Set parameters, node by node; returns their values afterwards (a refused value
         stays as it was, and the clients are told why)."""
-        from zros.params.descriptor import Parameter
-
         by_node: dict[str, list[Parameter]] = {}
         for parameter in parameters:
             node_name, name = split_name(parameter.name)
@@ -180,8 +182,6 @@ class Parameters:
             self._subscribed.update(names)
             if self._events is not None or not self._subscribed:
                 return
-            from zros.pubsub.taps import RawTap
-
             cls = self._node.registry.get_class('rcl_interfaces/msg/ParameterEvent')
             self._events = RawTap(
                 self._node,
@@ -203,10 +203,6 @@ class Parameters:
             events.close()
 
     def _event_callback(self, cls: type[Message]) -> Callable[[zenoh.Sample], None]:
-        from zros.cdr import CdrError
-        from zros.cdr.message import decode
-        from zros.params.values import from_message
-
         def on_event(sample: zenoh.Sample) -> None:
             try:
                 event = decode(cls, sample.payload.to_bytes())

@@ -21,12 +21,14 @@ from typing import TYPE_CHECKING
 
 from zros.bag.play_clock import PlayClock
 from zros.bag.rosbag2_yaml import parse_qos_profiles
+from zros.bag.source import open_source
 from zros.bag.types import BagTypes
+from zros.cdr import default_registry
 from zros.errors import ZrosError
-from zros.gateway.assets import Assets
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
-from zros.gateway.foxglove_common import ServerOptions, import_sdk, ros2msg_schema
+from zros.gateway.foxglove.assets import Assets
+from zros.gateway.foxglove.sdk import ServerOptions, import_sdk, ros2msg_schema
 from zros.pubsub.taps import matched_qos
 
 if TYPE_CHECKING:
@@ -72,8 +74,6 @@ class BagGateway:
     ) -> None:
         foxglove = import_sdk()
         from foxglove.websocket import Capability
-
-        from zros.bag.source import open_source
 
         self.options = options or ServerOptions()
         selected = NameFilter.regexes(topics, exclude)
@@ -132,8 +132,6 @@ class BagGateway:
         """The recording's own definition, unless its first message shows it wrong (as some
         recorders wrote them) and zros's registry has one that fits: then that one."""
         import foxglove
-
-        from zros.cdr import default_registry
 
         if connection.definition and connection.definition_format in ('ros2msg', 'ros2idl'):
             recorded = foxglove.Schema(

@@ -21,8 +21,9 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeVar
 
+from zros.cdr import CdrError
+from zros.cdr.message import decode
 from zros.errors import ZrosError
-from zros.gateway.assets import Assets
 from zros.gateway.common.entities import gateway_node
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
@@ -31,15 +32,16 @@ from zros.gateway.common.origins import FOXGLOVE_APP
 from zros.gateway.common.throttle import Throttle
 from zros.gateway.common.views import offered_services, owners, parameter_nodes, service_providers
 from zros.gateway.common.watched_topics import Taps
-from zros.gateway.foxglove_calls import ENCODINGS, ClientChannels, ServiceOffer
-from zros.gateway.foxglove_common import (
+from zros.gateway.foxglove.assets import Assets
+from zros.gateway.foxglove.calls import ENCODINGS, ClientChannels, ServiceOffer
+from zros.gateway.foxglove.front import CLIENT_BUFFER
+from zros.gateway.foxglove.params import Parameters
+from zros.gateway.foxglove.sdk import (
     DEFAULT_BACKLOG,
     ServerOptions,
     import_sdk,
     ros2msg_schema,
 )
-from zros.gateway.foxglove_front import CLIENT_BUFFER
-from zros.gateway.foxglove_params import Parameters
 from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
 from zros.qos import QoS, Reliability
 
@@ -48,7 +50,7 @@ if TYPE_CHECKING:
     import zenoh
     from foxglove.websocket import ChannelView, Client, ClientChannel, Parameter
 
-    from zros.gateway.foxglove_bag import BagGateway
+    from zros.gateway.foxglove.bag_server import BagGateway
     from zros.node import Node
     from zros.node.settings import NodeSetting
 
@@ -157,9 +159,6 @@ class FoxgloveGateway:
         return self._sim_now if self.sim_time else time.time_ns()
 
     def _follow_clock(self) -> RawTap:
-        from zros.cdr import CdrError
-        from zros.cdr.message import decode
-
         cls = self.node.registry.get_class('rosgraph_msgs/msg/Clock')
 
         def on_clock(sample: zenoh.Sample) -> None:
@@ -482,7 +481,7 @@ def serve(
         client_buffer=client_buffer,
     )
     if bag is not None:
-        from zros.gateway.foxglove_bag import BagGateway
+        from zros.gateway.foxglove.bag_server import BagGateway
 
         return BagGateway(bag, options, topics=topics, exclude=exclude, asset_paths=asset_paths)
     own = node is None
