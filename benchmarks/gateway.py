@@ -58,8 +58,9 @@ from gateway_paths import (  # noqa: E402
 )
 from transport_roles import total  # noqa: E402
 
-from tests.gateway.foxglove_client import SDK_PROTOCOL as SDK  # noqa: E402
-from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
+from tests.gateway.foxglove.client import SDK_PROTOCOL as SDK  # noqa: E402
+from tests.gateway.foxglove.client import FoxgloveClient  # noqa: E402
+from tests.gateway.node_process import install  # noqa: E402
 
 LATENCY_HZ = 200.0
 TOPIC = '/bench/data'

@@ -13,7 +13,8 @@ import pytest
 
 import zros
 from tests.cli.conftest import Cli
-from tests.gateway.foxglove_client import FoxgloveClient, image, require
+from tests.gateway.foxglove.client import FoxgloveClient, image
+from tests.gateway.node_process import require
 from zros.testing import wait_for
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')

@@ -10,7 +10,7 @@ import pytest
 
 import zros
 from tests.cli.conftest import Cli
-from tests.rosbridge.clients import RawClient
+from tests.gateway.rosbridge.clients import RawClient
 
 pytest.importorskip('websockets', reason='the websockets library (the rosbridge extra) is missing')
 

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import zros
-from tests.rosbridge.clients import RawClient
-from tests.rosbridge.roslib_client import RoslibClient
+from tests.gateway.rosbridge.clients import RawClient
+from tests.gateway.rosbridge.roslib_client import RoslibClient
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.views import service_providers
 from zros.gateway.rosbridge.client import MAX_FRAGMENTS

@@ -19,13 +19,13 @@ from typing import Any
 import pytest
 
 import zros
-from tests.gateway.foxglove_client import NODE_DIR
-from tests.rosbridge.roslib_client import require_roslib
+from tests.gateway.node_process import NODE_DIR
+from tests.gateway.rosbridge.roslib_client import require_roslib
 from zros.testing import wait_for
 
 Make = Callable[..., Any]
 TIMEOUT = 60.0
-EXAMPLE = Path(__file__).parents[2] / 'examples' / 'rosbridge_web'
+EXAMPLE = Path(__file__).parents[3] / 'examples' / 'rosbridge_web'
 BROWSERS = ('chromium-headless-shell', 'chromium')
 
 

@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 import zros
-from tests.gateway.foxglove_client import FoxgloveClient, image
+from tests.gateway.foxglove.client import FoxgloveClient, image
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.foxglove.sdk import ServerOptions
 from zros.testing import wait_for

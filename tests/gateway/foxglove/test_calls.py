@@ -12,10 +12,12 @@ from typing import Any
 import pytest
 
 import zros
-from tests.gateway.foxglove_client import FoxgloveClient
+from tests.gateway.foxglove.client import FoxgloveClient
 from zros.cdr import TypeRegistry, default_registry
 from zros.cdr.message import decode, encode
 from zros.cdr.render import render_bundle
+from zros.gateway.common.errors import GatewayError
+from zros.gateway.foxglove.calls import message_from_json
 from zros.testing import spinning, wait_for
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
@@ -301,3 +303,16 @@ def test_unknown_nodes_and_service_types(
     _told(client, 'cannot set parameters of /ghost', start)
     assert client.get_parameters(['/ghost.speed']) == []
     assert 'no parameters from /ghost' in caplog.text
+
+
+def test_messages_from_json() -> None:
+    Twist = type(zros.Message('geometry_msgs/msg/Twist'))
+    twist = message_from_json(Twist, '{"linear": {"x": 1}, "angular": {"z": -2.5}}')
+    assert (twist.linear.x, twist.angular.z) == (1.0, -2.5)
+    for text, error in (
+        ('[1, 2]', 'needs a mapping'),
+        ('{"spin": 1}', "no field 'spin'"),
+        ('{', 'cannot make'),
+    ):
+        with pytest.raises(GatewayError, match=error):
+            message_from_json(Twist, text)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import zros
-from tests.gateway.foxglove_client import FoxgloveClient, image
+from tests.gateway.foxglove.client import FoxgloveClient, image
 from tests.runtime.delay_proxy import DelayProxy
 from zros.cdr import default_registry
 from zros.cdr.render import render_bundle

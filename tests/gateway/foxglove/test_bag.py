@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 import zros
-from tests.gateway.foxglove_client import FoxgloveClient
+from tests.gateway.foxglove.client import FoxgloveClient
 from zros.bag.bag_writer import BagTopic, BagWriter
 from zros.cdr import default_registry
 from zros.cdr.message import decode

@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from tests.rosbridge.clients import RawClient
+from tests.gateway.rosbridge.clients import RawClient
 from zros.actions import GoalStatus
 from zros.testing import wait_for
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import zros
-from tests.rosbridge.roslib_client import RoslibClient
+from tests.gateway.rosbridge.roslib_client import RoslibClient
 from zros.testing import spinning, wait_for
 
 Make = Callable[..., Any]

@@ -16,12 +16,8 @@ from typing import Any
 
 import pytest
 
-from tests.gateway.foxglove_client import (
-    LIBRARY_PROTOCOL,
-    SDK_PROTOCOL,
-    FoxgloveClient,
-    require,
-)
+from tests.gateway.foxglove.client import LIBRARY_PROTOCOL, SDK_PROTOCOL, FoxgloveClient
+from tests.gateway.node_process import require
 
 
 @pytest.fixture(params=[LIBRARY_PROTOCOL, SDK_PROTOCOL])

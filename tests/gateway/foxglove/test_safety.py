@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 import zros
-from tests.gateway.foxglove_client import LIBRARY_PROTOCOL, SDK_PROTOCOL, FoxgloveClient
+from tests.gateway.foxglove.client import LIBRARY_PROTOCOL, SDK_PROTOCOL, FoxgloveClient
 from zros.testing import wait_for
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')

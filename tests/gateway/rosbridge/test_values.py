@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import zros
-from tests.rosbridge.clients import RawClient
+from tests.gateway.rosbridge.clients import RawClient
 from zros.cdr import default_registry
 from zros.gateway.rosbridge.frames import fragments, png_message, to_text, to_text_with
 

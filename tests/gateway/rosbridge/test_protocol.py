@@ -16,8 +16,8 @@ from typing import Any
 import pytest
 
 import zros
-from tests.rosbridge.clients import RawClient
-from tests.rosbridge.test_values import EDGES, edges  # noqa: F401  (registers the type)
+from tests.gateway.rosbridge.clients import RawClient
+from tests.gateway.rosbridge.test_values import EDGES, edges  # noqa: F401  (registers the type)
 from zros.gateway.common.errors import GatewayError
 from zros.testing import wait_for
 

@@ -16,8 +16,8 @@ from typing import Any
 
 import pytest
 
-from tests.rosbridge.clients import RawClient
-from tests.rosbridge.roslib_client import RoslibClient, require_roslib
+from tests.gateway.rosbridge.clients import RawClient
+from tests.gateway.rosbridge.roslib_client import RoslibClient, require_roslib
 from zros.testing import wait_for
 
 pytest.importorskip('websockets', reason='the websockets library (the rosbridge extra) is missing')

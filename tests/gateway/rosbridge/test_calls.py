@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from tests.rosbridge.clients import RawClient
+from tests.gateway.rosbridge.clients import RawClient
 from tests.runtime.test_actions import fibonacci
 from zros.services import ServiceCallError
 from zros.testing import spinning, wait_for

@@ -1,12 +1,12 @@
 """roslib (roslibjs, the library web apps use) from npm, run by node, as a test client:
-``../gateway/node/roslib_client.mjs`` driven over JSON lines."""
+``../node/roslib_client.mjs`` driven over JSON lines."""
 
 from __future__ import annotations
 
 import itertools
 from typing import Any
 
-from tests.gateway.foxglove_client import NODE_DIR, NodeProcess, require
+from tests.gateway.node_process import NODE_DIR, NodeProcess, require
 
 SCRIPT = NODE_DIR / 'roslib_client.mjs'
 TIMEOUT = 30.0
