@@ -32,7 +32,6 @@ if TYPE_CHECKING:
 
     from zros.cdr import Message
     from zros.node import Node
-    from zros.pubsub import Publisher
     from zros.services import Client
 
 _log = logging.getLogger('zros.gateway')

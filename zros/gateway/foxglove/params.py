@@ -33,7 +33,6 @@ if TYPE_CHECKING:
     from zros.node import Node
     from zros.params import ParamValue
     from zros.params.client import ParameterClient
-    from zros.pubsub.taps import RawTap
 
 _log = logging.getLogger('zros.gateway')
 
