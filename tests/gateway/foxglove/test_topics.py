@@ -21,6 +21,7 @@ from tests.gateway.foxglove.client import FoxgloveClient, image
 from tests.runtime.delay_proxy import DelayProxy
 from zros.cdr import default_registry
 from zros.cdr.render import render_bundle
+from zros.qos import QoS
 from zros.testing import wait_for
 from zros.transport import Transport, TransportConfig
 
@@ -134,7 +135,11 @@ def test_unwatched_topics_carry_no_zenoh_traffic(
             )
             server = gateway(node=node)
             talker = zros_node('talker')
-            big = talker.create_publisher('sensor_msgs/msg/Image', '/camera')
+            # block, not drop (the default for keep-last): a burst of 100 kB frames through the
+            # meter's proxy overflowed Zenoh's queue under load and lost frames before the gateway
+            big = talker.create_publisher(
+                'sensor_msgs/msg/Image', '/camera', QoS(10, congestion='block')
+            )
             fence = talker.create_publisher('std_msgs/msg/UInt32', '/fence')
             client: FoxgloveClient = foxglove_client(server.url)
             client.channel('/camera')
