@@ -58,8 +58,9 @@ from gateway_paths import (  # noqa: E402
 )
 from transport_roles import total  # noqa: E402
 
-from tests.gateway.foxglove_client import SDK_PROTOCOL as SDK  # noqa: E402
-from tests.gateway.foxglove_client import FoxgloveClient, install  # noqa: E402
+from tests.gateway.foxglove.client import SDK_PROTOCOL as SDK  # noqa: E402
+from tests.gateway.foxglove.client import FoxgloveClient  # noqa: E402
+from tests.gateway.node_process import install  # noqa: E402
 
 LATENCY_HZ = 200.0
 TOPIC = '/bench/data'
@@ -93,7 +94,7 @@ def _watched_channel(kind: str, timeout: float, name: str = TOPIC) -> tuple[Any,
     from transport_roles import type_of
 
     from zros.cdr import default_registry
-    from zros.gateway.foxglove_common import ros2msg_schema
+    from zros.gateway.foxglove.sdk import ros2msg_schema
 
     schema = ros2msg_schema(default_registry(), type_of(kind))
     server = foxglove.start_server(host='127.0.0.1', port=0, message_backlog_size=1_000_000)

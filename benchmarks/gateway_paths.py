@@ -36,7 +36,8 @@ from transport_roles import (  # noqa: E402
     wait_ready,
 )
 
-from tests.gateway.foxglove_client import NODE_DIR, SCRIPT, FoxgloveClient  # noqa: E402
+from tests.gateway.foxglove.client import SCRIPT, FoxgloveClient  # noqa: E402
+from tests.gateway.node_process import NODE_DIR  # noqa: E402
 from tests.support.processes import children  # noqa: E402
 
 #: the client that counts message frames and parses nothing else of them

@@ -21,9 +21,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / 'zros'
 #: file names used in several packages because they mean the same thing in each: a package's
-#: errors, the client and server sides of services, actions and parameters, and the doors
-#: (zros.foxglove, zros.rosbridge) to the gateways of the same name
-SHARED_NAMES = {'__init__.py', 'errors.py', 'client.py', 'server.py', 'foxglove.py', 'rosbridge.py'}
+#: errors, the client and server sides of services, actions, parameters and the gateways, and
+#: a gateway's calls (the services its clients call)
+SHARED_NAMES = {'__init__.py', 'errors.py', 'client.py', 'server.py', 'calls.py'}
 
 
 def lint_imports(cwd: Path, package_parent: Path) -> subprocess.CompletedProcess[str]:

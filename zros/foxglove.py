@@ -1,7 +1,7 @@
 """The robot in the Foxglove app, with no ROS installed: ``zros.foxglove.serve()``.
 
-A thin door to :mod:`zros.gateway.foxglove` (and :mod:`zros.gateway.foxglove_bag` for
-recordings); needs the ``foxglove`` extra (``pip install 'zros[foxglove]'``)::
+A thin door to :mod:`zros.gateway.foxglove` (the live graph, and recordings); needs the ``foxglove``
+extra (``pip install 'zros[foxglove]'``)::
 
     import zros.foxglove
 
@@ -12,7 +12,7 @@ recordings); needs the ``foxglove`` extra (``pip install 'zros[foxglove]'``)::
 
 from __future__ import annotations
 
-from zros.gateway.foxglove import FoxgloveGateway, serve
-from zros.gateway.foxglove_common import ServerOptions
+from zros.gateway.foxglove.sdk import ServerOptions
+from zros.gateway.foxglove.server import FoxgloveGateway, serve
 
 __all__ = ['FoxgloveGateway', 'ServerOptions', 'serve']

@@ -12,7 +12,7 @@ A thin door to :mod:`zros.gateway.rosbridge`; needs the ``rosbridge`` extra
 
 from __future__ import annotations
 
-from zros.gateway.listen import Listen
-from zros.gateway.rosbridge import RosbridgeGateway, serve
+from zros.gateway.common.listen import Listen
+from zros.gateway.rosbridge.server import RosbridgeGateway, serve
 
 __all__ = ['Listen', 'RosbridgeGateway', 'serve']

@@ -14,7 +14,8 @@ import pytest
 
 import zros
 from tests.cli.conftest import Cli
-from tests.gateway.foxglove_client import FoxgloveClient, image, require
+from tests.gateway.foxglove.client import FoxgloveClient, image
+from tests.gateway.node_process import require
 from tests.support.processes import children
 from zros.testing import wait_for
 

@@ -10,7 +10,7 @@ import pytest
 
 import zros
 from tests.cli.conftest import Cli
-from tests.rosbridge.clients import RawClient
+from tests.gateway.rosbridge.clients import RawClient
 
 pytest.importorskip('websockets', reason='the websockets library (the rosbridge extra) is missing')
 
@@ -99,3 +99,30 @@ def test_the_safety_options(cli: Cli, zros_node: Any) -> None:
     assert code == 0
     refusals = [x for x in running.errors.text().splitlines() if 'evil.example' in x]
     assert len(refusals) == 1 and '--allow-origin' in refusals[0]  # one line, naming the option
+
+
+def test_the_gateway_commands_share_their_listen_and_safety_options() -> None:
+    import argparse
+
+    from zros.cli.main import build_parser
+
+    def options(command: str) -> dict[str, tuple[str | None, object]]:
+        parser = build_parser([command])
+        (commands,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        return {
+            flag: (action.help, action.type)
+            for action in commands.choices[command]._actions
+            for flag in action.option_strings
+        }
+
+    foxglove, rosbridge = options('foxglove'), options('rosbridge')
+    shared = ['--address', '--tls-cert', '--tls-key', '--read-only', '--throttle']
+    for flag in [*shared, '--client-buffer']:
+        assert foxglove[flag] == rosbridge[flag], flag
+    # the port and the origins differ only in their defaults
+    assert foxglove['--port'][0] == 'TCP port (default 8765; 0: any)'
+    assert rosbridge['--port'][0] == 'TCP port (default 9090; 0: any)'
+    origins = str(foxglove['--allow-origin'][0])
+    assert origins.replace(' and https://app.foxglove.dev (the Foxglove web app)', '') == str(
+        rosbridge['--allow-origin'][0]
+    )

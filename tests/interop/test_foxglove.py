@@ -16,9 +16,10 @@ pytest.importorskip(
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
 
 import zros
-from tests.gateway.foxglove_client import FoxgloveClient, require
+from tests.gateway.foxglove.client import FoxgloveClient
+from tests.gateway.node_process import require
 from tests.interop.conftest import Interop
-from zros.gateway.foxglove import serve
+from zros.gateway.foxglove.server import serve
 from zros.testing import wait_for
 
 TIMEOUT = 20.0

@@ -19,9 +19,9 @@ pytest.importorskip('roslibpy', reason='roslibpy (the test extra) is missing')
 import roslibpy
 
 import zros
+from tests.gateway.rosbridge.roslib_client import RoslibClient, require_roslib
 from tests.interop.conftest import Interop
-from tests.rosbridge.roslib_client import RoslibClient, require_roslib
-from zros.gateway.rosbridge import serve
+from zros.gateway.rosbridge.server import serve
 from zros.testing import wait_for
 
 TIMEOUT = 20.0

@@ -148,7 +148,7 @@ def test_memory_is_bounded_by_the_cache_time() -> None:
 def test_a_live_buffer_holds_a_bounded_number_of_frames_and_rows(
     caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from zros.tf import frames as module
+    from zros.tf import edge_tree as module
 
     monkeypatch.setattr(module, 'MAX_FRAMES', 5)
     monkeypatch.setattr(module, 'MAX_EDGE_LENGTH', 100)

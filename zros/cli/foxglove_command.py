@@ -14,11 +14,11 @@ from typing import TypedDict
 from zros.cli.shared import (
     CommandError,
     add_connection_options,
+    add_gateway_listen_options,
     add_gateway_safety_options,
     at_least_one,
     open_node,
     out,
-    port_number,
     serve_until_interrupted,
 )
 
@@ -39,7 +39,7 @@ class _Settings(TypedDict):
 
 
 def _settings(args: argparse.Namespace) -> _Settings:
-    from zros.gateway.origins import FOXGLOVE_APP
+    from zros.gateway.common.origins import FOXGLOVE_APP
 
     return {
         'port': args.port,
@@ -56,8 +56,8 @@ def _settings(args: argparse.Namespace) -> _Settings:
 
 
 def run(args: argparse.Namespace) -> int:
-    from zros.gateway.foxglove import FoxgloveGateway, serve
-    from zros.gateway.heap import keep_large_blocks
+    from zros.gateway.common.heap import keep_large_blocks
+    from zros.gateway.foxglove.server import FoxgloveGateway, serve
 
     keep_large_blocks()  # this process relays big messages: reuse their buffers
     if args.bag is not None:
@@ -94,16 +94,11 @@ def add_parser(
         description=f'{help_line}. Needs the foxglove extra: pip install "zros[foxglove]".',
     )
     parser.set_defaults(run='zros.cli.foxglove_command:run')
-    parser.add_argument('--port', type=port_number, default=8765,
-                        help='TCP port (default 8765; 0: any)')  # fmt: skip
-    parser.add_argument('--address', default='127.0.0.1',
-                        help='address to listen on (default 127.0.0.1; others warn)')  # fmt: skip
+    add_gateway_listen_options(parser, 8765)
     parser.add_argument('--topics', nargs='+', action='extend', metavar='REGEX',
                         help='offer only topics matching one of these (whole names)')  # fmt: skip
     parser.add_argument('--exclude', nargs='+', action='extend', metavar='REGEX',
                         help='never offer topics matching one of these')  # fmt: skip
-    parser.add_argument('--throttle', action='append', default=[], metavar='REGEX=HZ',
-                        help="at most HZ messages a second of these ('/camera/.*=2')")  # fmt: skip
     parser.add_argument('--services', nargs='+', action='extend', metavar='REGEX',
                         help='offer only services matching one of these')  # fmt: skip
     parser.add_argument('--params', nargs='+', action='extend', metavar='REGEX',
@@ -114,8 +109,6 @@ def add_parser(
                         help='serve package:// files (meshes) from DIR (repeatable)')  # fmt: skip
     parser.add_argument('--bag', metavar='PATH',
                         help='serve this recording instead of the live graph')  # fmt: skip
-    parser.add_argument('--tls-cert', metavar='PEM', help='certificate: serve wss://')
-    parser.add_argument('--tls-key', metavar='PEM', help='its private key (PKCS#8)')
     parser.add_argument('--message-backlog', type=at_least_one, default=32, metavar='N',
                         help='messages the Foxglove SDK queues per client on their way out '
                         '(default 32; --client-buffer bounds the bytes)')  # fmt: skip

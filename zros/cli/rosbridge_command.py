@@ -10,11 +10,11 @@ import argparse
 
 from zros.cli.shared import (
     add_connection_options,
+    add_gateway_listen_options,
     add_gateway_safety_options,
     at_least_one,
     open_node,
     out,
-    port_number,
     serve_until_interrupted,
 )
 
@@ -31,7 +31,7 @@ def globs(values: list[str] | None) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from zros.gateway.rosbridge import serve
+    from zros.gateway.rosbridge.server import serve
 
     with open_node(args) as node:
         gateway = serve(
@@ -65,20 +65,13 @@ def add_parser(
         description=f'{help_line}. Needs the rosbridge extra: pip install "zros[rosbridge]".',
     )
     parser.set_defaults(run='zros.cli.rosbridge_command:run')
-    parser.add_argument('--port', type=port_number, default=9090,
-                        help='TCP port (default 9090; 0: any)')  # fmt: skip
-    parser.add_argument('--address', default='127.0.0.1',
-                        help='address to listen on (default 127.0.0.1; others warn)')  # fmt: skip
+    add_gateway_listen_options(parser, 9090)
     parser.add_argument('--topics-glob', nargs='+', action='extend', metavar='GLOB',
                         help='allow only topics matching one of these ("/camera/*")')  # fmt: skip
-    parser.add_argument('--throttle', action='append', default=[], metavar='REGEX=HZ',
-                        help="at most HZ messages a second of these ('/camera/.*=2')")  # fmt: skip
     parser.add_argument('--services-glob', nargs='+', action='extend', metavar='GLOB',
                         help='allow only services and actions matching these')  # fmt: skip
     parser.add_argument('--params-glob', nargs='+', action='extend', metavar='GLOB',
                         help='allow only parameters (/node:name) matching these')  # fmt: skip
-    parser.add_argument('--tls-cert', metavar='PEM', help='certificate: serve wss://')
-    parser.add_argument('--tls-key', metavar='PEM', help='its private key')
     parser.add_argument('--max-message-size', type=at_least_one, default=10_000_000,
                         metavar='BYTES', help='largest message a client may send; longer JSON '
                         'to clients goes as fragments (default 10000000)')  # fmt: skip

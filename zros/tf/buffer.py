@@ -20,12 +20,12 @@ from zros.tf import checks
 from zros.tf.bag_transforms import read_transforms
 from zros.tf.cache import OutOfRange
 from zros.tf.checks import Authority
+from zros.tf.edge_tree import EdgeTree
 from zros.tf.errors import (
     ExtrapolationException,
     InvalidArgumentException,
     TransformException,
 )
-from zros.tf.frames import Frames
 from zros.tf.messages import transform_message
 from zros.tf.quaternions import (
     IDENTITY,
@@ -67,7 +67,7 @@ class Buffer:
         self._lock = threading.Lock()
         self._arrived = Signal()
         self.rejections = checks.Rejections()  #: refused transforms: ``.counts`` by tf2 code
-        self._tree = Frames(self.cache_time, self.rejections)  # under _lock
+        self._tree = EdgeTree(self.cache_time, self.rejections)  # under _lock
 
     # --- filling -------------------------------------------------------------------------
 

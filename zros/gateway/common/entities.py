@@ -1,0 +1,74 @@
+"""The gateway's own node and what it makes on its clients' behalf: the service and parameter
+clients (:class:`ClientCache`, closed together) and the QoS of the publishers clients ask for
+(:func:`publisher_qos`)."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Hashable, Iterable
+from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
+
+import zros
+from zros.pubsub.taps import matched_qos
+from zros.qos import Durability, QoS
+
+if TYPE_CHECKING:
+    from zros.node import Node
+    from zros.node.settings import NodeSetting
+
+
+class Closable(Protocol):
+    """What :class:`ClientCache` holds: anything with ``close()``."""
+
+    def close(self) -> None: ...
+
+
+C = TypeVar('C', bound=Closable)
+
+
+class ClientCache(Generic[C]):
+    """The service or parameter clients a gateway made, one per key, made on first use and
+    closed together (thread-safe)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._clients: dict[Hashable, C] = {}
+
+    def get(self, key: Hashable, make: Callable[[], C]) -> C:
+        """The client of ``key``, made by ``make()`` the first time."""
+        with self._lock:
+            client = self._clients.get(key)
+            if client is None:
+                client = self._clients[key] = make()
+            return client
+
+    def discard(self, key: Hashable) -> None:
+        """Close and forget the client of ``key`` (if any)."""
+        with self._lock:
+            client = self._clients.pop(key, None)
+        if client is not None:
+            client.close()
+
+    def close(self) -> None:
+        """Close every client."""
+        with self._lock:
+            clients, self._clients = list(self._clients.values()), {}
+        for client in clients:
+            client.close()
+
+
+def gateway_node(name: str, settings: dict[str, NodeSetting]) -> Node:
+    """A node of its own for a gateway, from the connection ``settings`` of :class:`zros.Node`
+    (no /rosout and no parameter services unless asked)."""
+    settings.setdefault('enable_rosout', False)
+    settings.setdefault('start_parameter_services', False)
+    return zros.Node(name, **settings)
+
+
+def publisher_qos(offered: Iterable[QoS], latched: bool = False) -> QoS:
+    """The QoS of a publisher a client asked for: depth 1 transient local when it latches,
+    else the QoS matched to the topic's other publishers (ROS 2's default without any)."""
+    if latched:
+        return QoS(1, durability=Durability.TRANSIENT_LOCAL)
+    offers = list(offered)
+    return matched_qos(offers) if offers else QoS()

@@ -1,0 +1,226 @@
+"""The parameters of every node, for Foxglove's Parameters panel, as foxglove_bridge names them.
+
+A parameter is ``<node>.<name>`` (``/robot/driver.max_speed``); asking for no names lists every
+parameter of every node that serves them (found by its ``get_parameters`` and
+``list_parameters`` services, which also finds ROS nodes behind a bridge). Reads and writes go
+through zros's parameter client; clients that subscribe get changes as ``/parameter_events``
+reports them.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import logging
+import threading
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
+
+from zros.cdr import CdrError
+from zros.cdr.message import decode
+from zros.errors import ZrosError
+from zros.gateway.common.entities import ClientCache
+from zros.gateway.common.filters import NameFilter
+from zros.params.descriptor import Parameter
+from zros.params.values import ParameterType, from_message
+from zros.pubsub.taps import RawTap
+from zros.qos import PARAMETER_EVENTS
+
+if TYPE_CHECKING:
+    import foxglove
+    import zenoh
+
+    from zros.cdr import JsonValue, Message
+    from zros.node import Node
+    from zros.params import ParamValue
+    from zros.params.client import ParameterClient
+
+_log = logging.getLogger('zros.gateway')
+
+#: seconds a node has to answer a parameter request
+TIMEOUT = 3.0
+#: nodes asked at once
+_WORKERS = 8
+
+
+def split_name(full: str) -> tuple[str, str]:
+    """``/node.param.sub`` -> (``/node``, ``param.sub``) (the node is before the first dot)."""
+    node, _, name = full.partition('.')
+    return node, name
+
+
+def to_foxglove(
+    full: str, value: ParamValue, kind: ParameterType | None = None
+) -> foxglove.Parameter:
+    """A foxglove.Parameter of a zros value (doubles keep their type hint, as
+    foxglove_bridge sends them; an empty array takes its type from ``kind``)."""
+    import foxglove
+
+    if value is None:
+        return foxglove.Parameter(full)
+    if kind is ParameterType.DOUBLE or isinstance(value, float):
+        return foxglove.Parameter(full, value=float(value), type=foxglove.ParameterType.Float64)
+    if kind is ParameterType.DOUBLE_ARRAY:
+        floats: list[ParamValue] = [float(item) for item in value]
+        return foxglove.Parameter(full, value=floats, type=foxglove.ParameterType.Float64Array)
+    return foxglove.Parameter(full, value=value)
+
+
+def from_foxglove(parameter: foxglove.Parameter) -> tuple[ParamValue, ParameterType | None]:
+    """The zros value and type of a foxglove.Parameter (None deletes)."""
+    import foxglove
+
+    value: JsonValue = parameter.get_value()  # a client's: converted as its type hint says
+    hint = parameter.type
+    if value is None:
+        return None, ParameterType.NOT_SET
+    if hint == foxglove.ParameterType.Float64:
+        return float(value), ParameterType.DOUBLE
+    if hint == foxglove.ParameterType.Float64Array:
+        return [float(item) for item in value], ParameterType.DOUBLE_ARRAY
+    if hint == foxglove.ParameterType.ByteArray:
+        return bytes(value), ParameterType.BYTE_ARRAY
+    return value, None
+
+
+class Parameters:
+    """Gets, sets and follows the parameters of the graph's nodes. ``nodes()`` lists the nodes
+    serving parameters; ``publish(parameters)`` sends updates to subscribed clients;
+    ``status(text)`` tells clients what went wrong."""
+
+    def __init__(
+        self,
+        node: Node,
+        allowed: NameFilter,
+        nodes: Callable[[], list[str]],
+        publish: Callable[[list[foxglove.Parameter]], object],
+        status: Callable[[str], object],
+    ) -> None:
+        self._node = node
+        self._allowed = allowed
+        self._nodes = nodes
+        self._publish = publish
+        self._status = status
+        self._lock = threading.Lock()
+        self._clients: ClientCache[ParameterClient] = ClientCache()
+        self._subscribed: set[str] = set()
+        self._events: RawTap | None = None
+        self._pool = concurrent.futures.ThreadPoolExecutor(_WORKERS, 'zros foxglove parameters')
+
+    def _client(self, node_name: str) -> ParameterClient:
+        return self._clients.get(node_name, lambda: self._node.parameter_client(node_name, TIMEOUT))
+
+    def _of_node(self, node_name: str, names: list[str] | None) -> list[foxglove.Parameter]:
+        client = self._client(node_name)
+        if names is None:
+            names = client.list_parameters()
+        values = client.get_parameters(names)
+        empty = [name for name, value in values.items() if value == []]
+        kinds = client.get_parameter_types(empty) if empty else {}
+        found = []
+        for name, value in values.items():
+            full = f'{node_name}.{name}'
+            if value is not None and self._allowed(full):
+                found.append(to_foxglove(full, value, kinds.get(name)))
+        return found
+
+    def _each_node(self, wanted: dict[str, list[str] | None]) -> list[foxglove.Parameter]:
+        futures = {n: self._pool.submit(self._of_node, n, names) for n, names in wanted.items()}
+        found = []
+        for node_name, future in futures.items():
+            try:
+                found += future.result()
+            except (ZrosError, OSError) as exc:
+                _log.warning('no parameters from %s: %s', node_name, exc)
+        return found
+
+    def get(self, names: Iterable[str]) -> list[foxglove.Parameter]:
+        """The parameters named (``/node.param``), or every parameter when none is named."""
+        names = list(names)
+        wanted: dict[str, list[str] | None] = {}
+        for full in names:
+            node_name, name = split_name(full)
+            if name and self._allowed(full):
+                listed = wanted.setdefault(node_name, [])
+                assert listed is not None
+                listed.append(name)
+        if not wanted and not names:
+            wanted = dict.fromkeys(self._nodes())
+        return self._each_node(wanted)
+
+    def set(self, parameters: Iterable[foxglove.Parameter]) -> list[foxglove.Parameter]:
+        """Set parameters, node by node; returns their values afterwards (a refused value
+        stays as it was, and the clients are told why)."""
+        by_node: dict[str, list[Parameter]] = {}
+        for parameter in parameters:
+            node_name, name = split_name(parameter.name)
+            if not name or not self._allowed(parameter.name):
+                self._status(f'the parameter {parameter.name} may not be set through this server')
+                continue
+            value, kind = from_foxglove(parameter)
+            by_node.setdefault(node_name, []).append(Parameter(name, value, kind))
+        futures = {
+            n: self._pool.submit(self._client(n).set_parameters, items)
+            for n, items in by_node.items()
+        }
+        for node_name, future in futures.items():
+            try:
+                results = future.result()
+            except (ZrosError, OSError) as exc:
+                self._status(f'cannot set parameters of {node_name}: {exc}')
+                continue
+            for item, result in zip(by_node[node_name], results, strict=False):
+                if not result:
+                    self._status(f'{node_name} refused {item.name}: {result.reason}')
+        return self._each_node({n: [item.name for item in items] for n, items in by_node.items()})
+
+    # --- updates ---------------------------------------------------------------------------------
+
+    def subscribe(self, names: Iterable[str]) -> None:
+        """Send clients the changes of these parameters (from ``/parameter_events``)."""
+        with self._lock:
+            self._subscribed.update(names)
+            if self._events is not None or not self._subscribed:
+                return
+            cls = self._node.registry.get_class('rcl_interfaces/msg/ParameterEvent')
+            self._events = RawTap(
+                self._node,
+                '/parameter_events',
+                cls.__msgtype__,
+                qos=PARAMETER_EVENTS,
+                key=None,
+                callback=self._event_callback(cls),
+            )
+
+    def unsubscribe(self, names: Iterable[str]) -> None:
+        """Stop sending the changes of these parameters."""
+        with self._lock:
+            self._subscribed.difference_update(names)
+            events = self._events if not self._subscribed else None
+            if events is not None:
+                self._events = None
+        if events is not None:
+            events.close()
+
+    def _event_callback(self, cls: type[Message]) -> Callable[[zenoh.Sample], None]:
+        def on_event(sample: zenoh.Sample) -> None:
+            try:
+                event = decode(cls, sample.payload.to_bytes())
+            except CdrError as exc:
+                _log.debug('a /parameter_events message does not decode: %s', exc)
+                return
+            updates = []
+            for item in (*event.new_parameters, *event.changed_parameters):
+                full = f'{event.node}.{item.name}'
+                if full in self._subscribed:
+                    value, kind = from_message(item.value)
+                    updates.append(to_foxglove(full, value, kind))
+            if updates:
+                self._publish(updates)
+
+        return on_event
+
+    def close(self) -> None:
+        """Stop following events and close the parameter clients."""
+        self.unsubscribe(list(self._subscribed))
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._clients.close()
