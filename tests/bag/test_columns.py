@@ -12,7 +12,8 @@ import pytest
 
 from tests.bag.makebags import make_db3, make_points_mcap, make_sensor_bag
 from tests.bag.reference import RECORDINGS, rosbags_messages
-from zros.bag import Bag, BagError, columns
+from zros.bag import Bag, BagError, Connection
+from zros.bag.columns import extract
 from zros.cdr import encode, new_message
 
 
@@ -65,16 +66,16 @@ def test_sensor_columns_equal_rosbags(sensor_bag: Path, topic: str) -> None:
 
 def test_fast_and_slow_paths_agree(sensor_bag: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     def refuse(*args: Any) -> Any:
-        raise columns._Unplannable('forced')
+        raise extract._Unplannable('forced')
 
     def unexpected(*args: Any) -> Any:
         raise AssertionError('the fast path should read these messages')
 
     with Bag(sensor_bag) as bag:
-        monkeypatch.setattr(columns, '_slow', unexpected)
+        monkeypatch.setattr(extract, '_slow', unexpected)
         fast = {t: bag.columns(t) for t in ('/imu', '/scan', '/odom')}
         monkeypatch.undo()
-        monkeypatch.setattr(columns, '_fast', refuse)
+        monkeypatch.setattr(extract, '_fast', refuse)
         slow = {t: bag.columns(t) for t in ('/imu', '/scan', '/odom')}
     for topic, found in fast.items():
         assert found.keys() == slow[topic].keys()
@@ -89,7 +90,7 @@ def test_uniform_columns_are_2d_and_batches_join(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     path = make_sensor_bag(tmp_path / 'even', 90, storage='sqlite3', vary=False)
-    monkeypatch.setattr(columns, 'BATCH', 7)
+    monkeypatch.setattr(extract, 'BATCH', 7)
     with Bag(path) as bag:
         scan = bag.columns('/scan', ['ranges', 'angle_max'])
         odom = bag.columns('/odom', ['pose.pose.position'])
@@ -174,7 +175,7 @@ def test_data_that_fits_no_definition_is_an_error(tmp_path: Path) -> None:
 
 
 def test_attribute_spellings_are_accepted(tmp_path: Path) -> None:
-    from zros.bag.column_plan import ros_path
+    from zros.bag.columns.plan import ros_path
 
     assert ros_path('a.from_.b_') == 'a.from.b_'
 
@@ -218,7 +219,7 @@ def _forbid(monkeypatch: pytest.MonkeyPatch) -> None:
     def unexpected(*args: Any) -> Any:
         raise AssertionError('read message by message')
 
-    monkeypatch.setattr(columns, '_message_blocks', unexpected)
+    monkeypatch.setattr(extract, '_message_blocks', unexpected)
 
 
 @pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
@@ -254,30 +255,31 @@ def test_compressed_messages_are_read_one_by_one(tmp_path: Path) -> None:
 
 
 def test_a_message_index_that_does_not_match_is_refused() -> None:
-    from zros.bag import mcap_bulk
+    from zros.bag.read import mcap_chunks
 
     record = bytes([5]) + (22 + 3).to_bytes(8, 'little') + (1).to_bytes(2, 'little')
     record += bytes(4) + (50).to_bytes(8, 'little') * 2 + b'abc'
-    entries = np.array([(50, 0)], mcap_bulk._INDEX)
-    block = mcap_bulk._block(record, 1, entries)
+    entries = np.array([(50, 0)], mcap_chunks._INDEX)
+    block = mcap_chunks._block(record, 1, entries)
     assert list(block.data) == [b'abc'] and block.times.tolist() == [50]
-    for wrong in (np.array([(50, 3)], mcap_bulk._INDEX), np.array([(51, 0)], mcap_bulk._INDEX)):
-        with pytest.raises(mcap_bulk.Unsupported):
-            mcap_bulk._block(record, 1, wrong)
-    with pytest.raises(mcap_bulk.Unsupported):
-        mcap_bulk._block(record, 2, entries)
-    with pytest.raises(mcap_bulk.Unsupported):
-        mcap_bulk._block(record[:-1], 1, entries)
+    for wrong in (np.array([(50, 3)], mcap_chunks._INDEX), np.array([(51, 0)], mcap_chunks._INDEX)):
+        with pytest.raises(mcap_chunks.Unsupported):
+            mcap_chunks._block(record, 1, wrong)
+    with pytest.raises(mcap_chunks.Unsupported):
+        mcap_chunks._block(record, 2, entries)
+    with pytest.raises(mcap_chunks.Unsupported):
+        mcap_chunks._block(record[:-1], 1, entries)
 
 
 @pytest.mark.parametrize('compression', ['none', 'zstd', 'lz4'])
 def test_a_mapped_file_gives_the_payloads_a_read_one_does(tmp_path: Path, compression: str) -> None:
-    from zros.bag import mcap_bulk
+    from zros.bag.read import mcap_chunks
 
     path = make_points_mcap(tmp_path / 'points.mcap', 300, compression, True, shuffle=False)
 
     def payloads(mapped: bool) -> list[list[bytes]]:
-        found = mcap_bulk.read_blocks(path, {1}, None, None, mapped=mapped)
+        channels = {1: Connection(1, '/points', 'test_msgs/msg/Point', '', '', 'cdr', 300, '')}
+        found = mcap_chunks.read_blocks(path, channels, None, None, mapped=mapped)
         return [list(block.data) for blocks in found for block in blocks]
 
     read = payloads(False)
@@ -288,7 +290,7 @@ def test_a_mapped_file_gives_the_payloads_a_read_one_does(tmp_path: Path, compre
 def test_a_damaged_chunk_in_a_mapped_file_is_refused(tmp_path: Path) -> None:
     from mcap.reader import make_reader
 
-    from zros.bag import mcap_bulk
+    from zros.bag.read import mcap_chunks
 
     path = make_points_mcap(tmp_path / 'points.mcap', 300, 'none', True, shuffle=False)
     with path.open('rb') as stream:
@@ -298,11 +300,12 @@ def test_a_damaged_chunk_in_a_mapped_file_is_refused(tmp_path: Path) -> None:
     data = bytearray(path.read_bytes())
     data[at] = 0x05  # a message record's opcode where a chunk should begin
     path.write_bytes(bytes(data))
-    with pytest.raises(mcap_bulk.Unsupported, match='no chunk where'):
-        list(mcap_bulk.read_blocks(path, {1}, None, None, mapped=True))
+    channels = {1: Connection(1, '/points', 'test_msgs/msg/Point', '', '', 'cdr', 300, '')}
+    with pytest.raises(mcap_chunks.Unsupported, match='no chunk where'):
+        list(mcap_chunks.read_blocks(path, channels, None, None, mapped=True))
     view = memoryview(bytes([0x06]) + bytes(20))  # cut inside the chunk's header
-    with pytest.raises(mcap_bulk.Unsupported, match='damaged chunk record'):
-        mcap_bulk._mapped_chunk(view, 0)
+    with pytest.raises(mcap_chunks.Unsupported, match='damaged chunk record'):
+        mcap_chunks._mapped_chunk(view, 0)
     header = bytes([0x06]) + bytes(8) + bytes(24) + bytes(4) + bytes(4) + (99).to_bytes(8, 'little')
-    with pytest.raises(mcap_bulk.Unsupported, match='beyond the end'):
-        mcap_bulk._mapped_chunk(memoryview(header + bytes(10)), 0)
+    with pytest.raises(mcap_chunks.Unsupported, match='beyond the end'):
+        mcap_chunks._mapped_chunk(memoryview(header + bytes(10)), 0)

@@ -1,4 +1,4 @@
-"""``zros.bag.info`` and ``zros bag info``: the layout of ``ros2 bag info``.
+"""``zros.bag.read.info`` and ``zros bag info``: the layout of ``ros2 bag info``.
 
 The golden files were written by hand from rosbag2's own expectation for cdr_test
 (rosbag2_tests/test_rosbag2_info_end_to_end.cpp: duration, start, end, counts, topic lines),
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from zros.bag.info import format_size, format_time, info
+from zros.bag.read.info import format_size, format_time, info
 
 GOLDEN = Path(__file__).parent / 'golden'
 CASES = {

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from zros.bag.payloads import Payloads, Rows, gather
+from zros.bag.read.payloads import Payloads, Rows, gather
 
 
 def _payloads(buffer: bytes, spans: list[tuple[int, int]]) -> Payloads:

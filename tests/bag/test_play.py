@@ -14,11 +14,12 @@ import pytest
 
 import zros
 from zros.bag import BagError
-from zros.bag.bag_writer import BagTopic, BagWriter
-from zros.bag.play_clock import PlayClock
-from zros.bag.play_topics import PlayerError, parse_remap, playback_qos
-from zros.bag.player import Player
-from zros.bag.recorder import Recorder
+from zros.bag.errors import PlayerError
+from zros.bag.play.play_clock import PlayClock
+from zros.bag.play.player import Player
+from zros.bag.play.topics import parse_remap, playback_qos
+from zros.bag.write.bag_writer import BagTopic, BagWriter
+from zros.bag.write.recorder import Recorder
 from zros.cdr import default_registry, encode
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, History, QoS, Reliability

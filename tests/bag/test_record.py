@@ -11,10 +11,10 @@ from typing import Any
 import pytest
 
 import zros
-from zros.bag.bag_writer import BagWriteError
-from zros.bag.mcap_writer import McapFile
-from zros.bag.recorder import Recorder, RecorderError, is_hidden, recording_qos
-from zros.bag.rosbag2_yaml import parse_qos_profiles
+from zros.bag.errors import BagWriteError, RecorderError
+from zros.bag.read.rosbag2_yaml import parse_qos_profiles
+from zros.bag.write.mcap_writer import McapFile
+from zros.bag.write.recorder import Recorder, is_hidden, recording_qos
 from zros.cdr import TypeRegistry, default_registry, encode
 from zros.cdr.render import render_bundle
 from zros.qos import Durability, History, QoS, Reliability

@@ -6,15 +6,16 @@ from pathlib import Path
 
 import pytest
 
-from zros.bag.bag_writer import BagTopic, BagWriteError, BagWriter
-from zros.bag.mcap_writer import McapFile
-from zros.bag.rosbag2_yaml import (
+from zros.bag.errors import BagWriteError
+from zros.bag.read.rosbag2_yaml import (
     FileEntry,
     bag_metadata,
     metadata_yaml,
     parse_qos_profiles,
     qos_profiles_text,
 )
+from zros.bag.write.bag_writer import BagTopic, BagWriter
+from zros.bag.write.mcap_writer import McapFile
 from zros.cdr import default_registry, encode, new_message
 from zros.qos import Durability, History, QoS, Reliability
 

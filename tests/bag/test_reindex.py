@@ -16,7 +16,7 @@ from tests.bag.test_record import bag_yaml
 from tests.bag.test_record_cli import complete_chunks, texts, zros_cli  # noqa: F401
 from tests.cli.conftest import Cli
 from zros.bag import Bag, BagError, BagTopic, BagWriter, reindex
-from zros.bag.rosbag2_source import storage_files
+from zros.bag.read.rosbag2 import storage_files
 from zros.cdr import default_registry, encode
 from zros.testing import wait_for
 

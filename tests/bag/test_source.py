@@ -12,8 +12,9 @@ import pytest
 
 from tests.bag.makebags import make_points_mcap
 from tests.bag.reference import RECORDINGS, raw_messages, to_plain
-from zros.bag import Bag, BagError, open_source
-from zros.bag.source import normalise_type_name
+from zros.bag import Bag, BagError, Connection, open_source
+from zros.bag.read import source
+from zros.bag.read.source import Source, normalise_type_name
 
 
 @pytest.mark.parametrize('name', RECORDINGS)
@@ -144,6 +145,60 @@ def test_not_a_bag(tmp_path: Path, name: str) -> None:
     path.write_bytes(b'this is not a recording\n' * 10)
     with pytest.raises(BagError, match=re.escape(path.name)):
         open_source(path)
+
+
+def test_unknown_format_names_the_known_ones(tmp_path: Path) -> None:
+    path = tmp_path / 'notes.txt'
+    path.write_text('no bag here')
+    with pytest.raises(BagError) as info:
+        open_source(path)
+    assert info.value.path == path
+    assert info.value.reason == (
+        'not a recording zros reads (expected a bag folder, .mcap, .db3 or ROS 1 .bag)'
+    )
+
+
+def test_a_format_is_one_table_entry(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A reader registered in ``FORMATS`` opens the paths its detector accepts, and is named in
+    the error for paths no format accepts."""
+
+    class Notes(Source):
+        def open(self) -> None:
+            self.storage_id = 'notes'
+            self.files = [self.path]
+
+    formats = {
+        **source.FORMATS,
+        'notes': source.Format(lambda p: p.suffix == '.txt', Notes, '.txt'),
+    }
+    monkeypatch.setattr(source, 'FORMATS', formats)
+    path = tmp_path / 'notes.txt'
+    path.write_text('no bag here')
+    with open_source(path) as opened:
+        assert isinstance(opened, Notes)
+        assert opened.storage_id == 'notes'
+    other = tmp_path / 'notes.csv'
+    other.write_text('')
+    with pytest.raises(BagError, match=r'\.db3 or ROS 1 \.bag or \.txt\)$'):
+        open_source(other)
+
+
+def test_a_reader_that_fails_to_open_is_closed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    closed: list[Path] = []
+
+    class Broken(Source):
+        def open(self) -> None:
+            self._closers.append(lambda: closed.append(self.path))
+            raise OSError('the disk is gone')
+
+    monkeypatch.setattr(source, 'FORMATS', {'broken': source.Format(lambda p: True, Broken, 'any')})
+    path = tmp_path / 'x.broken'
+    path.write_text('')
+    with pytest.raises(BagError, match='cannot open the recording: the disk is gone'):
+        open_source(path)
+    assert closed == [path]
 
 
 def test_empty_file(tmp_path: Path) -> None:
@@ -280,17 +335,17 @@ def test_compressed_bags(tmp_path: Path, mode: str, storage: str) -> None:
 
 def _counting_fast_path(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     """Count the messages the whole-chunk MCAP reader gives (the loop's fast path)."""
-    from zros.bag import mcap_bulk, rosbag2_source
+    from zros.bag.read import mcap_chunks, rosbag2
 
     given = [0]
-    original = mcap_bulk.ordered_messages
+    original = mcap_chunks.ordered_messages
 
-    def counted(*args: Any) -> Iterator[tuple[int, int, bytes]]:
+    def counted(*args: Any) -> Iterator[tuple[Connection, int, bytes]]:
         for item in original(*args):
             given[0] += 1
             yield item
 
-    monkeypatch.setattr(rosbag2_source, 'ordered_messages', counted)
+    monkeypatch.setattr(rosbag2, 'ordered_messages', counted)
     return given
 
 
@@ -340,20 +395,20 @@ def test_mcap_chunks_overlapping_in_time_are_read_by_rosbags(
 def test_a_chunk_index_failing_midway_hands_over_to_rosbags_without_loss_or_repeats(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from zros.bag import mcap_bulk
+    from zros.bag.read import mcap_chunks
 
     path = make_points_mcap(tmp_path / 'p.mcap', 300, 'none', shuffle=False)
     given = _counting_fast_path(monkeypatch)
-    original = mcap_bulk._block
+    original = mcap_chunks._block
     calls = [0]
 
-    def third_fails(*args: Any) -> mcap_bulk.Block:
+    def third_fails(*args: Any) -> mcap_chunks._Run:
         calls[0] += 1
         if calls[0] == 3:
-            raise mcap_bulk.Unsupported('message index does not match the chunk')
+            raise mcap_chunks.Unsupported('message index does not match the chunk')
         return original(*args)
 
-    monkeypatch.setattr(mcap_bulk, '_block', third_fails)
+    monkeypatch.setattr(mcap_chunks, '_block', third_fails)
     expected = [(e[2], e[3]) for e in raw_messages(path)]
     with open_source(path) as source:
         got = [(m.timestamp, bytes(m.data)) for m in source.messages()]

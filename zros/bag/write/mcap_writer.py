@@ -74,7 +74,7 @@ class McapFile:
         self.path = os.fspath(path)
         self._stream = open(self.path, 'xb')  # noqa: SIM115 (closed in close())
         # the library never closes a chunk by itself: this class decides (size or flush)
-        # untyped: its private chunk flush is called, and ``finish`` has no annotations
+        # untyped: ``flush`` and ``finish`` have no annotations
         self._writer: Untyped = Writer(
             self._stream, chunk_size=2**62, compression=kind, enable_crcs=True
         )
@@ -137,12 +137,7 @@ class McapFile:
     def flush(self) -> None:
         """Close the open chunk (if it holds messages) and hand it to the operating system."""
         if self._pending and self.stats.message_count:
-            flush = getattr(self._writer, 'flush', None)
-            if flush is not None:
-                flush()
-            else:  # mcap < 1.6 has no public way to close a chunk
-                self._writer._Writer__finalize_chunk()
-                self._stream.flush()
+            self._writer.flush()  # the chunk, then the stream (no fsync)
             self._pending = 0
 
     def close(self, serialized_metadata: str | None = None) -> None:

@@ -1,7 +1,7 @@
 """ROS 2 recordings: a bag folder (split or not), or one bare ``.mcap`` or ``.db3`` file.
 
 The storage formats are read by rosbags' storage readers; MCAP files that were never finished
-are read by :mod:`zros.bag.mcap_recover` up to their last complete record.
+are read by :mod:`zros.bag.read.mcap_recover` up to their last complete record.
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.bag.errors import BagError
-from zros.bag.mcap_bulk import Unsupported, ordered_messages, read_blocks
-from zros.bag.mcap_recover import RecoveredMcap, is_mcap
-from zros.bag.source_base import Block, Connection, RawMessage, Source, normalise_type_name
+from zros.bag.errors import BagError, Unsupported
+from zros.bag.read.mcap_chunks import ordered_messages, read_blocks
+from zros.bag.read.mcap_recover import RecoveredMcap, is_mcap
+from zros.bag.read.source_base import Block, Connection, RawMessage, Source, normalise_type_name
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection as NativeConnection
@@ -235,20 +235,20 @@ class Rosbag2Source(Source):
             # whole chunks through their message indexes, without rosbags' step per record
             path = Path(getattr(stream.reader, 'path', ''))
             try:
-                for channel, timestamp, data in ordered_messages(
-                    path, {item.id for item in wanted}, start, end
+                for connection, timestamp, data in ordered_messages(
+                    path, {item.id: mapping[item.id] for item in wanted}, start, end
                 ):
                     if skip and timestamp != start:
                         skip = []
                     start = timestamp
-                    skip.append((channel, data))
-                    yield RawMessage(mapping[channel], timestamp, data)
+                    skip.append((connection.id, data))
+                    yield RawMessage(connection, timestamp, data)
                 return
             except Unsupported:
                 pass  # rosbags reads it, from the last time given (those given are skipped)
         for item, timestamp, data in stream.reader.messages(wanted, start, end):
-            if skip and timestamp == start and (item.id, bytes(data)) in skip:
-                skip.remove((item.id, bytes(data)))
+            if skip and timestamp == start and (mapping[item.id].id, bytes(data)) in skip:
+                skip.remove((mapping[item.id].id, bytes(data)))
                 continue
             raw = data if decompress is None else decompress(data)
             yield RawMessage(mapping[item.id], timestamp, raw)
@@ -261,17 +261,17 @@ class Rosbag2Source(Source):
         ids = {c.id for c in connections}
         base = 0
         for stream in self._streams:
-            channels = {cid for cid, c in stream.mapping.items() if c.id in ids}
+            channels = {cid: c for cid, c in stream.mapping.items() if c.id in ids}
             if not channels:
                 continue
             if self.storage_id == 'sqlite3':
-                yield from _sqlite_blocks(stream, channels, start, end)
+                yield from _sqlite_blocks(stream, set(channels), start, end)
                 continue
             for found in read_blocks(Path(stream.reader.path), channels, start, end, mapped=True):
                 blocks = [
-                    Block(stream.mapping[b.channel], b.times, base + b.order, b.data)
+                    Block(b.connection, b.times, base + b.keys, b.data)
                     for b in found
-                    if b.order is not None and len(b.times)
+                    if len(b.times)
                 ]
                 base += sum(len(b.times) for b in found)
                 if blocks:

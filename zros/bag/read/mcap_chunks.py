@@ -14,14 +14,16 @@ import io
 import itertools
 import mmap
 import struct
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from zros.bag.payloads import Payloads
+from zros.bag.errors import Unsupported
+from zros.bag.read.payloads import Payloads
+from zros.bag.read.source_base import Block, Connection
 
 if TYPE_CHECKING:
     from mcap.records import Chunk
@@ -37,19 +39,13 @@ _MAX_CHUNK = 1 << 31
 _INDEX = np.dtype([('time', '<u8'), ('offset', '<u8')])
 
 
-class Unsupported(Exception):
-    """The file cannot be read in chunks; read it message by message instead."""
-
-
 @dataclass
-class Block:
+class _Run:
     """Messages of one channel in one chunk, in the chunk's order."""
 
-    channel: int
     times: np.ndarray  #: int64 log times
     offsets: np.ndarray  #: int64 record offsets in the chunk (ascending)
     data: Payloads
-    order: np.ndarray | None = None  #: int64 rank of each message in its chunk (file order)
 
 
 def _mapped_chunk(view: memoryview, at: int) -> Chunk:
@@ -114,18 +110,19 @@ def _index(stream: io.BufferedReader, at: int, limit: int) -> np.ndarray:
 
 def read_blocks(
     path: Path,
-    channels: set[int],
+    channels: Mapping[int, Connection],
     start: int | None,
     end: int | None,
     *,
     ordered: bool = False,
     mapped: bool = False,
 ) -> Iterator[list[Block]]:
-    """The blocks of each chunk holding messages of ``channels`` with ``start <= log time < end``,
-    in file order (chunks may overlap in time: the caller sorts). ``ordered`` refuses (before
-    the first block) files whose chunks of those messages overlap in time. ``mapped``: the file
-    is memory-mapped and the payloads of uncompressed chunks stay in the map (no copy: for
-    readers that copy out a few fields of each message)."""
+    """The blocks of each chunk holding messages of ``channels`` (channel id -> the connection
+    its blocks carry) with ``start <= log time < end``, in file order (chunks may overlap in
+    time: the caller sorts); a block's ``keys`` rank its messages in their chunk. ``ordered``
+    refuses (before the first block) files whose chunks of those messages overlap in time.
+    ``mapped``: the file is memory-mapped and the payloads of uncompressed chunks stay in the
+    map (no copy: for readers that copy out a few fields of each message)."""
     from mcap.data_stream import ReadDataStream
     from mcap.reader import make_reader
     from mcap.records import Chunk
@@ -138,10 +135,11 @@ def read_blocks(
             raise Unsupported(str(exc)) from exc
         if summary is None or not summary.chunk_indexes:
             raise Unsupported('no chunk index')
+        wanted_ids = set(channels)
         indexes = [
             index
             for index in sorted(summary.chunk_indexes, key=lambda index: index.chunk_start_offset)
-            if channels & set(index.message_index_offsets)
+            if wanted_ids & set(index.message_index_offsets)
             and (start is None or index.message_end_time >= start)
             and (end is None or index.message_start_time < end)
         ]
@@ -155,7 +153,7 @@ def read_blocks(
             memoryview(mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ)) if mapped else None
         )
         for index in indexes:
-            wanted = channels & set(index.message_index_offsets)
+            wanted = sorted(wanted_ids & set(index.message_index_offsets))
             limit = index.chunk_start_offset + index.chunk_length + index.message_index_length
             if limit > size:
                 raise Unsupported('chunk beyond the end of the file')
@@ -165,25 +163,32 @@ def read_blocks(
                 stream.seek(index.chunk_start_offset + 1 + 8)
                 chunk = Chunk.read(ReadDataStream(stream))
             data = _decompress(chunk)
-            blocks = [
-                _block(data, channel, _index(stream, index.message_index_offsets[channel], limit))
-                for channel in sorted(wanted)
+            runs = [
+                _window(
+                    _block(
+                        data, channel, _index(stream, index.message_index_offsets[channel], limit)
+                    ),
+                    start,
+                    end,
+                )
+                for channel in wanted
             ]
-            blocks = [_window(block, start, end) for block in blocks]
-            offsets = np.concatenate([block.offsets for block in blocks])
+            offsets = np.concatenate([run.offsets for run in runs])
             ranks = np.empty(len(offsets), np.int64)
             ranks[np.argsort(offsets, kind='stable')] = np.arange(len(offsets))
+            blocks = []
             at = 0
-            for block in blocks:
-                block.order = ranks[at : at + len(block.offsets)]
-                at += len(block.offsets)
+            for channel, run in zip(wanted, runs, strict=True):
+                keys = ranks[at : at + len(run.offsets)]
+                blocks.append(Block(channels[channel], run.times, keys, run.data))
+                at += len(run.offsets)
             yield blocks
 
 
 def ordered_messages(
-    path: Path, channels: set[int], start: int | None, end: int | None
-) -> Iterator[tuple[int, int, bytes]]:
-    """``(channel, log time, payload)`` of the messages of ``channels`` with ``start <= log time
+    path: Path, channels: Mapping[int, Connection], start: int | None, end: int | None
+) -> Iterator[tuple[Connection, int, bytes]]:
+    """``(connection, log time, payload)`` of the messages of ``channels`` with ``start <= log time
     < end``, in time order (file order among equal times), chunk by chunk.
 
     Raises :class:`Unsupported` before the first message where chunks overlap in time (or
@@ -192,29 +197,29 @@ def ordered_messages(
     """
     for blocks in read_blocks(path, channels, start, end, ordered=True):
         times = np.concatenate([block.times for block in blocks])
-        ranks = np.concatenate([block.order for block in blocks if block.order is not None])
-        channel_of = list(
-            itertools.chain.from_iterable([block.channel] * len(block.data) for block in blocks)
+        ranks = np.concatenate([block.keys for block in blocks])
+        connection_of = list(
+            itertools.chain.from_iterable([block.connection] * len(block.data) for block in blocks)
         )
         payloads = list(itertools.chain.from_iterable(block.data for block in blocks))
         order = np.lexsort((ranks, times)).tolist()
         stamps = times.tolist()
         for at in order:
-            yield channel_of[at], stamps[at], payloads[at]
+            yield connection_of[at], stamps[at], payloads[at]
 
 
-def _window(block: Block, start: int | None, end: int | None) -> Block:
-    keep = np.ones(len(block.times), bool)
+def _window(run: _Run, start: int | None, end: int | None) -> _Run:
+    keep = np.ones(len(run.times), bool)
     if start is not None:
-        keep &= block.times >= start
+        keep &= run.times >= start
     if end is not None:
-        keep &= block.times < end
+        keep &= run.times < end
     if keep.all():
-        return block
-    return Block(block.channel, block.times[keep], block.offsets[keep], block.data.select(keep))
+        return run
+    return _Run(run.times[keep], run.offsets[keep], run.data.select(keep))
 
 
-def _block(data: bytes | memoryview, channel: int, entries: np.ndarray) -> Block:
+def _block(data: bytes | memoryview, channel: int, entries: np.ndarray) -> _Run:
     times = entries['time'].astype(np.int64)
     offsets = entries['offset'].astype(np.int64)
     order = np.argsort(offsets, kind='stable')
@@ -234,4 +239,4 @@ def _block(data: bytes | memoryview, channel: int, entries: np.ndarray) -> Block
         or (recorded != times).any()
     ):
         raise Unsupported('message index does not match the chunk')
-    return Block(channel, times, offsets, Payloads(data, offsets + _HEAD, ends))
+    return _Run(times, offsets, Payloads(data, offsets + _HEAD, ends))

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE, McapFile, compression_type
-from zros.bag.rosbag2_yaml import (
+from zros.bag.errors import BagWriteError
+from zros.bag.read.rosbag2_yaml import (
     FileEntry,
     TopicEntry,
     bag_metadata,
@@ -23,6 +23,7 @@ from zros.bag.rosbag2_yaml import (
     qos_profiles_text,
     write_metadata_yaml,
 )
+from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, McapFile, compression_type
 from zros.cdr.hashing import type_hash
 from zros.cdr.render import render_bundle
 from zros.errors import ZrosError
@@ -34,10 +35,6 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros.bag')
 _NS = 1_000_000_000
-
-
-class BagWriteError(ZrosError):
-    """A bag cannot be created or written (the folder exists, a bad split setting...)."""
 
 
 @dataclass

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.bag.source_base import Connection, RawMessage, Source, normalise_type_name
+from zros.bag.read.source_base import Connection, RawMessage, Source, normalise_type_name
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection as NativeConnection

@@ -5,19 +5,16 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING
 
-from zros.bag.types import how_to_define
+from zros.bag.errors import PlayerError
+from zros.bag.read.types import how_to_define
 from zros.cdr import TypeRegistry
 from zros.errors import ZrosError
 from zros.qos import Durability, History, QoS, Reliability
 
 if TYPE_CHECKING:
-    from zros.bag.source import Connection
+    from zros.bag.read.source import Connection
     from zros.cdr import Message
     from zros.node import Node
-
-
-class PlayerError(ZrosError):
-    """A bag cannot be played as asked (unknown topics, a bad rate or offset...)."""
 
 
 def playback_qos(offered: Iterable[QoS]) -> QoS:

@@ -3,7 +3,7 @@ last complete record.
 
 The mcap library's stream reader scans the file linearly (chunk CRCs checked) and stops at the
 first record that is cut short or corrupt; everything before it is read. The class has the
-interface of rosbags' storage readers, so :mod:`zros.bag.rosbag2_source` treats it like one.
+interface of rosbags' storage readers, so :mod:`zros.bag.read.rosbag2` treats it like one.
 """
 
 from __future__ import annotations

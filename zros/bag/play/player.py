@@ -17,21 +17,22 @@ import time
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import TYPE_CHECKING
 
-from zros.bag.play_clock import PlayClock
-from zros.bag.play_topics import PlayerError, message_class, parse_remap, playback_qos
-from zros.bag.rosbag2_yaml import parse_qos_profiles
-from zros.bag.source import open_source
+from zros.api import default_node
+from zros.bag.errors import PlayerError
+from zros.bag.play.play_clock import PlayClock
+from zros.bag.play.topics import message_class, parse_remap, playback_qos
+from zros.bag.read.rosbag2_yaml import parse_qos_profiles
+from zros.bag.read.source import open_source
 from zros.cdr.registry import registry_of
 from zros.errors import ZrosError
+from zros.pubsub import Publisher
 from zros.qos import QoS, Reliability
 from zros.runtime.signal import add_interrupt_listener, remove_interrupt_listener
+from zros.services.typeinfo import TypeDescriptionService
 
-# the runtime (Zenoh) is imported where a player starts: reading a bag needs none of it
 if TYPE_CHECKING:
-    from zros.bag.source import Connection, RawMessage, Source
+    from zros.bag.read.source import Connection, RawMessage, Source
     from zros.node import Node
-    from zros.pubsub import Publisher
-    from zros.services.typeinfo import TypeDescriptionService
 
 _log = logging.getLogger('zros.bag')
 _NS = 1_000_000_000
@@ -72,9 +73,7 @@ class Player:
         wait_for_subscribers: float = 0.0,
         on_message: Callable[[RawMessage], object] | None = None,
     ) -> None:
-        if node is None:  # the module API loads Zenoh: only for a player without a node
-            from zros.api import default_node
-
+        if node is None:
             node = default_node()
         node.context.check_open()
         if not rate > 0:
@@ -125,7 +124,6 @@ class Player:
         self.end_ns = source.end_ns
         self._publishers: dict[int, Publisher] = {}
         by_topic: dict[tuple[str, str], Publisher] = {}
-        from zros.pubsub import Publisher
 
         playable: list[Connection] = []
         unplayable: list[PlayerError] = []
@@ -172,8 +170,6 @@ class Player:
         self._types: TypeDescriptionService | None = None
         own = [p.msg_type for p in publishers if registry_of(p.msg_type) is not self.node.registry]
         if own:
-            from zros.services.typeinfo import TypeDescriptionService
-
             self._types = TypeDescriptionService(self.node)
             for cls in own:
                 self._types.add(cls)

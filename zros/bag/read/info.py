@@ -12,7 +12,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from zros.bag.source import Connection, open_source
+from zros.bag.read.source import Connection, open_source
 
 _NS = 1_000_000_000
 _INDENT = 19

@@ -1,7 +1,7 @@
 """The shape every recording takes when read raw: connections, raw messages, blocks.
 
-:class:`Source` is the base of the storage readers (``rosbag2_source``, ``rosbag1_source``);
-:func:`zros.bag.source.open_source` picks one for a path.
+:class:`Source` is the base of the storage readers (``rosbag2``, ``rosbag1``);
+:func:`zros.bag.read.source.open_source` picks one for a path.
 """
 
 from __future__ import annotations
@@ -13,8 +13,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING
 
-from zros.bag.errors import BagError
-from zros.bag.mcap_bulk import Unsupported
+from zros.bag.errors import BagError, Unsupported
 
 if TYPE_CHECKING:
     import numpy as np
@@ -87,6 +86,10 @@ class Source:
         self.compression_mode = ''
         self._closers: list[Callable[[], None]] = []
         self._closed = False
+
+    def open(self) -> None:
+        """Read the recording's connections and time range (:func:`open_source` calls it)."""
+        raise NotImplementedError
 
     @property
     def size_bytes(self) -> int:

@@ -1,7 +1,7 @@
 """Numeric fields of a topic as numpy columns, read straight from the CDR bytes.
 
 Messages of one connection are grouped by byte length into rows that stay in their buffers
-(:class:`~zros.bag.payloads.Rows`), so a field at the same offset in every row is gathered in
+(:class:`~zros.bag.read.payloads.Rows`), so a field at the same offset in every row is gathered in
 one numpy copy and viewed with its dtype. Strings and sequences move the offset by their length:
 rows are split into parts by the offset they reach, and each part goes on alone. Recorded sensor
 data has few parts (the frame id and array lengths rarely change), so a topic costs a handful of
@@ -19,15 +19,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from zros.bag.column_plan import Leaf, Plan, Step, plan, select
+from zros.bag.columns.plan import Leaf, Plan, Step, plan, select
 
 if TYPE_CHECKING:
     from zros.cdr import FieldValue, Untyped
-from zros.bag.errors import BagError
-from zros.bag.mcap_bulk import Unsupported
-from zros.bag.payloads import Payloads, Rows, gather
-from zros.bag.source import Block, Connection, RawMessage, Source
-from zros.bag.types import BagTypes
+from zros.bag.errors import BagError, Unsupported
+from zros.bag.read.payloads import Payloads, Rows, gather
+from zros.bag.read.source import Block, Connection, RawMessage, Source
+from zros.bag.read.types import BagTypes
 from zros.cdr.message import Message
 
 TIME = 'time'

@@ -26,16 +26,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
-from zros.bag.mcap_recover import LinearScan, is_mcap
-from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
+from zros.bag.read.mcap_recover import LinearScan, is_mcap
+from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
 
 if TYPE_CHECKING:
     from mcap.records import Channel, Message, Schema
 
     from zros.bag.boundary import YamlValue
     from zros.cdr import Untyped
-from zros.bag.rosbag2_source import storage_files
-from zros.bag.rosbag2_yaml import (
+from zros.bag.read.rosbag2 import storage_files
+from zros.bag.read.rosbag2_yaml import (
     FileEntry,
     TopicEntry,
     bag_metadata,

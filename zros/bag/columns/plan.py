@@ -3,7 +3,7 @@
 A plan is the message's wire layout as a list of steps: a *block* of fixed-size fields whose
 offsets inside the block are static (the block starts at its largest alignment), a *string*, a
 *sequence* of primitives, or a sequence of fixed-size structs. Between steps the position
-depends on the data; inside a block it does not. :mod:`zros.bag.columns` runs a plan on many
+depends on the data; inside a block it does not. :mod:`zros.bag.columns.extract` runs a plan on many
 messages at once with numpy.
 """
 

@@ -20,9 +20,10 @@ import time
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
-from zros.bag.bag_writer import BagTopic, BagWriter
-from zros.bag.mcap_writer import DEFAULT_CHUNK_SIZE
-from zros.errors import ZrosError
+from zros.api import default_node
+from zros.bag.errors import RecorderError
+from zros.bag.write.bag_writer import BagTopic, BagWriter
+from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE
 from zros.pubsub.taps import RawTap, graph_topics, is_hidden, matched_qos, publish_time
 from zros.qos import QoS
 from zros.runtime.drops import DropCounter
@@ -45,10 +46,6 @@ MAX_QUEUE = 100_000
 MAX_QUEUE_BYTES = 512 * 1024 * 1024
 #: seconds between forced chunk flushes: at most this much is lost to a SIGKILL
 FLUSH_INTERVAL = 1.0
-
-
-class RecorderError(ZrosError):
-    """A recording cannot start (nothing selected, a bad regex) or failed while writing."""
 
 
 class Recorder:
@@ -85,9 +82,7 @@ class Recorder:
         on_topic: Callable[[str, str], object] | None = None,
         max_queue: int = MAX_QUEUE,
     ) -> None:
-        if node is None:  # the module API loads Zenoh: only for a recorder without a node
-            from zros.api import default_node
-
+        if node is None:
             node = default_node()
         node.context.check_open()
         self.node = node

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
-from zros.bag.source import Connection, RawMessage
+from zros.bag.read.source import Connection, RawMessage
 from zros.cdr import CdrError, Message, TypeRegistry, UnknownTypeError, default_registry
 from zros.cdr.message import decode
 from zros.cdr.model import split_type_name
