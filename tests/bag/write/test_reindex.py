@@ -12,8 +12,8 @@ from typing import Any
 import pytest
 
 from tests.bag.reference import raw_messages
-from tests.bag.test_record import bag_yaml
-from tests.bag.test_record_cli import complete_chunks, texts, zros_cli  # noqa: F401
+from tests.bag.write.test_record import bag_yaml
+from tests.bag.write.test_record_cli import complete_chunks, texts, zros_cli  # noqa: F401
 from tests.cli.conftest import Cli
 from zros.bag import Bag, BagError, BagTopic, BagWriter, reindex
 from zros.bag.read.rosbag2 import storage_files

@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from tests.bag.test_record import bag_yaml, read_rosbags
+from tests.bag.write.test_record import bag_yaml, read_rosbags
 from tests.cli.conftest import ZROS, Cli
 from zros.bag.progress import Progress
 from zros.testing import wait_for
