@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from zros.bag.errors import BagError, Unsupported
 from zros.bag.read.mcap_chunks import ordered_messages, read_blocks
 from zros.bag.read.mcap_recover import RecoveredMcap, is_mcap
@@ -282,8 +284,6 @@ def _sqlite_blocks(
     stream: _Stream, topics: set[int], start: int | None, end: int | None
 ) -> Iterator[list[Block]]:
     """Rows of the messages table in batches, unordered (the row id is the file order)."""
-    import numpy as np
-
     query = 'SELECT topic_id, timestamp, id, data FROM messages WHERE topic_id IN ({})'.format(
         ','.join('?' * len(topics))
     )
