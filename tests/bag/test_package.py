@@ -10,13 +10,16 @@ from pathlib import Path
 import pytest
 
 import zros.bag
-from tests.bag.makebags import make_points_mcap
+from tests.bag.makebags import make_db3, make_points_mcap
+from zros.cdr import encode, new_message
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_reading_a_bag_loads_no_zenoh(tmp_path: Path) -> None:
     path = make_points_mcap(tmp_path / 'points.mcap', 50)
+    strings = [(0, n, encode(new_message('std_msgs/msg/String', data=f's{n}'))) for n in range(3)]
+    db3 = make_db3(tmp_path / 'strings.db3', [('/chatter', 'std_msgs/msg/String')], strings)
     script = textwrap.dedent(
         f"""
         import sys
@@ -25,6 +28,8 @@ def test_reading_a_bag_loads_no_zenoh(tmp_path: Path) -> None:
             assert len(list(bag.messages())) == 50
             assert len(bag.columns('/point', ['x'])['x']) == 50
         assert len(zros.bag.bag_read({str(path)!r}).message) == 50
+        with zros.bag.Bag({str(db3)!r}) as bag:
+            assert [m.data for _, _, m in bag.messages()] == ['s0', 's1', 's2']
         print(zros.bag.info({str(path)!r}).message_count)
         loaded = sorted(m for m in sys.modules if m.split('.')[0] == 'zenoh')
         print(loaded or 'no zenoh')
