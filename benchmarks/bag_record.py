@@ -39,7 +39,7 @@ def _node(name: str, endpoint: str) -> Any:
 def record(endpoint: str, folder: Path, count: int, compression: str | None) -> dict[str, float]:
     from rosbags.highlevel import AnyReader
 
-    from zros.bag.recorder import Recorder
+    from zros.bag.write.recorder import Recorder
 
     talker, recording = _node('talker', endpoint), _node('recording', endpoint)
     topics = [f'/stream{i}' for i in range(5)]
@@ -76,8 +76,8 @@ def record(endpoint: str, folder: Path, count: int, compression: str | None) -> 
 
 
 def play(endpoint: str, folder: Path, rate: float) -> dict[str, float]:
-    from zros.bag.bag_writer import BagTopic, BagWriter
-    from zros.bag.player import Player
+    from zros.bag.play.player import Player
+    from zros.bag.write.bag_writer import BagTopic, BagWriter
     from zros.cdr import default_registry, encode, new_message
 
     path = folder / f'play_{rate}'

@@ -102,6 +102,16 @@ def test_an_upward_import_breaks_the_contracts(tmp_path: Path) -> None:
     assert 'zros.runtime.clock -> zros.node' in result.stdout
 
 
+def test_reading_a_bag_that_reaches_the_runtime_breaks_the_contracts(tmp_path: Path) -> None:
+    shutil.copytree(PACKAGE, tmp_path / 'zros', ignore=shutil.ignore_patterns('__pycache__'))
+    shutil.copy(ROOT / 'pyproject.toml', tmp_path / 'pyproject.toml')
+    info = tmp_path / 'zros' / 'bag' / 'read' / 'info.py'
+    info.write_text(info.read_text() + '\n\ndef _live() -> None:\n    import zros.pubsub  # noqa\n')
+    result = lint_imports(tmp_path, tmp_path)
+    assert result.returncode != 0
+    assert 'zros.bag.read is not allowed to import zros.pubsub' in result.stdout, result.stdout
+
+
 def test_no_module_imports_itself_through_a_circle() -> None:
     assert circles('zros') == []
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from tests.bag.test_play import *  # noqa: F403
-from tests.bag.test_record import *  # noqa: F403
+from tests.bag.play.test_play import *  # noqa: F403
+from tests.bag.write.test_record import *  # noqa: F403
 
 
 @pytest.fixture

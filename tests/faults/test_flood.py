@@ -17,7 +17,7 @@ import pytest
 
 import zros
 from tests.support.processes import Script
-from zros.bag.bag_writer import BagWriter
+from zros.bag.write.bag_writer import BagWriter
 from zros.node import Node
 from zros.qos import KEEP_ALL
 from zros.testing import wait_for

@@ -83,7 +83,7 @@ handle = slow.send_goal(order=3, timeout=60)
 """
 
 BAG = """
-from zros.bag.bag_writer import BagTopic, BagWriter
+from zros.bag.write.bag_writer import BagTopic, BagWriter
 writer = BagWriter({path!r})
 writer.add_topic(BagTopic.from_registry(node.registry, '/chatter', 'std_msgs/msg/String', []))
 data = zros.cdr.encode(zros.Message('std_msgs/msg/String', data='hi'))

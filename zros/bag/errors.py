@@ -1,4 +1,4 @@
-"""The error of bag reading."""
+"""The errors of the bag package, in one module (each is importable as ``zros.bag.<Name>``)."""
 
 from __future__ import annotations
 
@@ -14,3 +14,19 @@ class BagError(ZrosError):
         super().__init__(f'{path}: {reason}')
         self.path = Path(path)
         self.reason = reason
+
+
+class BagWriteError(ZrosError):
+    """A bag cannot be created or written (the folder exists, a bad split setting...)."""
+
+
+class RecorderError(ZrosError):
+    """A recording cannot start (nothing selected, a bad regex) or failed while writing."""
+
+
+class PlayerError(ZrosError):
+    """A bag cannot be played as asked (unknown topics, a bad rate or offset...)."""
+
+
+class Unsupported(Exception):
+    """A storage cannot be read in bulk (chunks, rows); read it message by message instead."""

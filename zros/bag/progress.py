@@ -12,15 +12,6 @@ from types import TracebackType
 from typing import IO
 
 
-def human_size(size: float) -> str:
-    """Bytes as ``512 B``, ``3.4 KiB``, ``12.0 MiB``..."""
-    for unit in ('B', 'KiB', 'MiB', 'GiB'):
-        if size < 1024 or unit == 'GiB':
-            return f'{size:.0f} {unit}' if unit == 'B' else f'{size:.1f} {unit}'
-        size /= 1024
-    return f'{size:.1f} GiB'  # pragma: no cover (the loop returns)
-
-
 class Progress:
     """One status line on ``stream`` (stderr), rewritten at most every ``interval`` seconds;
     does nothing when the stream is not a terminal (or ``enabled`` is False)."""

@@ -8,10 +8,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Protocol
 
-from zros.bag.columns import dataframe, extract, structured
+from zros.bag.columns.extract import dataframe, extract, structured
 from zros.bag.errors import BagError
-from zros.bag.source import Connection, RawMessage, Source, open_source
-from zros.bag.types import BagTypes
+from zros.bag.read.source import Connection, RawMessage, Source, open_source
+from zros.bag.read.types import BagTypes
 
 if TYPE_CHECKING:
     import numpy as np

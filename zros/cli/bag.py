@@ -50,14 +50,14 @@ def add_parser(
 
 
 def info(args: argparse.Namespace) -> int:
-    from zros.bag.info import info as read_info
+    from zros.bag.read.info import info as read_info
 
     out(read_info(args.path).format(args.sort))
     return 0
 
 
 def reindex(args: argparse.Namespace) -> int:
-    from zros.bag.reindexer import reindex as reindex_bag
+    from zros.bag.write.reindexer import reindex as reindex_bag
 
     out(str(reindex_bag(args.path)))
     return 0

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 from zros.cli.shared import CommandError, add_connection_options, open_node, out, stop_on_signals
 
 if TYPE_CHECKING:  # the command imports the bag package only when it runs (start-up)
-    from zros.bag.player import Player
+    from zros.bag.play.player import Player
 
 
 def default_bag_name() -> str:
@@ -30,8 +30,9 @@ def default_bag_name() -> str:
 
 
 def record(args: argparse.Namespace) -> int:
-    from zros.bag.progress import Progress, human_size
-    from zros.bag.recorder import Recorder
+    from zros.bag.progress import Progress
+    from zros.bag.read.info import format_size
+    from zros.bag.write.recorder import Recorder
 
     if not (args.all or args.topics or args.regex):
         raise CommandError('nothing to record: give topic names, -a (all) or -e REGEX')
@@ -61,7 +62,7 @@ def record(args: argparse.Namespace) -> int:
             while not stop.wait(0.1) and recorder.error is None:
                 progress.update(
                     f'[RECORDING] {recorder.message_count} messages, '
-                    f'{human_size(recorder.size)}, {len(recorder.files)} file(s)'
+                    f'{format_size(recorder.size)}, {len(recorder.files)} file(s)'
                     + (f', {recorder.dropped} dropped' if recorder.dropped else '')
                 )
         finally:
@@ -104,7 +105,7 @@ def _on_key(player: Player, key: str) -> bool:
 
 
 def play(args: argparse.Namespace) -> int:
-    from zros.bag.player import Player
+    from zros.bag.play.player import Player
     from zros.bag.progress import Keys, Progress
 
     clock: bool | float = False if args.clock is None else args.clock

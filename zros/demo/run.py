@@ -41,7 +41,7 @@ from zros.demo.tutorial_bag import ensure_bag
 from zros.transport import Transport, TransportConfig, start_router
 
 if TYPE_CHECKING:
-    from zros.bag.source import RawMessage
+    from zros.bag.read.source import RawMessage
 
 DEFAULT_OUTPUT = 'zros-demo'
 DEFAULT_RATE = 10.0

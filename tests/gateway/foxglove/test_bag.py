@@ -11,7 +11,7 @@ import pytest
 
 import zros
 from tests.gateway.foxglove.client import FoxgloveClient
-from zros.bag.bag_writer import BagTopic, BagWriter
+from zros.bag.write.bag_writer import BagTopic, BagWriter
 from zros.cdr import default_registry
 from zros.cdr.message import decode
 from zros.cdr.render import render_bundle
@@ -116,7 +116,7 @@ def test_a_bag_plays_pauses_and_seeks(
 def test_a_rosbag2_recording_keeps_its_schemas_and_bytes(
     testdata: Path, bag_server: Make, foxglove_client: Make
 ) -> None:
-    from zros.bag.source import open_source
+    from zros.bag.read.source import open_source
 
     path = testdata / 'ros2' / 'talker_mcap'
     with open_source(path) as source:
@@ -150,7 +150,7 @@ SQLITE_AND_ROS1 = {
 def test_sqlite_and_ros1_bags_play_with_schemas_that_fit_their_data(
     testdata: Path, bag_server: Make, foxglove_client: Make, case: tuple[str, str, str, bool]
 ) -> None:
-    from zros.bag.source import open_source
+    from zros.bag.read.source import open_source
 
     recording, topic, type_name, from_registry = case
     path = testdata / recording

@@ -3,7 +3,7 @@
 Any bag zros reads (rosbag2 MCAP or SQLite, split or not, ROS 1) becomes one channel per topic
 with the recording's own definitions as schemas (zros's when a recording carries none, or one
 its first message shows wrong). The Foxglove SDK's playback control drives a
-:class:`~zros.bag.play_clock.PlayClock`: messages go out with their recorded spacing, the
+:class:`~zros.bag.play.play_clock.PlayClock`: messages go out with their recorded spacing, the
 server's time follows the bag, and a seek
 restarts reading at the new time after sending again the latched messages (``/tf_static``,
 ``/robot_description``) recorded before it. No Zenoh session is needed.
@@ -19,10 +19,10 @@ import time
 from collections.abc import Iterable, Iterator
 from typing import TYPE_CHECKING
 
-from zros.bag.play_clock import PlayClock
-from zros.bag.rosbag2_yaml import parse_qos_profiles
-from zros.bag.source import open_source
-from zros.bag.types import BagTypes
+from zros.bag.play.play_clock import PlayClock
+from zros.bag.read.rosbag2_yaml import parse_qos_profiles
+from zros.bag.read.source import open_source
+from zros.bag.read.types import BagTypes
 from zros.cdr import default_registry
 from zros.errors import ZrosError
 from zros.gateway.common.errors import GatewayError
@@ -42,7 +42,7 @@ if TYPE_CHECKING:
         PlaybackStatus,
     )
 
-    from zros.bag.source import Connection, RawMessage
+    from zros.bag.read.source import Connection, RawMessage
 
 _log = logging.getLogger('zros.gateway')
 

@@ -1,0 +1,429 @@
+"""Numeric fields of a topic as numpy columns, read straight from the CDR bytes.
+
+Messages of one connection are grouped by byte length into rows that stay in their buffers
+(:class:`~zros.bag.read.payloads.Rows`), so a field at the same offset in every row is gathered in
+one numpy copy and viewed with its dtype. Strings and sequences move the offset by their length:
+rows are split into parts by the offset they reach, and each part goes on alone. Recorded sensor
+data has few parts (the frame id and array lengths rarely change), so a topic costs a handful of
+numpy calls per field. Messages the plan cannot read (big-endian, sequences of strings before
+the fields, too many distinct layouts, data that does not fit the type) are decoded one by one
+instead, which also gives the reader's definition fallback and errors.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from zros.bag.columns.plan import Leaf, Plan, Step, plan, select
+
+if TYPE_CHECKING:
+    from zros.cdr import FieldValue, Untyped
+from zros.bag.errors import BagError, Unsupported
+from zros.bag.read.payloads import Payloads, Rows, gather
+from zros.bag.read.source import Block, Connection, RawMessage, Source
+from zros.bag.read.types import BagTypes
+from zros.cdr.message import Message
+
+TIME = 'time'
+#: messages read per batch (bounds the chunk buffers held at once)
+BATCH = 65536
+#: beyond this many distinct layouts in a batch, decoding one by one is faster
+MAX_PARTS = 64
+
+
+class _Unplannable(Exception):
+    """The fast path cannot read these messages; decode them one by one."""
+
+
+@dataclass
+class _Part:
+    """Rows of one length group that reached the same offset."""
+
+    rows: Rows  #: a row per message
+    where: np.ndarray  #: positions of the rows in the batch
+    offset: int  #: current offset relative to the CDR body
+
+
+class _Later:
+    """The values of a sequence field in rows of one buffer, copied out when the column is
+    assembled: each copy is gone before the next is made, so a long column's copies reuse one
+    another's memory instead of all being alive at once (fresh memory is slow to fault in)."""
+
+    def __init__(self, rows: Rows, start: int, stop: int, wire: np.dtype) -> None:
+        self._rows, self._start, self._stop, self._wire = rows, start, stop, wire
+        self.shape = (len(rows), (stop - start) // wire.itemsize)
+
+    def __array__(self, dtype: np.dtype | None = None, copy: bool | None = None) -> np.ndarray:
+        values = self._rows.take(self._start, self._stop).view(self._wire)
+        return values if dtype is None else values.astype(dtype)
+
+
+Values = np.ndarray | _Later
+Pieces = dict[str, list[tuple[np.ndarray, Values]]]  # leaf path -> (positions, values)
+
+
+def _run(plan_: Plan, leaves: list[Leaf], parts: list[_Part], pieces: Pieces) -> None:
+    wanted = {leaf.path for leaf in leaves}
+    todo = set(wanted)
+    for step in plan_.steps:
+        if not todo and not plan_.complete:
+            return  # nothing left to read, and the rest cannot be checked
+        if step.kind == 'stop':
+            if todo:
+                raise _Unplannable(step.where)
+            return
+        if len(parts) > MAX_PARTS:
+            raise _Unplannable('too many layouts')
+        following: list[_Part] = []
+        for part in parts:
+            following += _step(step, part, wanted, pieces)
+        parts = following
+        todo -= {leaf.path for _, leaf in step.leaves if leaf is not None}
+    for part in parts:
+        left = part.rows.length - 4 - part.offset
+        if not 0 <= left <= 3:
+            raise _Unplannable(f'{left} bytes left after the message')
+
+
+def _step(step: Step, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Part]:
+    rows, offset = part.rows, part.offset
+    body = rows.length - 4
+    offset += -offset % step.align
+    if step.kind == 'block':
+        if offset + step.size > body:
+            raise _Unplannable('short message')
+        spans = [
+            (at, at + leaf.wire.itemsize * max(leaf.length, 1), leaf)
+            for at, leaf in step.leaves
+            if leaf.path in wanted
+        ]
+        if spans:  # one copy of the bytes from the first wanted field to the end of the last
+            first = min(begin for begin, _, _ in spans)
+            taken = rows.take(4 + offset + first, 4 + offset + max(end for _, end, _ in spans))
+            for begin, end, leaf in spans:
+                values = taken[:, begin - first : end - first].view(leaf.wire)
+                pieces[leaf.path].append((part.where, values if leaf.length else values[:, 0]))
+        part.offset = offset + step.size
+        return [part]
+    if offset + 4 > body:
+        raise _Unplannable('short message')
+    counts = rows.take(4 + offset, 8 + offset).view('<u4')[:, 0]
+    offset += 4
+    if step.kind == 'string':
+        return _split(part, counts, lambda count: offset + int(count) * step.size)
+    # sequences of primitives or structs: the first element aligns, an empty one does not
+    parts = []
+    for count in np.unique(counts).tolist():
+        first = offset + (-offset % step.align if count else 0)
+        end = first + count * step.size
+        if end > body:
+            raise _Unplannable('short message')
+        chosen = _subset(part, counts, count)
+        leaves = [leaf for _, leaf in step.leaves if leaf.path in wanted]
+        at = 0
+        for rows in chosen.rows.segments() if leaves else ():
+            where = chosen.where[at : at + len(rows)]
+            at += len(rows)
+            for leaf in leaves:
+                pieces[leaf.path].append((where, _Later(rows, 4 + first, 4 + end, leaf.wire)))
+        chosen.offset = end
+        parts.append(chosen)
+    return parts
+
+
+def _subset(part: _Part, counts: np.ndarray, count: int) -> _Part:
+    if len(counts) and counts[0] == count and (counts == count).all():
+        return _Part(part.rows, part.where, part.offset)
+    mask = counts == count
+    return _Part(part.rows.subset(mask), part.where[mask], part.offset)
+
+
+def _split(part: _Part, counts: np.ndarray, offset_of: Callable[[int], int]) -> list[_Part]:
+    parts = []
+    for count in np.unique(counts).tolist():
+        chosen = _subset(part, counts, count)
+        chosen.offset = offset_of(count)
+        if chosen.offset > chosen.rows.length - 4:
+            raise _Unplannable('short message')
+        parts.append(chosen)
+    return parts
+
+
+def _groups(batch: list[Payloads]) -> list[_Part]:
+    """Messages grouped by length, each group one :class:`Rows`."""
+    lengths = np.concatenate([payloads.lengths() for payloads in batch])
+    parts = []
+    for length in np.unique(lengths).tolist():
+        if length < 4:
+            raise _Unplannable('shorter than a CDR header')
+        rows, chosen = gather(batch, length)
+        head = rows.take(0, 2)
+        if head[:, 0].any() or (head[:, 1] != 1).any():
+            raise _Unplannable('not little-endian CDR')
+        parts.append(_Part(rows, chosen, 0))
+    return parts
+
+
+def _fast(plan_: Plan, leaves: list[Leaf], batch: list[Payloads]) -> Pieces:
+    pieces: Pieces = {leaf.path: [] for leaf in leaves}
+    _run(plan_, leaves, _groups(batch), pieces)
+    return pieces
+
+
+def _payloads(data: Sequence[bytes]) -> Payloads:
+    return data if isinstance(data, Payloads) else Payloads.joined(data)
+
+
+def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
+    """Decode one by one (with the reader's definition fallback) and pick the fields."""
+    getters = [(leaf, leaf.path.split('.')) for leaf in leaves]
+    values: dict[str, list[FieldValue]] = {leaf.path: [] for leaf in leaves}
+    connection = block.connection
+    for stamp, data in zip(block.times.tolist(), block.data, strict=True):
+        message = types.decode(RawMessage(connection, stamp, data))
+        for leaf, parts in getters:
+            value = message
+            for part in parts:
+                value = getattr(value, part if hasattr(value, part) else part + '_')
+            values[leaf.path].append(value)
+    where = np.arange(len(block.times), dtype=np.int64)
+    pieces: Pieces = {}
+    for leaf in leaves:
+        column = values[leaf.path]
+        if leaf.sequence:
+            groups: dict[int, list[int]] = {}
+            for row, value in enumerate(column):
+                groups.setdefault(len(value), []).append(row)
+            pieces[leaf.path] = [
+                (where[rows], _stack([column[r] for r in rows], leaf, size))
+                for size, rows in groups.items()
+            ]
+        else:
+            pieces[leaf.path] = [(where, _stack(column, leaf, leaf.length))]
+    return pieces
+
+
+def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> np.ndarray:
+    if not values:
+        return np.empty((0, width) if width or leaf.sequence else 0, leaf.value)
+    return np.asarray(values, dtype=leaf.value)
+
+
+def _assemble(leaf: Leaf, pieces: list[tuple[np.ndarray, Values]], size: int) -> np.ndarray:
+    """One column of a block from pieces of rows."""
+    shapes = {values.shape[1:] for _, values in pieces}
+    if len(shapes) <= 1:
+        shape = shapes.pop() if shapes else ((0,) if leaf.sequence else ())
+        if leaf.length:
+            shape = (leaf.length,)
+        out = np.empty((size, *shape), leaf.value)
+        for where, values in pieces:
+            out[where] = values
+        return out
+    ragged = np.empty(size, object)
+    for where, values in pieces:
+        converted = np.asarray(values).astype(leaf.value)
+        for row, index in enumerate(where.tolist()):
+            ragged[index] = converted[row]
+    return ragged
+
+
+def _concatenate(chunks: list[np.ndarray]) -> np.ndarray:
+    if len(chunks) == 1:
+        return chunks[0]
+    if all(c.dtype != object for c in chunks) and len({c.shape[1:] for c in chunks}) == 1:
+        return np.concatenate(chunks)
+    ragged = np.empty(sum(len(c) for c in chunks), object)
+    at = 0
+    for chunk in chunks:
+        for row in chunk:
+            ragged[at] = row
+            at += 1
+    return ragged
+
+
+def _leaves(path: Path, topic: str, cls: type[Message], fields: list[str] | None) -> list[Leaf]:
+    try:
+        return select(plan(cls), fields, cls.__msgtype__)
+    except ValueError as exc:
+        raise BagError(path, f'topic {topic}: {exc}') from None
+
+
+def _take(messages: Iterator[RawMessage], count: int) -> list[RawMessage]:
+    batch = []
+    for raw in messages:
+        batch.append(raw)
+        if len(batch) == count:
+            break
+    return batch
+
+
+def _message_blocks(
+    source: Source, connections: list[Connection], start: int | None, end: int | None
+) -> Iterator[list[Block]]:
+    """Blocks made from the message stream, for storages that cannot be read in chunks."""
+    messages = source.messages(connections, start, end)
+    counter = 0
+    while batch := _take(messages, BATCH):
+        grouped: dict[int, tuple[Connection, list[int], list[int], list[bytes]]] = {}
+        for key, raw in enumerate(batch, counter):
+            entry = grouped.get(raw.connection.id)
+            if entry is None:
+                entry = grouped[raw.connection.id] = (raw.connection, [], [], [])
+            entry[1].append(raw.timestamp)
+            entry[2].append(key)
+            entry[3].append(bytes(raw.data))
+        counter += len(batch)
+        yield [
+            Block(conn, np.asarray(times, np.int64), np.asarray(keys, np.int64), datas)
+            for conn, times, keys, datas in grouped.values()
+        ]
+
+
+class _Extraction:
+    """Columns of one topic built block by block, then put in time order."""
+
+    def __init__(self, types: BagTypes, topic: str, fields: list[str] | None) -> None:
+        self.types = types
+        self.path = types.path
+        self.topic = topic
+        self.fields = fields
+        self.plans: dict[int, tuple[Plan, list[Leaf]]] = {}
+        self.leaves: list[Leaf] | None = None
+        self.times: list[np.ndarray] = []
+        self.keys: list[np.ndarray] = []
+        self.chunks: dict[str, list[np.ndarray]] = {}
+        self.pending: dict[int, list[Block]] = {}
+
+    def add(self, blocks: list[Block]) -> None:
+        for block in blocks:
+            queue = self.pending.setdefault(block.connection.id, [])
+            queue.append(block)
+            if sum(len(b.times) for b in queue) >= BATCH:
+                self._flush(block.connection.id)
+
+    def finish(self, connections: list[Connection]) -> dict[str, np.ndarray]:
+        for cid in list(self.pending):
+            self._flush(cid)
+        if self.leaves is None:
+            # no message to settle the definition with: the class the reader would start with
+            cls = self.types.message_class(connections[0])
+            self.leaves = _leaves(self.path, self.topic, cls, self.fields)
+        times = np.concatenate(self.times) if self.times else np.empty(0, np.int64)
+        order = None
+        if len(self.times) > 1 or (len(times) > 1 and (np.diff(times) < 0).any()):
+            order = np.lexsort((np.concatenate(self.keys), times))
+        result = {TIME: times if order is None else times[order]}
+        for leaf in self.leaves:
+            parts = self.chunks.get(leaf.path)
+            column = _concatenate(parts) if parts else _assemble(leaf, [], 0)
+            result[leaf.path] = column if order is None else column[order]
+        return result
+
+    def _settle(self, block: Block) -> tuple[Plan, list[Leaf]]:
+        first = RawMessage(block.connection, int(block.times[0]), block.data[0])
+        self.types.decode(first)  # settles which definition fits the data
+        cls = self.types.message_class(block.connection)
+        own = _leaves(self.path, self.topic, cls, self.fields)
+        if self.leaves is None:
+            self.leaves = own
+        elif [leaf.path for leaf in own] != [leaf.path for leaf in self.leaves]:
+            raise BagError(self.path, f'topic {self.topic} holds types with different fields')
+        return plan(cls), own
+
+    def _flush(self, cid: int) -> None:
+        queue = self.pending.pop(cid, [])
+        if not queue:
+            return
+        batch = [_payloads(b.data) for b in queue]
+        times = np.concatenate([b.times for b in queue])
+        keys = np.concatenate([b.keys for b in queue])
+        known = self.plans.get(cid)
+        if known is None:
+            known = self.plans[cid] = self._settle(queue[0])
+        plan_, own = known
+        try:
+            found = _fast(plan_, own, batch)
+        except _Unplannable:
+            datas = [data for payloads in batch for data in payloads]
+            found = _slow(self.types, Block(queue[0].connection, times, keys, datas), own)
+        for leaf in own:
+            column = _assemble(leaf, found[leaf.path], len(times))
+            self.chunks.setdefault(leaf.path, []).append(column)
+        self.times.append(times)
+        self.keys.append(keys)
+
+
+def extract(
+    source: Source,
+    types: BagTypes,
+    connections: list[Connection],
+    fields: Iterable[str] | None,
+    *,
+    start: int | None,
+    end: int | None,
+) -> dict[str, np.ndarray]:
+    """The columns of ``Bag.columns``: the messages of ``connections`` (one topic's) in
+    ``source``, decoded with ``types`` where the plan cannot read them."""
+    requested = None if fields is None else ([fields] if isinstance(fields, str) else list(fields))
+    topic = connections[0].topic
+    names = {c.type_name for c in connections}
+    if len(names) > 1:
+        raise BagError(
+            source.path, f'topic {topic} holds several types: {", ".join(sorted(names))}'
+        )
+    types.message_class(connections[0])  # a type with no definition has no columns
+    extraction = _Extraction(types, topic, requested)
+    try:
+        for blocks in source.blocks(connections, start, end):
+            extraction.add(blocks)
+    except Unsupported:
+        extraction = _Extraction(types, topic, requested)
+        for blocks in _message_blocks(source, connections, start, end):
+            extraction.add(blocks)
+    return extraction.finish(connections)
+
+
+def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
+    """Columns as one structured array; ragged columns cannot be part of one."""
+    fields: list[tuple[str, np.dtype, tuple[int, ...]]] = []
+    for name, column in columns.items():
+        if column.dtype == object:
+            raise BagError(
+                path,
+                f'column {name} holds sequences of different lengths; '
+                'use columns() for it, or leave it out of fields',
+            )
+        fields.append((name, column.dtype, column.shape[1:]))
+    size = len(columns[TIME])
+    out = np.empty(size, np.dtype(fields))
+    for name, column in columns.items():
+        out[name] = column
+    return out
+
+
+def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
+    """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns."""
+    try:
+        import pandas as pd  # type: ignore[import-untyped,unused-ignore]
+    except ImportError:
+        raise ImportError(
+            'to_dataframe() needs pandas, which zros does not install: pip install pandas '
+            '(columns() and to_numpy() give the same data as numpy arrays)'
+        ) from None
+    data: dict[str, np.ndarray | list[object]] = {}
+    for name, column in columns.items():
+        if column.ndim == 2:
+            for index in range(column.shape[1]):
+                data[f'{name}[{index}]'] = column[:, index]
+        else:
+            data[name] = list(column) if column.dtype == object else column
+    return pd.DataFrame(data)
+
+
+__all__ = ['TIME', 'dataframe', 'extract', 'structured']

@@ -1,0 +1,1 @@
+"""Playing a bag into the live graph: the player, its clock, its topics."""

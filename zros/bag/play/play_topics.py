@@ -1,0 +1,64 @@
+"""What a playback publishes for each recorded topic: its QoS, its class, its name."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from typing import TYPE_CHECKING
+
+from zros.bag.errors import PlayerError
+from zros.bag.read.types import how_to_define
+from zros.cdr import TypeRegistry
+from zros.errors import ZrosError
+from zros.qos import Durability, History, QoS, Reliability
+
+if TYPE_CHECKING:
+    from zros.bag.read.source import Connection
+    from zros.cdr import Message
+    from zros.node import Node
+
+
+def playback_qos(offered: Iterable[QoS]) -> QoS:
+    """The publisher QoS for a topic from its recorded offers: latched (transient local) and
+    best effort only when every offer was, as deep as the deepest; ROS 2's default without."""
+    offers = list(offered)
+    if not offers:
+        return QoS(10)
+    keep_all = all(q.keep_all for q in offers)
+    return QoS(
+        max(q.depth for q in offers),
+        Reliability.BEST_EFFORT if all(not q.reliable for q in offers) else Reliability.RELIABLE,
+        Durability.TRANSIENT_LOCAL
+        if all(q.transient_local for q in offers)
+        else Durability.VOLATILE,
+        History.KEEP_ALL if keep_all else History.KEEP_LAST,
+    )
+
+
+def message_class(node: Node, connection: Connection) -> type[Message]:
+    """The class for a connection's type: the node's, else one built from the bag's definition."""
+    try:
+        return node.registry.get_class(connection.type_name)
+    except ZrosError as exc:
+        if connection.definition_format != 'ros2msg' or not connection.definition:
+            raise PlayerError(
+                f'cannot play {connection.topic}: the bag has no definition of '
+                f'{connection.type_name} and zros knows none; {how_to_define(connection.type_name)}'
+            ) from exc
+    registry = TypeRegistry(distro=node.registry.distro)
+    registry.register_bundle(connection.type_name, connection.definition, str(connection.topic))
+    return registry.get_class(connection.type_name)
+
+
+def parse_remap(rules: Mapping[str, str] | Iterable[str] | None) -> dict[str, str]:
+    """``{'/a': '/b'}`` or ``['/a:=/b']`` as a dict."""
+    if rules is None:
+        return {}
+    if isinstance(rules, Mapping):
+        return dict(rules)
+    result = {}
+    for rule in rules:
+        source, sep, target = rule.partition(':=')
+        if not sep or not source or not target:
+            raise PlayerError(f'a remap rule is /from:=/to, not {rule!r}')
+        result[source] = target
+    return result

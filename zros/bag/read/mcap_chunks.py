@@ -1,0 +1,242 @@
+"""Whole chunks of an indexed MCAP file: the messages of chosen channels without a Python step
+per message record.
+
+The mcap library reads the summary and the chunk records; each chunk's message index gives the
+offset of every message of a channel, so times, lengths and positions of its messages are numpy
+arrays and the payloads are offsets into the decompressed chunk (or the file's map). Files
+without a summary or message indexes, or whose indexes do not add up, are refused with
+:class:`Unsupported`: the caller then reads them record by record through rosbags.
+"""
+
+from __future__ import annotations
+
+import io
+import itertools
+import mmap
+import struct
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from zros.bag.errors import Unsupported
+from zros.bag.read.payloads import Payloads
+from zros.bag.read.source_base import Block, Connection
+
+if TYPE_CHECKING:
+    from mcap.records import Chunk
+
+#: opcodes of the MCAP records this module reads
+_CHUNK = 0x06
+_MESSAGE = 0x05
+_MESSAGE_INDEX = 0x07
+#: a message record before its data: opcode, length, channel, sequence, log and publish time
+_HEAD = 1 + 8 + 2 + 4 + 8 + 8
+#: a decompressed chunk larger than this is not trusted to the fast path
+_MAX_CHUNK = 1 << 31
+_INDEX = np.dtype([('time', '<u8'), ('offset', '<u8')])
+
+
+@dataclass
+class _Run:
+    """Messages of one channel in one chunk, in the chunk's order."""
+
+    times: np.ndarray  #: int64 log times
+    offsets: np.ndarray  #: int64 record offsets in the chunk (ascending)
+    data: Payloads
+
+
+def _mapped_chunk(view: memoryview, at: int) -> Chunk:
+    """The Chunk record at ``at`` of a mapped file, its records a view of the map."""
+    from mcap.records import Chunk
+
+    try:
+        if view[at] != _CHUNK:
+            raise Unsupported('no chunk where the chunk index says')
+        head = at + 1 + 8  # past the opcode and the record's length
+        first, last, size, crc, name_length = struct.unpack_from('<QQQII', view, head)
+        compression = bytes(view[head + 32 : head + 32 + name_length]).decode()
+        (length,) = struct.unpack_from('<Q', view, head + 32 + name_length)
+    except (IndexError, struct.error, UnicodeDecodeError) as exc:
+        raise Unsupported(f'damaged chunk record: {exc}') from None
+    begin = head + 32 + name_length + 8
+    if begin + length > len(view):
+        raise Unsupported('chunk beyond the end of the file')
+    return Chunk(
+        compression=compression,
+        data=view[begin : begin + length],  # type: ignore[arg-type]  # read as bytes-like
+        message_start_time=first,
+        message_end_time=last,
+        uncompressed_crc=crc,
+        uncompressed_size=size,
+    )
+
+
+def _decompress(chunk: Chunk) -> bytes | memoryview:
+    if chunk.uncompressed_size > _MAX_CHUNK:
+        raise Unsupported('chunk too large')
+    if chunk.compression == '':
+        data = chunk.data  # bytes, or a view of a mapped file
+    elif chunk.compression == 'zstd':
+        import zstandard
+
+        data = zstandard.ZstdDecompressor().decompress(
+            chunk.data, max_output_size=chunk.uncompressed_size
+        )
+    elif chunk.compression == 'lz4':
+        import lz4.frame  # type: ignore[import-untyped]
+
+        data = lz4.frame.decompress(chunk.data)
+    else:
+        raise Unsupported(f'compression {chunk.compression!r}')
+    if len(data) != chunk.uncompressed_size:
+        raise Unsupported('chunk size does not match its index')
+    return data
+
+
+def _index(stream: io.BufferedReader, at: int, limit: int) -> np.ndarray:
+    """The (time, offset) entries of the MessageIndex record at ``at``."""
+    stream.seek(at)
+    head = stream.read(1 + 8 + 2 + 4)
+    if len(head) < 15 or head[0] != _MESSAGE_INDEX:
+        raise Unsupported('no message index record where the chunk index says')
+    size = int.from_bytes(head[11:15], 'little')
+    if at + 15 + size > limit or size % 16:
+        raise Unsupported('message index out of bounds')
+    return np.frombuffer(stream.read(size), _INDEX)
+
+
+def read_blocks(
+    path: Path,
+    channels: Mapping[int, Connection],
+    start: int | None,
+    end: int | None,
+    *,
+    ordered: bool = False,
+    mapped: bool = False,
+) -> Iterator[list[Block]]:
+    """The blocks of each chunk holding messages of ``channels`` (channel id -> the connection
+    its blocks carry) with ``start <= log time < end``, in file order (chunks may overlap in
+    time: the caller sorts); a block's ``keys`` rank its messages in their chunk. ``ordered``
+    refuses (before the first block) files whose chunks of those messages overlap in time.
+    ``mapped``: the file is memory-mapped and the payloads of uncompressed chunks stay in the
+    map (no copy: for readers that copy out a few fields of each message)."""
+    from mcap.data_stream import ReadDataStream
+    from mcap.reader import make_reader
+    from mcap.records import Chunk
+
+    with path.open('rb') as stream:
+        size = path.stat().st_size
+        try:
+            summary = make_reader(stream).get_summary()
+        except Exception as exc:  # a damaged summary: the caller reads the file another way
+            raise Unsupported(str(exc)) from exc
+        if summary is None or not summary.chunk_indexes:
+            raise Unsupported('no chunk index')
+        wanted_ids = set(channels)
+        indexes = [
+            index
+            for index in sorted(summary.chunk_indexes, key=lambda index: index.chunk_start_offset)
+            if wanted_ids & set(index.message_index_offsets)
+            and (start is None or index.message_end_time >= start)
+            and (end is None or index.message_start_time < end)
+        ]
+        if ordered and any(
+            later.message_start_time < earlier.message_end_time
+            for earlier, later in itertools.pairwise(indexes)
+        ):
+            raise Unsupported('chunks overlap in time')
+        # the map closes when the last payload in it is gone
+        view = (
+            memoryview(mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ)) if mapped else None
+        )
+        for index in indexes:
+            wanted = sorted(wanted_ids & set(index.message_index_offsets))
+            limit = index.chunk_start_offset + index.chunk_length + index.message_index_length
+            if limit > size:
+                raise Unsupported('chunk beyond the end of the file')
+            if view is not None:
+                chunk = _mapped_chunk(view, index.chunk_start_offset)
+            else:
+                stream.seek(index.chunk_start_offset + 1 + 8)
+                chunk = Chunk.read(ReadDataStream(stream))
+            data = _decompress(chunk)
+            runs = [
+                _window(
+                    _block(
+                        data, channel, _index(stream, index.message_index_offsets[channel], limit)
+                    ),
+                    start,
+                    end,
+                )
+                for channel in wanted
+            ]
+            offsets = np.concatenate([run.offsets for run in runs])
+            ranks = np.empty(len(offsets), np.int64)
+            ranks[np.argsort(offsets, kind='stable')] = np.arange(len(offsets))
+            blocks = []
+            at = 0
+            for channel, run in zip(wanted, runs, strict=True):
+                keys = ranks[at : at + len(run.offsets)]
+                blocks.append(Block(channels[channel], run.times, keys, run.data))
+                at += len(run.offsets)
+            yield blocks
+
+
+def ordered_messages(
+    path: Path, channels: Mapping[int, Connection], start: int | None, end: int | None
+) -> Iterator[tuple[Connection, int, bytes]]:
+    """``(connection, log time, payload)`` of the messages of ``channels`` with ``start <= log time
+    < end``, in time order (file order among equal times), chunk by chunk.
+
+    Raises :class:`Unsupported` before the first message where chunks overlap in time (or
+    :func:`read_blocks` refuses the file), and possibly later where a chunk's index does not
+    match it.
+    """
+    for blocks in read_blocks(path, channels, start, end, ordered=True):
+        times = np.concatenate([block.times for block in blocks])
+        ranks = np.concatenate([block.keys for block in blocks])
+        connection_of = list(
+            itertools.chain.from_iterable([block.connection] * len(block.data) for block in blocks)
+        )
+        payloads = list(itertools.chain.from_iterable(block.data for block in blocks))
+        order = np.lexsort((ranks, times)).tolist()
+        stamps = times.tolist()
+        for at in order:
+            yield connection_of[at], stamps[at], payloads[at]
+
+
+def _window(run: _Run, start: int | None, end: int | None) -> _Run:
+    keep = np.ones(len(run.times), bool)
+    if start is not None:
+        keep &= run.times >= start
+    if end is not None:
+        keep &= run.times < end
+    if keep.all():
+        return run
+    return _Run(run.times[keep], run.offsets[keep], run.data.select(keep))
+
+
+def _block(data: bytes | memoryview, channel: int, entries: np.ndarray) -> _Run:
+    times = entries['time'].astype(np.int64)
+    offsets = entries['offset'].astype(np.int64)
+    order = np.argsort(offsets, kind='stable')
+    times, offsets = times[order], offsets[order]
+    raw = np.frombuffer(data, np.uint8)
+    if len(offsets) and (offsets.min() < 0 or offsets.max() + _HEAD > len(raw)):
+        raise Unsupported('message offset out of the chunk')
+    heads = raw[offsets[:, None] + np.arange(_HEAD)]
+    lengths = heads[:, 1:9].copy().view('<u8')[:, 0].astype(np.int64)
+    ends = offsets + 9 + lengths
+    recorded = heads[:, 15:23].copy().view('<u8')[:, 0].astype(np.int64)
+    if (
+        (heads[:, 0] != _MESSAGE).any()
+        or (heads[:, 9:11].copy().view('<u2')[:, 0] != channel).any()
+        or (lengths < _HEAD - 9).any()
+        or (len(ends) and ends.max() > len(raw))
+        or (recorded != times).any()
+    ):
+        raise Unsupported('message index does not match the chunk')
+    return _Run(times, offsets, Payloads(data, offsets + _HEAD, ends))

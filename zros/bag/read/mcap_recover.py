@@ -1,0 +1,178 @@
+"""An MCAP file that never got its summary and end (a recorder killed mid-file), read up to its
+last complete record.
+
+The mcap library's stream reader scans the file linearly (chunk CRCs checked) and stops at the
+first record that is cut short or corrupt; everything before it is read. The class has the
+interface of rosbags' storage readers, so :mod:`zros.bag.read.rosbag2` treats it like one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mcap.records import Channel, McapRecord, Schema
+    from rosbags.interfaces import Connection
+    from rosbags.rosbag2.metadata import ReaderMetadata
+
+MAGIC = b'\x89MCAP0\r\n'
+_FORMATS = {'ros2msg': 'MSG', 'ros2idl': 'IDL', 'omgidl': 'IDL'}
+
+
+def is_mcap(path: Path) -> bool:
+    """Whether the file starts with the MCAP magic."""
+    with path.open('rb') as stream:
+        return stream.read(len(MAGIC)) == MAGIC
+
+
+class LinearScan:
+    """One pass over the complete records of an MCAP file, from its start.
+
+    Chunks are read whole and their CRCs checked before any record inside them is yielded, so
+    a chunk cut short or corrupt yields nothing. After the iteration, ``stopped_at`` says why it
+    stopped before the end ('' when it reached the footer), ``end`` is the byte offset just past
+    the last complete record, and ``compression`` is the first chunk's ('' without chunks).
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.stopped_at = ''
+        self.end = 0
+        self.size = 0  #: the file's size when the scan began
+        self.compression = ''
+        self._chunked = False
+
+    def records(self) -> Iterator[McapRecord]:
+        """Header, schemas, channels, messages, metadata, attachments... in file order."""
+        from mcap.exceptions import EndOfFile
+        from mcap.records import Chunk
+        from mcap.stream_reader import StreamReader, breakup_chunk
+
+        self.size = size = self.path.stat().st_size
+        with self.path.open('rb') as stream:
+            reader = StreamReader(
+                stream, emit_chunks=True, validate_crcs=True, record_size_limit=size
+            )
+            records = reader.records
+            while True:
+                try:
+                    record = next(records)
+                    inner = [record]
+                    if isinstance(record, Chunk):
+                        inner = breakup_chunk(record, validate_crc=True)
+                        if not self._chunked:
+                            self._chunked = True
+                            self.compression = record.compression
+                except StopIteration:
+                    return
+                except EndOfFile:
+                    self.stopped_at = 'the file ends before its footer'
+                    return
+                except Exception as exc:  # a record cut short or corrupt: stop there
+                    self.stopped_at = str(exc) or type(exc).__name__
+                    return
+                self.end = stream.tell()
+                yield from inner
+
+
+class RecoveredMcap:
+    """The complete records of an MCAP file without summary, as a rosbags-like storage."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.connections: list[Connection] = []
+        self.metadata: ReaderMetadata | None = None
+        self.stopped_at = ''  #: why the scan stopped before the end ('' when it reached it)
+        self.in_order = True
+
+    def _records(self) -> Iterator[McapRecord]:
+        scan = LinearScan(self.path)
+        yield from scan.records()
+        self.stopped_at = scan.stopped_at
+
+    def open(self) -> None:
+        """Scan the file once for its schemas, channels, counts and times."""
+        from mcap.records import Channel, Message, Schema
+        from rosbags.interfaces import (
+            Connection,
+            ConnectionExtRosbag2,
+            MessageDefinition,
+            MessageDefinitionFormat,
+        )
+        from rosbags.rosbag2.metadata import ReaderMetadata, parse_qos
+
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
+        counts: dict[int, int] = {}
+        first, last, previous = None, None, None
+        for record in self._records():
+            if isinstance(record, Schema):
+                schemas[record.id] = record
+            elif isinstance(record, Channel):
+                channels[record.id] = record
+            elif isinstance(record, Message):
+                counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
+                stamp = record.log_time
+                first = stamp if first is None else min(first, stamp)
+                last = stamp if last is None else max(last, stamp)
+                if previous is not None and stamp < previous:
+                    self.in_order = False
+                previous = stamp
+        for channel in channels.values():
+            schema = schemas.get(channel.schema_id)
+            form = _FORMATS.get(schema.encoding, 'NONE') if schema else 'NONE'
+            text = schema.data.decode('utf-8', 'replace') if schema else ''
+            self.connections.append(
+                Connection(
+                    channel.id,
+                    channel.topic,
+                    schema.name if schema else '',
+                    MessageDefinition(MessageDefinitionFormat[form], text),
+                    '',
+                    counts.get(channel.id, 0),
+                    ConnectionExtRosbag2(
+                        channel.message_encoding,
+                        parse_qos(channel.metadata.get('offered_qos_profiles', '')),
+                    ),
+                    self,
+                )
+            )
+        count = sum(counts.values())
+        self.metadata = ReaderMetadata(
+            (last - first + 1) if count and first is not None and last is not None else 0,
+            first if first is not None else 2**63 - 1,
+            last + 1 if last is not None else 0,
+            count,
+            None,
+            None,
+            None,
+            None,
+        )
+
+    def close(self) -> None:
+        """Nothing stays open between scans."""
+
+    def messages(
+        self,
+        connections: Collection[Connection],
+        start: int | None = None,
+        stop: int | None = None,
+    ) -> Iterator[tuple[Connection, int, bytes]]:
+        """(connection, log time, data) of the wanted connections, in time order."""
+        from mcap.records import Message
+
+        by_id = {c.id: c for c in connections}
+        found = (
+            (by_id[r.channel_id], r.log_time, r.data)
+            for r in self._records()
+            if isinstance(r, Message)
+            and r.channel_id in by_id
+            and (start is None or r.log_time >= start)
+            and (stop is None or r.log_time < stop)
+        )
+        if self.in_order:
+            yield from found
+        else:
+            yield from sorted(found, key=lambda item: item[1])

@@ -1,0 +1,400 @@
+"""``zros bag reindex``: make a bag a killed recorder left readable by every reader again.
+
+A recorder killed with SIGKILL (or a power loss) leaves its last MCAP file without summary,
+indexes and footer, and the bag possibly without an up-to-date ``metadata.yaml``: rosbags
+cannot open such a bag and the mcap library's default reader refuses the file. As
+``ros2 bag reindex``, :func:`reindex` rebuilds ``metadata.yaml`` from the files; since Python
+readers need a finished MCAP file (rosbag2's C++ reader scans an unfinished one itself), each
+unfinished file is first rewritten into a finished one holding its complete records: messages
+up to the last complete chunk, then chunk and message indexes, statistics, the summary and the
+footer.
+
+Files already finished are left untouched. An unfinished file is rewritten into a hidden
+temporary file beside it (``.<name>.reindex``), synced to disk, then renamed over the original
+in one step: if anything fails before the rename (disk full, a crash), the original is still
+there as it was, and running :func:`reindex` again starts over. What the rewrite drops is what
+no reader can read: the bytes after the last complete record (a chunk cut short).
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from zros.bag.errors import BagError
+from zros.bag.read.mcap_recover import LinearScan, is_mcap
+from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
+
+if TYPE_CHECKING:
+    from mcap.records import Channel, Message, Schema
+
+    from zros.bag.boundary import YamlValue
+    from zros.cdr import Untyped
+from zros.bag.read.rosbag2 import storage_files
+from zros.bag.read.rosbag2_yaml import (
+    FileEntry,
+    TopicEntry,
+    bag_metadata,
+    dump,
+    write_metadata_yaml,
+)
+
+_TEMPORARY = '.{}.reindex'
+
+
+@dataclass(frozen=True)
+class FileReport:
+    """What :func:`reindex` did with one storage file.
+
+    ``action`` is ``'complete'`` (already finished: untouched), ``'rewritten'`` (finished from
+    its complete records; ``dropped_bytes`` were past the last one, ``reason`` says why the scan
+    stopped) or ``'skipped'`` (not even an MCAP header: left as it is, not listed in the
+    metadata).
+    """
+
+    name: str
+    action: str
+    message_count: int
+    dropped_bytes: int = 0
+    reason: str = ''
+
+    def __str__(self) -> str:
+        if self.action == 'complete':
+            return f'{self.name}: complete, {self.message_count} messages'
+        if self.action == 'skipped':
+            return f'{self.name}: skipped, no complete MCAP record ({self.reason})'
+        tail = (
+            f'{self.dropped_bytes} bytes after it dropped: {self.reason}'
+            if self.dropped_bytes
+            else 'it had no summary and footer'
+        )
+        return (
+            f'{self.name}: rewritten, {self.message_count} messages up to its last complete '
+            f'chunk ({tail})'
+        )
+
+
+@dataclass(frozen=True)
+class ReindexReport:
+    """The outcome of :func:`reindex`: one :class:`FileReport` per storage file, and the
+    ``metadata.yaml`` written (None for a bare ``.mcap`` file)."""
+
+    path: Path
+    files: list[FileReport]
+    metadata: Path | None
+    topic_count: int
+
+    @property
+    def message_count(self) -> int:
+        """Messages the bag holds now."""
+        return sum(f.message_count for f in self.files)
+
+    def __str__(self) -> str:
+        lines = [str(f) for f in self.files]
+        if self.metadata is not None:
+            used = sum(1 for f in self.files if f.action != 'skipped')
+            lines.append(
+                f'Wrote {self.metadata}: {self.message_count} messages on {self.topic_count} '
+                f'topics in {used} file(s)'
+            )
+        return '\n'.join(lines)
+
+
+@dataclass
+class _Channel:
+    """One channel of a file: what the bag's topic list needs."""
+
+    topic: str
+    type_name: str
+    metadata: dict[str, str]
+    count: int = 0
+
+
+@dataclass
+class _FileSummary:
+    """What one finished file holds."""
+
+    entry: FileEntry
+    channels: list[_Channel] = field(default_factory=list)
+
+
+@dataclass
+class _Bag:
+    """The bag as known from the files read so far."""
+
+    distro: str = ''
+    custom: dict[str, str] = field(default_factory=dict)
+    files: list[FileEntry] = field(default_factory=list)
+    topics: dict[tuple[str, str], _Channel] = field(default_factory=dict)
+
+    def add(self, summary: _FileSummary) -> None:
+        self.files.append(summary.entry)
+        for channel in summary.channels:
+            key = (channel.topic, channel.type_name)
+            known = self.topics.get(key)
+            if known is None:
+                self.topics[key] = _Channel(*key, channel.metadata, channel.count)
+            else:
+                known.count += channel.count
+
+    def metadata(self) -> dict[str, YamlValue]:
+        """The ``rosbag2_bagfile_information`` of the files added so far."""
+        topics = [
+            TopicEntry(
+                c.topic,
+                c.type_name,
+                c.metadata.get('offered_qos_profiles', ''),
+                c.metadata.get('topic_type_hash', ''),
+                c.count,
+            )
+            for c in self.topics.values()
+        ]
+        return bag_metadata(self.files, topics, self.distro, self.custom)
+
+    def serialized_with(self, summary: _FileSummary) -> str:
+        """The metadata a file's ``rosbag2`` record holds: the files up to it, as rosbag2's
+        MCAP storage writes it when closing the file."""
+        bag = _Bag(self.distro, self.custom, list(self.files), copy.deepcopy(self.topics))
+        bag.add(summary)
+        return dump(bag.metadata())
+
+
+def reindex(path: str | os.PathLike[str]) -> ReindexReport:
+    """Finish every unfinished MCAP file of a bag and rewrite its ``metadata.yaml`` from the
+    files, as ``ros2 bag reindex`` does; returns what was done.
+
+    ``path`` is a bag folder or one ``.mcap`` file (which gets no ``metadata.yaml``). Raises
+    :class:`BagError` for a path that is no MCAP bag, or when writing fails (the file being
+    rewritten then keeps its original content). Not for a bag a recorder is still writing: its
+    open file would be replaced under it.
+    """
+    location = Path(path).expanduser()
+    if not location.exists():
+        raise BagError(location, 'no such file or folder')
+    if location.is_file():
+        if location.suffix != '.mcap':
+            raise BagError(location, 'reindex reads MCAP bags (a folder or a .mcap file)')
+        return ReindexReport(location, [_reindex_file(location, _Bag())], None, 0)
+    files = storage_files(location)
+    if not files:
+        raise BagError(location, 'not a bag folder: no .mcap file in it')
+    if any(file.suffix != '.mcap' for file in files):
+        raise BagError(location, 'reindex reads MCAP bags; this folder holds .db3 files')
+    bag = _Bag(*_previous_metadata(location / 'metadata.yaml'))
+    reports = [_reindex_file(file, bag) for file in files]
+    metadata = write_metadata_yaml(location, bag.metadata())
+    return ReindexReport(location, reports, metadata, len(bag.topics))
+
+
+def _reindex_file(file: Path, bag: _Bag) -> FileReport:
+    """Finish one file if needed and add it to ``bag``."""
+    stale = file.with_name(_TEMPORARY.format(file.name))
+    stale.unlink(missing_ok=True)  # left by a reindex that was itself interrupted
+    if not _has_magic(file):
+        return FileReport(file.name, 'skipped', 0, reason='no MCAP magic')
+    summary = _finished_summary(file)
+    if summary is not None:
+        report = FileReport(file.name, 'complete', summary.entry.message_count)
+    else:
+        summary, scan = _rewrite(file, bag)
+        if summary is None:
+            return FileReport(file.name, 'skipped', 0, reason=scan.stopped_at)
+        dropped = max(0, scan.size - scan.end)
+        count = summary.entry.message_count
+        report = FileReport(file.name, 'rewritten', count, dropped, scan.stopped_at)
+    bag.add(summary)
+    return report
+
+
+def _has_magic(file: Path) -> bool:
+    try:
+        return is_mcap(file)
+    except OSError:
+        return False
+
+
+def _finished_summary(file: Path) -> _FileSummary | None:
+    """The summary of a finished file (None when it has no readable footer and summary)."""
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+
+    with file.open('rb') as stream:
+        try:
+            summary = make_reader(stream).get_summary()
+        except (McapError, ValueError, struct.error):
+            return None
+        if summary is None or summary.statistics is None:
+            return _counted(file)
+        stats = summary.statistics
+        channels = [
+            _Channel(
+                channel.topic,
+                _schema_name(summary.schemas, channel.schema_id),
+                dict(channel.metadata),
+                stats.channel_message_counts.get(channel.id, 0),
+            )
+            for channel in summary.channels.values()
+        ]
+        return _FileSummary(
+            _entry(file, stats.message_count, stats.message_start_time, stats.message_end_time),
+            channels,
+        )
+
+
+def _counted(file: Path) -> _FileSummary | None:
+    """A finished file without statistics: counted by reading it through."""
+    from mcap.records import Channel, Message, Schema
+
+    scan = LinearScan(file)
+    stats = _Stats()
+    for record in scan.records():
+        if isinstance(record, Schema | Channel | Message):
+            stats.add(record)
+    return None if scan.stopped_at else stats.summary(file)
+
+
+def _schema_name(schemas: dict[int, Schema], schema_id: int) -> str:
+    schema = schemas.get(schema_id)
+    return schema.name if schema is not None else ''
+
+
+def _entry(file: Path, count: int, start: int, end: int) -> FileEntry:
+    return FileEntry(file.name, start if count else 0, end - start if count else 0, count)
+
+
+class _Stats:
+    """Counts and times of the records read so far."""
+
+    def __init__(self) -> None:
+        self.schemas: dict[int, Schema] = {}
+        self.channels: dict[int, _Channel] = {}
+        self.count = 0
+        self.start = 0
+        self.end = 0
+
+    def add(self, record: Schema | Channel | Message) -> None:
+        from mcap.records import Channel, Schema
+
+        if isinstance(record, Schema):
+            self.schemas[record.id] = record
+        elif isinstance(record, Channel):
+            self.channels.setdefault(
+                record.id,
+                _Channel(
+                    record.topic,
+                    _schema_name(self.schemas, record.schema_id),
+                    dict(record.metadata),
+                ),
+            )
+        else:
+            channel = self.channels.get(record.channel_id)
+            if channel is not None:
+                channel.count += 1
+            stamp = record.log_time
+            if not self.count:
+                self.start = self.end = stamp
+            self.start = min(self.start, stamp)
+            self.end = max(self.end, stamp)
+            self.count += 1
+
+    def summary(self, file: Path) -> _FileSummary:
+        return _FileSummary(
+            _entry(file, self.count, self.start, self.end), list(self.channels.values())
+        )
+
+
+def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
+    """Rewrite an unfinished file from its complete records, into a temporary file renamed
+    over the original once complete and on disk. (None, scan) when there is no header."""
+    from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
+    from mcap.writer import Writer
+
+    scan = LinearScan(file)
+    temporary = file.with_name(_TEMPORARY.format(file.name))
+    records = scan.records()
+    header = next(records, None)
+    if not isinstance(header, Header):
+        return None, scan
+    stats = _Stats()
+    schemas: dict[int, int] = {0: 0}
+    channels: dict[int, int] = {}
+    try:
+        with temporary.open('xb') as stream:
+            writer: Untyped = None  # mcap's Writer: ``finish`` has no annotations
+            for record in records:
+                if writer is None:
+                    kind = compression_type(scan.compression or 'none')
+                    writer = Writer(stream, chunk_size=DEFAULT_CHUNK_SIZE, compression=kind)
+                    writer.start(profile=header.profile, library=header.library)
+                if isinstance(record, Schema) and record.id not in schemas:
+                    schemas[record.id] = writer.register_schema(
+                        record.name, record.encoding, record.data
+                    )
+                elif isinstance(record, Channel) and record.id not in channels:
+                    channels[record.id] = writer.register_channel(
+                        record.topic,
+                        record.message_encoding,
+                        schemas.get(record.schema_id, 0),
+                        dict(record.metadata),
+                    )
+                elif isinstance(record, Message) and record.channel_id in channels:
+                    writer.add_message(
+                        channels[record.channel_id],
+                        record.log_time,
+                        record.data,
+                        record.publish_time,
+                        record.sequence,
+                    )
+                elif isinstance(record, Metadata) and record.name != 'rosbag2':
+                    writer.add_metadata(record.name, dict(record.metadata))
+                elif isinstance(record, Attachment):
+                    writer.add_attachment(
+                        record.create_time,
+                        record.log_time,
+                        record.name,
+                        record.media_type,
+                        record.data,
+                    )
+                else:
+                    continue
+                if isinstance(record, Schema | Channel | Message):
+                    stats.add(record)
+            if writer is None:
+                writer = Writer(stream, compression=compression_type('none'))
+                writer.start(profile=header.profile, library=header.library)
+            summary = stats.summary(file)
+            writer.add_metadata('rosbag2', {'serialized_metadata': bag.serialized_with(summary)})
+            writer.finish()
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temporary, file)
+    except BaseException as exc:
+        temporary.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise BagError(file, f'cannot rewrite it ({exc}); the original is unchanged') from exc
+        raise
+    return summary, scan
+
+
+def _previous_metadata(path: Path) -> tuple[str, dict[str, str]]:
+    """The ROS distro and custom data of an existing ``metadata.yaml`` (what the files do not
+    say); empty when there is none or it does not parse."""
+    if not path.is_file():
+        return '', {}
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    try:
+        loaded = YAML(typ='safe', pure=True).load(path.read_text(encoding='utf-8'))
+        info = loaded['rosbag2_bagfile_information']
+        distro = info.get('ros_distro') or ''
+        custom = info.get('custom_data') or {}
+    except (YAMLError, OSError, UnicodeDecodeError, KeyError, TypeError, AttributeError):
+        return '', {}
+    if not isinstance(distro, str) or not isinstance(custom, dict):
+        return '', {}
+    return distro, {str(k): str(v) for k, v in custom.items()}
