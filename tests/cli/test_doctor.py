@@ -49,3 +49,29 @@ def test_doctor_fails_clearly_without_a_router(cli: Cli) -> None:
     result = cli.run('doctor', '--connect', f'tcp/127.0.0.1:{port}')
     assert result.returncode == 1
     assert f'  FAIL  cannot reach a Zenoh router or bridge at tcp/127.0.0.1:{port}' in result.stdout
+
+
+def test_doctor_hears_the_clocks_of_an_rmw_zenoh_graph(
+    cli: Cli, zros_node: Callable[..., Any]
+) -> None:
+    node = zros_node('sim', wire='rmw_zenoh')  # logs to /rosout under rmw_zenoh's keys
+    node.create_publisher('rosgraph_msgs/msg/Clock', '/clock', 10)
+    stop = threading.Event()
+
+    def log_forever() -> None:
+        while not stop.wait(0.05):
+            node.get_logger().info('still here')
+
+    logger = threading.Thread(target=log_forever, daemon=True)
+    logger.start()
+    try:
+        result = cli.run('doctor', '--listen', '10', '--wire', 'rmw_zenoh')
+    finally:
+        stop.set()
+        logger.join(5)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert '  ok    wire schemes present: rmw_zenoh' in result.stdout
+    assert '  warn  /clock is published' in result.stdout
+    skew = next((line for line in result.stdout.splitlines() if 'from /rosout stamps' in line), '')
+    assert skew, result.stdout
+    assert abs(float(skew.split('this clock is ')[1].split(' s')[0])) < 0.5

@@ -110,7 +110,7 @@ class Node(EntityFactories, ParameterMethods, GraphMethods):
         self.registry: TypeRegistry = registry or default_registry()
         node_wire = open_wire(
             self.wire, self.transport, self.namespace, self.name, self.registry,
-            bridge_namespace=bridge_namespace, domain_id=domain_id,
+            settings={'bridge_namespace': bridge_namespace, 'domain_id': domain_id},
         )  # fmt: skip
         self.scheme: KeyScheme = node_wire.scheme  #: the pure key functions of the wire
         self.clock: Clock = SimClock() if options.use_sim_time else Clock()

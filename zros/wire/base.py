@@ -6,13 +6,13 @@ liveliness tokens, GIDs, attachments on what an entity sends, which samples a su
 accepts, the options of transient-local publishers and subscribers, how a server admits and
 answers queries, what a client sends with a request and how it checks a reply. The bases hold
 the plain behaviour (no attachments); a scheme overrides what it adds. Adding a scheme is one
-module with a :class:`Wire` subclass, listed in :data:`zros.wire.WIRES`.
+module with a :class:`Wire` subclass, listed in :data:`zros.wire.SCHEMES`.
 """
 
 from __future__ import annotations
 
 import abc
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, ClassVar, Protocol, TypedDict
 
 from zenoh import ConsolidationMode, QueryTarget, Sample, ext
@@ -20,6 +20,7 @@ from zenoh import ConsolidationMode, QueryTarget, Sample, ext
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
 from zros.wire.requests import Requests
+from zros.wire.schemes import WireOption
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -133,15 +134,25 @@ class Wire(abc.ABC):
         namespace: str,
         node_name: str,
         registry: TypeRegistry,
-        *,
-        bridge_namespace: str | None = None,
-        domain_id: int | None = None,
     ) -> None:
-        """The wire of the node ``namespace``/``node_name``; TypeError for an option the
-        scheme does not take (``bridge_namespace``, ``domain_id``)."""
+        """The wire of the node ``namespace``/``node_name`` (a scheme adds its own settings
+        as keywords)."""
         self.transport = transport
         self.node_namespace = namespace
         self.node_name = node_name
+
+    @classmethod
+    @abc.abstractmethod
+    def open(
+        cls,
+        transport: Transport,
+        namespace: str,
+        node_name: str,
+        registry: TypeRegistry,
+        settings: Mapping[str, WireOption],
+    ) -> Wire:
+        """The wire from the settings of this scheme (``zros.wire.open_wire`` checked that
+        it takes each one given)."""
 
     @property
     def node_fqn(self) -> str:
@@ -201,6 +212,9 @@ class Wire(abc.ABC):
         """The options of a server's queryable: complete, so clients that ask only complete
         queryables find it."""
         return {'complete': True}
+
+    def __str__(self) -> str:
+        return self.name
 
     def __repr__(self) -> str:
         return f'<{type(self).__name__} {self.scheme!r}>'

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -20,6 +21,7 @@ from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
 from zros.wire.base import Wire, WireEntity
+from zros.wire.schemes import WireOption
 
 if TYPE_CHECKING:
     from zenoh import Session
@@ -134,12 +136,24 @@ class BridgeWire(Wire):
         registry: TypeRegistry,
         *,
         bridge_namespace: str | None = None,
-        domain_id: int | None = None,
     ) -> None:
-        if domain_id is not None:
-            raise TypeError("domain_id= is for wire='rmw_zenoh' (bridges set their own)")
         super().__init__(transport, namespace, node_name, registry)
         self.scheme: BridgeScheme = bridge_scheme(transport, bridge_namespace)
+
+    @classmethod
+    def open(
+        cls,
+        transport: Transport,
+        namespace: str,
+        node_name: str,
+        registry: TypeRegistry,
+        settings: Mapping[str, WireOption],
+    ) -> BridgeWire:
+        """The wire with ``bridge_namespace`` from ``settings``."""
+        bridge_namespace = settings.get('bridge_namespace')
+        if bridge_namespace is not None and not isinstance(bridge_namespace, str):
+            raise TypeError(f'bridge_namespace= is a str, not {bridge_namespace!r}')
+        return cls(transport, namespace, node_name, registry, bridge_namespace=bridge_namespace)
 
     @property
     def node_token(self) -> str:

@@ -18,7 +18,7 @@ import os
 import struct
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Protocol
 
 from zenoh import ConsolidationMode, Query, QueryTarget, Sample, ZBytes, ext
@@ -40,6 +40,7 @@ from zros.wire.base import (
     WireEntity,
 )
 from zros.wire.requests import Requests
+from zros.wire.schemes import WireOption
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -285,17 +286,29 @@ class RmwZenohWire(Wire):
         node_name: str,
         registry: TypeRegistry,
         *,
-        bridge_namespace: str | None = None,
         domain_id: int | None = None,
     ) -> None:
-        if bridge_namespace is not None:
-            raise TypeError("bridge_namespace= is for wire='bridge'")
         super().__init__(transport, namespace, node_name, registry)
         humble = registry.distro == 'humble'  # Humble's rmw_zenoh writes no type hashes
         self.scheme: RmwZenohScheme = RmwZenohScheme(ros_domain_id(domain_id), humble=humble)
         self._ids = entity_ids(transport)
         #: the node's id and names, which its entities' tokens repeat
         self.node: NodeToken = self.scheme.node(transport.zid, self._ids(), namespace, node_name)
+
+    @classmethod
+    def open(
+        cls,
+        transport: Transport,
+        namespace: str,
+        node_name: str,
+        registry: TypeRegistry,
+        settings: Mapping[str, WireOption],
+    ) -> RmwZenohWire:
+        """The wire with ``domain_id`` from ``settings`` (checked by :func:`ros_domain_id`)."""
+        domain_id = settings.get('domain_id')
+        if isinstance(domain_id, str):
+            raise ValueError(f'a ROS domain id is a non-negative integer, not {domain_id!r}')
+        return cls(transport, namespace, node_name, registry, domain_id=domain_id)
 
     @property
     def node_token(self) -> str:
