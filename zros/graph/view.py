@@ -29,18 +29,26 @@ from typing import TypeVar
 from zenoh import Sample, SampleKind, ZError
 from zenoh.handlers import FifoChannel
 
-from zros.keyexpr.bridge import BRIDGE_TOKENS, ENTITY_TOKENS, EntityToken, bridge_zid, ros_name
 from zros.keyexpr.kinds import EntityKind, TokenError
 from zros.keyexpr.owners import ZROS_TOKENS, OwnedEntity, OwnedNode, parse_owner_token
-from zros.keyexpr.rmw_zenoh import ALL_TOKENS as RMW_TOKENS
-from zros.keyexpr.rmw_zenoh import EndpointToken as RmwEndpoint
-from zros.keyexpr.rmw_zenoh import NodeToken, gid, name_key, parse_token
 from zros.qos import QoS
 from zros.runtime.entity import Undeclarable
 from zros.runtime.signal import Signal
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
-from zros.wire import BridgeInfo, ask_bridge
+from zros.wire import (
+    BRIDGE_TOKEN_SELECTORS,
+    RMW_TOKEN_SELECTOR,
+    BridgeInfo,
+    EndpointToken,
+    EntityToken,
+    NodeToken,
+    ask_bridge,
+    bridged_name,
+    endpoint_facts,
+    parse_bridge_token,
+    parse_rmw_token,
+)
 
 _log = logging.getLogger('zros.graph')
 
@@ -78,7 +86,7 @@ class Endpoint:
 
     def ros_name(self, namespace: str = '/') -> str:
         """Its ROS name (through a bridge with ``namespace``, for bridged endpoints)."""
-        return self.name if self.name is not None else ros_name(self.key, namespace)
+        return self.name if self.name is not None else bridged_name(self.key, namespace)
 
     @property
     def is_bridged(self) -> bool:
@@ -97,19 +105,22 @@ class Graph:
         self._owner_tokens: dict[str, tuple[str, EntityKind, str, str, str]] = {}
         self._nodes: dict[str, tuple[str, str]] = {}  # token key -> (zid, node fqn)
         self._bridges: dict[str, BridgeInfo] = {}
-        self._rmw_entities: dict[str, RmwEndpoint] = {}  # token key -> rmw_zenoh endpoint
+        self._rmw_entities: dict[str, EndpointToken] = {}  # token key -> rmw_zenoh endpoint
         self._rmw_nodes: dict[str, NodeToken] = {}  # token key -> rmw_zenoh node
         self._changed = Signal()
         self.version = 0  #: bumped on every change
         self._closed = False
         liveliness = session.liveliness()
         self._subscribers: list[Undeclarable] = [
-            liveliness.declare_subscriber(ENTITY_TOKENS, self._on_entity, history=True),
-            liveliness.declare_subscriber(BRIDGE_TOKENS, self._on_entity, history=True),
-            liveliness.declare_subscriber(ZROS_TOKENS, self._on_zros, history=True),
-            liveliness.declare_subscriber(RMW_TOKENS, self._on_rmw, history=True),
+            liveliness.declare_subscriber(selector, handler, history=True)
+            for selector, handler in self._selectors()
         ]
         transport.on_close(self.close)
+
+    def _selectors(self) -> list[tuple[str, Callable[[Sample], None]]]:
+        """Where the view hears each scheme's tokens, and what handles them."""
+        bridge = [(selector, self._on_entity) for selector in BRIDGE_TOKEN_SELECTORS]
+        return [*bridge, (ZROS_TOKENS, self._on_zros), (RMW_TOKEN_SELECTOR, self._on_rmw)]
 
     # --- token handling, on Zenoh's threads -----------------------------------------------------
 
@@ -121,8 +132,13 @@ class Graph:
     def _on_entity(self, sample: Sample) -> None:
         key = str(sample.key_expr)
         alive = sample.kind == SampleKind.PUT
-        zid = bridge_zid(key)
-        if zid is not None:
+        try:
+            token = parse_bridge_token(key)
+        except TokenError as exc:
+            _log.debug('ignoring a malformed token %s: %s', key, exc)
+            return
+        if isinstance(token, str):  # a bridge's own token
+            zid = token
             with self._lock:
                 if alive:
                     self._bridges.setdefault(zid, BridgeInfo(zid))
@@ -131,11 +147,6 @@ class Graph:
             if alive:
                 threading.Thread(target=self._ask_bridge, args=(zid,), daemon=True).start()
             self._bump()
-            return
-        try:
-            token = EntityToken.parse(key)
-        except TokenError as exc:
-            _log.debug('ignoring a malformed token %s: %s', key, exc)
             return
         if token is None:
             return
@@ -171,7 +182,7 @@ class Graph:
         key = str(sample.key_expr)
         alive = sample.kind == SampleKind.PUT
         try:
-            token = parse_token(key)
+            token = parse_rmw_token(key)
         except TokenError as exc:
             _log.debug('ignoring a malformed rmw_zenoh token %s: %s', key, exc)
             return
@@ -207,12 +218,7 @@ class Graph:
         # answer on a loaded machine left the last ones 50 ms; asked all at once, some answers
         # came back short under load (2 of 12 `zros action info` missed the node's name)
         within = max(timeout, ANSWER_WITHIN)
-        for selector, handler in (
-            (ENTITY_TOKENS, self._on_entity),
-            (BRIDGE_TOKENS, self._on_entity),
-            (ZROS_TOKENS, self._on_zros),
-            (RMW_TOKENS, self._on_rmw),
-        ):
+        for selector, handler in self._selectors():
             # a FIFO of Zenoh's default size (256) that fills while this thread takes the GIL
             # back from the graph's callbacks stalls the session: give it room for any graph
             replies = liveliness.get(
@@ -249,21 +255,22 @@ class Graph:
                     type_hash=type_hash,
                 )
             )
-        for key, entity in rmw:
+        for token_key, entity in rmw:
             if kinds is not None and entity.kind not in kinds:
                 continue
+            key, entity_gid, type_hash = endpoint_facts(token_key, entity)
             result.append(
                 Endpoint(
                     entity.kind,
                     entity.node.zid,
-                    name_key(entity.node.domain, entity.topic),
+                    key,
                     entity.type_name,
                     entity.qos.to_qos(),
                     entity.node.fully_qualified_name,
                     'rmw_zenoh',
                     entity.topic,
-                    gid(key),
-                    entity.type_hash if entity.type_hash.startswith('RIHS01_') else None,
+                    entity_gid,
+                    type_hash,
                 )
             )
         return sorted(result, key=lambda e: (e.key, e.kind.value, e.zid))

@@ -14,7 +14,17 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from zros.cdr.hashing import type_hash
-from zros.keyexpr.bridge import CONFIG_SELECTOR, VERSION_SELECTOR, BridgeScheme, admin_key
+from zros.keyexpr.bridge import (
+    BRIDGE_TOKENS,
+    CONFIG_SELECTOR,
+    ENTITY_TOKENS,
+    VERSION_SELECTOR,
+    BridgeScheme,
+    EntityToken,
+    admin_key,
+    bridge_zid,
+    ros_name,
+)
 from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.owners import entity_token, node_token
 from zros.qos import QoS
@@ -101,6 +111,21 @@ def ask_bridge(session: Session, zid: str, timeout: float = 2.0) -> BridgeInfo:
     """The version and configuration of the bridge ``zid`` (fields None where it is silent)."""
     selectors = (admin_key(zid, 'version'), admin_key(zid, 'config'))
     return BridgeInfo.from_admin(zid, _admin_answers(session, selectors, timeout).get(zid, {}))
+
+
+#: where the graph hears this scheme: the entities' tokens, and the bridges' own
+BRIDGE_TOKEN_SELECTORS = (ENTITY_TOKENS, BRIDGE_TOKENS)
+
+
+def parse_bridge_token(key: str) -> str | EntityToken | None:
+    """What a token under :data:`BRIDGE_TOKEN_SELECTORS` announces: a bridge (its zid), an
+    entity, or nothing the graph shows (None); TokenError for a malformed one."""
+    return bridge_zid(key) or EntityToken.parse(key)
+
+
+def bridged_name(key: str, namespace: str = '/') -> str:
+    """The ROS name of a bridge key seen through a bridge with ``namespace``."""
+    return ros_name(key, namespace)
 
 
 #: the bridges that answered the first time a node of a session asked

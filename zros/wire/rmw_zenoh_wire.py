@@ -26,7 +26,16 @@ from zenoh import ConsolidationMode, Query, QueryTarget, Sample, ZBytes, ext
 from zros.cdr.hashing import type_hash
 from zros.keyexpr.attachment import GID_SIZE, SIZE, Attachment, AttachmentError
 from zros.keyexpr.kinds import EntityKind
-from zros.keyexpr.rmw_zenoh import IdCounter, NodeToken, RmwZenohScheme, gid
+from zros.keyexpr.rmw_zenoh import (
+    ALL_TOKENS,
+    EndpointToken,
+    IdCounter,
+    NodeToken,
+    RmwZenohScheme,
+    gid,
+    name_key,
+    parse_token,
+)
 from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
@@ -258,6 +267,22 @@ class RmwZenohEntity(WireEntity):
         if echoed.sequence_number != expected:
             return f'its reply answers request {echoed.sequence_number}, not request {expected}'
         return None
+
+
+#: where the graph hears this scheme: every domain's node and entity tokens
+RMW_TOKEN_SELECTOR = ALL_TOKENS
+
+
+def parse_rmw_token(key: str) -> NodeToken | EndpointToken:
+    """A node's or an entity's token (TokenError for a malformed one)."""
+    return parse_token(key)
+
+
+def endpoint_facts(key: str, token: EndpointToken) -> tuple[str, bytes, str | None]:
+    """What the graph shows of an entity's token ``key``: its key ``<domain>/<name>``, its
+    GID, and its type's RIHS01 hash (None where the token has none: Humble)."""
+    hashed = token.type_hash if token.type_hash.startswith('RIHS01_') else None
+    return name_key(token.node.domain, token.topic), gid(key), hashed
 
 
 def ros_domain_id(value: int | None) -> int:
