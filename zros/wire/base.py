@@ -12,6 +12,7 @@ module with a :class:`Wire` subclass, listed in :data:`zros.wire.SCHEMES`.
 from __future__ import annotations
 
 import abc
+import warnings
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, ClassVar, Protocol, TypedDict
 
@@ -215,6 +216,19 @@ class Wire(abc.ABC):
 
     def __str__(self) -> str:
         return self.name
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, str):  # node.wire was the scheme's name (a str) before
+            warnings.warn(
+                "node.wire is the node's Wire: compare node.wire.name with a scheme's name",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return self.name == other
+        return self is other
+
+    def __hash__(self) -> int:
+        return object.__hash__(self)
 
     def __repr__(self) -> str:
         return f'<{type(self).__name__} {self.scheme!r}>'
