@@ -117,6 +117,10 @@ def test_keys_names_and_selection(
         zros_node('i', wire='bridge', domain_id=1)
     with pytest.raises(ValueError, match='wire must be'):
         zros_node('j', wire='dds')
+    with pytest.raises(ValueError, match="a ROS domain id is a non-negative integer, not '3'"):
+        zros_node('m', domain_id='3')
+    with pytest.raises(TypeError, match='bridge_namespace= is a str, not 3'):
+        zros_node('n', wire='bridge', bridge_namespace=3)
     monkeypatch.setenv('ZROS_WIRE', 'rmw_zenoh')
     assert zros_node('k', wire=None).wire.name == 'rmw_zenoh'
     monkeypatch.setenv('ZROS_WIRE', 'bridge')

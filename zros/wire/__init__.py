@@ -28,49 +28,25 @@ from zros.wire.schemes import (
 TYPE_CHECKING = False  # not typing's: `zros --help` imports this package and stays light
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
-    from zros.keyexpr.bridge import EntityToken
-    from zros.keyexpr.rmw_zenoh import EndpointToken, NodeToken
     from zros.transport import Transport
     from zros.wire.base import KeyScheme, Wire, WireEntity
-    from zros.wire.bridge_wire import (
-        BRIDGE_TOKEN_SELECTORS,
-        BridgeInfo,
-        BridgeWire,
-        ask_bridge,
-        bridged_name,
-        bridges_at_start,
-        parse_bridge_token,
-        query_bridges,
-    )
+    from zros.wire.bridge_wire import BridgeWire, ask_bridge, bridges_at_start, query_bridges
     from zros.wire.requests import Requests
-    from zros.wire.rmw_zenoh_wire import (
-        RMW_TOKEN_SELECTOR,
-        RmwZenohWire,
-        SequenceNumbers,
-        endpoint_facts,
-        parse_rmw_token,
-        read_attachment,
-    )
+    from zros.wire.rmw_zenoh_wire import RmwZenohWire, SequenceNumbers, read_attachment
+    from zros.wire.tokens import BridgeInfo, Endpoint, TokenView
 
 #: public name -> module, imported on first access
 _LAZY = {
     'KeyScheme': 'zros.wire.base',
     'Wire': 'zros.wire.base',
     'WireEntity': 'zros.wire.base',
-    'BridgeInfo': 'zros.wire.bridge_wire',
+    'BridgeInfo': 'zros.wire.tokens',
+    'Endpoint': 'zros.wire.tokens',
+    'TokenView': 'zros.wire.tokens',
     'BridgeWire': 'zros.wire.bridge_wire',
     'ask_bridge': 'zros.wire.bridge_wire',
     'bridges_at_start': 'zros.wire.bridge_wire',
     'query_bridges': 'zros.wire.bridge_wire',
-    'BRIDGE_TOKEN_SELECTORS': 'zros.wire.bridge_wire',
-    'EntityToken': 'zros.wire.bridge_wire',
-    'bridged_name': 'zros.wire.bridge_wire',
-    'parse_bridge_token': 'zros.wire.bridge_wire',
-    'RMW_TOKEN_SELECTOR': 'zros.wire.rmw_zenoh_wire',
-    'EndpointToken': 'zros.wire.rmw_zenoh_wire',
-    'NodeToken': 'zros.wire.rmw_zenoh_wire',
-    'endpoint_facts': 'zros.wire.rmw_zenoh_wire',
-    'parse_rmw_token': 'zros.wire.rmw_zenoh_wire',
     'Requests': 'zros.wire.requests',
     'RmwZenohWire': 'zros.wire.rmw_zenoh_wire',
     'SequenceNumbers': 'zros.wire.rmw_zenoh_wire',
@@ -106,7 +82,7 @@ def open_wire(
     """The wire ``wire`` for the node ``namespace``/``node_name`` on ``transport``, with the
     scheme's own ``settings`` (None values ignored); TypeError for one it does not take."""
     given = scheme_settings(wire, settings or {})
-    return wire_class(wire).open(transport, namespace, node_name, registry, given)
+    return wire_class(wire)(transport, namespace, node_name, registry, given)
 
 
 def any_type_key(wire: str, key: str) -> str:
@@ -115,33 +91,26 @@ def any_type_key(wire: str, key: str) -> str:
 
 
 __all__ = [
-    'BRIDGE_TOKEN_SELECTORS',
     'DEFAULT_WIRE',
-    'RMW_TOKEN_SELECTOR',
     'SCHEMES',
     'BridgeInfo',
     'BridgeWire',
-    'EndpointToken',
-    'EntityToken',
+    'Endpoint',
     'KeyScheme',
-    'NodeToken',
     'Requests',
     'RmwZenohWire',
     'Scheme',
     'SequenceNumbers',
+    'TokenView',
     'Wire',
     'WireEntity',
     'WireOption',
     'WireSetting',
     'any_type_key',
     'ask_bridge',
-    'bridged_name',
     'bridges_at_start',
     'check_wire',
-    'endpoint_facts',
     'open_wire',
-    'parse_bridge_token',
-    'parse_rmw_token',
     'query_bridges',
     'read_attachment',
     'scheme_settings',

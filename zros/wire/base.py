@@ -22,6 +22,7 @@ from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
 from zros.wire.requests import Requests
 from zros.wire.schemes import WireOption
+from zros.wire.tokens import TokenView
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -128,6 +129,8 @@ class Wire(abc.ABC):
     name: ClassVar[str]
     #: the pure key and token functions of the scheme
     scheme: KeyScheme
+    #: what a session's graph hears of the scheme's tokens
+    token_view: ClassVar[type[TokenView]]
 
     def __init__(
         self,
@@ -135,25 +138,13 @@ class Wire(abc.ABC):
         namespace: str,
         node_name: str,
         registry: TypeRegistry,
+        settings: Mapping[str, WireOption],
     ) -> None:
-        """The wire of the node ``namespace``/``node_name`` (a scheme adds its own settings
-        as keywords)."""
+        """The wire of the node ``namespace``/``node_name``; each scheme reads its own
+        ``settings`` (``zros.wire.open_wire`` checked it takes each one given)."""
         self.transport = transport
         self.node_namespace = namespace
         self.node_name = node_name
-
-    @classmethod
-    @abc.abstractmethod
-    def open(
-        cls,
-        transport: Transport,
-        namespace: str,
-        node_name: str,
-        registry: TypeRegistry,
-        settings: Mapping[str, WireOption],
-    ) -> Wire:
-        """The wire from the settings of this scheme (``zros.wire.open_wire`` checked that
-        it takes each one given)."""
 
     @property
     def node_fqn(self) -> str:
