@@ -112,6 +112,22 @@ def test_reading_a_bag_that_reaches_the_runtime_breaks_the_contracts(tmp_path: P
     assert 'zros.bag.read is not allowed to import zros.pubsub' in result.stdout, result.stdout
 
 
+def test_a_scheme_key_module_imported_outside_the_wire_breaks_the_contracts(
+    tmp_path: Path,
+) -> None:
+    """Only zros.wire (and zros.keyexpr) know the schemes: the graph asking a scheme's key
+    module for a token is caught."""
+    shutil.copytree(PACKAGE, tmp_path / 'zros', ignore=shutil.ignore_patterns('__pycache__'))
+    shutil.copy(ROOT / 'pyproject.toml', tmp_path / 'pyproject.toml')
+    view = tmp_path / 'zros' / 'graph' / 'view.py'
+    view.write_text(view.read_text() + '\n\nfrom zros.keyexpr.rmw_zenoh import gid  # noqa\n')
+    result = lint_imports(tmp_path, tmp_path)
+    assert result.returncode != 0
+    assert 'zros.graph is not allowed to import zros.keyexpr.rmw_zenoh' in result.stdout, (
+        result.stdout
+    )
+
+
 def test_no_module_imports_itself_through_a_circle() -> None:
     assert circles('zros') == []
 

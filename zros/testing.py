@@ -5,10 +5,12 @@
 * ``zros_transport``: a factory of sessions connected to that router (each like a process of
   its own).
 * ``zros_node``: a factory of nodes, each on a session of its own unless ``transport=`` is given.
-* ``zros_wire``: the wire scheme of those nodes, ``'bridge'``; override it in a test module to
-  run its tests under rmw_zenoh too::
+* ``zros_wire``: the wire scheme of those nodes, the default one (``'bridge'``); override it
+  in a test module to run its tests on every scheme zros speaks::
 
-      @pytest.fixture(params=['bridge', 'rmw_zenoh'])
+      from zros.wire import SCHEMES
+
+      @pytest.fixture(params=list(SCHEMES))  # 'bridge', 'rmw_zenoh'
       def zros_wire(request):
           return request.param
 
@@ -36,6 +38,7 @@ import pytest
 
 from zros.node import Node
 from zros.transport import Router, Transport, TransportConfig, start_router
+from zros.wire import DEFAULT_WIRE
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -113,7 +116,7 @@ def zros_transport(zros_router: Router) -> Iterator[Callable[..., Transport]]:
 @pytest.fixture
 def zros_wire() -> str:
     """The wire scheme of the nodes ``zros_node`` makes (override it to parametrise)."""
-    return 'bridge'
+    return DEFAULT_WIRE
 
 
 @pytest.fixture

@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import socket
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from tests.cli.conftest import Cli
 
 
-def test_doctor_reports_the_router_graph_and_clock(cli: Cli, zros_node: Callable[..., Any]) -> None:
-    node = zros_node('chatty')  # logs to /rosout, serves parameters
-    node.create_publisher('std_msgs/msg/String', '/chatter', 10)
+@contextmanager
+def logging_forever(node: Any) -> Iterator[None]:
+    """``node`` logs a line to /rosout every 50 ms while in the block."""
     stop = threading.Event()
 
     def log_forever() -> None:
@@ -22,10 +23,17 @@ def test_doctor_reports_the_router_graph_and_clock(cli: Cli, zros_node: Callable
     logger = threading.Thread(target=log_forever, daemon=True)
     logger.start()
     try:
-        result = cli.run('doctor', '--listen', '10')
+        yield
     finally:
         stop.set()
         logger.join(5)
+
+
+def test_doctor_reports_the_router_graph_and_clock(cli: Cli, zros_node: Callable[..., Any]) -> None:
+    node = zros_node('chatty')  # logs to /rosout, serves parameters
+    node.create_publisher('std_msgs/msg/String', '/chatter', 10)
+    with logging_forever(node):
+        result = cli.run('doctor', '--listen', '10')
     assert result.returncode == 0, result.stdout + result.stderr
     lines = result.stdout.splitlines()
     assert lines[0].startswith('zros ') and 'eclipse-zenoh 1.' in lines[0]
@@ -49,3 +57,18 @@ def test_doctor_fails_clearly_without_a_router(cli: Cli) -> None:
     result = cli.run('doctor', '--connect', f'tcp/127.0.0.1:{port}')
     assert result.returncode == 1
     assert f'  FAIL  cannot reach a Zenoh router or bridge at tcp/127.0.0.1:{port}' in result.stdout
+
+
+def test_doctor_hears_the_clocks_of_an_rmw_zenoh_graph(
+    cli: Cli, zros_node: Callable[..., Any]
+) -> None:
+    node = zros_node('sim', wire='rmw_zenoh')  # logs to /rosout under rmw_zenoh's keys
+    node.create_publisher('rosgraph_msgs/msg/Clock', '/clock', 10)
+    with logging_forever(node):
+        result = cli.run('doctor', '--listen', '10', '--wire', 'rmw_zenoh')
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert '  ok    wire schemes present: rmw_zenoh' in result.stdout
+    assert '  warn  /clock is published' in result.stdout
+    skew = next((line for line in result.stdout.splitlines() if 'from /rosout stamps' in line), '')
+    assert skew, result.stdout
+    assert abs(float(skew.split('this clock is ')[1].split(' s')[0])) < 0.5

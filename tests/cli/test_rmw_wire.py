@@ -27,3 +27,17 @@ def test_commands_speak_rmw_zenoh(cli: Cli, zros_node: Callable[..., Any]) -> No
     wrong = cli.run('topic', 'list', '--wire', 'dds')
     assert wrong.returncode == 2
     assert "invalid choice: 'dds'" in wrong.stderr
+
+
+def test_each_scheme_has_its_own_settings(cli: Cli, zros_node: Callable[..., Any]) -> None:
+    """``--domain-id`` is rmw_zenoh's: the node it opens lives in that domain, and beside the
+    bridge wire it is a usage error naming the scheme that takes it."""
+    node = zros_node('far', wire='rmw_zenoh', domain_id=5, enable_rosout=False)
+    node.create_publisher('std_msgs/msg/String', '/far', 'latched').write(
+        zros.Message('std_msgs/msg/String', data='domain 5')
+    )
+    echo = cli.run('topic', 'echo', '/far', '--once', '--wire', 'rmw_zenoh', '--domain-id', '5')
+    assert echo.stdout == 'data: domain 5\n---\n', echo.stderr
+    wrong = cli.run('topic', 'list', '--wire', 'bridge', '--domain-id', '5')
+    assert wrong.returncode == 2
+    assert "domain_id= is for wire='rmw_zenoh', not wire='bridge'" in wrong.stderr

@@ -92,7 +92,7 @@ def test_keys_names_and_selection(
 ) -> None:
     node = zros_node('cam', '/robot', remap=['raw:=/camera/raw'])
     image = 'RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47'
-    assert node.wire == 'rmw_zenoh' and node.scheme.domain == 0
+    assert node.wire.name == 'rmw_zenoh' and node.scheme.domain == 0
     assert node.create_publisher('sensor_msgs/msg/Image', 'raw').key == (
         f'0/camera/raw/sensor_msgs::msg::dds_::Image_/{image}'
     )
@@ -117,10 +117,31 @@ def test_keys_names_and_selection(
         zros_node('i', wire='bridge', domain_id=1)
     with pytest.raises(ValueError, match='wire must be'):
         zros_node('j', wire='dds')
+    with pytest.raises(ValueError, match="a ROS domain id is a non-negative integer, not '3'"):
+        zros_node('m', domain_id='3')
+    with pytest.raises(TypeError, match='bridge_namespace= is a str, not 3'):
+        zros_node('n', wire='bridge', bridge_namespace=3)
     monkeypatch.setenv('ZROS_WIRE', 'rmw_zenoh')
-    assert zros_node('k', wire=None).wire == 'rmw_zenoh'
+    assert zros_node('k', wire=None).wire.name == 'rmw_zenoh'
     monkeypatch.setenv('ZROS_WIRE', 'bridge')
-    assert zros_node('l', wire=None).wire == 'bridge'
+    assert zros_node('l', wire=None).wire.name == 'bridge'
+
+
+def test_node_wire_is_the_wire_and_compares_to_its_name_with_a_warning(
+    zros_node: Callable[..., Node],
+) -> None:
+    node = zros_node('w')
+    assert node.wire is node.context.wire
+    assert (node.wire.name, str(node.wire), f'{node.wire} wire') == (
+        'rmw_zenoh',
+        'rmw_zenoh',
+        'rmw_zenoh wire',
+    )
+    with pytest.warns(DeprecationWarning, match=r'compare node\.wire\.name'):
+        assert node.wire == 'rmw_zenoh'
+    with pytest.warns(DeprecationWarning):
+        assert node.wire != 'bridge'
+    assert node.wire != zros_node('v').wire and {node.wire: 1}[node.wire] == 1
 
 
 def test_domains_do_not_see_each_other(zros_node: Callable[..., Node]) -> None:

@@ -106,7 +106,7 @@ def test_peers_meet_through_an_rmw_zenohd_like_router(
         nodes = [
             zros.Node(name, transport=t) for name, t in zip(('a', 'b'), transports, strict=True)
         ]
-        assert all(node.wire == 'rmw_zenoh' for node in nodes)
+        assert all(node.wire.name == 'rmw_zenoh' for node in nodes)
         sub = nodes[1].create_subscription(String, 'chatter')
         pub = nodes[0].create_publisher(String, 'chatter')
         assert pub.wait_for_subscribers()
@@ -125,7 +125,7 @@ def test_peers_meet_through_an_rmw_zenohd_like_router(
 def test_zros_init_selects_the_wire(zros_router: Router) -> None:
     node = zros.init('R_rmw', connect=zros_router.endpoint, handle_sigint=False, wire='rmw_zenoh')
     try:
-        assert node.wire == 'rmw_zenoh' and node.transport.config.wire == 'rmw_zenoh'
+        assert node.wire.name == 'rmw_zenoh' and node.transport.config.wire == 'rmw_zenoh'
         assert node._node_token.startswith('@ros2_lv/0/')
     finally:
         zros.shutdown()

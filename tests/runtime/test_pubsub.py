@@ -457,3 +457,30 @@ def test_messages_past_their_lifespan_are_dropped_on_arrival_counted_and_logged(
     assert sub.expired == 2 and sub.dropped == 2
     warnings = [r.getMessage() for r in caplog.records if 'past its lifespan' in r.getMessage()]
     assert len(warnings) == 1 and 'arrived 5.0' in warnings[0] and 'lifespan of 1 s' in warnings[0]
+
+
+def test_an_unannounced_raw_tap_hears_its_key_and_shows_nowhere(
+    zros_node: Callable[..., Node],
+) -> None:
+    """``RawTap(announce=False)`` (zros topic hz on a type it cannot decode) subscribes through
+    the one raw subscription, with the wire's admission rule, and declares no token."""
+    from zros.pubsub.taps import RawTap
+
+    talker, listener = connected(zros_node)
+    publisher = talker.create_publisher('std_msgs/msg/String', '/quiet', 10)
+    wire = listener.context.wire
+    key = wire.any_type_key(wire.key('/quiet'))
+    heard: list[zenoh.Sample] = []
+    with pytest.raises(TypeError, match='an unannounced RawTap needs the key'):
+        RawTap(listener, '/quiet', 'std_msgs/msg/String', qos=QoS(), key=None,
+               announce=False, callback=heard.append)  # fmt: skip
+    tap = RawTap(listener, '/quiet', 'std_msgs/msg/String', qos=QoS(), key=key,
+                 announce=False, callback=heard.append)  # fmt: skip
+    try:
+        assert publisher.wait_for_subscribers(10)  # Zenoh's matching: no token needed
+        publisher.write(text('hi'))
+        assert wait_for(lambda: bool(heard), timeout=10)
+        assert bytes(heard[0].payload.to_bytes()).endswith(b'hi\x00')
+        assert listener.graph.subscribers(listener.scheme.key('/quiet')) == []
+    finally:
+        tap.close()

@@ -17,14 +17,13 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import add_connection_options, out
+from zros.cli.shared import add_connection_options, open_node, out
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
-
     import zenoh
 
     from zros.graph import Graph
+    from zros.node import Node
 
 SKEW_WARNING = 0.5  #: seconds between clocks that make header stamps misleading
 
@@ -97,17 +96,19 @@ def _bridges(graph: Graph, report: Report) -> None:
             report.ok(text)
 
 
-def _clocks(session: zenoh.Session, graph: Graph, listen: float, report: Report) -> None:
-    topics = graph.topics('/')
+def _clocks(node: Node, graph: Graph, listen: float, report: Report) -> None:
+    topics = graph.topics(node.scheme.namespace)
     if '/clock' in topics:
         report.warn('/clock is published: the robot runs on simulated time (use_sim_time)')
     if '/rosout' not in topics or listen <= 0:
         report.ok('clock skew not measured (no /rosout to compare stamps with)')
         return
-    from zros.cdr import CdrError, decode, default_registry
-    from zros.keyexpr.bridge import topic_key
+    from zros.cdr import CdrError, decode
+    from zros.pubsub.taps import RawTap
+    from zros.qos import QoS, Reliability
 
-    log_class = default_registry().get_class('rcl_interfaces/msg/Log')
+    log_type = 'rcl_interfaces/msg/Log'
+    log_class = node.registry.get_class(log_type)
     offsets: list[float] = []
     enough = threading.Event()
 
@@ -120,11 +121,11 @@ def _clocks(session: zenoh.Session, graph: Graph, listen: float, report: Report)
         if len(offsets) >= 20:
             enough.set()
 
-    namespace = next((b.namespace for b in graph.bridges() if b.namespace), '/')
-    subscriber = session.declare_subscriber(topic_key('/rosout', namespace), on_sample)
+    # the node's wire gives the key (and, under rmw_zenoh, admits only attached samples)
+    qos = QoS(1000, Reliability.BEST_EFFORT)
+    tap = RawTap(node, '/rosout', log_type, qos=qos, key=None, callback=on_sample)
     enough.wait(listen)
-    undeclare: Callable[[], object] = subscriber.undeclare  # untyped in zenoh's stubs
-    undeclare()
+    tap.close()
     if not offsets:
         report.ok(f'clock skew not measured (nothing on /rosout within {listen:g} s)')
         return
@@ -149,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     out(f'zros {zros.__version__}, Python {sys.version.split()[0]}, eclipse-zenoh {zenoh_version}')
     out('session')
     try:
-        config = TransportConfig.create(connect=args.connect, mode=args.mode)
+        config = TransportConfig.create(connect=args.connect, mode=args.mode, wire=args.wire)
         transport = Transport(config)
     except SettingError:
         raise  # a usage error: one line, exit 2
@@ -170,7 +171,8 @@ def run(args: argparse.Namespace) -> int:
             f'{len(graph.services())} services, {len(graph.actions())} actions'
         )
         out('clocks')
-        _clocks(transport.session, graph, args.listen, report)
+        with open_node(args, transport=transport) as node:  # after counting: not counted
+            _clocks(node, graph, args.listen, report)
         graph.close()
     finally:
         transport.close()

@@ -18,6 +18,8 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import TYPE_CHECKING
 
+from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, scheme_settings
+
 # commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
 # `zros --help` loads none of them
 if TYPE_CHECKING:
@@ -43,7 +45,8 @@ class UsageError(CommandError):
 
 
 def add_connection_options(parser: argparse.ArgumentParser) -> None:
-    """``--connect``, ``--mode`` and ``--bridge-namespace`` (environment: ZROS_CONNECT...)."""
+    """``--connect``, ``--mode``, ``--wire`` and each scheme's settings (``--bridge-namespace``,
+    ``--domain-id``; environment: ZROS_CONNECT...)."""
     group = parser.add_argument_group('connection')
     group.add_argument(
         '--connect',
@@ -53,16 +56,33 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
         '$ZROS_CONNECT, else tcp/127.0.0.1:7447)',
     )
     group.add_argument('--mode', choices=('client', 'peer'), help='Zenoh mode (default client)')
+    schemes = ', '.join(f'{name}: {scheme.help}' for name, scheme in SCHEMES.items())
     group.add_argument(
         '--wire',
-        choices=('bridge', 'rmw_zenoh'),
-        help='zenoh-bridge-ros2dds keys, or rmw_zenoh natively (default: $ZROS_WIRE, else bridge)',
+        choices=tuple(SCHEMES),
+        help=f'the wire scheme: {schemes} (default: $ZROS_WIRE, else {DEFAULT_WIRE})',
     )
-    group.add_argument(
-        '--bridge-namespace',
-        metavar='NS',
-        help="the bridge's namespace setting (default: what the bridges report)",
-    )
+    for scheme in SCHEMES.values():
+        for setting in scheme.settings:
+            group.add_argument(
+                setting.flag, metavar=setting.metavar, type=setting.parse,
+                help=f'--wire {scheme.name}: {setting.help}',
+            )  # fmt: skip
+
+
+def wire_settings(args: argparse.Namespace) -> dict[str, WireOption]:
+    """The wire settings given on the command line (``--bridge-namespace``...), by keyword;
+    a usage error for a setting of another scheme than the one chosen."""
+    given: dict[str, WireOption] = {
+        setting.keyword: getattr(args, setting.keyword, None)
+        for scheme in SCHEMES.values()
+        for setting in scheme.settings
+    }
+    wire = getattr(args, 'wire', None) or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE
+    try:
+        return scheme_settings(wire, given)
+    except (TypeError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
 
 
 def node_name(args: argparse.Namespace) -> str:
@@ -74,23 +94,20 @@ def node_name(args: argparse.Namespace) -> str:
 
 def open_node(args: argparse.Namespace, **options: NodeSetting) -> Node:
     """The command's node (:func:`node_name`): no /rosout, no parameter services, its own
-    session; its publishers and subscriptions show on the graph as any node's."""
+    session (unless ``transport=`` is given); its publishers and subscriptions show on the
+    graph as any node's."""
     import zros
 
-    settings: dict[str, NodeSetting] = {}
-    if getattr(args, 'mode', None):
-        settings['mode'] = args.mode
+    settings: dict[str, NodeSetting] = dict(wire_settings(args))
     if getattr(args, 'wire', None):
         settings['wire'] = args.wire
+    if 'transport' not in options:  # else the session is made already
+        settings['connect'] = getattr(args, 'connect', None)
+        if getattr(args, 'mode', None):
+            settings['mode'] = args.mode
     options.setdefault('enable_rosout', False)
     options.setdefault('start_parameter_services', False)
-    return zros.Node(
-        node_name(args),
-        connect=getattr(args, 'connect', None),
-        bridge_namespace=getattr(args, 'bridge_namespace', None),
-        **settings,
-        **options,
-    )
+    return zros.Node(node_name(args), **settings, **options)
 
 
 def names_on_graph(node: Node, kind: str) -> dict[str, list[str]]:

@@ -238,6 +238,7 @@ def _measuring_subscription(
     Returns what closes it."""
     from zros.cdr.errors import UnknownTypeError
     from zros.pubsub import Subscriber
+    from zros.pubsub.taps import RawTap
     from zros.qos import QoS, Reliability
 
     type_name = _topic_type(node, args.topic, args.wait)
@@ -262,11 +263,9 @@ def _measuring_subscription(
         'without announcing the subscription',
         file=sys.stderr,
     )
-    subscriber = node.transport.session.declare_subscriber(
-        key, lambda sample: window.add(len(sample.payload))
-    )
-    undeclare: Callable[[], object] = subscriber.undeclare
-    return undeclare
+    tap = RawTap(node, args.topic, type_name, qos=qos, key=key, announce=False,
+                 callback=lambda sample: window.add(len(sample.payload)))  # fmt: skip
+    return tap.close
 
 
 def _report_loop(node: Node, args: argparse.Namespace, report: Callable[[], bool]) -> int:

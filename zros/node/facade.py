@@ -25,7 +25,7 @@ from zros.runtime.clock_feed import ClockSubscription
 from zros.runtime.context import NodeContext
 from zros.runtime.logger import Logger, logger_name
 from zros.transport import Transport, TransportConfig
-from zros.wire import KeyScheme, open_wire
+from zros.wire import KeyScheme, Wire, open_wire
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -63,7 +63,8 @@ class Node(EntityFactories, ParameterMethods, GraphMethods):
 
     ``wire`` picks the key scheme: ``'bridge'`` (zenoh-bridge-ros2dds, the default) or
     ``'rmw_zenoh'`` (ROS 2 nodes running rmw_zenoh, no bridge), also from ``ZROS_WIRE``; under
-    rmw_zenoh ``domain_id`` (default ``ROS_DOMAIN_ID``, else 0) is the ROS domain.
+    rmw_zenoh ``domain_id`` (default ``ROS_DOMAIN_ID``, else 0) is the ROS domain. The node's
+    ``wire`` attribute is then its :class:`~zros.wire.Wire`, whose ``name`` is that string.
 
     ``immediate_callbacks`` runs subscriber callbacks and service handlers as soon as a
     message or request arrives, on the thread that delivers it, instead of inside ``spin``:
@@ -102,16 +103,17 @@ class Node(EntityFactories, ParameterMethods, GraphMethods):
         )  # fmt: skip
         self.name, self.namespace = options.name, options.namespace
         self.remapping: Remapping = options.remapping
-        self.wire: str = options.wire  #: the wire scheme's name
         self.transport = node_transport(
-            transport, connect=connect, config=config, wire=self.wire,
+            transport, connect=connect, config=config, wire=options.wire,
             wire_given=wire is not None, settings=settings,
         )  # fmt: skip
         self.registry: TypeRegistry = registry or default_registry()
         node_wire = open_wire(
-            self.wire, self.transport, self.namespace, self.name, self.registry,
-            bridge_namespace=bridge_namespace, domain_id=domain_id,
+            options.wire, self.transport, self.namespace, self.name, self.registry,
+            settings={'bridge_namespace': bridge_namespace, 'domain_id': domain_id},
         )  # fmt: skip
+        #: the node's wire: ``wire.name`` is the scheme's name (``str(wire)`` too)
+        self.wire: Wire = node_wire
         self.scheme: KeyScheme = node_wire.scheme  #: the pure key functions of the wire
         self.clock: Clock = SimClock() if options.use_sim_time else Clock()
         #: what the node's entities get from it

@@ -21,7 +21,7 @@ from zros.runtime.clock import use_sim_time_from_environment
 from zros.runtime.logger import INFO, level_from_environment, parse_level
 from zros.transport import Transport, TransportConfig, default_transport
 from zros.transport.config import SessionOptions
-from zros.wire import check_wire
+from zros.wire import DEFAULT_WIRE, check_wire
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -130,7 +130,7 @@ class NodeSettings:
             if log_level is not None
             else (ros_args.log_level or level_from_environment() or INFO)
         )
-        chosen = check_wire(wire or os.environ.get('ZROS_WIRE') or 'bridge')
+        chosen = check_wire(wire or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE)
         return cls(name, namespace, remapping, overrides, use_sim_time, level, chosen)
 
 

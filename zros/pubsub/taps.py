@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from zenoh import Sample
 
@@ -22,6 +23,9 @@ from zros.qos import Durability, History, QoS, Reliability
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity
 from zros.wire import any_type_key, read_attachment
+
+if TYPE_CHECKING:
+    from zros.wire import WireEntity
 
 _log = logging.getLogger('zros')
 
@@ -126,7 +130,8 @@ class RawTap(Entity):
     oldest first).
 
     ``key`` (matching the publishers' keys) is used when the node cannot make the topic's key
-    and tokens itself (a type it does not know): the topic is then tapped unannounced.
+    and tokens itself (a type it does not know), or with ``announce`` False: the topic is then
+    tapped unannounced.
     Transient-local taps fetch what the publishers' caches hold (latched messages).
     """
 
@@ -140,6 +145,7 @@ class RawTap(Entity):
         key: str | None,
         callback: Callable[[Sample], None] | None = None,
         batches: Callable[[list[Sample]], None] | None = None,
+        announce: bool = True,
     ) -> None:
         if (callback is None) == (batches is None):
             raise TypeError('a RawTap takes a callback or batches, not both')
@@ -148,12 +154,19 @@ class RawTap(Entity):
         self.qos = qos
         context = self.context
         self.transport = context.transport
-        try:
-            wire = self._place(EntityKind.SUBSCRIBER, topic, type_name, context.registry, qos=qos)
-        except ZrosError as exc:
+        wire: WireEntity | None = None
+        if announce:
+            try:
+                wire = self._place(
+                    EntityKind.SUBSCRIBER, topic, type_name, context.registry, qos=qos
+                )
+            except ZrosError as exc:
+                if key is None:
+                    raise
+                _log.debug('not announcing the tap on %s: %s', topic, exc)
+        if wire is None:
             if key is None:
-                raise
-            _log.debug('not announcing the tap on %s: %s', topic, exc)
+                raise TypeError('an unannounced RawTap needs the key to tap')
             wire = context.wire.unannounced(key)
         self.key = wire.key
         self._subscribe(wire, qos, callback, batches=batches)

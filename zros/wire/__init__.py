@@ -3,36 +3,71 @@
 A node opens the wire it speaks (``wire=`` or ``ZROS_WIRE``) with :func:`open_wire`; its
 entities ask it for their place (:meth:`Wire.entity`: key, tokens, GID) and then ask that
 place (:class:`WireEntity`) what to attach, which samples to accept, how to answer queries.
+
+Only this package and ``zros.keyexpr`` know the schemes (an import-linter contract keeps
+``zros.keyexpr.bridge`` and ``zros.keyexpr.rmw_zenoh`` here); the rest asks a :class:`Wire` or
+the table :data:`SCHEMES`. The table loads without Zenoh (the command line builds its options
+from it); the rest of the package loads on first use.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+import importlib
+from collections.abc import Mapping
 
-from zros.wire.base import KeyScheme, Wire, WireEntity
-from zros.wire.bridge_wire import (
-    BridgeInfo,
-    BridgeWire,
-    ask_bridge,
-    bridges_at_start,
-    query_bridges,
+from zros.wire.schemes import (
+    DEFAULT_WIRE,
+    SCHEMES,
+    Scheme,
+    WireOption,
+    WireSetting,
+    check_wire,
+    scheme_settings,
 )
-from zros.wire.requests import Requests
-from zros.wire.rmw_zenoh_wire import RmwZenohWire, SequenceNumbers, read_attachment
 
+TYPE_CHECKING = False  # not typing's: `zros --help` imports this package and stays light
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
     from zros.transport import Transport
+    from zros.wire.base import KeyScheme, Wire, WireEntity
+    from zros.wire.bridge_wire import BridgeWire, ask_bridge, bridges_at_start, query_bridges
+    from zros.wire.requests import Requests
+    from zros.wire.rmw_zenoh_wire import RmwZenohWire, SequenceNumbers, read_attachment
+    from zros.wire.tokens import BridgeInfo, Endpoint, TokenView
 
-#: the schemes zros speaks, by name
-WIRES: dict[str, type[Wire]] = {'bridge': BridgeWire, 'rmw_zenoh': RmwZenohWire}
+#: public name -> module, imported on first access
+_LAZY = {
+    'KeyScheme': 'zros.wire.base',
+    'Wire': 'zros.wire.base',
+    'WireEntity': 'zros.wire.base',
+    'BridgeInfo': 'zros.wire.tokens',
+    'Endpoint': 'zros.wire.tokens',
+    'TokenView': 'zros.wire.tokens',
+    'BridgeWire': 'zros.wire.bridge_wire',
+    'ask_bridge': 'zros.wire.bridge_wire',
+    'bridges_at_start': 'zros.wire.bridge_wire',
+    'query_bridges': 'zros.wire.bridge_wire',
+    'Requests': 'zros.wire.requests',
+    'RmwZenohWire': 'zros.wire.rmw_zenoh_wire',
+    'SequenceNumbers': 'zros.wire.rmw_zenoh_wire',
+    'read_attachment': 'zros.wire.rmw_zenoh_wire',
+}
 
 
-def check_wire(wire: str) -> str:
-    """``wire`` if it names a scheme zros speaks, else ValueError."""
-    if wire not in WIRES:
-        raise ValueError(f'wire must be "bridge" or "rmw_zenoh", got {wire!r}')
-    return wire
+def __getattr__(name: str) -> object:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def wire_class(wire: str) -> type[Wire]:
+    """The :class:`Wire` class of the scheme ``wire``."""
+    module, _, name = SCHEMES[check_wire(wire)].wire_class.partition(':')
+    found: type[Wire] = getattr(importlib.import_module(module), name)
+    return found
 
 
 def open_wire(
@@ -42,32 +77,35 @@ def open_wire(
     node_name: str,
     registry: TypeRegistry,
     *,
-    bridge_namespace: str | None = None,
-    domain_id: int | None = None,
+    settings: Mapping[str, WireOption] | None = None,
 ) -> Wire:
-    """The wire ``wire`` for the node ``namespace``/``node_name`` on ``transport``; TypeError
-    for an option the scheme does not take."""
-    return WIRES[check_wire(wire)](
-        transport, namespace, node_name, registry,
-        bridge_namespace=bridge_namespace, domain_id=domain_id,
-    )  # fmt: skip
+    """The wire ``wire`` for the node ``namespace``/``node_name`` on ``transport``, with the
+    scheme's own ``settings`` (None values ignored); TypeError for one it does not take."""
+    given = scheme_settings(wire, settings or {})
+    return wire_class(wire)(transport, namespace, node_name, registry, given)
 
 
 def any_type_key(wire: str, key: str) -> str:
     """The key expression matching every type on ``key`` as the graph shows it for ``wire``."""
-    return WIRES[check_wire(wire)].any_type_key(key)
+    return wire_class(wire).any_type_key(key)
 
 
 __all__ = [
-    'WIRES',
+    'DEFAULT_WIRE',
+    'SCHEMES',
     'BridgeInfo',
     'BridgeWire',
+    'Endpoint',
     'KeyScheme',
     'Requests',
     'RmwZenohWire',
+    'Scheme',
     'SequenceNumbers',
+    'TokenView',
     'Wire',
     'WireEntity',
+    'WireOption',
+    'WireSetting',
     'any_type_key',
     'ask_bridge',
     'bridges_at_start',
@@ -75,4 +113,6 @@ __all__ = [
     'open_wire',
     'query_bridges',
     'read_attachment',
+    'scheme_settings',
+    'wire_class',
 ]

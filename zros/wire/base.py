@@ -6,13 +6,14 @@ liveliness tokens, GIDs, attachments on what an entity sends, which samples a su
 accepts, the options of transient-local publishers and subscribers, how a server admits and
 answers queries, what a client sends with a request and how it checks a reply. The bases hold
 the plain behaviour (no attachments); a scheme overrides what it adds. Adding a scheme is one
-module with a :class:`Wire` subclass, listed in :data:`zros.wire.WIRES`.
+module with a :class:`Wire` subclass, listed in :data:`zros.wire.SCHEMES`.
 """
 
 from __future__ import annotations
 
 import abc
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, ClassVar, Protocol, TypedDict
 
 from zenoh import ConsolidationMode, QueryTarget, Sample, ext
@@ -20,6 +21,8 @@ from zenoh import ConsolidationMode, QueryTarget, Sample, ext
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
 from zros.wire.requests import Requests
+from zros.wire.schemes import WireOption
+from zros.wire.tokens import TokenView
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -126,6 +129,8 @@ class Wire(abc.ABC):
     name: ClassVar[str]
     #: the pure key and token functions of the scheme
     scheme: KeyScheme
+    #: what a session's graph hears of the scheme's tokens
+    token_view: ClassVar[type[TokenView]]
 
     def __init__(
         self,
@@ -133,12 +138,10 @@ class Wire(abc.ABC):
         namespace: str,
         node_name: str,
         registry: TypeRegistry,
-        *,
-        bridge_namespace: str | None = None,
-        domain_id: int | None = None,
+        settings: Mapping[str, WireOption],
     ) -> None:
-        """The wire of the node ``namespace``/``node_name``; TypeError for an option the
-        scheme does not take (``bridge_namespace``, ``domain_id``)."""
+        """The wire of the node ``namespace``/``node_name``; each scheme reads its own
+        ``settings`` (``zros.wire.open_wire`` checked it takes each one given)."""
         self.transport = transport
         self.node_namespace = namespace
         self.node_name = node_name
@@ -201,6 +204,22 @@ class Wire(abc.ABC):
         """The options of a server's queryable: complete, so clients that ask only complete
         queryables find it."""
         return {'complete': True}
+
+    def __str__(self) -> str:
+        return self.name
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, str):  # node.wire was the scheme's name (a str) before
+            warnings.warn(
+                "node.wire is the node's Wire: compare node.wire.name with a scheme's name",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return self.name == other
+        return self is other
+
+    def __hash__(self) -> int:
+        return object.__hash__(self)
 
     def __repr__(self) -> str:
         return f'<{type(self).__name__} {self.scheme!r}>'

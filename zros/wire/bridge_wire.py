@@ -9,64 +9,46 @@ from __future__ import annotations
 
 import json
 import logging
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+import threading
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, ClassVar
+
+from zenoh import SampleKind, ZError
 
 from zros.cdr.hashing import type_hash
-from zros.keyexpr.bridge import CONFIG_SELECTOR, VERSION_SELECTOR, BridgeScheme, admin_key
-from zros.keyexpr.kinds import EntityKind
-from zros.keyexpr.owners import entity_token, node_token
+from zros.keyexpr.bridge import (
+    BRIDGE_TOKENS,
+    CONFIG_SELECTOR,
+    ENTITY_TOKENS,
+    VERSION_SELECTOR,
+    BridgeScheme,
+    EntityToken,
+    admin_key,
+    bridge_zid,
+    ros_name,
+)
+from zros.keyexpr.kinds import EntityKind, TokenError
+from zros.keyexpr.owners import (
+    ZROS_TOKENS,
+    OwnedEntity,
+    OwnedNode,
+    entity_token,
+    node_token,
+    parse_owner_token,
+)
 from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
 from zros.wire.base import Wire, WireEntity
+from zros.wire.schemes import WireOption
+from zros.wire.tokens import BridgeInfo, Endpoint, TokenHandler, TokenView, graph_log, keep_token
 
 if TYPE_CHECKING:
-    from zenoh import Session
+    from zenoh import Sample, Session
 
     from zros.cdr import JsonValue, TypeRegistry
 
 _log = logging.getLogger('zros')
-
-
-@dataclass(frozen=True)
-class BridgeInfo:
-    """A zenoh-bridge-ros2dds on the network."""
-
-    zid: str
-    version: str | None = None  #: e.g. ``1.10.0`` (None until its admin space answered)
-    namespace: str | None = None
-    nodename: str | None = None
-
-    @classmethod
-    def from_admin(cls, zid: str, answers: dict[str, JsonValue]) -> BridgeInfo:
-        """A bridge from the JSON its admin space gave (``version`` and ``config``)."""
-        config = answers.get('config')
-        settings: dict[str, JsonValue] = config if isinstance(config, dict) else {}
-        version = answers.get('version')
-        return cls(
-            zid,
-            str(version).lstrip('v') if version is not None else None,
-            settings.get('namespace'),
-            settings.get('nodename'),
-        )
-
-    @property
-    def version_tuple(self) -> tuple[int, ...] | None:
-        """The version as numbers, e.g. ``(1, 10, 0)``; None if unknown."""
-        if not self.version:
-            return None
-        digits = self.version.lstrip('v').split('-')[0].split('.')
-        try:
-            return tuple(int(part) for part in digits)
-        except ValueError:
-            return None
-
-    @property
-    def node_name(self) -> str:
-        """The one ROS node the bridge shows: ``<namespace>/<nodename>``."""
-        namespace = self.namespace or '/'
-        return namespace.rstrip('/') + '/' + (self.nodename or 'zenoh_bridge_ros2dds')
 
 
 def _admin_answers(
@@ -101,6 +83,128 @@ def ask_bridge(session: Session, zid: str, timeout: float = 2.0) -> BridgeInfo:
     return BridgeInfo.from_admin(zid, _admin_answers(session, selectors, timeout).get(zid, {}))
 
 
+class BridgeTokens(TokenView):
+    """What a session hears of the bridges: each bridge (its ``@ros2_lv`` token, then its
+    admin space), the entities they and zros nodes announce, and zros's ``@zros_lv`` tokens
+    naming the node that owns each of zros's entities."""
+
+    def __init__(self, session: Session, changed: Callable[[], None]) -> None:
+        super().__init__(session, changed)
+        self._entities: dict[str, EntityToken] = {}  # token key -> token
+        self._owners: dict[tuple[str, EntityKind, str, str], str] = {}  # -> zros node
+        self._owner_tokens: dict[str, tuple[str, EntityKind, str, str, str]] = {}
+        self._nodes: dict[str, tuple[str, str]] = {}  # token key -> (zid, node fqn)
+        self._bridges: dict[str, BridgeInfo] = {}
+
+    def selectors(self) -> list[tuple[str, TokenHandler]]:
+        """Entities' tokens, the bridges' own, and zros's owner tokens."""
+        return [
+            (ENTITY_TOKENS, self._on_entity),
+            (BRIDGE_TOKENS, self._on_entity),
+            (ZROS_TOKENS, self._on_zros),
+        ]
+
+    def _on_entity(self, sample: Sample) -> None:
+        key = str(sample.key_expr)
+        alive = sample.kind == SampleKind.PUT
+        zid = bridge_zid(key)
+        if zid is not None:
+            with self.lock:
+                if alive:
+                    self._bridges.setdefault(zid, BridgeInfo(zid))
+                else:
+                    self._bridges.pop(zid, None)
+            if alive:
+                threading.Thread(target=self._ask_bridge, args=(zid,), daemon=True).start()
+            self.changed()
+            return
+        try:
+            token = EntityToken.parse(key)
+        except TokenError as exc:
+            graph_log.debug('ignoring a malformed token %s: %s', key, exc)
+            return
+        if token is None:
+            return
+        with self.lock:
+            keep_token(self._entities, key, token, alive)
+        self.changed()
+
+    def _on_zros(self, sample: Sample) -> None:
+        key = str(sample.key_expr)
+        alive = sample.kind == SampleKind.PUT
+        token = parse_owner_token(key)
+        with self.lock:
+            if isinstance(token, OwnedNode):
+                keep_token(self._nodes, key, (token.zid, token.node), alive)
+            elif isinstance(token, OwnedEntity):
+                if alive:
+                    self._owners[token.entity] = token.node
+                    self._owner_tokens[key] = (*token.entity, token.node)
+                else:
+                    self._owners.pop(token.entity, None)
+                    self._owner_tokens.pop(key, None)
+            else:
+                return
+        self.changed()
+
+    def _ask_bridge(self, zid: str) -> None:
+        try:
+            info = ask_bridge(self.session, zid, timeout=2.0)
+        except ZError as exc:  # a bridge that does not answer keeps its token entry
+            graph_log.debug('bridge %s admin space: %s', zid, exc)
+            info = BridgeInfo(zid)
+        with self.lock:
+            if zid not in self._bridges or self.closed:
+                return
+            self._bridges[zid] = info
+        self.changed()
+
+    def endpoints(self) -> list[Endpoint]:
+        """The entities announced, with the zros node owning each where one does."""
+        with self.lock:
+            tokens = list(self._entities.values())
+            owners = dict(self._owners)
+        result = []
+        for token in tokens:
+            owner = owners.get((token.zid, token.kind, token.key, token.type_name))
+            qos = token.qos.to_qos(token.kind is EntityKind.PUBLISHER) if token.qos else None
+            type_hash = token.qos.type_hash if token.qos else None
+            result.append(
+                Endpoint(
+                    token.kind,
+                    token.zid,
+                    token.key,
+                    token.type_name,
+                    qos,
+                    owner,
+                    BridgeWire.name,
+                    type_hash=type_hash,
+                    naming=ros_name,
+                )
+            )
+        return result
+
+    def nodes(self) -> set[str]:
+        """zros nodes, and the one ROS node each bridge shows."""
+        with self.lock:
+            names = {fqn for _, fqn in self._nodes.values()}
+            return names | {bridge.node_name for bridge in self._bridges.values()}
+
+    def present(self) -> bool:
+        """Bridges, or zros nodes speaking to bridges."""
+        with self.lock:
+            return bool(self._bridges or self._entities or self._nodes)
+
+    def bridges(self) -> list[BridgeInfo]:
+        """The bridges present, with their version and namespace once they answered."""
+        with self.lock:
+            return sorted(self._bridges.values(), key=lambda b: b.zid)
+
+    def settled(self) -> bool:
+        """Whether every bridge told its version."""
+        return all(bridge.version is not None for bridge in self.bridges())
+
+
 #: the bridges that answered the first time a node of a session asked
 bridges_at_start = PerSession(lambda transport: query_bridges(transport.session, timeout=1.0))
 
@@ -125,6 +229,7 @@ class BridgeWire(Wire):
     """A node reaching ROS 2 behind zenoh-bridge-ros2dds."""
 
     name = 'bridge'
+    token_view: ClassVar[type[TokenView]] = BridgeTokens
 
     def __init__(
         self,
@@ -132,13 +237,12 @@ class BridgeWire(Wire):
         namespace: str,
         node_name: str,
         registry: TypeRegistry,
-        *,
-        bridge_namespace: str | None = None,
-        domain_id: int | None = None,
+        settings: Mapping[str, WireOption],
     ) -> None:
-        if domain_id is not None:
-            raise TypeError("domain_id= is for wire='rmw_zenoh' (bridges set their own)")
-        super().__init__(transport, namespace, node_name, registry)
+        super().__init__(transport, namespace, node_name, registry, settings)
+        bridge_namespace = settings.get('bridge_namespace')
+        if bridge_namespace is not None and not isinstance(bridge_namespace, str):
+            raise TypeError(f'bridge_namespace= is a str, not {bridge_namespace!r}')
         self.scheme: BridgeScheme = bridge_scheme(transport, bridge_namespace)
 
     @property

@@ -18,15 +18,24 @@ import os
 import struct
 import threading
 import time
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Protocol
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, ClassVar, Protocol
 
-from zenoh import ConsolidationMode, Query, QueryTarget, Sample, ZBytes, ext
+from zenoh import ConsolidationMode, Query, QueryTarget, Sample, SampleKind, ZBytes, ext
 
 from zros.cdr.hashing import type_hash
 from zros.keyexpr.attachment import GID_SIZE, SIZE, Attachment, AttachmentError
-from zros.keyexpr.kinds import EntityKind
-from zros.keyexpr.rmw_zenoh import IdCounter, NodeToken, RmwZenohScheme, gid
+from zros.keyexpr.kinds import EntityKind, TokenError
+from zros.keyexpr.rmw_zenoh import (
+    ALL_TOKENS,
+    EndpointToken,
+    IdCounter,
+    NodeToken,
+    RmwZenohScheme,
+    gid,
+    name_key,
+    parse_token,
+)
 from zros.qos import QoS
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
@@ -40,8 +49,12 @@ from zros.wire.base import (
     WireEntity,
 )
 from zros.wire.requests import Requests
+from zros.wire.schemes import WireOption
+from zros.wire.tokens import Endpoint, TokenHandler, TokenView, graph_log, keep_token
 
 if TYPE_CHECKING:
+    from zenoh import Session
+
     from zros.cdr import TypeRegistry
 
 _log = logging.getLogger('zros')
@@ -259,6 +272,67 @@ class RmwZenohEntity(WireEntity):
         return None
 
 
+class RmwZenohTokens(TokenView):
+    """What a session hears of rmw_zenoh: ``@ros2_lv/<domain>/...`` node and entity tokens
+    of every domain (ROS 2 nodes running rmw_zenoh, and zros nodes on that wire)."""
+
+    def __init__(self, session: Session, changed: Callable[[], None]) -> None:
+        super().__init__(session, changed)
+        self._entities: dict[str, EndpointToken] = {}  # token key -> endpoint
+        self._nodes: dict[str, NodeToken] = {}  # token key -> node
+
+    def selectors(self) -> list[tuple[str, TokenHandler]]:
+        """Every domain's tokens."""
+        return [(ALL_TOKENS, self._on_token)]
+
+    def _on_token(self, sample: Sample) -> None:
+        key = str(sample.key_expr)
+        alive = sample.kind == SampleKind.PUT
+        try:
+            token = parse_token(key)
+        except TokenError as exc:
+            graph_log.debug('ignoring a malformed rmw_zenoh token %s: %s', key, exc)
+            return
+        with self.lock:
+            if isinstance(token, NodeToken):
+                keep_token(self._nodes, key, token, alive)
+            else:
+                keep_token(self._entities, key, token, alive)
+        self.changed()
+
+    def endpoints(self) -> list[Endpoint]:
+        """The entities announced: key ``<domain>/<name>``, the owning node, the GID (the
+        XXH3 of the token) and the type hash (none from Humble)."""
+        with self.lock:
+            entities = list(self._entities.items())
+        return [
+            Endpoint(
+                entity.kind,
+                entity.node.zid,
+                name_key(entity.node.domain, entity.topic),
+                entity.type_name,
+                entity.qos.to_qos(),
+                entity.node.fully_qualified_name,
+                RmwZenohWire.name,
+                entity.topic,
+                gid(key),
+                entity.type_hash if entity.type_hash.startswith('RIHS01_') else None,
+            )
+            for key, entity in entities
+        ]
+
+    def nodes(self) -> set[str]:
+        """The nodes announced, and those only their entities name."""
+        with self.lock:
+            names = {node.fully_qualified_name for node in self._nodes.values()}
+            return names | {e.node.fully_qualified_name for e in self._entities.values()}
+
+    def present(self) -> bool:
+        """Any node or entity token."""
+        with self.lock:
+            return bool(self._nodes or self._entities)
+
+
 def ros_domain_id(value: int | None) -> int:
     """The ROS domain: ``value``, else ``ROS_DOMAIN_ID``, else 0."""
     if value is None:
@@ -277,6 +351,7 @@ class RmwZenohWire(Wire):
     """A node on a ROS 2 graph that runs rmw_zenoh, in one domain."""
 
     name = 'rmw_zenoh'
+    token_view: ClassVar[type[TokenView]] = RmwZenohTokens
 
     def __init__(
         self,
@@ -284,13 +359,12 @@ class RmwZenohWire(Wire):
         namespace: str,
         node_name: str,
         registry: TypeRegistry,
-        *,
-        bridge_namespace: str | None = None,
-        domain_id: int | None = None,
+        settings: Mapping[str, WireOption],
     ) -> None:
-        if bridge_namespace is not None:
-            raise TypeError("bridge_namespace= is for wire='bridge'")
-        super().__init__(transport, namespace, node_name, registry)
+        super().__init__(transport, namespace, node_name, registry, settings)
+        domain_id = settings.get('domain_id')
+        if isinstance(domain_id, str):
+            raise ValueError(f'a ROS domain id is a non-negative integer, not {domain_id!r}')
         humble = registry.distro == 'humble'  # Humble's rmw_zenoh writes no type hashes
         self.scheme: RmwZenohScheme = RmwZenohScheme(ros_domain_id(domain_id), humble=humble)
         self._ids = entity_ids(transport)

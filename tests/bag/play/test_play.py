@@ -65,12 +65,12 @@ def irregular(count: int, topics: list[str], seed: int = 1) -> list[tuple[str, i
 def selector(node: Any, pattern: str) -> str:
     """The key expression of the ROS names matching ``pattern`` (``/play/*``) on the node's wire."""
     key = node.scheme.key(pattern.replace('*', 'any_chunk')).replace('any_chunk', '*')
-    return key + '/*/*' if node.wire == 'rmw_zenoh' else key  # rmw_zenoh: type and hash follow
+    return key + '/*/*' if node.wire.name == 'rmw_zenoh' else key  # rmw_zenoh: type and hash follow
 
 
 def topic_key(node: Any, key: str) -> str:
     """A sample's key without rmw_zenoh's domain, type and hash chunks."""
-    return '/'.join(key.split('/')[1:-2]) if node.wire == 'rmw_zenoh' else key
+    return '/'.join(key.split('/')[1:-2]) if node.wire.name == 'rmw_zenoh' else key
 
 
 class Listener:
