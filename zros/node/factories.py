@@ -81,8 +81,8 @@ class EntityFactories:
 
     def create_timer(self, period: float, callback: Callable[[], object]) -> Timer:
         """A timer calling ``callback()`` every ``period`` seconds while the node spins."""
-        return Timer(self, period, callback)
+        return Timer(period, callback, node=self)
 
     def create_rate(self, hz: float) -> Rate:
         """A rate whose ``sleep()`` runs this node's callbacks while it waits."""
-        return Rate(hz, self)
+        return Rate(hz, node=self)
