@@ -135,3 +135,21 @@ def test_node_waits_for_publishers_and_subscribers_in_the_plural(
         assert viewer.wait_for_publisher('plural')
     with pytest.warns(DeprecationWarning, match='use Node.wait_for_subscribers'):
         assert viewer.wait_for_subscriber('plural')
+
+
+def test_parameter_client_takes_the_node_as_a_keyword(
+    initialized: zros.Node, zros_node: Callable[..., Node]
+) -> None:
+    driver = zros_node('driver')
+    driver.declare_parameter('speed', 0.5)
+    client = zros.ParameterClient('/driver')
+    assert client.node is initialized and client.get('speed') == 0.5
+    tool = zros_node('tool')
+    assert zros.ParameterClient('driver', node=tool, timeout=2.0).node is tool
+    with pytest.warns(DeprecationWarning, match=r'ParameterClient\(node, node_name\) is depr'):
+        old = zros.ParameterClient(tool, '/driver', 2.0)
+    assert old.node is tool and old.timeout == 2.0 and old.get('speed') == 0.5
+    with pytest.raises(TypeError, match=r'ParameterClient takes \(node_name, node=None'):
+        zros.ParameterClient('/driver', 2.0)
+    with pytest.raises(TypeError, match=r'ParameterClient takes \(node_name, node=None'):
+        zros.ParameterClient(tool, '/driver', node=tool)

@@ -50,6 +50,10 @@ class ActionServer(Entity):
     ``cancel_callback(goal_handle)`` whether to accept a cancel request (default: accept, the goal
     then sees ``is_cancel_requested``). Both return a ``GoalResponse``/``CancelResponse`` or a
     bool. Finished goals stay queryable for ``result_timeout`` seconds.
+
+    ``(name, type)`` as :class:`zros.Subscriber` takes them, ``node`` None the default node of
+    ``zros.init``; ``node.create_action_server(type, name, ...)`` takes rclpy's order (rclpy's own
+    ``ActionServer(node, type, name)`` puts the node first). Both ways are on purpose.
     """
 
     def __init__(

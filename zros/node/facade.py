@@ -216,6 +216,8 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         self.transport.release_token(self._node_token)
         self.transport.remove_on_close(self.destroy)
 
+    #: ``close()`` as every other zros object (and ``with``) spells it; ``destroy`` is rclpy's
+    #: ``destroy_node``
     close = destroy
 
     def __repr__(self) -> str:

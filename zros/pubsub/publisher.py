@@ -34,6 +34,9 @@ class Publisher(Entity):
     network cannot keep up, ``write()`` drops the message rather than wait (a keep-last reader
     wants the newest), except for reliable keep-all publishers, which block until it is sent
     (as rmw_zenoh chooses); ``QoS(congestion=...)`` overrides that.
+
+    The module-level way: ``(topic, type)`` is rosR's order, ``node`` None the default node of
+    ``zros.init``. ``node.create_publisher(type, topic)`` takes rclpy's order; both are on purpose.
     """
 
     def __init__(
@@ -119,6 +122,7 @@ class Publisher(Entity):
                 self._small = True
             self._put(data)
 
+    #: rclpy's name (``write`` is rosR's ``ros.WriteMessage``)
     publish = write
 
     def write_raw(self, data: bytes | bytearray) -> None:

@@ -58,6 +58,13 @@ class Subscriber(Entity):
     every 10 s; they never count as new. With ``qos.lifespan`` (seconds), messages older than
     that when they arrive (by the Zenoh timestamp of their sender, or of the first router on
     their way) are dropped too, counted in ``expired`` and logged the same way.
+
+    Two ways to read: ``read_message`` reads the newest state (rosR), ``take`` and
+    ``wait_for_message`` read the stream, oldest unread first, each message once.
+
+    The module-level way: ``(topic, type)`` is rosR's order, ``node`` None the default node of
+    ``zros.init``. ``node.create_subscription(type, topic)`` takes rclpy's order; both are on
+    purpose.
     """
 
     def __init__(
@@ -251,6 +258,8 @@ class Subscriber(Entity):
         """The newest message (rosR: ``ros.ReadMessage``); unread older ones are discarded.
 
         Returns the last message read again when nothing new came, and None before the first.
+        The state read (the latest value); :meth:`take` and :meth:`wait_for_message` read the
+        stream, oldest first.
         """
         with self._reading:
             for sample in reversed(self._queue.pop()):
@@ -262,7 +271,7 @@ class Subscriber(Entity):
         return self._last
 
     def take(self, max_messages: int | None = None) -> list[Received]:
-        """Every unread message, oldest first (up to ``max_messages``)."""
+        """Every unread message, oldest first (up to ``max_messages``): the stream read."""
         messages: list[Received] = []
         with self._reading:
             while max_messages is None or len(messages) < max_messages:
@@ -283,7 +292,11 @@ class Subscriber(Entity):
 
     def wait_for_message(self, timeout: float | None = None) -> Received:
         """Block until a message is unread, then return the oldest one (None on timeout, once
-        the subscriber is closed, and after Ctrl-C)."""
+        the subscriber is closed, and after Ctrl-C).
+
+        A stream read like :meth:`take` (each message once, in order, as rospy's and rclpy's
+        ``wait_for_message`` give the next one); :meth:`read_message` is the state read.
+        """
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             remaining = None if deadline is None else deadline - time.monotonic()

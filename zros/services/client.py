@@ -44,6 +44,10 @@ class Client(Entity):
     ``call(request)`` (or ``call(a=1, b=2)``) returns the response or raises
     :class:`ServiceUnavailableError` (no server), :class:`ServiceTimeoutError` or
     :class:`ServiceCallError` (the server failed). ``call_async`` returns a future to ``await``.
+    A client is callable: ``client(request)`` is ``client.call(request)``.
+
+    ``(name, type)`` as :class:`zros.Subscriber` takes them, ``node`` None the default node of
+    ``zros.init``; ``node.create_client(type, name)`` takes rclpy's order. Both are on purpose.
     """
 
     def __init__(
@@ -191,6 +195,7 @@ class Client(Entity):
             raise KeyboardInterrupt
         return first[0]
 
+    #: ``client(request)``: a client is callable
     __call__ = call
 
     def call_async(

@@ -64,6 +64,9 @@ class Service(Entity):
     client behind the bridge gets nothing (ROS services have no error channel): its call waits
     until its own timeout. So does it when a reply comes later than the bridge waits
     (``queries_timeout``, 5 s by default), which zros logs.
+
+    ``(name, type)`` as :class:`zros.Subscriber` takes them, ``node`` None the default node of
+    ``zros.init``; ``node.create_service(type, name)`` takes rclpy's order. Both are on purpose.
     """
 
     def __init__(
