@@ -145,7 +145,7 @@ class ActionClient(Entity):
         context = self.context
         self.action_type = action_type(context.registry, action)
         self.type_name = self.action_type.__actiontype__
-        self.name = context.resolve_name(name, 'action name')
+        self.name = self._resolve(EntityKind.ACTION_CLIENT, name)
         wire = context.wire
         self.key = wire.key(self.name)
         registry = context.registry

@@ -73,7 +73,7 @@ class ActionServer(Entity):
         wire = context.wire
         self.action_type = action_type(context.registry, action)
         self.type_name = self.action_type.__actiontype__
-        self.name = context.resolve_name(name, 'action name')
+        self.name = self._resolve(EntityKind.ACTION_SERVER, name)
         self.key = wire.key(self.name)
         #: through a bridge one AS token announces the action; under rmw_zenoh its parts do
         parts_announced = announce and wire.announces_action_parts()

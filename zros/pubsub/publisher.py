@@ -52,14 +52,12 @@ class Publisher(Entity):
         context = self.context
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
-        self.topic = context.resolve_name(topic)
         self.qos: QoS = as_qos(qos)
-        wire = self._place(
-            EntityKind.PUBLISHER, self.topic, self.type_name, registry_of(self.msg_type),
+        # rmw_zenoh: self.gid is the GID in its attachments (and its token's hash)
+        self.topic, wire = self._take_place(
+            EntityKind.PUBLISHER, topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce,
         )  # fmt: skip
-        self.key = wire.key
-        self.gid = wire.gid  #: rmw_zenoh: the GID in its attachments (and its token's hash)
         self._publisher = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
         # types that can grow large (sequences) reuse one output buffer while their messages are

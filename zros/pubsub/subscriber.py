@@ -84,14 +84,12 @@ class Subscriber(Entity):
         context = self.context
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
-        self.topic = context.resolve_name(topic)
         self.qos: QoS = as_qos(qos)
-        wire = self._place(
-            EntityKind.SUBSCRIBER, self.topic, self.type_name, registry_of(self.msg_type),
+        # rmw_zenoh: self.gid is the GID in its token's hash
+        self.topic, wire = self._take_place(
+            EntityKind.SUBSCRIBER, topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce,
         )  # fmt: skip
-        self.key = wire.key
-        self.gid = wire.gid  #: rmw_zenoh: the GID in its token's hash
         self._callback = callback
         self.raw = raw
         self._queue = SampleQueue(

@@ -65,6 +65,16 @@ def _each(callback: Callable[[Sample], None]) -> Callable[[list[Sample]], None]:
     return each
 
 
+#: what an entity's name is, by its kind (for name resolution and its errors)
+_NAME_KINDS = {
+    EntityKind.PUBLISHER: 'topic name',
+    EntityKind.SUBSCRIBER: 'topic name',
+    EntityKind.SERVICE_SERVER: 'service name',
+    EntityKind.SERVICE_CLIENT: 'service name',
+    EntityKind.ACTION_SERVER: 'action name',
+    EntityKind.ACTION_CLIENT: 'action name',
+}
+
 #: seconds close() waits for a call still running in another thread before it says so
 WAIT_WARNING = 5.0
 
@@ -78,6 +88,7 @@ class Entity:
         self.node: NodeLike = owner  #: the node it belongs to
         self.context: NodeContext = owner.context
         self.context.check_open()
+        self.key = ''  #: its Zenoh key expression, once it has a name
         self.gid: bytes | None = None  #: its GID, on wires that give entities one
         self._tokens: tuple[str, ...] = ()
         self._declared: list[Undeclarable] = []
@@ -106,6 +117,29 @@ class Entity:
         )
         self._tokens += wire.tokens
         return wire
+
+    def _resolve(self, kind: EntityKind, name: str) -> str:
+        """``name`` fully qualified and remapped, as the name of a ``kind`` entity (a topic,
+        service or action name: the errors say which)."""
+        return self.context.resolve_name(name, _NAME_KINDS[kind])
+
+    def _take_place(
+        self,
+        kind: EntityKind,
+        name: str,
+        type_name: str,
+        registry: TypeRegistry,
+        *,
+        qos: QoS | None = None,
+        announce: bool = True,
+    ) -> tuple[str, WireEntity]:
+        """The constructor's preamble of a publisher, subscriber, service or client: ``name``
+        resolved, and its place on the wire, whose key and GID it keeps."""
+        resolved = self._resolve(kind, name)
+        wire = self._place(kind, resolved, type_name, registry, qos=qos, announce=announce)
+        self.key = wire.key
+        self.gid = wire.gid
+        return resolved, wire
 
     def _add_tokens(self, tokens: tuple[str, ...]) -> None:
         """More tokens announcing it (an action as a whole)."""

@@ -65,13 +65,11 @@ class Client(Entity):
         self.type_name = self.srv_type.__srvtype__
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
-        self.name = context.resolve_name(name, 'service name')
-        self._wire = self._place(
-            EntityKind.SERVICE_CLIENT, self.name, self.type_name, registry_of(self.Request),
+        # rmw_zenoh: self.gid is the GID in its requests
+        self.name, self._wire = self._take_place(
+            EntityKind.SERVICE_CLIENT, name, self.type_name, registry_of(self.Request),
             announce=announce,
         )  # fmt: skip
-        self.key = self._wire.key
-        self.gid = self._wire.gid  #: rmw_zenoh: the GID in its requests
         self.timeout = timeout
         session = context.transport.session
         self._get = session.get

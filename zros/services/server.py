@@ -85,13 +85,11 @@ class Service(Entity):
         self.type_name = self.srv_type.__srvtype__
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
-        self.name = context.resolve_name(name, 'service name')
-        wire = self._place(
-            EntityKind.SERVICE_SERVER, self.name, self.type_name, registry_of(self.Request),
+        # rmw_zenoh: self.gid is the GID in its replies
+        self.name, wire = self._take_place(
+            EntityKind.SERVICE_SERVER, name, self.type_name, registry_of(self.Request),
             announce=announce,
         )  # fmt: skip
-        self.key = wire.key
-        self.gid = wire.gid  #: rmw_zenoh: the GID in its replies
         self._handler = handler
         #: internal services whose handler runs no user code answer on Zenoh's thread while
         #: this says so (a node's parameters answer even when nobody spins it)
