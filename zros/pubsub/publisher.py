@@ -39,6 +39,8 @@ class Publisher(Entity):
     ``zros.init``. ``node.create_publisher(type, topic)`` takes rclpy's order; both are on purpose.
     """
 
+    gid: bytes | None  #: rmw_zenoh: the GID in its attachments (and its token's hash)
+
     def __init__(
         self,
         topic: str,
@@ -53,7 +55,6 @@ class Publisher(Entity):
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
         self.qos: QoS = as_qos(qos)
-        # rmw_zenoh: self.gid is the GID in its attachments (and its token's hash)
         self.topic, wire = self._take_place(
             EntityKind.PUBLISHER, topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce,

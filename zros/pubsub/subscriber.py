@@ -67,6 +67,8 @@ class Subscriber(Entity):
     purpose.
     """
 
+    gid: bytes | None  #: rmw_zenoh: the GID in its token's hash
+
     def __init__(
         self,
         topic: str,
@@ -85,7 +87,6 @@ class Subscriber(Entity):
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
         self.qos: QoS = as_qos(qos)
-        # rmw_zenoh: self.gid is the GID in its token's hash
         self.topic, wire = self._take_place(
             EntityKind.SUBSCRIBER, topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce,

@@ -50,6 +50,8 @@ class Client(Entity):
     ``zros.init``; ``node.create_client(type, name)`` takes rclpy's order. Both are on purpose.
     """
 
+    gid: bytes | None  #: rmw_zenoh: the GID in its requests
+
     def __init__(
         self,
         name: str,
@@ -65,7 +67,6 @@ class Client(Entity):
         self.type_name = self.srv_type.__srvtype__
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
-        # rmw_zenoh: self.gid is the GID in its requests
         self.name, self._wire = self._take_place(
             EntityKind.SERVICE_CLIENT, name, self.type_name, registry_of(self.Request),
             announce=announce,

@@ -69,6 +69,8 @@ class Service(Entity):
     ``zros.init``; ``node.create_service(type, name)`` takes rclpy's order. Both are on purpose.
     """
 
+    gid: bytes | None  #: rmw_zenoh: the GID in its replies
+
     def __init__(
         self,
         name: str,
@@ -85,7 +87,6 @@ class Service(Entity):
         self.type_name = self.srv_type.__srvtype__
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
-        # rmw_zenoh: self.gid is the GID in its replies
         self.name, wire = self._take_place(
             EntityKind.SERVICE_SERVER, name, self.type_name, registry_of(self.Request),
             announce=announce,
