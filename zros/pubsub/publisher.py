@@ -55,9 +55,10 @@ class Publisher(Entity):
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
         self.qos: QoS = as_qos(qos)
-        self.topic, wire = self._take_place(
-            EntityKind.PUBLISHER, topic, self.type_name, registry_of(self.msg_type),
-            qos=self.qos, announce=announce,
+        self.topic = self._resolve(EntityKind.PUBLISHER, topic)
+        wire = self._place(
+            EntityKind.PUBLISHER, self.topic, self.type_name, registry_of(self.msg_type),
+            qos=self.qos, announce=announce, own=True,
         )  # fmt: skip
         self._publisher = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)

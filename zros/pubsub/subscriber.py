@@ -87,9 +87,10 @@ class Subscriber(Entity):
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
         self.qos: QoS = as_qos(qos)
-        self.topic, wire = self._take_place(
-            EntityKind.SUBSCRIBER, topic, self.type_name, registry_of(self.msg_type),
-            qos=self.qos, announce=announce,
+        self.topic = self._resolve(EntityKind.SUBSCRIBER, topic)
+        wire = self._place(
+            EntityKind.SUBSCRIBER, self.topic, self.type_name, registry_of(self.msg_type),
+            qos=self.qos, announce=announce, own=True,
         )  # fmt: skip
         self._callback = callback
         self.raw = raw

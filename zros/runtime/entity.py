@@ -110,36 +110,24 @@ class Entity:
         qos: QoS | None = None,
         announce: bool = True,
         owned: bool = True,
+        own: bool = False,
     ) -> WireEntity:
-        """Its place on the node's wire; the tokens are declared by :meth:`_announce`."""
+        """A place on the node's wire for ``name`` (resolved: see :meth:`_resolve`); the tokens
+        are declared by :meth:`_announce`. With ``own`` it is the entity's own place (a
+        publisher's, a service's..., not a part's): its key and GID become the entity's."""
         wire = self.context.wire.entity(
             kind, name, type_name, registry, qos=qos, announce=announce, owned=owned
         )
         self._tokens += wire.tokens
+        if own:
+            self.key = wire.key
+            self.gid = wire.gid
         return wire
 
     def _resolve(self, kind: EntityKind, name: str) -> str:
         """``name`` fully qualified and remapped, as the name of a ``kind`` entity (a topic,
         service or action name: the errors say which)."""
         return self.context.resolve_name(name, _NAME_KINDS[kind])
-
-    def _take_place(
-        self,
-        kind: EntityKind,
-        name: str,
-        type_name: str,
-        registry: TypeRegistry,
-        *,
-        qos: QoS | None = None,
-        announce: bool = True,
-    ) -> tuple[str, WireEntity]:
-        """The constructor's preamble of a publisher, subscriber, service or client: ``name``
-        resolved, and its place on the wire, whose key and GID it keeps."""
-        resolved = self._resolve(kind, name)
-        wire = self._place(kind, resolved, type_name, registry, qos=qos, announce=announce)
-        self.key = wire.key
-        self.gid = wire.gid
-        return resolved, wire
 
     def _add_tokens(self, tokens: tuple[str, ...]) -> None:
         """More tokens announcing it (an action as a whole)."""

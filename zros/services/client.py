@@ -67,9 +67,10 @@ class Client(Entity):
         self.type_name = self.srv_type.__srvtype__
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
-        self.name, self._wire = self._take_place(
-            EntityKind.SERVICE_CLIENT, name, self.type_name, registry_of(self.Request),
-            announce=announce,
+        self.name = self._resolve(EntityKind.SERVICE_CLIENT, name)
+        self._wire = self._place(
+            EntityKind.SERVICE_CLIENT, self.name, self.type_name, registry_of(self.Request),
+            announce=announce, own=True,
         )  # fmt: skip
         self.timeout = timeout
         session = context.transport.session

@@ -87,9 +87,10 @@ class Service(Entity):
         self.type_name = self.srv_type.__srvtype__
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
-        self.name, wire = self._take_place(
-            EntityKind.SERVICE_SERVER, name, self.type_name, registry_of(self.Request),
-            announce=announce,
+        self.name = self._resolve(EntityKind.SERVICE_SERVER, name)
+        wire = self._place(
+            EntityKind.SERVICE_SERVER, self.name, self.type_name, registry_of(self.Request),
+            announce=announce, own=True,
         )  # fmt: skip
         self._handler = handler
         #: internal services whose handler runs no user code answer on Zenoh's thread while
