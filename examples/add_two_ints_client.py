@@ -14,25 +14,21 @@ script starts a Zenoh router and a server of its own.
 from __future__ import annotations
 
 import argparse
-import os
 import threading
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='call add_two_ints')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('a', type=int, nargs='?', default=2)
     parser.add_argument('b', type=int, nargs='?', default=3)
     args = parser.parse_args()
-    router = server_node = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a server run here')
+    server_node = None
+    router, args.connect = router_unless_given(args.connect, 'a server')
 
     zros.init('add_two_ints_client', connect=args.connect)
     if router is not None:  # a stand-in for add_two_ints_server.py, spinning on a thread

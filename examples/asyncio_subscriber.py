@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import os
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 
@@ -60,17 +61,11 @@ async def main(connect: str | None, count: int, seconds: float, own_talker: bool
 
 if __name__ == '__main__':
     parser = argparse.ArgumentParser(description='print what arrives on /chatter, with asyncio')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--count', type=int, default=5, help='messages to wait for (0: no end)')
     parser.add_argument('--seconds', type=float, default=30.0, help='give up after this long')
     args = parser.parse_args()
-    router = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a talker task run here')
+    router, args.connect = router_unless_given(args.connect, 'a talker task')
     status = asyncio.run(main(args.connect, args.count, args.seconds, router is not None))
     zros.shutdown()  # closes the process's Zenoh session
     if router is not None:

@@ -22,12 +22,12 @@ router and the simulated sensor run inside it. Distances are in metres, as in ``
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
 import matplotlib
 import numpy as np
+from _bootstrap import add_connect, router_unless_given
 from sharp_sensor import (
     CALIBRATION_TOPIC,
     PAIRS,
@@ -60,9 +60,7 @@ def record(connect: str | None, own_sensor: bool, path: Path, seconds: float) ->
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='record the GP2D120 into a bag, read it back')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--bag', type=Path, help='read this recording instead of making one')
     parser.add_argument(
         '--keep',
@@ -79,11 +77,7 @@ def main() -> int:
         path = args.keep
         print(f'reading {path}/, recorded before (delete it to record again)')
     elif path is None:
-        router = None
-        if not (args.connect or os.environ.get('ZROS_CONNECT')):
-            router = zros.start_router()
-            args.connect = router.endpoint
-            print(f'no robot given: a router at {router.endpoint} and a simulated sensor run here')
+        router, args.connect = router_unless_given(args.connect, 'a simulated sensor')
         path = args.keep
         count = record(args.connect, router is not None, path, args.seconds)
         if router is not None:

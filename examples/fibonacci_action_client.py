@@ -13,23 +13,18 @@ this script starts a Zenoh router and a server of its own.
 from __future__ import annotations
 
 import argparse
-import os
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='send goals to the fibonacci action')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--order', type=int, default=10, help='how many numbers to ask for')
     args = parser.parse_args()
-    router = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a server run here')
+    router, args.connect = router_unless_given(args.connect, 'a server')
 
     zros.init('fibonacci_action_client', connect=args.connect)
     if router is not None:  # a stand-in for fibonacci_action_server.py on a node of its own;

@@ -15,9 +15,10 @@ from a client on a node of its own.
 from __future__ import annotations
 
 import argparse
-import os
 import threading
 import time
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 
@@ -52,18 +53,12 @@ def send_one_goal(done: threading.Event) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='serve the fibonacci action')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--count', type=int, default=0, help='stop after this many goals')
     parser.add_argument('--seconds', type=float, default=0, help='stop after this long (0: never)')
     args = parser.parse_args()
-    router = None
     done = threading.Event()
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a client run here')
+    router, args.connect = router_unless_given(args.connect, 'a client')
 
     zros.init('fibonacci_action_server', connect=args.connect)
     finished = 0

@@ -11,40 +11,35 @@ neither, this script starts a Zenoh router and a talker timer of its own.
 from __future__ import annotations
 
 import argparse
-import os
 import time
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='print what arrives on /chatter, by callback')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--count', type=int, default=5, help='messages to wait for (0: no end)')
     parser.add_argument('--seconds', type=float, default=30.0, help='give up after this long')
     args = parser.parse_args()
-    router = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a talker run here')
+    router, args.connect = router_unless_given(args.connect, 'a talker')
 
-    node = zros.init('listener', connect=args.connect)
+    zros.init('listener', connect=args.connect)
     heard: list[str] = []
 
     def on_message(message: zros.cdr.Message) -> None:
         heard.append(message.data)
         print(f'I heard: "{message.data}"')
 
-    node.create_subscription('std_msgs/msg/String', '/chatter', on_message, qos=10)
+    zros.Subscriber('/chatter', 'std_msgs/msg/String', on_message, qos=10)
     print('listening on /chatter')
     if router is not None:  # a talker on a timer of the same node: it runs while we spin
-        pub = node.create_publisher('std_msgs/msg/String', '/chatter')
+        pub = zros.Publisher('/chatter', 'std_msgs/msg/String')
         pub.wait_for_subscribers(timeout=5)
         count = iter(range(1_000_000))
-        node.create_timer(
+        zros.Timer(
             0.1,
             lambda: pub.write(
                 zros.Message('std_msgs/msg/String', data=f'Hello World: {next(count)}')

@@ -12,9 +12,10 @@ Zenoh router and a talker of its own, so that there is something to hear.
 from __future__ import annotations
 
 import argparse
-import os
 import threading
 import time
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 
@@ -34,18 +35,13 @@ def background_talker(stop: threading.Event) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='print what arrives on /chatter, by polling')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--count', type=int, default=5, help='messages to wait for (0: no end)')
     parser.add_argument('--seconds', type=float, default=30.0, help='give up after this long')
     args = parser.parse_args()
-    router = talker = None
+    talker = None
     stop = threading.Event()
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a talker run here')
+    router, args.connect = router_unless_given(args.connect, 'a talker')
 
     zros.init('listener', connect=args.connect)
     sub = zros.Subscriber('/chatter', 'std_msgs/msg/String', qos=10)

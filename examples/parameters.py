@@ -18,9 +18,10 @@ bridge reach the driver's services; with neither, a router runs inside the scrip
 from __future__ import annotations
 
 import argparse
-import os
 import threading
 from pathlib import Path
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 from zros.params import subscribe_parameter_events
@@ -28,15 +29,9 @@ from zros.params import subscribe_parameter_events
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='parameters: declare, load, set remotely')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     args = parser.parse_args()
-    router = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a Zenoh router runs inside this script at {router.endpoint}')
+    router, args.connect = router_unless_given(args.connect)
 
     # --- the driver: parameters from the file, then the command line -----------------------
     driver = zros.init(

@@ -21,9 +21,9 @@ router and the simulated sensor of ``sharp_sensor.py`` inside itself.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
+from _bootstrap import add_connect, router_unless_given
 from sharp_sensor import VOLTAGE_TOPIC, SimulatedSensor
 
 import zros
@@ -31,16 +31,11 @@ import zros
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='log the voltage of a GP2D120 sensor')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--seconds', type=float, default=10.0, help='stop after this long')
     args = parser.parse_args()
-    router = sensor = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a simulated sensor run here')
+    sensor = None
+    router, args.connect = router_unless_given(args.connect, 'a simulated sensor')
 
     zros.init('R_demo', connect=args.connect)
     sub = zros.Subscriber(VOLTAGE_TOPIC, 'std_msgs/msg/Float32')

@@ -13,11 +13,11 @@ there; with neither, a router and the simulated sensor of ``sharp_sensor.py`` ru
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import matplotlib
 import numpy as np
+from _bootstrap import add_connect, router_unless_given
 from sharp_sensor import VOLTAGE_TOPIC, SimulatedSensor
 
 import zros
@@ -35,9 +35,7 @@ def moving_average(values: np.ndarray, window: int = WINDOW) -> np.ndarray:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='plot a GP2D120 voltage, raw and filtered')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--seconds', type=float, default=10.0, help='stop after this long')
     parser.add_argument('--output', default='rosr_demo1.png', help='the PNG to write')
     parser.add_argument('--show', action='store_true', help='draw in a window instead')
@@ -46,11 +44,8 @@ def main() -> int:
         matplotlib.use('Agg')  # files only, no display: before pyplot is imported
     import matplotlib.pyplot as plt
 
-    router = sensor = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a simulated sensor run here')
+    sensor = None
+    router, args.connect = router_unless_given(args.connect, 'a simulated sensor')
 
     zros.init('R_demo', connect=args.connect)
     sub = zros.Subscriber(VOLTAGE_TOPIC, 'std_msgs/msg/Float32', qos=1000)  # keep up to 1000

@@ -18,11 +18,11 @@ router and the simulated sensor of ``sharp_sensor.py`` run inside it.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import matplotlib
 import numpy as np
+from _bootstrap import add_connect, router_unless_given
 from numpy.polynomial import Polynomial
 from sharp_sensor import CALIBRATION_TOPIC, PAIRS, SimulatedSensor, register_linearization
 
@@ -50,18 +50,13 @@ def fit_curve(pairs: np.ndarray, degree: int = DEGREE) -> Polynomial:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='fit a GP2D120 curve to calibration pairs')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--count', type=int, default=PAIRS, help='calibration pairs to wait for')
     parser.add_argument('--seconds', type=float, default=10.0, help='give up after this long')
     parser.add_argument('--output', default='rosr_demo2.png', help='the PNG to write')
     args = parser.parse_args()
-    router = sensor = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a simulated sensor run here')
+    sensor = None
+    router, args.connect = router_unless_given(args.connect, 'a simulated sensor')
 
     zros.init('R_demo', connect=args.connect)
     linearization = register_linearization()

@@ -14,10 +14,10 @@ and the simulated sensor of ``sharp_sensor.py`` run inside it.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from collections import deque
 
+from _bootstrap import add_connect, router_unless_given
 from rosr_demo2_fit import collect_pairs, fit_curve
 from sharp_sensor import (
     CALIBRATION_TOPIC,
@@ -36,16 +36,11 @@ DISTANCE_TOPIC = '/sharpGP2D120/Distance'
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='publish GP2D120 distances as sensor_msgs/Range')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--seconds', type=float, default=10.0, help='stop after this long')
     args = parser.parse_args()
-    router = sensor = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a router at {router.endpoint} and a simulated sensor run here')
+    sensor = None
+    router, args.connect = router_unless_given(args.connect, 'a simulated sensor')
 
     zros.init('R_demo', connect=args.connect)
     pairs_sub = zros.Subscriber(CALIBRATION_TOPIC, register_linearization(), qos='keep_all')

@@ -20,9 +20,10 @@ alone to feed them, or any ROS tool, from another process::
 from __future__ import annotations
 
 import argparse
-import os
 import threading
 from pathlib import Path
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 
@@ -123,18 +124,13 @@ class SimulatedSensor:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='publish a simulated GP2D120 sensor')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--rate', type=float, default=200.0, help='voltage readings per second')
     parser.add_argument('--wait', type=float, default=5.0, help='seconds to wait for listeners')
     args = parser.parse_args()
-    router = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
+    router, args.connect = router_unless_given(args.connect)
+    if router is not None:
         args.wait = 0.0  # nobody else can be on a router that only this script knows
-        print(f'no robot given: a Zenoh router runs inside this script at {router.endpoint}')
     node = zros.init('sharpGP2D120', connect=args.connect)
     print(
         f'publishing {PAIRS} pairs on {CALIBRATION_TOPIC} and {READINGS} readings on '

@@ -10,30 +10,25 @@ starts a Zenoh router inside itself (where nobody listens) and talks all the sam
 from __future__ import annotations
 
 import argparse
-import os
+
+from _bootstrap import add_connect, router_unless_given
 
 import zros
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description='publish hello world on /chatter')
-    parser.add_argument(
-        '--connect', help='router or bridge endpoint (default: $ZROS_CONNECT, else a router here)'
-    )
+    add_connect(parser)
     parser.add_argument('--count', type=int, default=10, help='messages to send (0: no end)')
     args = parser.parse_args()
-    router = None
-    if not (args.connect or os.environ.get('ZROS_CONNECT')):
-        router = zros.start_router()
-        args.connect = router.endpoint
-        print(f'no robot given: a Zenoh router runs inside this script at {router.endpoint}')
+    router, args.connect = router_unless_given(args.connect)
 
-    node = zros.init('talker', connect=args.connect)
+    zros.init('talker', connect=args.connect)
     pub = zros.Publisher('/chatter', 'std_msgs/msg/String')
     if router is None:  # not in a ROS talker: give a listener 2 s to be found, so that the
         found = pub.wait_for_subscribers(timeout=2)  # first messages are not lost
         print('a listener is here' if found else 'nobody listens yet')
-    rate = node.create_rate(10)  # sleep() keeps the loop at 10 Hz
+    rate = zros.Rate(10)  # sleep() keeps the loop at 10 Hz
     sent = 0
     while zros.ok() and (args.count == 0 or sent < args.count):
         message = zros.Message('std_msgs/msg/String', data=f'Hello World: {sent}')

@@ -90,7 +90,7 @@ def to_a_robot(connect: str | None) -> int:
         print(f'could not connect:\n  {refused}')
         return 1
     print(f'connected to {connect or os.environ["ZROS_CONNECT"]}')
-    node.wait_for_publisher('/rosout', timeout=2)  # give the graph a moment to fill in
+    node.wait_for_publishers('/rosout', timeout=2)  # give the graph a moment to fill in
     for topic, types in node.get_topic_names_and_types():
         print(f'  {topic} [{", ".join(types)}]')
     zros.shutdown()

@@ -156,6 +156,9 @@ if TYPE_CHECKING:
 def Message(type_name: str | type[_MessageBase], **fields: FieldValue) -> _MessageBase:  # noqa: N802
     """A new message of a ROS type with its default values (rosR: ``ros.Message``).
 
+    A factory, named as rosR named it; what it returns is an instance of a generated class
+    whose base, for ``isinstance`` and annotations, is :class:`zros.cdr.Message`.
+
     >>> import zros
     >>> zros.Message('std_msgs/msg/String', data='hello').data
     'hello'

@@ -1,5 +1,10 @@
 """The rosR-shaped module API: one default node per process.
 
+Each function is a rosR name (``ros.Init`` -> ``zros.init``) over the default node; a
+:class:`zros.Node` is the object way, with the same calls as its methods (several nodes, rclpy's
+names). The module-level classes (``zros.Subscriber``, ``zros.Timer``...) take ``node=`` and
+use the default node without it.
+
 zros.init('R_demo')            # ros.Init
 while zros.ok():               # ros.OK (Ctrl-C makes it false)
     zros.spin_once(0.1)        # ros.SpinOnce
@@ -99,7 +104,7 @@ def init(
 
 
 def default_node() -> Node:
-    """The node ``zros.init`` created."""
+    """The node ``zros.init`` created, which the module functions and classes use."""
     if _default is None:
         raise NotInitializedError(
             'no default node: call zros.init("my_node") first, or pass node= explicitly'
@@ -121,12 +126,14 @@ def spin_once(timeout: float | None = 0.0) -> int:
 
 
 def spin(timeout: float | None = None) -> None:
-    """Run the default node's callbacks until ``ok()`` turns false (or ``timeout`` seconds)."""
+    """Run the default node's callbacks until ``ok()`` turns false (or ``timeout`` seconds);
+    rosR had only ``ros.SpinOnce``, rclpy calls it ``rclpy.spin``."""
     default_node().spin(timeout)
 
 
 def shutdown() -> None:
-    """Destroy the default node, close the process's Zenoh session, restore Ctrl-C."""
+    """Destroy the default node, close the process's Zenoh session, restore Ctrl-C (rclpy:
+    ``rclpy.shutdown``)."""
     global _default, _previous_handler  # noqa: PLW0603
     with _lock:
         _clients.clear()  # parameter clients of the default node
@@ -158,37 +165,40 @@ _console_logger: Logger | None = None
 
 
 def log(message: object, level: str | int = 'info', **options: Unpack[LogOptions]) -> bool:
-    """Log ``message`` at ``level`` (``'debug'``...``'fatal'``) on the default node."""
+    """Log ``message`` at ``level`` (``'debug'``...``'fatal'``) on the default node (rosR:
+    ``ros.Logging``)."""
     return get_logger().log(message, level, stacklevel=2, **options)
 
 
 def debug(message: object, **options: Unpack[LogOptions]) -> bool:
-    """Log at DEBUG (rosR: ``ros.Debug``); ``once=True``, ``throttle=seconds`` limit repeats."""
+    """Log at DEBUG on the default node (rosR: ``ros.Debug``); ``once=True``,
+    ``throttle=seconds`` limit repeats."""
     return get_logger().log(message, DEBUG, stacklevel=2, **options)
 
 
 def info(message: object, **options: Unpack[LogOptions]) -> bool:
-    """Log at INFO (rosR: ``ros.Info``): console, ``/rosout`` and Python logging."""
+    """Log at INFO on the default node (rosR: ``ros.Info``): console, ``/rosout``, logging."""
     return get_logger().log(message, INFO, stacklevel=2, **options)
 
 
 def warn(message: object, **options: Unpack[LogOptions]) -> bool:
-    """Log at WARN (rosR: ``ros.Warn``)."""
+    """Log at WARN on the default node (rosR: ``ros.Warn``)."""
     return get_logger().log(message, WARN, stacklevel=2, **options)
 
 
 def error(message: object, **options: Unpack[LogOptions]) -> bool:
-    """Log at ERROR (rosR: ``ros.Error``)."""
+    """Log at ERROR on the default node (rosR: ``ros.Error``)."""
     return get_logger().log(message, ERROR, stacklevel=2, **options)
 
 
 def fatal(message: object, **options: Unpack[LogOptions]) -> bool:
-    """Log at FATAL (rosR: ``ros.Fatal``)."""
+    """Log at FATAL on the default node (rosR: ``ros.Fatal``)."""
     return get_logger().log(message, FATAL, stacklevel=2, **options)
 
 
 def time_now() -> Time:
-    """The default node's ROS time (sim time with ``use_sim_time``); wall time before init."""
+    """The default node's ROS time (rosR: ``ros.TimeNow``; sim time with ``use_sim_time``);
+    wall time before init."""
     if _default is not None:
         return _default.now()
     return Time(time.time_ns())

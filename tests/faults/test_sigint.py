@@ -114,8 +114,12 @@ CASES: dict[str, tuple[str, str, str]] = {
         'pub.wait_for_subscribers(timeout=None)',
         'False',
     ),
-    'wait_for_publisher': ('', "node.wait_for_publisher('/nobody', timeout=None)", 'False'),
-    'wait_for_subscriber': ('', "node.wait_for_subscriber('/nobody', timeout=None)", 'False'),
+    'node.wait_for_publishers': ('', "node.wait_for_publishers('/nobody', timeout=None)", 'False'),
+    'node.wait_for_subscribers': (
+        '',
+        "node.wait_for_subscribers('/nobody', timeout=None)",
+        'False',
+    ),
     'graph.wait_until': ('', 'node.graph.wait_until(lambda: False)', 'False'),
     'wait_for_service': (
         "client = node.create_client('std_srvs/srv/Trigger', 'nothing')",

@@ -112,7 +112,7 @@ def test_sdk_topics_both_ways(sdk: Any, zros_node: Callable[..., Node]) -> None:
         assert wait_for(lambda: got == ['zros to sdk'])
         sub = node.create_subscription(String, 'back')
         assert publisher.keyexpr == sub.key  # the same key, built independently
-        assert node.wait_for_publisher('/back')
+        assert node.wait_for_publishers('/back')
 
         def delivered() -> bool:
             publisher.publish(data='sdk to zros')  # until the route is up

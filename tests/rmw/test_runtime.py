@@ -422,13 +422,13 @@ def test_the_graph_by_name_and_scheme(
     assert endpoint.gid == pub.gid and endpoint.qos is not None and endpoint.qos.depth == 7
     assert endpoint.ros_name() == '/robot/chatter' and not endpoint.is_bridged
     assert graph.topics()['/robot/chatter'] == [String]
-    assert talker.wait_for_publisher('chatter', timeout=5)
+    assert talker.wait_for_publishers('chatter', timeout=5)
     assert talker.count_publishers('chatter') == 1
     assert talker.get_topic_names_and_types()
     listener = zros_node('listener')
     listener.create_subscription(String, '/robot/chatter')
-    assert talker.wait_for_subscriber('chatter', timeout=5)
-    assert listener.wait_for_publisher('/robot/chatter', timeout=5)
+    assert talker.wait_for_subscribers('chatter', timeout=5)
+    assert listener.wait_for_publishers('/robot/chatter', timeout=5)
     assert ('/robot/chatter', [String]) in listener.get_topic_names_and_types()
     bridged.destroy()
     assert graph.wait_until(lambda: graph.wires() == ['rmw_zenoh'], timeout=5)

@@ -81,3 +81,75 @@ def test_connection_settings_in_one_place_only(zros_transport: Callable[..., Tra
         zros.Node('confused', transport=zros_transport(), connect='tcp/127.0.0.1:1')
     with pytest.raises(TypeError, match='unexpected keyword'):
         zros.Node('confused', conect='tcp/127.0.0.1:7447')
+
+
+# --- one way per task: the old spellings still work, and say what replaces them ---------------
+
+
+def test_timer_takes_the_node_as_a_keyword_and_the_default_node_without(
+    initialized: zros.Node, zros_node: Callable[..., Node]
+) -> None:
+    ticks: list[str] = []
+    on_default = zros.Timer(0.01, lambda: ticks.append('default'))
+    assert on_default.node is initialized
+    other = zros_node('other')
+    on_other = zros.Timer(0.01, lambda: ticks.append('other'), node=other)
+    assert on_other.node is other
+    with pytest.warns(DeprecationWarning, match=r'Timer\(node, period, callback\) is deprecated'):
+        old = zros.Timer(other, 0.01, lambda: ticks.append('old'))
+    assert old.node is other and old.period == 0.01
+    assert wait_for(lambda: zros.spin_once(0.02) >= 0 and 'default' in ticks)
+    assert wait_for(lambda: other.spin_once(0.02) >= 0 and {'other', 'old'} <= set(ticks))
+    with pytest.raises(TypeError, match=r'Timer takes \(period, callback, node=None\)'):
+        zros.Timer('fast', lambda: None)  # type: ignore[call-overload]
+    with pytest.raises(TypeError, match='node= takes a node, not str'):
+        zros.Timer(0.01, lambda: None, node='other')  # type: ignore[call-overload]
+
+
+def test_timer_without_a_node_needs_init() -> None:
+    with pytest.raises(zros.NotInitializedError):
+        zros.Timer(0.01, lambda: None)
+
+
+def test_rate_takes_the_node_as_a_keyword(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('rated')
+    assert zros.Rate(50, node=node).node is node
+    assert zros.Rate(50).node is None  # no node: a plain sleep on the monotonic clock
+    with pytest.warns(DeprecationWarning, match=r'Rate\(hz, node\) is deprecated'):
+        old = zros.Rate(50, node)
+    assert old.node is node
+    with pytest.raises(TypeError, match=r'Rate takes \(hz, node=None\)'):
+        zros.Rate(50, node, node=node)
+
+
+def test_node_waits_for_publishers_and_subscribers_in_the_plural(
+    zros_node: Callable[..., Node],
+) -> None:
+    viewer, other = zros_node('viewer'), zros_node('other')
+    assert not viewer.wait_for_publishers('plural', timeout=0.05)
+    assert not viewer.wait_for_subscribers('plural', timeout=0.05)
+    other.create_publisher('std_msgs/msg/String', 'plural')
+    other.create_subscription('std_msgs/msg/String', 'plural')
+    assert viewer.wait_for_publishers('plural') and viewer.wait_for_subscribers('plural')
+    with pytest.warns(DeprecationWarning, match='use Node.wait_for_publishers'):
+        assert viewer.wait_for_publisher('plural')
+    with pytest.warns(DeprecationWarning, match='use Node.wait_for_subscribers'):
+        assert viewer.wait_for_subscriber('plural')
+
+
+def test_parameter_client_takes_the_node_as_a_keyword(
+    initialized: zros.Node, zros_node: Callable[..., Node]
+) -> None:
+    driver = zros_node('driver')
+    driver.declare_parameter('speed', 0.5)
+    client = zros.ParameterClient('/driver')
+    assert client.node is initialized and client.get('speed') == 0.5
+    tool = zros_node('tool')
+    assert zros.ParameterClient('driver', node=tool, timeout=2.0).node is tool
+    with pytest.warns(DeprecationWarning, match=r'ParameterClient\(node, node_name\) is depr'):
+        old = zros.ParameterClient(tool, '/driver', 2.0)
+    assert old.node is tool and old.timeout == 2.0 and old.get('speed') == 0.5
+    with pytest.raises(TypeError, match=r'ParameterClient takes \(node_name, node=None'):
+        zros.ParameterClient('/driver', 2.0)
+    with pytest.raises(TypeError, match=r'ParameterClient takes \(node_name, node=None'):
+        zros.ParameterClient(tool, '/driver', node=tool)

@@ -216,10 +216,10 @@ def test_zros_nodes_by_name_and_what_they_own(zros_node: Callable[..., Node]) ->
 
 def test_waiting_for_publishers_and_subscribers(zros_node: Callable[..., Node]) -> None:
     viewer = zros_node('viewer')
-    assert not viewer.wait_for_publisher('late', timeout=0.1)
+    assert not viewer.wait_for_publishers('late', timeout=0.1)
     other = zros_node('other')
     other.create_publisher('std_msgs/msg/String', 'late')
-    assert viewer.wait_for_publisher('late', timeout=5)
-    assert not viewer.wait_for_subscriber('late', timeout=0.1)
+    assert viewer.wait_for_publishers('late', timeout=5)
+    assert not viewer.wait_for_subscribers('late', timeout=0.1)
     other.create_subscription('std_msgs/msg/String', 'late')
-    assert viewer.wait_for_subscriber('late', timeout=5)
+    assert viewer.wait_for_subscribers('late', timeout=5)

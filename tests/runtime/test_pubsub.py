@@ -101,6 +101,25 @@ def test_wait_for_message_at_its_edges(zros_node: Callable[..., Node]) -> None:
     assert time.monotonic() - start < 2
 
 
+def test_read_message_reads_the_state_and_wait_for_message_the_stream(
+    zros_node: Callable[..., Node],
+) -> None:
+    """The one rule of the reads: ``read_message`` gives the newest and drops older unread
+    messages (rosR); ``take`` and ``wait_for_message`` give the oldest unread, each once."""
+    talker, listener = connected(zros_node)
+    sub = zros.Subscriber('chatter', String, node=listener, qos=10)
+    pub = zros.Publisher('chatter', String, node=talker)
+    assert pub.wait_for_subscribers()
+    for i in range(4):
+        pub.write(text(str(i)))
+    assert wait_for(lambda: sub.received == 4)
+    assert sub.wait_for_message(5).data == '0'  # the stream: the oldest unread
+    assert [m.data for m in sub.take(1)] == ['1']
+    assert sub.read_message().data == '3'  # the state: the newest; '2' is dropped unread
+    assert sub.wait_for_message(0) is None and sub.take() == []
+    assert sub.read_message().data == '3'  # the state stays until a newer one comes
+
+
 def test_messages_small_and_large_in_turn_arrive_intact(zros_node: Callable[..., Node]) -> None:
     talker, listener = connected(zros_node)
     kind = 'std_msgs/msg/UInt8MultiArray'

@@ -127,6 +127,10 @@ class ActionClient(Entity):
     ``send_goal(goal)`` (or ``send_goal(order=10)``) returns a :class:`ClientGoalHandle` once the
     server accepted or rejected the goal; ``handle.result(timeout)`` waits for the result.
     ``feedback_callback(feedback)`` gets each Feedback message while the node spins.
+
+    ``(name, type)`` as :class:`zros.Subscriber` takes them, ``node`` None the default node of
+    ``zros.init``; ``node.create_action_client(type, name, ...)`` takes rclpy's order (rclpy's own
+    ``ActionClient(node, type, name)`` puts the node first). Both ways are on purpose.
     """
 
     def __init__(
@@ -141,7 +145,7 @@ class ActionClient(Entity):
         context = self.context
         self.action_type = action_type(context.registry, action)
         self.type_name = self.action_type.__actiontype__
-        self.name = context.resolve_name(name, 'action name')
+        self.name = self._resolve(EntityKind.ACTION_CLIENT, name)
         wire = context.wire
         self.key = wire.key(self.name)
         registry = context.registry

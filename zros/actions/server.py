@@ -50,6 +50,10 @@ class ActionServer(Entity):
     ``cancel_callback(goal_handle)`` whether to accept a cancel request (default: accept, the goal
     then sees ``is_cancel_requested``). Both return a ``GoalResponse``/``CancelResponse`` or a
     bool. Finished goals stay queryable for ``result_timeout`` seconds.
+
+    ``(name, type)`` as :class:`zros.Subscriber` takes them, ``node`` None the default node of
+    ``zros.init``; ``node.create_action_server(type, name, ...)`` takes rclpy's order (rclpy's own
+    ``ActionServer(node, type, name)`` puts the node first). Both ways are on purpose.
     """
 
     def __init__(
@@ -69,7 +73,7 @@ class ActionServer(Entity):
         wire = context.wire
         self.action_type = action_type(context.registry, action)
         self.type_name = self.action_type.__actiontype__
-        self.name = context.resolve_name(name, 'action name')
+        self.name = self._resolve(EntityKind.ACTION_SERVER, name)
         self.key = wire.key(self.name)
         #: through a bridge one AS token announces the action; under rmw_zenoh its parts do
         parts_announced = announce and wire.announces_action_parts()

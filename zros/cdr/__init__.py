@@ -19,7 +19,7 @@ from zros.cdr.errors import (
 )
 from zros.cdr.hashing import type_hash as _type_hash
 from zros.cdr.interfaces import ActionType, ServiceType
-from zros.cdr.message import Message, encode
+from zros.cdr.message import Message, decode_failure, encode
 from zros.cdr.message import decode as _decode
 from zros.cdr.model import (
     ActionDef,
@@ -89,8 +89,8 @@ def _decode_first(type_name: str, buf: bytes | bytearray | memoryview, strict: b
     decoder = default_registry().decoder(type_name)
     try:
         return decoder(buf, strict)
-    except Exception:  # malformed input: decoding again raises the CdrError that explains it
-        return _decode(get_class(type_name), buf, strict)
+    except Exception as exc:
+        raise decode_failure(get_class(type_name), buf, strict, exc) from None
 
 
 def register_type(type_name: str, text: str) -> Definition:

@@ -134,12 +134,8 @@ def encode(message: Message) -> bytes:
     """CDR bytes of a message: the 4-byte little-endian header, then the body, no padding."""
     try:
         return message._cdr_encode(message)
-    except CdrError:
-        raise
-    except Exception:  # a value the fast encoder chokes on: the traced one names the field
-        if not isinstance(message, Message):
-            raise TypeError(f'expected a zros message, got {type(message).__name__}') from None
-        raise _explain_encode(type(message), message) from None
+    except Exception as exc:
+        raise encode_failure(message, exc) from None
 
 
 def decode(cls: type[M], buf: bytes | bytearray | memoryview, strict: bool = False) -> M:
@@ -151,10 +147,30 @@ def decode(cls: type[M], buf: bytes | bytearray | memoryview, strict: bool = Fal
     """
     try:
         return cls._cdr_decode(buf, strict)  # type: ignore[return-value]
-    except CdrError:
-        raise
-    except Exception:  # malformed input: the traced decoder names the field and offset
-        raise _explain_decode(cls, buf, strict) from None
+    except Exception as exc:
+        raise decode_failure(cls, buf, strict, exc) from None
+
+
+# --- the one fallback of the fast codecs: each caller tries the fast (generated) encoder or
+# decoder inline, where a try costs nothing, and on failure raises what these return
+
+
+def encode_failure(message: object, exc: Exception) -> Exception:
+    """What encoding ``message`` raises once its fast encoder raised ``exc``: ``exc`` itself
+    when a CdrError, else the traced encoder's CdrError, which names the field."""
+    if isinstance(exc, CdrError):
+        return exc
+    if not isinstance(message, Message):
+        return TypeError(f'expected a zros message, got {type(message).__name__}')
+    return _explain_encode(type(message), message)
+
+
+def decode_failure(cls: type[Message], buf: Buffer, strict: bool, exc: Exception) -> Exception:
+    """What decoding ``buf`` as ``cls`` raises once the fast decoder raised ``exc``: ``exc``
+    itself when a CdrError, else the traced decoder's CdrError (field and offset)."""
+    if isinstance(exc, CdrError):
+        return exc
+    return _explain_decode(cls, buf, strict)
 
 
 def _codecs(cls: type[Message]) -> TracedCodecs:

@@ -155,14 +155,8 @@ def pack_structs(
     """A structured array of ``cls._dtype`` from message objects (or dicts)."""
     dtype = cls._dtype
     assert dtype is not None
-    fast = getattr(cls, '_pack_rows', None)
-    if fast is not None and isinstance(items, list):
-        try:
-            data = fast(items)
-        except Exception:  # a wrong element: the checked path below says which
-            pass
-        else:
-            return np.frombuffer(bytearray(data) if writable else data, dtype)
+    if isinstance(items, list) and (data := _fast_rows(cls, items)) is not None:
+        return np.frombuffer(bytearray(data) if writable else data, dtype)
     rows = []
     to_tuple = cls._to_tuple  # type: ignore[attr-defined]
     for index, item in enumerate(items):
@@ -188,18 +182,28 @@ def struct_rows(
         items: object = value._items or []
     else:
         items = value
-    fast = getattr(cls, '_pack_rows', None)
-    if fast is not None and type(items) is list:
+    if type(items) is list and getattr(cls, '_pack_rows', None) is not None:
         if not items:
             return 0, b''
         if bound >= 0 and len(items) > bound:
             raise Bad(f'{len(items)} elements exceed the bound of {bound}')
-        try:
-            return len(items), fast(items)
-        except Exception:  # a wrong element (or a dict): the checked path below says which
-            pass
+        if (data := _fast_rows(cls, items)) is not None:
+            return len(items), data
     array = struct_array(value, cls, bound)
     return len(array), array
+
+
+def _fast_rows(cls: type[Message], items: list[FieldValue]) -> bytes | None:
+    """``items`` packed row by row by the class's generated packer, or None when it has none
+    or refuses an element (a wrong one, or a dict): the checked path then says which."""
+    fast = getattr(cls, '_pack_rows', None)
+    if fast is None:
+        return None
+    try:
+        data: bytes = fast(items)
+    except Exception:
+        return None
+    return data
 
 
 def struct_array(value: FieldValue, cls: type[Message], bound: int) -> np.ndarray:

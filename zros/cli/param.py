@@ -31,7 +31,7 @@ _LABELS = {
 def _client(node: Node, target: str, timeout: float) -> ParameterClient:
     from zros.params.client import ParameterClient
 
-    client = ParameterClient(node, node.resolve_name(target), timeout=timeout)
+    client = ParameterClient(node.resolve_name(target), node=node, timeout=timeout)
     if not client.wait_for_node(timeout):
         node.graph.refresh(DISCOVERY)
         if client.target in node.graph.nodes():  # e.g. the node of another zros command

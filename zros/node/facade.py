@@ -12,6 +12,7 @@ from collections.abc import Coroutine, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, TypeVar
 
 from zros.cdr import TypeRegistry, default_registry
+from zros.closing import Closing
 from zros.keyexpr.names import Remapping
 from zros.node.factories import EntityFactories
 from zros.node.graph_methods import GraphMethods
@@ -40,7 +41,7 @@ _SIM_TIME_SWITCH = (
 )
 
 
-class Node(EntityFactories, ParameterMethods, GraphMethods):
+class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
     """A ROS node on the Zenoh network.
 
     ``namespace`` is the node's own namespace (relative topic names resolve into it);
@@ -217,13 +218,9 @@ class Node(EntityFactories, ParameterMethods, GraphMethods):
         self.transport.release_token(self._node_token)
         self.transport.remove_on_close(self.destroy)
 
+    #: ``close()`` as every other zros object (and ``with``) spells it; ``destroy`` is rclpy's
+    #: ``destroy_node``
     close = destroy
-
-    def __enter__(self) -> Node:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.destroy()
 
     def __repr__(self) -> str:
         state = ' (destroyed)' if self.context.closed else ''

@@ -1,4 +1,8 @@
-"""The ``create_*`` methods of a node (rclpy's names and argument order)."""
+"""The ``create_*`` methods of a node (rclpy's names and argument order: type, then name).
+
+The classes they make take the name first (``zros.Subscriber(topic, type, node=None)``, rosR's
+order), and the default node when ``node`` is not given: both ways are deliberate parity.
+"""
 
 from __future__ import annotations
 
@@ -26,7 +30,7 @@ class EntityFactories:
     def create_publisher(
         self, msg_type: str | type[Message], topic: str, qos: QoSLike | None = None
     ) -> Publisher:
-        """A publisher on ``topic`` (argument order of rclpy)."""
+        """A publisher on ``topic`` (rclpy's order; ``zros.Publisher(topic, type)`` is rosR's)."""
         return Publisher(topic, msg_type, qos, node=self)
 
     def create_subscription(
@@ -36,7 +40,8 @@ class EntityFactories:
         callback: Callable[[Received], object] | None = None,
         qos: QoSLike | None = None,
     ) -> Subscriber:
-        """A subscriber on ``topic``; ``callback(message)`` runs when the node spins."""
+        """A subscriber on ``topic``; ``callback(message)`` runs when the node spins (rclpy's
+        order; ``zros.Subscriber(topic, type)`` is rosR's)."""
         return Subscriber(topic, msg_type, callback, qos, node=self)
 
     def create_service(
@@ -81,8 +86,8 @@ class EntityFactories:
 
     def create_timer(self, period: float, callback: Callable[[], object]) -> Timer:
         """A timer calling ``callback()`` every ``period`` seconds while the node spins."""
-        return Timer(self, period, callback)
+        return Timer(period, callback, node=self)
 
     def create_rate(self, hz: float) -> Rate:
         """A rate whose ``sleep()`` runs this node's callbacks while it waits."""
-        return Rate(hz, self)
+        return Rate(hz, node=self)

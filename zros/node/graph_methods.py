@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+from zros.deprecation import deprecated
 from zros.graph import Graph, graph_of
 from zros.runtime.context import NodeContext
 
 
 class GraphMethods:
-    """``get_topic_names_and_types``, ``count_publishers``, ``wait_for_publisher``..."""
+    """``get_topic_names_and_types``, ``count_publishers``, ``wait_for_publishers``..."""
 
     context: NodeContext
 
@@ -35,12 +36,25 @@ class GraphMethods:
         """How many subscribers are announced on ``topic``."""
         return len(self.graph.subscribers(self._key(topic)))
 
-    def wait_for_publisher(self, topic: str, timeout: float | None = 5.0) -> bool:
-        """Wait until a publisher on ``topic`` is announced (by a bridge or another node)."""
+    def wait_for_publishers(self, topic: str, timeout: float | None = 5.0) -> bool:
+        """Wait until a publisher on ``topic`` is announced (by a bridge or another node);
+        returns whether one was in time (False after Ctrl-C)."""
         key, graph = self._key(topic), self.graph
         return graph.wait_until(lambda: graph.publishers(key), timeout)
 
-    def wait_for_subscriber(self, topic: str, timeout: float | None = 5.0) -> bool:
-        """Wait until a subscriber on ``topic`` is announced (by a bridge or another node)."""
+    def wait_for_subscribers(self, topic: str, timeout: float | None = 5.0) -> bool:
+        """Wait until a subscriber on ``topic`` is announced (by a bridge or another node);
+        returns whether one was in time (False after Ctrl-C). ``Publisher.wait_for_subscribers``
+        waits for a subscriber that matches that publisher."""
         key, graph = self._key(topic), self.graph
         return graph.wait_until(lambda: graph.subscribers(key), timeout)
+
+    def wait_for_publisher(self, topic: str, timeout: float | None = 5.0) -> bool:
+        """Deprecated: :meth:`wait_for_publishers` (the plural of ``count_publishers``)."""
+        deprecated('Node.wait_for_publisher', 'Node.wait_for_publishers')
+        return self.wait_for_publishers(topic, timeout)
+
+    def wait_for_subscriber(self, topic: str, timeout: float | None = 5.0) -> bool:
+        """Deprecated: :meth:`wait_for_subscribers` (as ``Publisher.wait_for_subscribers``)."""
+        deprecated('Node.wait_for_subscriber', 'Node.wait_for_subscribers')
+        return self.wait_for_subscribers(topic, timeout)

@@ -78,4 +78,4 @@ class ParameterMethods:
 
     def parameter_client(self, node_name: str, timeout: float = 5.0) -> ParameterClient:
         """The parameters of another node (``/robot/driver``)."""
-        return ParameterClient(self, node_name, timeout)
+        return ParameterClient(node_name, node=self, timeout=timeout)

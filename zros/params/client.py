@@ -6,6 +6,7 @@ import dataclasses
 from collections.abc import Callable, Iterable, Mapping
 
 from zros.cdr import FieldValue, Message
+from zros.deprecation import deprecated
 from zros.keyexpr.names import validate_full_name
 from zros.params.descriptor import Descriptor, Parameter, SetResult
 from zros.params.server import SERVICE_TYPES
@@ -20,7 +21,7 @@ from zros.params.values import (
 from zros.pubsub import Subscriber
 from zros.qos import PARAMETER_EVENTS
 from zros.runtime.clock import Time
-from zros.runtime.defaults import NodeLike
+from zros.runtime.defaults import NodeLike, default_node
 from zros.services import Client, ServiceTimeoutError, ServiceUnavailableError
 
 
@@ -34,9 +35,27 @@ class NodeNotFoundError(ParameterError, LookupError):
 
 class ParameterClient:
     """Reads and sets the parameters of the node ``node_name`` (fully qualified, e.g.
-    ``/robot/driver``). Every call waits at most ``timeout`` seconds."""
+    ``/robot/driver``), from ``node`` (None: the default node of ``zros.init``;
+    ``node.parameter_client`` is the node's way). Every call waits at most ``timeout`` seconds."""
 
-    def __init__(self, node: NodeLike, node_name: str, timeout: float = 5.0) -> None:
+    def __init__(
+        self,
+        node_name: str | NodeLike,
+        *args: str | float,
+        node: NodeLike | None = None,
+        timeout: float = 5.0,
+    ) -> None:
+        if not isinstance(node_name, str):  # the old order: (node, node_name, timeout)
+            if node is not None or not args or not isinstance(args[0], str) or len(args) > 2:
+                raise TypeError('ParameterClient takes (node_name, node=None, timeout=5.0)')
+            deprecated('ParameterClient(node, node_name)', 'ParameterClient(node_name, node=node)')
+            node, node_name = node_name, args[0]
+            if len(args) == 2:
+                timeout = float(args[1])
+        elif args:
+            raise TypeError('ParameterClient takes (node_name, node=None, timeout=5.0)')
+        if node is None:
+            node = default_node()
         if not node_name.startswith('/'):
             node_name = '/' + node_name
         validate_full_name(node_name, 'node name')

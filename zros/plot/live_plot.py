@@ -16,11 +16,11 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from zros.closing import Closing
 from zros.plot.addresses import PlotError, Series, resolve, split_address
 from zros.plot.figure import SeriesFigure, can_show
 from zros.qos import QoS, Reliability
@@ -52,7 +52,7 @@ class SeriesStats:
         self.maximum = max(self.maximum, value)
 
 
-class LivePlot:
+class LivePlot(Closing):
     """A plot of numeric fields of live topics (a context manager).
 
     ``addresses`` are ``/topic/field/path`` strings (see :mod:`zros.plot.addresses`); topics must
@@ -248,17 +248,6 @@ class LivePlot:
         for subscription in self._subscriptions:
             subscription.close()
         self._subscriptions.clear()
-
-    def __enter__(self) -> LivePlot:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 def _figure_open(figure: Figure) -> bool:

@@ -34,7 +34,12 @@ class Publisher(Entity):
     network cannot keep up, ``write()`` drops the message rather than wait (a keep-last reader
     wants the newest), except for reliable keep-all publishers, which block until it is sent
     (as rmw_zenoh chooses); ``QoS(congestion=...)`` overrides that.
+
+    The module-level way: ``(topic, type)`` is rosR's order, ``node`` None the default node of
+    ``zros.init``. ``node.create_publisher(type, topic)`` takes rclpy's order; both are on purpose.
     """
+
+    gid: bytes | None  #: rmw_zenoh: the GID in its attachments (and its token's hash)
 
     def __init__(
         self,
@@ -49,14 +54,12 @@ class Publisher(Entity):
         context = self.context
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
-        self.topic = context.resolve_name(topic)
         self.qos: QoS = as_qos(qos)
+        self.topic = self._resolve(EntityKind.PUBLISHER, topic)
         wire = self._place(
             EntityKind.PUBLISHER, self.topic, self.type_name, registry_of(self.msg_type),
-            qos=self.qos, announce=announce,
+            qos=self.qos, announce=announce, own=True,
         )  # fmt: skip
-        self.key = wire.key
-        self.gid = wire.gid  #: rmw_zenoh: the GID in its attachments (and its token's hash)
         self._publisher = self._keep(self._declare(wire))
         self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
         # types that can grow large (sequences) reuse one output buffer while their messages are
@@ -119,6 +122,7 @@ class Publisher(Entity):
                 self._small = True
             self._put(data)
 
+    #: rclpy's name (``write`` is rosR's ``ros.WriteMessage``)
     publish = write
 
     def write_raw(self, data: bytes | bytearray) -> None:

@@ -58,7 +58,16 @@ class Subscriber(Entity):
     every 10 s; they never count as new. With ``qos.lifespan`` (seconds), messages older than
     that when they arrive (by the Zenoh timestamp of their sender, or of the first router on
     their way) are dropped too, counted in ``expired`` and logged the same way.
+
+    Two ways to read: ``read_message`` reads the newest state (rosR), ``take`` and
+    ``wait_for_message`` read the stream, oldest unread first, each message once.
+
+    The module-level way: ``(topic, type)`` is rosR's order, ``node`` None the default node of
+    ``zros.init``. ``node.create_subscription(type, topic)`` takes rclpy's order; both are on
+    purpose.
     """
+
+    gid: bytes | None  #: rmw_zenoh: the GID in its token's hash
 
     def __init__(
         self,
@@ -77,14 +86,12 @@ class Subscriber(Entity):
         context = self.context
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
-        self.topic = context.resolve_name(topic)
         self.qos: QoS = as_qos(qos)
+        self.topic = self._resolve(EntityKind.SUBSCRIBER, topic)
         wire = self._place(
             EntityKind.SUBSCRIBER, self.topic, self.type_name, registry_of(self.msg_type),
-            qos=self.qos, announce=announce,
+            qos=self.qos, announce=announce, own=True,
         )  # fmt: skip
-        self.key = wire.key
-        self.gid = wire.gid  #: rmw_zenoh: the GID in its token's hash
         self._callback = callback
         self.raw = raw
         self._queue = SampleQueue(
@@ -251,6 +258,8 @@ class Subscriber(Entity):
         """The newest message (rosR: ``ros.ReadMessage``); unread older ones are discarded.
 
         Returns the last message read again when nothing new came, and None before the first.
+        The state read (the latest value); :meth:`take` and :meth:`wait_for_message` read the
+        stream, oldest first.
         """
         with self._reading:
             for sample in reversed(self._queue.pop()):
@@ -262,7 +271,7 @@ class Subscriber(Entity):
         return self._last
 
     def take(self, max_messages: int | None = None) -> list[Received]:
-        """Every unread message, oldest first (up to ``max_messages``)."""
+        """Every unread message, oldest first (up to ``max_messages``): the stream read."""
         messages: list[Received] = []
         with self._reading:
             while max_messages is None or len(messages) < max_messages:
@@ -283,7 +292,11 @@ class Subscriber(Entity):
 
     def wait_for_message(self, timeout: float | None = None) -> Received:
         """Block until a message is unread, then return the oldest one (None on timeout, once
-        the subscriber is closed, and after Ctrl-C)."""
+        the subscriber is closed, and after Ctrl-C).
+
+        A stream read like :meth:`take` (each message once, in order, as rospy's and rclpy's
+        ``wait_for_message`` give the next one); :meth:`read_message` is the state read.
+        """
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             remaining = None if deadline is None else deadline - time.monotonic()

@@ -65,6 +65,16 @@ def _each(callback: Callable[[Sample], None]) -> Callable[[list[Sample]], None]:
     return each
 
 
+#: what an entity's name is, by its kind (for name resolution and its errors)
+_NAME_KINDS = {
+    EntityKind.PUBLISHER: 'topic name',
+    EntityKind.SUBSCRIBER: 'topic name',
+    EntityKind.SERVICE_SERVER: 'service name',
+    EntityKind.SERVICE_CLIENT: 'service name',
+    EntityKind.ACTION_SERVER: 'action name',
+    EntityKind.ACTION_CLIENT: 'action name',
+}
+
 #: seconds close() waits for a call still running in another thread before it says so
 WAIT_WARNING = 5.0
 
@@ -78,6 +88,7 @@ class Entity:
         self.node: NodeLike = owner  #: the node it belongs to
         self.context: NodeContext = owner.context
         self.context.check_open()
+        self.key = ''  #: its Zenoh key expression, once it has a name
         self.gid: bytes | None = None  #: its GID, on wires that give entities one
         self._tokens: tuple[str, ...] = ()
         self._declared: list[Undeclarable] = []
@@ -99,13 +110,24 @@ class Entity:
         qos: QoS | None = None,
         announce: bool = True,
         owned: bool = True,
+        own: bool = False,
     ) -> WireEntity:
-        """Its place on the node's wire; the tokens are declared by :meth:`_announce`."""
+        """A place on the node's wire for ``name`` (resolved: see :meth:`_resolve`); the tokens
+        are declared by :meth:`_announce`. With ``own`` it is the entity's own place (a
+        publisher's, a service's..., not a part's): its key and GID become the entity's."""
         wire = self.context.wire.entity(
             kind, name, type_name, registry, qos=qos, announce=announce, owned=owned
         )
         self._tokens += wire.tokens
+        if own:
+            self.key = wire.key
+            self.gid = wire.gid
         return wire
+
+    def _resolve(self, kind: EntityKind, name: str) -> str:
+        """``name`` fully qualified and remapped, as the name of a ``kind`` entity (a topic,
+        service or action name: the errors say which)."""
+        return self.context.resolve_name(name, _NAME_KINDS[kind])
 
     def _add_tokens(self, tokens: tuple[str, ...]) -> None:
         """More tokens announcing it (an action as a whole)."""

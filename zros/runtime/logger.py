@@ -243,6 +243,7 @@ class Logger:
         """Log at WARN; see :meth:`log` for ``once``, ``throttle``, ``skip_first``."""
         return self.log(message, WARN, stacklevel=2, **options)
 
+    #: Python logging's name (``warn`` is ROS's)
     warning = warn
 
     def error(self, message: object, **options: Unpack[LogOptions]) -> bool:

@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import Protocol
+from typing import Protocol, cast, overload
 
+from zros.deprecation import deprecated
 from zros.runtime.clock import Clock
-from zros.runtime.defaults import NodeLike
+from zros.runtime.defaults import NodeLike, default_node
 from zros.runtime.signal import sleep
 
 _log = logging.getLogger('zros')
@@ -25,12 +26,37 @@ def _nanoseconds(period: float) -> int:
 
 
 class Timer:
-    """Calls ``callback()`` every ``period`` seconds (of the node's clock) while the node spins.
+    """Calls ``callback()`` every ``period`` seconds (of the node's clock) while the node spins
+    (``node`` None: the default node of ``zros.init``; ``node.create_timer`` is rclpy's way).
 
     A timer that falls behind skips the periods it missed instead of firing in a burst.
     """
 
-    def __init__(self, node: NodeLike, period: float, callback: Callable[[], object]) -> None:
+    @overload
+    def __init__(
+        self, period: float, callback: Callable[[], object], *, node: NodeLike | None = None
+    ) -> None: ...
+
+    @overload
+    def __init__(self, period: NodeLike, callback: float, node: Callable[[], object]) -> None:
+        """Deprecated: ``Timer(node, period, callback)``."""
+
+    def __init__(
+        self,
+        period: float | NodeLike,
+        callback: Callable[[], object] | float,
+        node: NodeLike | Callable[[], object] | None = None,
+    ) -> None:
+        if isinstance(period, (int, float)) and callable(callback):
+            if node is not None and not hasattr(node, 'context'):
+                raise TypeError(f'node= takes a node, not {type(node).__name__}')
+            owner = cast('NodeLike | None', node)
+        elif hasattr(period, 'context') and isinstance(callback, (int, float)) and callable(node):
+            deprecated('Timer(node, period, callback)', 'Timer(period, callback, node=node)')
+            owner, period, callback = cast('NodeLike', period), callback, node
+        else:
+            raise TypeError('Timer takes (period, callback, node=None)')
+        node = owner if owner is not None else default_node()
         context = node.context
         context.check_open()
         self.node = node
@@ -97,10 +123,18 @@ class Spinnable(Protocol):
 class Rate:
     """Keeps a loop at ``hz`` iterations per second; ``sleep()`` runs callbacks while it waits.
 
-    Without a node it sleeps on the monotonic clock.
+    With ``node=`` it follows that node's clock and runs its callbacks while it waits
+    (``node.create_rate`` is rclpy's way); without one it sleeps on the monotonic clock, even
+    after ``zros.init``: a rate needs no node, and one that spun the default node unasked
+    would run callbacks where the program does not expect them.
     """
 
-    def __init__(self, hz: float, node: Spinnable | None = None) -> None:
+    def __init__(self, hz: float, *args: Spinnable, node: Spinnable | None = None) -> None:
+        if args:
+            if node is not None or len(args) > 1:
+                raise TypeError('Rate takes (hz, node=None)')
+            deprecated('Rate(hz, node)', 'Rate(hz, node=node)')
+            node = args[0]
         if not hz > 0:
             raise ValueError(f'a rate must be positive, got {hz!r}')
         self._period = _nanoseconds(1.0 / hz)

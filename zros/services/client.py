@@ -44,7 +44,13 @@ class Client(Entity):
     ``call(request)`` (or ``call(a=1, b=2)``) returns the response or raises
     :class:`ServiceUnavailableError` (no server), :class:`ServiceTimeoutError` or
     :class:`ServiceCallError` (the server failed). ``call_async`` returns a future to ``await``.
+    A client is callable: ``client(request)`` is ``client.call(request)``.
+
+    ``(name, type)`` as :class:`zros.Subscriber` takes them, ``node`` None the default node of
+    ``zros.init``; ``node.create_client(type, name)`` takes rclpy's order. Both are on purpose.
     """
+
+    gid: bytes | None  #: rmw_zenoh: the GID in its requests
 
     def __init__(
         self,
@@ -61,13 +67,11 @@ class Client(Entity):
         self.type_name = self.srv_type.__srvtype__
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
-        self.name = context.resolve_name(name, 'service name')
+        self.name = self._resolve(EntityKind.SERVICE_CLIENT, name)
         self._wire = self._place(
             EntityKind.SERVICE_CLIENT, self.name, self.type_name, registry_of(self.Request),
-            announce=announce,
+            announce=announce, own=True,
         )  # fmt: skip
-        self.key = self._wire.key
-        self.gid = self._wire.gid  #: rmw_zenoh: the GID in its requests
         self.timeout = timeout
         session = context.transport.session
         self._get = session.get
@@ -191,6 +195,7 @@ class Client(Entity):
             raise KeyboardInterrupt
         return first[0]
 
+    #: ``client(request)``: a client is callable
     __call__ = call
 
     def call_async(

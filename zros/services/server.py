@@ -64,7 +64,12 @@ class Service(Entity):
     client behind the bridge gets nothing (ROS services have no error channel): its call waits
     until its own timeout. So does it when a reply comes later than the bridge waits
     (``queries_timeout``, 5 s by default), which zros logs.
+
+    ``(name, type)`` as :class:`zros.Subscriber` takes them, ``node`` None the default node of
+    ``zros.init``; ``node.create_service(type, name)`` takes rclpy's order. Both are on purpose.
     """
+
+    gid: bytes | None  #: rmw_zenoh: the GID in its replies
 
     def __init__(
         self,
@@ -82,13 +87,11 @@ class Service(Entity):
         self.type_name = self.srv_type.__srvtype__
         self.Request = self.srv_type.Request
         self.Response = self.srv_type.Response
-        self.name = context.resolve_name(name, 'service name')
+        self.name = self._resolve(EntityKind.SERVICE_SERVER, name)
         wire = self._place(
             EntityKind.SERVICE_SERVER, self.name, self.type_name, registry_of(self.Request),
-            announce=announce,
+            announce=announce, own=True,
         )  # fmt: skip
-        self.key = wire.key
-        self.gid = wire.gid  #: rmw_zenoh: the GID in its replies
         self._handler = handler
         #: internal services whose handler runs no user code answer on Zenoh's thread while
         #: this says so (a node's parameters answer even when nobody spins it)

@@ -6,6 +6,7 @@ import json
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, TypedDict
 
+from zros.closing import Closing
 from zros.transport.credentials import check_user, password_dictionary, secret_values
 from zros.transport.endpoints import normalize, parse_endpoint
 from zros.transport.errors import TransportError, zenoh_reason
@@ -94,7 +95,7 @@ class RouterOptions(TypedDict, total=False):
     password: str | None
 
 
-class Router:
+class Router(Closing):
     """A Zenoh router listening on ``listen`` (port 0 picks a free port; read ``endpoint``).
 
     Multicast scouting is off; shared memory is off unless asked, so clients behave as across
@@ -180,12 +181,6 @@ class Router:
             self._closed = True
             _open.discard(self)  # type: ignore[arg-type]
             self.session.close()  # type: ignore[no-untyped-call]  # untyped in zenoh's stub
-
-    def __enter__(self) -> Router:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f'<zros Router {self.endpoint}{" (closed)" if self._closed else ""}>'

@@ -22,6 +22,7 @@ import weakref
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from zros.closing import Closing
 from zros.transport import delivery
 from zros.transport.config import TransportConfig, listen_endpoints
 from zros.transport.credentials import password_dictionary
@@ -111,7 +112,7 @@ def _listen_hosts(config: TransportConfig, listening: list[str]) -> list[str] | 
     return [e.host for e in parsed if e.port is not None and e.host not in ('0.0.0.0', '::')]
 
 
-class Transport:
+class Transport(Closing):
     """One open Zenoh session and what zros keeps per session (liveliness tokens)."""
 
     def __init__(self, config: TransportConfig | None = None) -> None:
@@ -220,12 +221,6 @@ class Transport:
         _open.discard(self)
         self._tokens.clear()
         self.session.close()  # type: ignore[no-untyped-call]  # untyped in zenoh's stub
-
-    def __enter__(self) -> Transport:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         state = 'closed' if self._closed else self.config.describe()
