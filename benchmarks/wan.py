@@ -1,7 +1,7 @@
 """A robot and a laptop across a WAN: does a remote camera view slow the robot, and does
 small urgent traffic still get through?
 
-The path is tests/runtime/wan_rig.py: a router on the robot's side with the robot's node next
+The path is tests/support/wan_rig.py: a router on the robot's side with the robot's node next
 to it, the laptop's node behind a userspace proxy (50 ms each way, 10 Mbit/s, what waits at
 the bottleneck and every Zenoh socket buffer sized to the bandwidth-delay product, 125 kB).
 The robot publishes a 640x480 rgb8 camera (921,600 bytes, reliable keep last 1) at 10 Hz, 9 MB/s
@@ -39,7 +39,7 @@ sys.path[:0] = [str(HERE.parents[1])]
 
 
 import zros  # noqa: E402
-from tests.runtime.wan_rig import Wan, wan  # noqa: E402
+from tests.support.wan_rig import Wan, wan  # noqa: E402
 from zros.qos import Congestion, Priority, QoS  # noqa: E402
 
 RATE = 10.0  #: Hz of every topic

@@ -18,7 +18,7 @@ import pytest
 
 import zros
 from tests.gateway.foxglove.client import FoxgloveClient, image
-from tests.runtime.delay_proxy import DelayProxy
+from tests.support.delay_proxy import DelayProxy
 from zros.cdr import default_registry
 from zros.cdr.render import render_bundle
 from zros.qos import QoS

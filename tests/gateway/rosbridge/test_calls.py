@@ -10,8 +10,8 @@ from typing import Any
 
 import pytest
 
+from tests.actions.test_actions import fibonacci
 from tests.gateway.rosbridge.clients import RawClient
-from tests.runtime.test_actions import fibonacci
 from zros.services import ServiceCallError
 from zros.testing import spinning, wait_for
 

@@ -9,7 +9,7 @@ import contextlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-from tests.runtime.delay_proxy import DelayProxy
+from tests.support.delay_proxy import DelayProxy
 from zros.node import Node
 from zros.transport import Router, Transport, TransportConfig, start_router
 

@@ -12,7 +12,7 @@ import pytest
 from zenoh import ZError
 
 import zros
-from tests.runtime.wire_support import reply_options, request_options, service_key
+from tests.support.wire_support import reply_options, request_options, service_key
 from zros.actions import (
     ActionError,
     CancelResponse,

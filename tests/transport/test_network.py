@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterator
 import pytest
 
 import zros
-from tests.runtime.delay_proxy import DelayProxy
+from tests.support.delay_proxy import DelayProxy
 from zros.node import Node
 from zros.testing import wait_for
 from zros.transport import Router, Transport, TransportConfig

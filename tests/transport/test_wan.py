@@ -1,5 +1,5 @@
 """A remote viewer never slows the robot: congestion control across a 10 Mbit/s, 50 ms link
-(tests/runtime/wan_rig.py), on both wires."""
+(tests/support/wan_rig.py), on both wires."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 import zenoh
 
 import zros
-from tests.runtime.wan_rig import Wan, wan
+from tests.support.wan_rig import Wan, wan
 from zros.node import Node
 from zros.qos import Congestion, History, Priority, QoS
 from zros.testing import wait_for

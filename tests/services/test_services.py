@@ -12,8 +12,8 @@ from typing import Any
 import pytest
 
 import zros
-from tests.runtime.wire_support import reply_options, request_options
 from tests.support.races import close_while_used
+from tests.support.wire_support import reply_options, request_options
 from zros.node import Node
 from zros.services import (
     ServiceCallError,

@@ -14,8 +14,8 @@ import pytest
 import zenoh
 
 import zros
-from tests.runtime.wire_support import put_options
 from tests.support.races import close_while_used
+from tests.support.wire_support import put_options
 from zros.node import Node
 from zros.qos import LATCHED, QoS
 from zros.testing import wait_for
