@@ -27,3 +27,18 @@ def test_a_with_block_closes_it_however_it_ends() -> None:
 def test_a_class_without_its_own_close_says_so() -> None:
     with pytest.raises(NotImplementedError), Closing():
         pass
+
+
+def test_the_with_objects_of_zros_close_through_closing() -> None:
+    from zros.bag import Bag, BagWriter, Player, Recorder
+    from zros.bag.read.source_base import Source
+    from zros.gateway.foxglove.bag_server import BagGateway
+    from zros.gateway.rosbridge.server import RosbridgeGateway
+    from zros.node import Node
+    from zros.transport import Router, Transport
+
+    for cls in (Node, Transport, Router, Bag, Source, BagWriter, Recorder, Player):
+        assert issubclass(cls, Closing), cls
+    for cls in (BagGateway, RosbridgeGateway):
+        assert issubclass(cls, Closing), cls
+        assert '__exit__' not in vars(cls), cls

@@ -5,17 +5,16 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
 from typing import TYPE_CHECKING, Protocol
 
 from zros.bag.columns.extract import dataframe, extract, structured
 from zros.bag.errors import BagError
 from zros.bag.read.source import Connection, RawMessage, Source, open_source
 from zros.bag.read.types import BagTypes
+from zros.closing import Closing
 
 if TYPE_CHECKING:
     import numpy as np
-    from typing_extensions import Self
 
     from zros.cdr import Message, TypeRegistry, Untyped
 
@@ -53,7 +52,7 @@ def _nanoseconds(value: TimeLike) -> int | None:
     return nanoseconds
 
 
-class Bag:
+class Bag(Closing):
     """A recording opened for reading (a context manager).
 
     >>> with Bag('my_bag') as bag:                                 # doctest: +SKIP
@@ -222,17 +221,6 @@ class Bag:
     def close(self) -> None:
         """Close the recording's files."""
         self.source.close()
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f'<Bag {self.path}: {len(self.topics)} topics, {self.message_count} messages>'

@@ -24,6 +24,7 @@ from zros.bag.play.play_topics import message_class, parse_remap, playback_qos
 from zros.bag.read.rosbag2_yaml import parse_qos_profiles
 from zros.bag.read.source import open_source
 from zros.cdr.registry import registry_of
+from zros.closing import Closing
 from zros.errors import ZrosError
 from zros.pubsub import Publisher
 from zros.qos import QoS, Reliability
@@ -45,7 +46,7 @@ _BATCHES = 32
 _LOOP = None  #: the reader's marker between two passes of a looping playback
 
 
-class Player:
+class Player(Closing):
     """Publishes the messages of a bag with their recorded timing (``ros2 bag play``).
 
     ``rate`` scales the speed, ``start_offset`` skips seconds from the start, ``loop`` plays
@@ -410,12 +411,6 @@ class Player:
         if self._types is not None:
             self._types.close()
         self.source.close()
-
-    def __enter__(self) -> Player:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f'<zros Player {self.source.path} ({len(self.topics)} topics, rate {self.rate})>'

@@ -10,14 +10,13 @@ import contextlib
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
 from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError, Unsupported
+from zros.closing import Closing
 
 if TYPE_CHECKING:
     import numpy as np
-    from typing_extensions import Self
 
 
 @dataclass(frozen=True)
@@ -67,7 +66,7 @@ def normalise_type_name(name: str) -> str:
     return name
 
 
-class Source:
+class Source(Closing):
     """An open recording: its connections, time range and raw messages (a context manager).
 
     ``start_ns`` and ``end_ns`` are the first and last receive times (both 0 without messages).
@@ -148,17 +147,6 @@ class Source:
         for closer in reversed(self._closers):
             with contextlib.suppress(Exception):  # closing must never mask the real error
                 closer()
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return (

@@ -26,6 +26,7 @@ from zros.bag.read.rosbag2_yaml import (
 from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, McapFile, compression_type
 from zros.cdr.hashing import type_hash
 from zros.cdr.render import render_bundle
+from zros.closing import Closing
 from zros.errors import ZrosError
 from zros.qos import QoS
 from zros.version import __version__
@@ -71,7 +72,7 @@ class BagTopic:
         return cls(name, type_name, definition, digest, list(qos))
 
 
-class BagWriter:
+class BagWriter(Closing):
     """Writes a bag folder. ``split_size`` is in bytes, ``split_duration`` in seconds;
     ``compression`` is ``'zstd'``, ``'lz4'`` or None (chunk compression, inside each file)."""
 
@@ -247,9 +248,3 @@ class BagWriter:
         self.closed = True
         self._close_file()
         write_metadata_yaml(self.path, self._metadata(self._done))
-
-    def __enter__(self) -> BagWriter:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

@@ -24,6 +24,7 @@ from zros.api import default_node
 from zros.bag.errors import RecorderError
 from zros.bag.write.bag_writer import BagTopic, BagWriter
 from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE
+from zros.closing import Closing
 from zros.pubsub.taps import RawTap, graph_topics, is_hidden, matched_qos, publish_time
 from zros.qos import QoS
 from zros.runtime.drops import DropCounter
@@ -48,7 +49,7 @@ MAX_QUEUE_BYTES = 512 * 1024 * 1024
 FLUSH_INTERVAL = 1.0
 
 
-class Recorder:
+class Recorder(Closing):
     """Records topics of the live graph into a bag folder (``ros2 bag record``).
 
     Choose ``topics`` (names), a ``regex`` (searched in names), or ``all``; with ``all`` or a
@@ -334,12 +335,6 @@ class Recorder:
             raise RecorderError(reason) from self.error
 
     stop = close
-
-    def __enter__(self) -> Recorder:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f'<zros Recorder {self.path} ({len(self._types)} topics, {self.message_count} msgs)>'

@@ -24,6 +24,7 @@ from zros.bag.read.rosbag2_yaml import parse_qos_profiles
 from zros.bag.read.source import open_source
 from zros.bag.read.types import BagTypes
 from zros.cdr import default_registry
+from zros.closing import Closing
 from zros.errors import ZrosError
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
@@ -56,7 +57,7 @@ def _full_name(topic: str) -> str:
     return topic if topic.startswith('/') else '/' + topic
 
 
-class BagGateway:
+class BagGateway(Closing):
     """A Foxglove WebSocket server playing the bag at ``path`` (see the module docstring).
 
     It starts paused at the bag's first message; Foxglove's playback bar plays, pauses, seeks
@@ -285,12 +286,6 @@ class BagGateway:
         self._front.close()
         self._server.stop()
         self.source.close()
-
-    def __enter__(self) -> BagGateway:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f'<zros BagGateway {self.url} playing {self.source.path}>'

@@ -31,6 +31,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from zros.closing import Closing
 from zros.gateway.common.entities import gateway_node
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
@@ -89,7 +90,7 @@ class Limits:
     allow_service_override: bool = False
 
 
-class RosbridgeGateway:
+class RosbridgeGateway(Closing):
     """A rosbridge v2 server showing the graph ``node`` sees (see the module docstring).
 
     ``topics_glob``, ``services_glob`` and ``params_glob`` are allow-lists of shell globs as
@@ -256,12 +257,6 @@ class RosbridgeGateway:
         self._close_parts()
         if self._own_node:
             self.node.destroy()
-
-    def __enter__(self) -> RosbridgeGateway:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f'<zros RosbridgeGateway {self.url} ({len(self._clients)} clients)>'
