@@ -9,6 +9,7 @@ modules together. A copy of the package with an upward import shows the contract
 
 from __future__ import annotations
 
+import ast
 import os
 import shutil
 import subprocess
@@ -24,6 +25,8 @@ PACKAGE = ROOT / 'zros'
 #: errors, the client and server sides of services, actions, parameters and the gateways, and
 #: a gateway's calls (the services its clients call)
 SHARED_NAMES = {'__init__.py', 'errors.py', 'client.py', 'server.py', 'calls.py'}
+#: the leaves of DESIGN.md's layers (packages and top-level modules)
+LEAVES = {'bag', 'cli', 'demo', 'foxglove', 'gateway', 'plot', 'rosbridge', 'testing', 'tf'}
 
 
 def lint_imports(cwd: Path, package_parent: Path) -> subprocess.CompletedProcess[str]:
@@ -159,3 +162,56 @@ def test_no_file_name_means_two_things() -> None:
         if name not in SHARED_NAMES and len(paths) > 1
     }
     assert twice == {}
+
+
+def _private_names(tree: ast.Module) -> set[str]:
+    """The underscored names a module defines: functions, classes, assigned names and
+    attributes, ``__slots__`` entries."""
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            names.add(node.attr)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            names.add(node.value)  # __slots__ entries, getattr names
+    return {name for name in names if name.startswith('_') and not name.startswith('__')}
+
+
+def leaf_reaches(package: Path) -> list[str]:
+    """Where a leaf reads an underscored attribute that only the core defines (``x._name``,
+    ``x`` not ``self``): the leaves use what the core makes public."""
+    trees = {path: ast.parse(path.read_text()) for path in package.rglob('*.py')}
+    by_part: dict[str, set[str]] = {}
+    for path, tree in trees.items():
+        part = path.relative_to(package).parts[0].removesuffix('.py')
+        by_part.setdefault(part, set()).update(_private_names(tree))
+    core = set().union(*(names for part, names in by_part.items() if part not in LEAVES))
+    found = []
+    for path, tree in trees.items():
+        part = path.relative_to(package).parts[0].removesuffix('.py')
+        if part not in LEAVES:
+            continue
+        for node in ast.walk(tree):
+            if (
+                isinstance(node, ast.Attribute)
+                and node.attr in core - by_part[part]
+                and not (isinstance(node.value, ast.Name) and node.value.id == 'self')
+            ):
+                found.append(
+                    f'{path.relative_to(package.parent)}:{node.lineno} {ast.unparse(node)}'
+                )
+    return found
+
+
+def test_the_leaves_read_no_private_attribute_of_the_core() -> None:
+    assert leaf_reaches(PACKAGE) == []
+
+
+def test_a_leaf_reading_a_private_attribute_of_the_core_is_found(tmp_path: Path) -> None:
+    copy = tmp_path / 'zros'
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns('__pycache__'))
+    (copy / 'cli' / 'reach.py').write_text('def reach(message):\n    return message._definition\n')
+    assert [reach.split(' ', 1)[1] for reach in leaf_reaches(copy)] == ['message._definition']

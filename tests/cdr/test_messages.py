@@ -335,3 +335,16 @@ def test_constructor_checks_value_types(registry: TypeRegistry) -> None:
     # the same type from another registry (a bag's own definitions) is accepted
     other = TypeRegistry('jazzy', paths=[], ament=False).get_class('geometry_msgs/msg/Point')
     assert registry.get_class('geometry_msgs/msg/Pose')(position=other(x=1.0)).position.x == 1.0
+
+
+def test_definition_of_a_message_class_gives_its_fields_with_their_types(
+    registry: TypeRegistry,
+) -> None:
+    registry.register_text('demo_msgs/msg/Pair', 'int32 count\nfloat64[3] xyz\nstring class')
+    Pair = registry.get_class('demo_msgs/msg/Pair')
+    definition = cdr.definition_of(Pair)
+    assert definition.name == 'demo_msgs/msg/Pair'
+    assert [f.name for f in definition.fields] == ['count', 'xyz', 'class']
+    assert not definition.fields[1].type.is_scalar and definition.fields[0].type.is_scalar
+    with pytest.raises(TypeError, match='not a message class'):
+        cdr.definition_of(cdr.Message)

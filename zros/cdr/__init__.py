@@ -19,7 +19,7 @@ from zros.cdr.errors import (
 )
 from zros.cdr.hashing import type_hash as _type_hash
 from zros.cdr.interfaces import ActionType, ServiceType
-from zros.cdr.message import Message, decode_failure, encode
+from zros.cdr.message import Message, decode_failure, definition_of, encode
 from zros.cdr.message import decode as _decode
 from zros.cdr.model import (
     ActionDef,
@@ -124,6 +124,7 @@ __all__ = [
     'Untyped',
     'decode',
     'default_registry',
+    'definition_of',
     'encode',
     'get_class',
     'get_type',

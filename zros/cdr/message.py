@@ -130,6 +130,15 @@ class Message:
 # --- encode / decode entry points -----------------------------------------------------------
 
 
+def definition_of(cls: type[Message]) -> MessageDef:
+    """The parsed definition of a message class: its type name and its fields in order, each
+    with its name and :class:`~zros.cdr.model.FieldType` (TypeError for anything else)."""
+    definition = getattr(cls, '_definition', None) if isinstance(cls, type) else None
+    if not isinstance(definition, MessageDef):
+        raise TypeError(f'{cls!r} is not a message class built by a TypeRegistry')
+    return definition
+
+
 def encode(message: Message) -> bytes:
     """CDR bytes of a message: the 4-byte little-endian header, then the body, no padding."""
     try:

@@ -13,6 +13,7 @@ import sys
 from collections.abc import Iterable, Sized
 from typing import TYPE_CHECKING
 
+from zros.cdr.message import definition_of
 from zros.cdr.model import FieldType, Kind
 
 if TYPE_CHECKING:
@@ -104,7 +105,7 @@ def _fields(
 ) -> dict[str, PlainValue]:
     return {
         field.name: _plain(getattr(message, field.name), field.type, options)
-        for field in message._definition.fields
+        for field in definition_of(type(message)).fields
     }
 
 

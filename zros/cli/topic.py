@@ -256,7 +256,7 @@ def _measuring_subscription(
         raise CommandError(
             f'--max-age needs the definition of {type_name} (ZROS_INTERFACE_PATH adds yours)'
         )
-    wire = node.context.wire
+    wire = node.wire
     key = wire.any_type_key(wire.key(node.resolve_name(args.topic)))  # any type and hash
     print(
         f'zros: note: no definition of {type_name} (ZROS_INTERFACE_PATH adds yours): measuring '

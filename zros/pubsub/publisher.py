@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 from zenoh import Reliability, ZError, ext
 
-from zros.cdr import encode
+from zros.cdr import definition_of, encode
 from zros.cdr.encode_buffer import EncodeBuffer
 from zros.cdr.message import Message
 from zros.cdr.model import Kind
@@ -69,7 +69,7 @@ class Publisher(Entity):
         self._buffer: EncodeBuffer | None = None
         self._large = sys.maxsize  #: messages from this size on go through the buffer
         self._small = True  #: the last message was small
-        definition = self.msg_type._definition
+        definition = definition_of(self.msg_type)
         if any(f.type.kind is not Kind.SCALAR for f in definition.fields) or any(
             f.type.is_nested for f in definition.fields
         ):

@@ -128,10 +128,11 @@ class Transport(Closing):
         user = self.config.user if listening else None
         try:
             with password_dictionary(zenoh_config, user, self.config.password):
+                #: the open ``zenoh.Session``, for what zros does not wrap (raw Zenoh, admin space)
                 self.session: zenoh.Session = zenoh.open(zenoh_config)
         except zenoh.ZError as exc:
             raise _explain(exc, self.config) from None
-        self.zid = str(self.session.zid())
+        self.zid = str(self.session.zid())  #: the session's Zenoh id (hex)
         self._tokens: dict[str, tuple[zenoh.LivelinessToken, int]] = {}
         self._token_lock = threading.Lock()
         self._closed = False

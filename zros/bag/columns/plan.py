@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from zros.cdr.layout import VALUE_CODES, numpy_dtype
-from zros.cdr.message import Message
+from zros.cdr.message import Message, definition_of
 from zros.cdr.model import PRIMITIVE_SIZES, Kind, MessageDef
 from zros.cdr.registry import registry_of
 
@@ -153,7 +153,7 @@ def plan(cls: type[Message]) -> Plan:
     known = _plans.get(cls)
     if known is None:
         planner = _Planner(cls)
-        planner.message(cls._definition, '')
+        planner.message(definition_of(cls), '')
         known = Plan(planner.steps, planner.leaves, planner.other, not planner.stopped)
         _plans[cls] = known
     return known
