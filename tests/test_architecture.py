@@ -24,6 +24,9 @@ PACKAGE = ROOT / 'zros'
 #: errors, the client and server sides of services, actions, parameters and the gateways, and
 #: a gateway's calls (the services its clients call)
 SHARED_NAMES = {'__init__.py', 'errors.py', 'client.py', 'server.py', 'calls.py'}
+#: the modules of the ``zros`` commands, each named by its command (``zros tf`` is
+#: ``verbs/tf.py``, beside the package ``zros.tf`` it drives): the one other rule for a name
+VERBS = PACKAGE / 'cli' / 'verbs'
 
 
 def lint_imports(cwd: Path, package_parent: Path) -> subprocess.CompletedProcess[str]:
@@ -152,6 +155,8 @@ def test_no_file_name_means_two_things() -> None:
     # the same file name in two packages reads as the same thing: cli/node.py is not zros/node/
     names: dict[str, set[str]] = {}
     for path in PACKAGE.rglob('*.py'):
+        if path.parent == VERBS:
+            continue
         names.setdefault(path.name, set()).add(str(path.relative_to(ROOT)))
     twice = {
         name: sorted(paths)
@@ -159,3 +164,13 @@ def test_no_file_name_means_two_things() -> None:
         if name not in SHARED_NAMES and len(paths) > 1
     }
     assert twice == {}
+
+
+def test_a_verb_module_is_named_by_its_verb() -> None:
+    """``zros.cli.verbs`` holds one module per command of ``zros``, named by it, and nothing
+    else: the command line finds a command's module by its name."""
+    from zros.cli.main import COMMANDS
+
+    modules = {path.stem for path in VERBS.glob('*.py')} - {'__init__'}
+    assert modules == set(COMMANDS)
+    assert not [path for path in VERBS.iterdir() if path.is_dir() and path.name != '__pycache__']

@@ -181,6 +181,25 @@ def message_class(type_name: str) -> type[Message]:
     return found
 
 
+def graph_topic_type(node: Node, topic: str, wait: float) -> str:
+    """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear."""
+    name = node.resolve_name(topic)
+
+    def found() -> list[str]:
+        return node.graph.topics(node.scheme.namespace).get(name, [])
+
+    node.graph.wait_until(found, wait)
+    types = found()
+    if not types:
+        raise CommandError(
+            f'topic {name} does not appear on the network: give its type, or check the name '
+            '(zros topic list)'
+        )
+    if len(types) > 1:
+        raise CommandError(f'topic {name} has several types ({", ".join(types)}): give one')
+    return types[0]
+
+
 def known_type(node: Node, topic: str, type_name: str) -> str:
     """``type_name``, after making sure ``node`` can decode it.
 

@@ -43,7 +43,7 @@ def add_parser(
     echo.add_argument(
         '--precision', type=int, default=3, metavar='DIGITS', help='decimals (default 3)'
     )
-    echo.set_defaults(run='zros.cli.tf_command:echo')
+    echo.set_defaults(run=echo)
     add_connection_options(echo)
 
     frames = verbs.add_parser(
@@ -65,7 +65,7 @@ def add_parser(
         metavar='S',
         help='live: seconds to listen before printing (default 2)',
     )
-    frames.set_defaults(run='zros.cli.tf_command:frames')
+    frames.set_defaults(run=frames)
     add_connection_options(frames)
 
 
