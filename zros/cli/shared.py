@@ -70,6 +70,20 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
             )  # fmt: skip
 
 
+def add_verb(
+    verbs: argparse._SubParsersAction[argparse.ArgumentParser],
+    name: str,
+    help_text: str,
+    run: Callable[[argparse.Namespace], int],
+) -> argparse.ArgumentParser:
+    """The parser of a command's verb (``zros topic echo``): ``help_text`` as its help and
+    description, ``run`` as what runs it, and the connection options."""
+    parser = verbs.add_parser(name, help=help_text, description=help_text)
+    parser.set_defaults(run=run)
+    add_connection_options(parser)
+    return parser
+
+
 def wire_settings(args: argparse.Namespace) -> dict[str, WireOption]:
     """The wire settings given on the command line (``--bridge-namespace``...), by keyword;
     a usage error for a setting of another scheme than the one chosen."""

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
     DISCOVERY,
     CommandError,
-    add_connection_options,
+    add_verb,
     build_message,
     find_names,
     graph_topic_type,
@@ -192,29 +191,21 @@ def add_parser(
     topic = commands.add_parser('topic', help=help_line)
     verbs = topic.add_subparsers(dest='verb', metavar='VERB', required=True)
 
-    def verb(
-        name: str, help_text: str, target: Callable[[argparse.Namespace], int]
-    ) -> argparse.ArgumentParser:
-        parser = verbs.add_parser(name, help=help_text, description=help_text)
-        parser.set_defaults(run=target)
-        add_connection_options(parser)
-        return parser
-
-    listing = verb('list', 'list the topics on the network', list_topics)
+    listing = add_verb(verbs, 'list', 'list the topics on the network', list_topics)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
     listing.add_argument('-v', '--verbose', action='store_true', help='publishers, subscribers')
 
-    parser = verb('info', 'type and endpoints of a topic', info)
+    parser = add_verb(verbs, 'info', 'type and endpoints of a topic', info)
     parser.add_argument('topic')
     parser.add_argument('-v', '--verbose', action='store_true', help='each endpoint')
 
-    parser = verb('type', 'the type of a topic', topic_type)
+    parser = add_verb(verbs, 'type', 'the type of a topic', topic_type)
     parser.add_argument('topic')
 
-    parser = verb('find', 'the topics of a type', find)
+    parser = add_verb(verbs, 'find', 'the topics of a type', find)
     parser.add_argument('type')
 
-    parser = verb('echo', 'print the messages of a topic', echo)
+    parser = add_verb(verbs, 'echo', 'print the messages of a topic', echo)
     parser.add_argument('topic')
     parser.add_argument('type', nargs='?', help='its type (default: from the network)')
     parser.add_argument('--field', help='print only this field, e.g. pose.position')
@@ -230,7 +221,7 @@ def add_parser(
     parser.add_argument('--wait', type=float, default=10.0, metavar='S',
                         help='how long to wait for the topic to appear (default 10)')  # fmt: skip
 
-    parser = verb('pub', 'publish messages on a topic', pub)
+    parser = add_verb(verbs, 'pub', 'publish messages on a topic', pub)
     parser.add_argument('topic')
     parser.add_argument('type')
     parser.add_argument('values', nargs='?', help='YAML, e.g. "{data: hello}"')
@@ -259,7 +250,7 @@ def add_parser(
         ('bw', 'the bandwidth of a topic', bw),
         ('delay', 'the delay of a topic from its header stamps', delay),
     ):
-        parser = verb(name, help_text, target)
+        parser = add_verb(verbs, name, help_text, target)
         parser.add_argument('topic')
         if name == 'delay':
             parser.add_argument('type', nargs='?')
