@@ -88,6 +88,35 @@ def test_a_command_imports_only_its_own_module() -> None:
     assert imported_by('graph', '--help') & command_modules() == {'zros.cli.verbs.graph'}
 
 
+def test_every_verb_runs_a_function_of_its_command_module() -> None:
+    """A command's module is found by its name, and each parser it builds that runs something
+    has as ``run`` a function of that module (not, say, a parser of the same name)."""
+    import argparse
+    import inspect
+
+    def leaves(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+        found = [parser]
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for child in action.choices.values():
+                    found += leaves(child)
+        return found
+
+    parser = build_parser()
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    checked = 0
+    for name, command in commands.choices.items():
+        for leaf in leaves(command):
+            run = leaf.get_default('run')
+            if run is None:
+                continue
+            assert inspect.isfunction(run), (leaf.prog, run)
+            assert run.__module__.startswith('zros.cli.'), (leaf.prog, run.__module__)
+            checked += 1
+        assert f'zros.cli.verbs.{name}' in sys.modules
+    assert checked >= 40
+
+
 def test_top_level_help_is_the_same_with_every_command_built() -> None:
     """Each command's help line is written once, in the table: the whole tree (docs/cli.md,
     completion) lists the commands exactly as ``zros --help`` does."""
