@@ -17,8 +17,8 @@ if TYPE_CHECKING:
 #: every command, in the order ``zros --help`` lists them, with its help line (written only here;
 #: the module gets it as an argument). A command's module is ``zros.cli.verbs.<command>``, named
 #: by its verb: its ``add_parser(commands, help_line)`` adds the parser, and each parser's
-#: ``run`` default is the function that runs it. The module is imported only
-#: when the command is chosen, or when the whole tree is needed (completion, docs).
+#: ``run`` default is the function that runs it. The module is imported only when the command
+#: is chosen, or when the whole tree is needed (completion, docs).
 COMMANDS: dict[str, str] = {
     'demo': 'run the rosR sensor tutorial',
     'topic': 'topics: list, echo, pub, hz...',
