@@ -31,6 +31,8 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from zros.cli.main import build_parser
+
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / 'docs'
 EXAMPLES = ROOT / 'examples'
@@ -81,8 +83,6 @@ def _commands(
 
 def cli_reference() -> str:
     """A section per command, with its ``--help`` text."""
-    from zros.cli.main import build_parser
-
     sections = []
     for path, parser in _commands(build_parser(), ('zros',)):
         parser.formatter_class = lambda prog: argparse.HelpFormatter(prog, width=WIDTH)

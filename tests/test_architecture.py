@@ -28,6 +28,10 @@ SHARED_NAMES = {'__init__.py', 'errors.py', 'client.py', 'server.py', 'calls.py'
 #: the leaves of DESIGN.md's layers (packages and top-level modules)
 LEAVES = {'bag', 'cli', 'demo', 'foxglove', 'gateway', 'plot', 'rosbridge', 'testing', 'tf'}
 
+#: the modules of the ``zros`` commands, each named by its command (``zros tf`` is
+#: ``verbs/tf.py``, beside the package ``zros.tf`` it drives): the one other rule for a name
+VERBS = PACKAGE / 'cli' / 'verbs'
+
 
 def lint_imports(cwd: Path, package_parent: Path) -> subprocess.CompletedProcess[str]:
     """``lint-imports`` with the contracts of ``cwd/pyproject.toml``, on the package found in
@@ -155,6 +159,8 @@ def test_no_file_name_means_two_things() -> None:
     # the same file name in two packages reads as the same thing: cli/node.py is not zros/node/
     names: dict[str, set[str]] = {}
     for path in PACKAGE.rglob('*.py'):
+        if path.parent == VERBS:
+            continue
         names.setdefault(path.name, set()).add(str(path.relative_to(ROOT)))
     twice = {
         name: sorted(paths)
@@ -215,3 +221,13 @@ def test_a_leaf_reading_a_private_attribute_of_the_core_is_found(tmp_path: Path)
     shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns('__pycache__'))
     (copy / 'cli' / 'reach.py').write_text('def reach(message):\n    return message._definition\n')
     assert [reach.split(' ', 1)[1] for reach in leaf_reaches(copy)] == ['message._definition']
+
+
+def test_a_verb_module_is_named_by_its_verb() -> None:
+    """``zros.cli.verbs`` holds one module per command of ``zros``, named by it, and nothing
+    else: the command line finds a command's module by its name."""
+    from zros.cli.main import COMMANDS
+
+    modules = {path.stem for path in VERBS.glob('*.py')} - {'__init__'}
+    assert modules == set(COMMANDS)
+    assert not [path for path in VERBS.iterdir() if path.is_dir() and path.name != '__pycache__']

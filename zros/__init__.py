@@ -163,7 +163,7 @@ def Message(type_name: str | type[_MessageBase], **fields: FieldValue) -> _Messa
     >>> zros.Message('std_msgs/msg/String', data='hello').data
     'hello'
     """
-    from zros.cdr import new_message
+    from zros.cdr import new_message  # noqa: PLC0415 (import zros stays light: zros.cdr loads numpy)
 
     return new_message(type_name, **fields)
 

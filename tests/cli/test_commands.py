@@ -44,7 +44,7 @@ HEAVY = ('zenoh', 'numpy', 'zros.cdr', 'ruamel', 'matplotlib')
 
 def command_modules() -> set[str]:
     """The modules that add the parsers of the commands."""
-    return {builder.split(':')[0] for _, builder in COMMANDS.values()}
+    return {f'zros.cli.verbs.{command}' for command in COMMANDS}
 
 
 #: runs the console script as the shell does, then lists the modules it imported (Python's
@@ -83,10 +83,38 @@ def test_help_imports_no_command_module_nor_zenoh_nor_numpy() -> None:
 
 def test_a_command_imports_only_its_own_module() -> None:
     imported = imported_by('topic', 'echo', '--help')
-    assert imported & command_modules() == {'zros.cli.topic'}
+    assert imported & command_modules() == {'zros.cli.verbs.topic'}
     assert not {name for name in imported if name.startswith(HEAVY)}
-    # the two commands of one module
-    assert imported_by('graph', '--help') & command_modules() == {'zros.cli.plot'}
+    assert imported_by('graph', '--help') & command_modules() == {'zros.cli.verbs.graph'}
+
+
+def test_every_verb_runs_a_function_of_its_command_module() -> None:
+    """A command's module is found by its name, and each parser it builds that runs something
+    has as ``run`` a function of that module (not, say, a parser of the same name)."""
+    import argparse
+    import inspect
+
+    def leaves(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+        found = [parser]
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for child in action.choices.values():
+                    found += leaves(child)
+        return found
+
+    parser = build_parser()
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    checked = 0
+    for name, command in commands.choices.items():
+        for leaf in leaves(command):
+            run = leaf.get_default('run')
+            if run is None:
+                continue
+            assert inspect.isfunction(run), (leaf.prog, run)
+            assert run.__module__.startswith('zros.cli.'), (leaf.prog, run.__module__)
+            checked += 1
+        assert f'zros.cli.verbs.{name}' in sys.modules
+    assert checked >= 40
 
 
 def test_top_level_help_is_the_same_with_every_command_built() -> None:

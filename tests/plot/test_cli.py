@@ -143,7 +143,7 @@ def test_a_missing_bag_is_said_at_once(
 
 
 def test_which_first_arguments_name_files() -> None:
-    from zros.cli.plot import names_a_path
+    from zros.cli.verbs.plot import names_a_path
 
     paths = ['run1', 'run1/', './run1', '../bags/run1', '~/bags/x.mcap', 'x.db3', '/d/x.MCAP',
              '/data/run.bag']  # fmt: skip

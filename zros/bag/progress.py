@@ -71,8 +71,8 @@ class Keys:
 
     def __enter__(self) -> Keys:
         if self.enabled:
-            import termios
-            import tty
+            import termios  # noqa: PLC0415 (POSIX only)
+            import tty  # noqa: PLC0415 (POSIX only)
 
             fd = self.stream.fileno()
             self._saved = termios.tcgetattr(fd)
@@ -86,7 +86,7 @@ class Keys:
         traceback: TracebackType | None,
     ) -> None:
         if self._saved is not None:
-            import termios
+            import termios  # noqa: PLC0415 (POSIX only)
 
             with contextlib.suppress(Exception):
                 termios.tcsetattr(self.stream.fileno(), termios.TCSADRAIN, self._saved)

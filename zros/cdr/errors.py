@@ -88,7 +88,7 @@ class FieldError(ZrosError, TypeError, ValueError):
     @classmethod
     def unknown(cls, type_name: str, name: str, fields: tuple[str, ...]) -> FieldError:
         """``type_name`` has no field ``name``; suggest the closest of ``fields``."""
-        import difflib
+        import difflib  # noqa: PLC0415 (only for an error)
 
         close = difflib.get_close_matches(name, fields, n=1, cutoff=0.5)
         return cls(type_name, name, fields=fields, closest=close[0] if close else '')

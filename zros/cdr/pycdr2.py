@@ -53,8 +53,8 @@ _origins: weakref.WeakKeyDictionary[type, tuple[weakref.ref[TypeRegistry], str]]
 def _pycdr2() -> Untyped:
     """The pycdr2 module, or ImportError with install instructions."""
     try:
-        import pycdr2
-        import pycdr2.types
+        import pycdr2  # noqa: PLC0415 (optional: pycdr2)
+        import pycdr2.types  # noqa: PLC0415 (optional: pycdr2)
     except ImportError as exc:
         raise ImportError(
             'zros.cdr.pycdr2 needs the optional pycdr2 package: pip install pycdr2'

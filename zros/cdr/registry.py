@@ -115,7 +115,7 @@ class TypeRegistry:
     def typestore(self) -> Untyped:
         """The rosbags typestore of this distro (loaded on first use)."""
         if self._store is None:
-            from rosbags.typesys import Stores, get_typestore
+            from rosbags.typesys import Stores, get_typestore  # noqa: PLC0415 (lazy: rosbags, import time)
 
             self._store = get_typestore(Stores[f'ROS2_{self.distro.upper()}'])
         return self._store

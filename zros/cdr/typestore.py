@@ -22,7 +22,7 @@ _TYPESTORE_DEFAULTS: dict[tuple[str, str], tuple[float | int, str | None]] = {
 
 def from_rosbags(name: str, fielddefs: Untyped) -> MessageDef:
     """Convert one rosbags typestore entry to a MessageDef."""
-    from rosbags.interfaces import Nodetype  # rosbags loads on first use: start-up stays fast
+    from rosbags.interfaces import Nodetype  # rosbags loads on first use: start-up stays fast  # noqa: PLC0415 (lazy: rosbags, import time)
 
     def base_of(desc: Untyped) -> tuple[str, int]:
         if desc[0] == Nodetype.NAME:

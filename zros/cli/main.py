@@ -12,42 +12,40 @@ from zros.version import __version__
 
 TYPE_CHECKING = False  # not typing's: importing typing would slow ``zros --help``
 if TYPE_CHECKING:
-    from zros.cdr import Untyped
+    from types import ModuleType
 
-#: every command, in the order ``zros --help`` lists them: its help line (written only here; the
-#: module gets it as an argument), and the function that adds its parser. That module is
-#: imported only when the command is chosen, or when the whole tree is needed (completion, docs).
-COMMANDS: dict[str, tuple[str, str]] = {
-    'demo': ('run the rosR sensor tutorial', 'zros.cli.demo:add_parser'),
-    'topic': ('topics: list, echo, pub, hz...', 'zros.cli.topic:add_parser'),
-    'node': ('nodes: list, info', 'zros.cli.node_command:add_parser'),
-    'service': ('services: list, type, find, call', 'zros.cli.service:add_parser'),
-    'action': ('actions: list, info, type, send_goal', 'zros.cli.action:add_parser'),
-    'param': ('parameters: list, get, set, describe, dump...', 'zros.cli.param:add_parser'),
-    'interface': ('message, service and action types', 'zros.cli.interface:add_parser'),
-    'bag': ('read, record and play recordings', 'zros.cli.bag:add_parser'),
-    'plot': ('plot topic fields, live or from a bag', 'zros.cli.plot:add_parser'),
-    'graph': ('draw the ROS graph (rqt_graph)', 'zros.cli.plot:add_graph_parser'),
-    'tf': (
-        'frames: echo a transform, show the tree (tf2_echo, view_frames)',
-        'zros.cli.tf_command:add_parser',
-    ),
-    'foxglove': (
-        'serve the robot, or a bag, to the Foxglove app (as foxglove_bridge)',
-        'zros.cli.foxglove_command:add_parser',
-    ),
-    'rosbridge': (
-        'serve the robot to roslibjs and roslibpy apps (as rosbridge_server and rosapi)',
-        'zros.cli.rosbridge_command:add_parser',
-    ),
-    'doctor': ('check the connection, bridges, versions and clocks', 'zros.cli.doctor:add_parser'),
-    'router': (
-        'run a Zenoh router here (for trying zros without a robot)',
-        'zros.cli.router_command:add_parser',
-    ),
-    'tls': ('make certificates for TLS to a robot', 'zros.cli.tls:add_parser'),
-    'completion': ('print a shell completion script', 'zros.cli.completion:add_parser'),
+#: every command, in the order ``zros --help`` lists them, with its help line (written only here;
+#: the module gets it as an argument). A command's module is ``zros.cli.verbs.<command>``, named
+#: by its verb: its ``add_parser(commands, help_line)`` adds the parser, and each parser's
+#: ``run`` default is the function that runs it. The module is imported only when the command
+#: is chosen, or when the whole tree is needed (completion, docs).
+COMMANDS: dict[str, str] = {
+    'demo': 'run the rosR sensor tutorial',
+    'topic': 'topics: list, echo, pub, hz...',
+    'node': 'nodes: list, info',
+    'service': 'services: list, type, find, call',
+    'action': 'actions: list, info, type, send_goal',
+    'param': 'parameters: list, get, set, describe, dump...',
+    'interface': 'message, service and action types',
+    'bag': 'read, record and play recordings',
+    'plot': 'plot topic fields, live or from a bag',
+    'graph': 'draw the ROS graph (rqt_graph)',
+    'tf': 'frames: echo a transform, show the tree (tf2_echo, view_frames)',
+    'foxglove': 'serve the robot, or a bag, to the Foxglove app (as foxglove_bridge)',
+    'rosbridge': 'serve the robot to roslibjs and roslibpy apps (as rosbridge_server and rosapi)',
+    'doctor': 'check the connection, bridges, versions and clocks',
+    'router': 'run a Zenoh router here (for trying zros without a robot)',
+    'tls': 'make certificates for TLS to a robot',
+    'completion': 'print a shell completion script',
 }
+
+#: the package holding one module per command, named by the command
+VERBS = 'zros.cli.verbs'
+
+
+def verb_module(command: str) -> ModuleType:
+    """The module of ``command`` (``zros.cli.verbs.<command>``), imported."""
+    return importlib.import_module(f'{VERBS}.{command}')
 
 
 def build_parser(full: Container[str] = COMMANDS) -> argparse.ArgumentParser:
@@ -61,19 +59,12 @@ def build_parser(full: Container[str] = COMMANDS) -> argparse.ArgumentParser:
     # a command that describes the command line itself (completion) builds it from its arguments
     parser.set_defaults(full_parser=build_parser)
     commands = parser.add_subparsers(dest='command', metavar='COMMAND')
-    for name, (help_line, builder) in COMMANDS.items():
+    for name, help_line in COMMANDS.items():
         if name in full:
-            _function(builder)(commands, help_line)
+            verb_module(name).add_parser(commands, help_line)
         else:  # never parsed: ``_run`` builds the tree of the command it parses
             commands.add_parser(name, help=help_line, add_help=False)
     return parser
-
-
-def _function(target: str) -> Callable[..., Untyped]:
-    """The function ``module:name`` names, importing its module."""
-    module_name, function_name = target.split(':')
-    function: Callable[..., Untyped] = getattr(importlib.import_module(module_name), function_name)
-    return function
 
 
 def chosen_command(argv: Sequence[str]) -> str | None:
@@ -116,7 +107,7 @@ def _run(argv: Sequence[str] | None) -> int:
     from zros.cli.shared import CommandError
     from zros.errors import SettingError, ZrosError
 
-    function = _function(target)
+    function: Callable[[argparse.Namespace], int] = target
     try:
         return int(function(args))
     except SettingError as exc:  # a setting that cannot work, as argparse's usage errors

@@ -70,6 +70,20 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
             )  # fmt: skip
 
 
+def add_verb(
+    verbs: argparse._SubParsersAction[argparse.ArgumentParser],
+    name: str,
+    help_text: str,
+    run: Callable[[argparse.Namespace], int],
+) -> argparse.ArgumentParser:
+    """The parser of a command's verb (``zros topic echo``): ``help_text`` as its help and
+    description, ``run`` as what runs it, and the connection options."""
+    parser = verbs.add_parser(name, help=help_text, description=help_text)
+    parser.set_defaults(run=run)
+    add_connection_options(parser)
+    return parser
+
+
 def wire_settings(args: argparse.Namespace) -> dict[str, WireOption]:
     """The wire settings given on the command line (``--bridge-namespace``...), by keyword;
     a usage error for a setting of another scheme than the one chosen."""
@@ -179,6 +193,25 @@ def message_class(type_name: str) -> type[Message]:
     if isinstance(found, (ServiceType, ActionType)):
         raise CommandError(f'{type_name} is not a message type')
     return found
+
+
+def graph_topic_type(node: Node, topic: str, wait: float) -> str:
+    """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear."""
+    name = node.resolve_name(topic)
+
+    def found() -> list[str]:
+        return node.graph.topics(node.scheme.namespace).get(name, [])
+
+    node.graph.wait_until(found, wait)
+    types = found()
+    if not types:
+        raise CommandError(
+            f'topic {name} does not appear on the network: give its type, or check the name '
+            '(zros topic list)'
+        )
+    if len(types) > 1:
+        raise CommandError(f'topic {name} has several types ({", ".join(types)}): give one')
+    return types[0]
 
 
 def known_type(node: Node, topic: str, type_name: str) -> str:

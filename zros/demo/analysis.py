@@ -80,7 +80,7 @@ class Calibration:
 
 def fit_curve(volt: np.ndarray, dist: np.ndarray, degree: int = DEGREE) -> Polynomial:
     """``dist ~ poly(volt, degree)`` by least squares (as R's ``lm``), as a numpy Polynomial."""
-    from numpy.polynomial import Polynomial
+    from numpy.polynomial import Polynomial  # noqa: PLC0415 (lazy: numpy, import time)
 
     curve: Polynomial = Polynomial.fit(
         np.asarray(volt, dtype=float), np.asarray(dist, dtype=float), degree

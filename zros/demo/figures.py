@@ -29,12 +29,12 @@ def new_figure(
 ) -> Figure:
     """An empty figure with ``rows`` axes stacked: on the Agg canvas, or in a window (``gui``)."""
     if gui:
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
         figure = plt.figure(figsize=figsize)
     else:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
+        from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
+        from matplotlib.figure import Figure  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
         figure = Figure(figsize=figsize)
         FigureCanvasAgg(figure)
@@ -177,7 +177,7 @@ class LiveVoltagePlot:
         self._shown = 0
         self._next = 0.0
         if gui:
-            import matplotlib.pyplot as plt
+            import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
             plt.ion()
             plt.show(block=False)
@@ -193,7 +193,7 @@ class LiveVoltagePlot:
         self._shown = count
         self._next = now + self.interval
         if self.gui:
-            import matplotlib.pyplot as plt
+            import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
             plt.pause(0.001)
         else:
@@ -212,8 +212,8 @@ _FILE_BACKENDS = {'agg', 'cairo', 'pdf', 'pgf', 'ps', 'svg', 'template'}
 
 def gui_backend() -> str | None:
     """The matplotlib backend that would draw windows here, or None (no display, say)."""
-    import matplotlib
-    import matplotlib.pyplot  # resolves the backend
+    import matplotlib  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
+    import matplotlib.pyplot  # resolves the backend  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     backend = str(matplotlib.get_backend())
     return None if backend.lower() in _FILE_BACKENDS else backend
@@ -221,7 +221,7 @@ def gui_backend() -> str | None:
 
 def show() -> None:
     """Keep the figures' windows open until the user closes them (``--gui``)."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     plt.ioff()
     plt.show()

@@ -74,7 +74,7 @@ def bag_problem(path: str | os.PathLike[str]) -> str | None:
     metadata = folder / 'metadata.yaml'
     if not metadata.is_file():
         return 'no metadata.yaml'
-    from ruamel.yaml import YAML
+    from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     try:
         info = YAML(typ='safe').load(metadata.read_text())['rosbag2_bagfile_information']

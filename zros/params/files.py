@@ -80,7 +80,7 @@ def scalar(text: str, quoted: bool) -> ParamValue:
 
 
 def _yaml() -> Untyped:
-    from ruamel.yaml import YAML
+    from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     return YAML(typ='safe', pure=True)
 
@@ -91,7 +91,7 @@ def _where(origin: str, node: Untyped) -> str:
 
 
 def _value(node: Untyped, origin: str, key: Untyped = None) -> ParamValue:
-    from ruamel.yaml.nodes import MappingNode, ScalarNode, SequenceNode
+    from ruamel.yaml.nodes import MappingNode, ScalarNode, SequenceNode  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     if isinstance(node, ScalarNode):
         if node.tag == 'tag:yaml.org,2002:binary':
@@ -120,7 +120,7 @@ def _value(node: Untyped, origin: str, key: Untyped = None) -> ParamValue:
 
 
 def _flatten(node: Untyped, prefix: str, origin: str, into: dict[str, ParamValue]) -> None:
-    from ruamel.yaml.nodes import MappingNode
+    from ruamel.yaml.nodes import MappingNode  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     for key_node, value_node in node.value:
         name = f'{prefix}{key_node.value}'
@@ -131,7 +131,7 @@ def _flatten(node: Untyped, prefix: str, origin: str, into: dict[str, ParamValue
 
 
 def _walk(node: Untyped, path: str, origin: str, found: Entries) -> None:
-    from ruamel.yaml.nodes import MappingNode
+    from ruamel.yaml.nodes import MappingNode  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     if not isinstance(node, MappingNode):
         raise ParameterError(f'{_where(origin, node)}: expected node names mapping to '
@@ -152,7 +152,7 @@ def _walk(node: Untyped, path: str, origin: str, found: Entries) -> None:
 
 def parse_file_text(text: str, origin: str = '<parameters>') -> Entries:
     """The (node pattern, parameters) entries of a parameter file, in file order."""
-    from ruamel.yaml.error import YAMLError
+    from ruamel.yaml.error import YAMLError  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     try:
         root = _yaml().compose(text)
@@ -205,7 +205,7 @@ def parse_override(text: str) -> tuple[str, ParamValue]:
     name, separator, value = text.partition(':=')
     if not separator or not name:
         raise ParameterError(f'-p takes name:=value, not {text!r}')
-    from ruamel.yaml.error import YAMLError
+    from ruamel.yaml.error import YAMLError  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     try:
         node = _yaml().compose(value if value.strip() else "''")

@@ -68,7 +68,7 @@ _ARRAY = {element: array for array, element in _ELEMENT.items()}
 
 
 def _scalar_type(value: object) -> ParameterType | None:
-    import numpy as np
+    import numpy as np  # noqa: PLC0415 (lazy: numpy, import time)
 
     if isinstance(value, (bool, np.bool_)):
         return ParameterType.BOOL
@@ -83,7 +83,7 @@ def _scalar_type(value: object) -> ParameterType | None:
 
 def infer_type(value: object, expected: ParameterType = ParameterType.NOT_SET) -> ParameterType:
     """The parameter type of a Python value (``expected`` settles empty lists and int/float)."""
-    import numpy as np
+    import numpy as np  # noqa: PLC0415 (lazy: numpy, import time)
 
     if value is None:
         return ParameterType.NOT_SET

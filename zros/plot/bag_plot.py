@@ -45,7 +45,7 @@ def bag_figure(
     show: bool = False,
 ) -> SeriesFigure:
     """The :class:`SeriesFigure` of :func:`bag` (its lines hold the data)."""
-    from zros.bag import Bag
+    from zros.bag import Bag  # noqa: PLC0415 (import zros.plot stays light)
 
     if not addresses:
         raise PlotError('nothing to plot: give at least one /topic/field address')
@@ -97,7 +97,7 @@ def bag(
     if png is not None:
         plot.save(os.fspath(png))
     if show:
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
         plt.show()
     return plot.figure

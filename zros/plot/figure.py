@@ -25,7 +25,7 @@ FILE_BACKENDS = frozenset({'agg', 'cairo', 'pdf', 'pgf', 'ps', 'svg', 'template'
 
 def can_show() -> bool:
     """Whether matplotlib can open a window here (an interactive backend, a display)."""
-    import matplotlib
+    import matplotlib  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     backend = str(matplotlib.get_backend()).lower()
     return backend not in FILE_BACKENDS and 'inline' not in backend
@@ -34,10 +34,10 @@ def can_show() -> bool:
 def new_figure(show: bool, size: tuple[float, float]) -> Figure:
     """A figure for a window (through pyplot) or for files only (no pyplot)."""
     if show:
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
         return plt.figure(figsize=size, layout='constrained')
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     return Figure(figsize=size, layout='constrained')
 

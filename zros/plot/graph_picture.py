@@ -14,6 +14,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from zros.keyexpr.kinds import EntityKind
 from zros.plot.figure import new_figure
 from zros.plot.graph_data import NODE, GraphModel, Layout, Measure, Vertex
 from zros.plot.graph_layout import layout_graph
@@ -55,8 +56,7 @@ def graph_model(
     topic names are read with its bridge namespace (``namespace`` otherwise, default ``/``).
     Bridged endpoints appear under their bridge's node, with the bridge's namespace.
     """
-    from zros.graph import Graph
-    from zros.keyexpr.kinds import EntityKind
+    from zros.graph import Graph  # noqa: PLC0415 (import zros.plot loads no Zenoh)
 
     if isinstance(source, Graph):
         graph = source
@@ -97,8 +97,8 @@ def graph_model(
 
 def font_measure(font_size: float = FONT_SIZE) -> Measure:
     """Label sizes in points, measured with the font the picture uses."""
-    from matplotlib.backends.backend_agg import RendererAgg
-    from matplotlib.font_manager import FontProperties
+    from matplotlib.backends.backend_agg import RendererAgg  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
+    from matplotlib.font_manager import FontProperties  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     renderer = RendererAgg(1, 1, 72)  # type: ignore[no-untyped-call]  # 72 dpi: pixel = point
     font = FontProperties(size=font_size)
@@ -114,7 +114,7 @@ def font_measure(font_size: float = FONT_SIZE) -> Measure:
 
 def _edge_path(points: tuple[tuple[float, float], ...]) -> object:
     """Smooth curves through the points, leaving and entering each horizontally."""
-    from matplotlib.path import Path as MplPath
+    from matplotlib.path import Path as MplPath  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     vertices = [points[0]]
     codes = [MplPath.MOVETO]
@@ -133,7 +133,7 @@ def draw_graph(
     show: bool = False,
 ) -> Figure:
     """Draw a laid-out graph: one text per node and topic, a shape around each, the edges."""
-    from matplotlib.patches import Ellipse, FancyArrowPatch, Rectangle
+    from matplotlib.patches import Ellipse, FancyArrowPatch, Rectangle  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     width = max(layout.width, 100.0) + 2 * MARGIN
     height = max(layout.height, 30.0) + 2 * MARGIN
@@ -188,7 +188,7 @@ def to_dot(model: GraphModel) -> str:
 
 def save_figure(figure: Figure, path: str | os.PathLike[str], dpi: float = 100) -> None:
     """Write a figure; an SVG keeps its texts as text (searchable, selectable)."""
-    import matplotlib
+    import matplotlib  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     with matplotlib.rc_context({'svg.fonttype': 'none'}):
         figure.savefig(os.fspath(path), dpi=dpi)
@@ -225,7 +225,7 @@ def graph(
         else:
             save_figure(figure, path)
     if show:
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
         plt.show()
     return figure

@@ -251,7 +251,7 @@ class LivePlot(Closing):
 
 
 def _figure_open(figure: Figure) -> bool:
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
     return bool(plt.fignum_exists(figure.number))
 
@@ -310,7 +310,7 @@ def run(
                 pause = min(pause, deadline - time.monotonic())
             pause = max(pause, 0.001)
             if show:
-                import matplotlib.pyplot as plt
+                import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
                 plt.pause(pause)
             else:
@@ -326,7 +326,7 @@ def run(
     if png is not None:
         plot.save(png)
     if show and not interrupted and _figure_open(plot.figure):
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # noqa: PLC0415 (lazy: matplotlib, only for a figure)
 
         plot.figure.canvas.draw_idle()
         plt.show()  # the data stopped; the window stays until it is closed
@@ -367,7 +367,7 @@ def live(
         show = png is None and frames_dir is None and can_show()
     own = node is None
     if node is None:
-        from zros.node import Node
+        from zros.node import Node  # noqa: PLC0415 (import zros.plot loads no Zenoh)
 
         node = Node(f'zros_plot_{os.getpid()}', enable_rosout=False, start_parameter_services=False)
     try:

@@ -108,7 +108,7 @@ FRAGMENTS_WAIT = 'transport/link/tx/queue/congestion_control/drop/max_wait_befor
 
 def _zenoh_default(config: ZenohConfig, key: str) -> bool:
     """Whether ``config`` has Zenoh's default value for ``key`` (nobody set it)."""
-    import zenoh
+    import zenoh  # noqa: PLC0415 (lazy: Zenoh, only for a session)
 
     return bool(config.get_json(key) == zenoh.Config().get_json(key))
 
@@ -245,7 +245,7 @@ class TransportConfig:
 
     def to_zenoh(self) -> ZenohConfig:
         """The ``zenoh.Config`` these settings describe (TransportError if Zenoh refuses one)."""
-        import zenoh
+        import zenoh  # noqa: PLC0415 (lazy: Zenoh, only for a session)
 
         config = self._base()
 
@@ -309,7 +309,7 @@ class TransportConfig:
 
     def _base(self) -> ZenohConfig:
         """The configuration file's settings, or Zenoh's defaults."""
-        import zenoh
+        import zenoh  # noqa: PLC0415 (lazy: Zenoh, only for a session)
 
         config: ZenohConfig  # the stubs' Self is lost on Python 3.10: name the type here
         if not self.config_file:

@@ -10,6 +10,7 @@ its owner only, in a private temporary folder, that exists just while Zenoh open
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
 import tempfile
@@ -94,8 +95,6 @@ def password_dictionary(config: Config, user: str | None, password: str | None) 
 
     Does nothing without a user, or when the settings name a dictionary file already.
     """
-    import json
-
     if user is None or password is None or json.loads(config.get_json(DICTIONARY)):
         yield
         return

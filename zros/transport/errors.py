@@ -6,6 +6,7 @@ import re
 from collections.abc import Iterable
 
 from zros.errors import ZrosError
+from zros.transport.credentials import HIDDEN, scrub
 
 _LOCATION = re.compile(r'\s*\bat /\S+?\.rs:\d+\.?')
 #: a line of the source excerpt Zenoh's JSON5 errors quote (it may hold a password)
@@ -39,8 +40,6 @@ class TlsFileError(TransportError):
 def zenoh_reason(error: BaseException, secrets: Iterable[str | None] = ()) -> str:
     """Zenoh's error text on one line, without Rust source locations, quoted excerpts of the
     settings or the values it found there (any may be a secret), and with ``secrets`` hidden."""
-    from zros.transport.credentials import HIDDEN, scrub
-
     lines = _LOCATION.sub('', str(error)).splitlines()
     text = ' '.join(line.strip() for line in lines if line.strip() and not _EXCERPT.match(line))
     text = _FOUND.sub(rf'\1 {HIDDEN}', text)

@@ -122,7 +122,7 @@ class Router(Closing):
         user: str | None = None,
         password: str | None = None,
     ) -> None:
-        import zenoh as z
+        import zenoh as z  # noqa: PLC0415 (lazy: Zenoh, only for a session)
 
         listen = [normalize(endpoint) for endpoint in listen]
         if user is not None:

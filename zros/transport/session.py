@@ -14,6 +14,7 @@ its status once its callback returns, maybe as the script ends).
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import logging
 import threading
@@ -79,15 +80,12 @@ def _install_exit_hook() -> None:
             if register is not None:
                 register(_close_all)
             else:  # pragma: no cover - CPython has it since 3.9
-                import atexit
-
                 atexit.register(_close_all)
             _hook_installed = True
 
 
 def _explain(error: Exception, config: TransportConfig) -> TransportError:
-    # only a session that failed pays for the diagnosis (it imports ssl)
-    from zros.transport.diagnose import explain_unreachable
+    from zros.transport.diagnose import explain_unreachable  # noqa: PLC0415 (ssl only on failure)
 
     text = zenoh_reason(error, config.secrets())
     if 'Unable to connect' in text or 'connect' in text.lower():
@@ -116,7 +114,7 @@ class Transport(Closing):
     """One open Zenoh session and what zros keeps per session (liveliness tokens)."""
 
     def __init__(self, config: TransportConfig | None = None) -> None:
-        import zenoh
+        import zenoh  # noqa: PLC0415 (lazy: Zenoh, only for a session)
 
         self.config = config or TransportConfig.create()
         zenoh_config = self.config.to_zenoh()
@@ -156,7 +154,7 @@ class Transport(Closing):
         return bool(self._links)
 
     def _on_transport_event(self, event: zenoh.TransportEvent) -> None:
-        import zenoh
+        import zenoh  # noqa: PLC0415 (lazy: Zenoh, only for a session)
 
         zid = str(event.transport.zid)
         role = str(event.transport.whatami).split('.')[-1].lower()

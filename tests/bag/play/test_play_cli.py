@@ -10,7 +10,7 @@ from typing import Any
 from tests.bag.play.test_play import MS, START, Listener, gap_errors_ms, irregular, write_bag
 from tests.bag.write.test_record_cli import zros_cli  # noqa: F401 (the fixture)
 from tests.cli.conftest import Cli
-from zros.cli.bag_record_play import _on_key
+from zros.cli.verbs.bag import _on_key
 from zros.testing import wait_for
 
 Node = Callable[..., Any]

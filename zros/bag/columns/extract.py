@@ -410,7 +410,7 @@ def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
 def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
     """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns."""
     try:
-        import pandas as pd  # type: ignore[import-untyped,unused-ignore]
+        import pandas as pd  # type: ignore[import-untyped,unused-ignore]  # noqa: PLC0415 (optional: pandas, for to_pandas only)
     except ImportError:
         raise ImportError(
             'to_dataframe() needs pandas, which zros does not install: pip install pandas '

@@ -50,7 +50,7 @@ class _Run:
 
 def _mapped_chunk(view: memoryview, at: int) -> Chunk:
     """The Chunk record at ``at`` of a mapped file, its records a view of the map."""
-    from mcap.records import Chunk
+    from mcap.records import Chunk  # noqa: PLC0415 (lazy: mcap, import time)
 
     try:
         if view[at] != _CHUNK:
@@ -80,13 +80,13 @@ def _decompress(chunk: Chunk) -> bytes | memoryview:
     if chunk.compression == '':
         data = chunk.data  # bytes, or a view of a mapped file
     elif chunk.compression == 'zstd':
-        import zstandard
+        import zstandard  # noqa: PLC0415 (only for zstd chunks)
 
         data = zstandard.ZstdDecompressor().decompress(
             chunk.data, max_output_size=chunk.uncompressed_size
         )
     elif chunk.compression == 'lz4':
-        import lz4.frame  # type: ignore[import-untyped]
+        import lz4.frame  # type: ignore[import-untyped]  # noqa: PLC0415 (only for lz4 chunks)
 
         data = lz4.frame.decompress(chunk.data)
     else:
@@ -123,9 +123,9 @@ def read_blocks(
     refuses (before the first block) files whose chunks of those messages overlap in time.
     ``mapped``: the file is memory-mapped and the payloads of uncompressed chunks stay in the
     map (no copy: for readers that copy out a few fields of each message)."""
-    from mcap.data_stream import ReadDataStream
-    from mcap.reader import make_reader
-    from mcap.records import Chunk
+    from mcap.data_stream import ReadDataStream  # noqa: PLC0415 (lazy: mcap, import time)
+    from mcap.reader import make_reader  # noqa: PLC0415 (lazy: mcap, import time)
+    from mcap.records import Chunk  # noqa: PLC0415 (lazy: mcap, import time)
 
     with path.open('rb') as stream:
         size = path.stat().st_size

@@ -46,9 +46,9 @@ class LinearScan:
 
     def records(self) -> Iterator[McapRecord]:
         """Header, schemas, channels, messages, metadata, attachments... in file order."""
-        from mcap.exceptions import EndOfFile
-        from mcap.records import Chunk
-        from mcap.stream_reader import StreamReader, breakup_chunk
+        from mcap.exceptions import EndOfFile  # noqa: PLC0415 (lazy: mcap, import time)
+        from mcap.records import Chunk  # noqa: PLC0415 (lazy: mcap, import time)
+        from mcap.stream_reader import StreamReader, breakup_chunk  # noqa: PLC0415 (lazy: mcap, import time)
 
         self.size = size = self.path.stat().st_size
         with self.path.open('rb') as stream:
@@ -94,14 +94,14 @@ class RecoveredMcap:
 
     def open(self) -> None:
         """Scan the file once for its schemas, channels, counts and times."""
-        from mcap.records import Channel, Message, Schema
-        from rosbags.interfaces import (
+        from mcap.records import Channel, Message, Schema  # noqa: PLC0415 (lazy: mcap, import time)
+        from rosbags.interfaces import (  # noqa: PLC0415 (lazy: rosbags, import time)
             Connection,
             ConnectionExtRosbag2,
             MessageDefinition,
             MessageDefinitionFormat,
         )
-        from rosbags.rosbag2.metadata import ReaderMetadata, parse_qos
+        from rosbags.rosbag2.metadata import ReaderMetadata, parse_qos  # noqa: PLC0415 (lazy: rosbags, import time)
 
         schemas: dict[int, Schema] = {}
         channels: dict[int, Channel] = {}
@@ -161,7 +161,7 @@ class RecoveredMcap:
         stop: int | None = None,
     ) -> Iterator[tuple[Connection, int, bytes]]:
         """(connection, log time, data) of the wanted connections, in time order."""
-        from mcap.records import Message
+        from mcap.records import Message  # noqa: PLC0415 (lazy: mcap, import time)
 
         by_id = {c.id: c for c in connections}
         found = (

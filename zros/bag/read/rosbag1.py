@@ -30,8 +30,8 @@ class Rosbag1Source(Source):
         self._native: dict[int, NativeConnection] = {}
 
     def open(self) -> None:
-        from rosbags.rosbag1 import Reader
-        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+        from rosbags.rosbag1 import Reader  # noqa: PLC0415 (lazy: rosbags, import time)
+        from rosbags.typesys import Stores, get_types_from_msg, get_typestore  # noqa: PLC0415 (lazy: rosbags, import time)
 
         reader = Reader(self.path)
         reader.open()
@@ -81,7 +81,7 @@ def _ros1_qos(ext: object) -> str:
     """A latched ROS 1 topic is offered as transient local, as rosbags-convert writes it."""
     if not getattr(ext, 'latching', 0):
         return ''
-    from rosbags.convert.converter import LATCH
-    from rosbags.rosbag2.metadata import dump_qos_v8
+    from rosbags.convert.converter import LATCH  # noqa: PLC0415 (lazy: rosbags, import time)
+    from rosbags.rosbag2.metadata import dump_qos_v8  # noqa: PLC0415 (lazy: rosbags, import time)
 
     return str(dump_qos_v8(LATCH))

@@ -51,7 +51,7 @@ def _format_name(msgdef: MessageDefinition) -> str:
 
 
 def _qos_text(ext: object) -> str:
-    from rosbags.rosbag2.metadata import dump_qos_v8
+    from rosbags.rosbag2.metadata import dump_qos_v8  # noqa: PLC0415 (lazy: rosbags, import time)
 
     profiles = getattr(ext, 'offered_qos_profiles', None)
     return str(dump_qos_v8(profiles)) if profiles else ''
@@ -66,7 +66,7 @@ class Rosbag2Source(Source):
         self._decompress: Callable[[bytes], bytes] | None = None
 
     def open(self) -> None:
-        from rosbags.rosbag2 import Reader
+        from rosbags.rosbag2 import Reader  # noqa: PLC0415 (lazy: rosbags, import time)
 
         folder = self.path.is_dir()
         if folder and not (self.path / 'metadata.yaml').is_file():
@@ -116,8 +116,8 @@ class Rosbag2Source(Source):
     def _open_files(self, paths: list[Path], reason: str) -> None:
         """Open storage files one by one, reading MCAP files that were never finished (no
         summary or end: a recorder killed mid-file) up to their last complete record."""
-        from rosbags.rosbag2.storage_mcap import McapReader
-        from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
+        from rosbags.rosbag2.storage_mcap import McapReader  # noqa: PLC0415 (lazy: rosbags, import time)
+        from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader  # noqa: PLC0415 (lazy: rosbags, import time)
 
         if not paths:
             raise BagError(self.path, f'not a ROS 2 bag folder: {reason} and no .mcap or .db3 file')
@@ -153,7 +153,7 @@ class Rosbag2Source(Source):
             )
 
     def _compressed_files(self) -> list[Path]:
-        from ruamel.yaml import YAML
+        from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
         text = (self.path / 'metadata.yaml').read_text(encoding='utf-8')
         info = YAML(typ='safe').load(text)['rosbag2_bagfile_information']
@@ -185,7 +185,7 @@ class Rosbag2Source(Source):
             self.end_ns = max(meta.end_time for meta in metas) - 1
 
     def _connection(self, index: int, item: NativeConnection, count: int) -> Connection:
-        from rosbags.interfaces import ConnectionExtRosbag2
+        from rosbags.interfaces import ConnectionExtRosbag2  # noqa: PLC0415 (lazy: rosbags, import time)
 
         ext = item.ext
         assert isinstance(ext, ConnectionExtRosbag2)  # rosbag2 storages make no other

@@ -102,8 +102,8 @@ def parse_qos_profiles(profiles: str | Sequence[Mapping[str, YamlValue]] | None)
     if not profiles:
         return []
     if isinstance(profiles, str):
-        from ruamel.yaml import YAML
-        from ruamel.yaml.error import YAMLError
+        from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
+        from ruamel.yaml.error import YAMLError  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
         try:
             loaded = YAML(typ='safe', pure=True).load(profiles)

@@ -155,7 +155,7 @@ class BagTypes:
         return True
 
     def _register_idl(self, text: str) -> None:
-        from rosbags.typesys import get_types_from_idl
+        from rosbags.typesys import get_types_from_idl  # noqa: PLC0415 (lazy: rosbags, import time)
 
         parts = [text]
         if text.startswith(_IDL_RULE + 'IDL: '):

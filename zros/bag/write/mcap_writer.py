@@ -30,7 +30,7 @@ COMPRESSIONS = ('zstd', 'lz4', 'none')
 
 def compression_type(name: str | None) -> CompressionType:
     """The MCAP compression for ``'zstd'``, ``'lz4'`` or ``'none'``/None."""
-    from mcap.writer import CompressionType
+    from mcap.writer import CompressionType  # noqa: PLC0415 (lazy: mcap, import time)
 
     choice = (name or 'none').lower()
     if choice not in COMPRESSIONS:
@@ -66,7 +66,7 @@ class McapFile:
         chunk_size: int = DEFAULT_CHUNK_SIZE,
         library: str = 'zros',
     ) -> None:
-        from mcap.writer import Writer
+        from mcap.writer import Writer  # noqa: PLC0415 (lazy: mcap, import time)
 
         if chunk_size < 1:
             raise ValueError(f'chunk_size must be positive, got {chunk_size}')

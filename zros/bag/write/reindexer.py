@@ -219,8 +219,8 @@ def _has_magic(file: Path) -> bool:
 
 def _finished_summary(file: Path) -> _FileSummary | None:
     """The summary of a finished file (None when it has no readable footer and summary)."""
-    from mcap.exceptions import McapError
-    from mcap.reader import make_reader
+    from mcap.exceptions import McapError  # noqa: PLC0415 (lazy: mcap, import time)
+    from mcap.reader import make_reader  # noqa: PLC0415 (lazy: mcap, import time)
 
     with file.open('rb') as stream:
         try:
@@ -247,7 +247,7 @@ def _finished_summary(file: Path) -> _FileSummary | None:
 
 def _counted(file: Path) -> _FileSummary | None:
     """A finished file without statistics: counted by reading it through."""
-    from mcap.records import Channel, Message, Schema
+    from mcap.records import Channel, Message, Schema  # noqa: PLC0415 (lazy: mcap, import time)
 
     scan = LinearScan(file)
     stats = _Stats()
@@ -277,7 +277,7 @@ class _Stats:
         self.end = 0
 
     def add(self, record: Schema | Channel | Message) -> None:
-        from mcap.records import Channel, Schema
+        from mcap.records import Channel, Schema  # noqa: PLC0415 (lazy: mcap, import time)
 
         if isinstance(record, Schema):
             self.schemas[record.id] = record
@@ -310,8 +310,8 @@ class _Stats:
 def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
     """Rewrite an unfinished file from its complete records, into a temporary file renamed
     over the original once complete and on disk. (None, scan) when there is no header."""
-    from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
-    from mcap.writer import Writer
+    from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema  # noqa: PLC0415 (lazy: mcap, import time)
+    from mcap.writer import Writer  # noqa: PLC0415 (lazy: mcap, import time)
 
     scan = LinearScan(file)
     temporary = file.with_name(_TEMPORARY.format(file.name))
@@ -385,8 +385,8 @@ def _previous_metadata(path: Path) -> tuple[str, dict[str, str]]:
     say); empty when there is none or it does not parse."""
     if not path.is_file():
         return '', {}
-    from ruamel.yaml import YAML
-    from ruamel.yaml.error import YAMLError
+    from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
+    from ruamel.yaml.error import YAMLError  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     try:
         loaded = YAML(typ='safe', pure=True).load(path.read_text(encoding='utf-8'))

@@ -49,10 +49,9 @@ class Listen:
         if (self.tls_cert is None) != (self.tls_key is None):
             raise GatewayError('TLS needs both a certificate and its private key')
         if self.tls_cert is not None and self.tls_key is not None:
-            # here, not at the top: the front's process uses Listen, and zros.transport loads
-            # Zenoh
-            from zros.transport.errors import TlsFileError
-            from zros.transport.tlsfiles import check_tls_files
+            # the front's process uses Listen, and zros.transport loads Zenoh
+            from zros.transport.errors import TlsFileError  # noqa: PLC0415 (no Zenoh in the front)
+            from zros.transport.tlsfiles import check_tls_files  # noqa: PLC0415 (same)
 
             try:
                 check_tls_files(None, os.fspath(self.tls_cert), os.fspath(self.tls_key))

@@ -51,7 +51,7 @@ DEFAULT_BACKLOG = 32
 def import_sdk() -> ModuleType:
     """The ``foxglove`` module of the SDK; GatewayError says how to install it."""
     try:
-        import foxglove
+        import foxglove  # noqa: PLC0415 (optional: zros[foxglove])
     except ImportError:
         raise GatewayError(
             "the Foxglove SDK is not installed: pip install 'zros[foxglove]' (foxglove-sdk)"
@@ -135,9 +135,9 @@ class ServerOptions:
 def ros2msg_schema(registry: TypeRegistry, type_name: str) -> foxglove.Schema | None:
     """The Foxglove schema of a ROS type: the ``ros2msg`` text with its dependencies, as
     rosbag2 writes it into MCAP files; None when the registry does not know the type."""
-    import foxglove
+    import foxglove  # noqa: PLC0415 (optional: zros[foxglove])
 
-    from zros.cdr.render import render_bundle
+    from zros.cdr.render import render_bundle  # noqa: PLC0415 (zros.foxglove stays light: no numpy)
 
     try:
         text = render_bundle(registry, type_name)

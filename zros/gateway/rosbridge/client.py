@@ -194,7 +194,7 @@ class ClientSession:
 
     def run(self) -> None:
         """Serve the client until it leaves (on the connection's thread)."""
-        from websockets.exceptions import ConnectionClosed
+        from websockets.exceptions import ConnectionClosed  # noqa: PLC0415 (optional: zros[rosbridge])
 
         self._writer.start()
         try:
@@ -365,7 +365,7 @@ class ClientSession:
         return self.outbox.dropped
 
     def _write(self) -> None:
-        from websockets.exceptions import ConnectionClosed
+        from websockets.exceptions import ConnectionClosed  # noqa: PLC0415 (optional: zros[rosbridge])
 
         send = self.connection.send
         while (frames := self.outbox.get()) is not None:

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 from zros.cdr.model import Kind, MessageDef
 from zros.cdr.naming import attribute_name
+from zros.cdr.render import render_bundle
 from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.errors import GatewayError
@@ -120,8 +121,6 @@ class Rosapi:
         return {'type': self._topic_types().get(name, '')}
 
     def _raw_types(self, args: JsonObject) -> JsonObject:
-        from zros.cdr.render import render_bundle
-
         found = self._topic_types()
         texts = []
         for type_name in found.values():

@@ -49,7 +49,7 @@ def add_parser(
         '--log-every', type=int, default=50, metavar='N',
         help='log every Nth voltage at INFO (default: 50; all of them at DEBUG)',
     )  # fmt: skip
-    demo.set_defaults(run='zros.cli.demo:run')
+    demo.set_defaults(run=run)
 
 
 def _positive(text: str) -> float:

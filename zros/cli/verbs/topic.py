@@ -3,27 +3,23 @@
 from __future__ import annotations
 
 import argparse
-import itertools
-import statistics
-import sys
-import threading
 import time
-from collections import deque
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
     DISCOVERY,
     CommandError,
-    add_connection_options,
+    add_verb,
     build_message,
     find_names,
+    graph_topic_type,
     known_type,
     message_class,
     open_node,
     out,
     parse_values,
 )
+from zros.cli.topic_rates import bw, delay, hz
 from zros.qos import DEFAULT, LATCHED, Congestion, Priority, as_qos
 
 if TYPE_CHECKING:
@@ -35,25 +31,6 @@ if TYPE_CHECKING:
 def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
     key = node.scheme.key(node.resolve_name(topic))
     return node.graph.publishers(key), node.graph.subscribers(key)
-
-
-def _topic_type(node: Node, topic: str, wait: float) -> str:
-    """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear."""
-    name = node.resolve_name(topic)
-
-    def found() -> list[str]:
-        return node.graph.topics(node.scheme.namespace).get(name, [])
-
-    node.graph.wait_until(found, wait)
-    types = found()
-    if not types:
-        raise CommandError(
-            f'topic {name} does not appear on the network: give its type, or check the name '
-            '(zros topic list)'
-        )
-    if len(types) > 1:
-        raise CommandError(f'topic {name} has several types ({", ".join(types)}): give one')
-    return types[0]
 
 
 # --- one-shot commands -----------------------------------------------------------------------
@@ -110,7 +87,7 @@ def info(args: argparse.Namespace) -> int:
 def topic_type(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         node.graph.refresh(DISCOVERY)
-        out(_topic_type(node, args.topic, 0))
+        out(graph_topic_type(node, args.topic, 0))
     return 0
 
 
@@ -141,7 +118,7 @@ def echo(args: argparse.Namespace) -> int:
 
     with open_node(args) as node:
         type_name = known_type(
-            node, args.topic, args.type or _topic_type(node, args.topic, args.wait)
+            node, args.topic, args.type or graph_topic_type(node, args.topic, args.wait)
         )
         publishers = _publishers_and_subscribers(node, args.topic)[0]
         latched = bool(publishers) and all(
@@ -205,175 +182,6 @@ def pub(args: argparse.Namespace) -> int:
     return 0
 
 
-# --- hz, bw, delay ---------------------------------------------------------------------------
-
-
-class _Window:
-    """Arrival times (and sizes) of the last ``size`` messages."""
-
-    def __init__(self, size: int) -> None:
-        self.times: deque[float] = deque(maxlen=size)
-        self.sizes: deque[int] = deque(maxlen=size)
-        self.lock = threading.Lock()
-        self.total = 0
-
-    def add(self, size: int) -> None:
-        """Count one message of ``size`` bytes, arrived now."""
-        now = time.monotonic()
-        with self.lock:
-            self.times.append(now)
-            self.sizes.append(size)
-            self.total += 1
-
-
-def _measuring_subscription(
-    node: Node, args: argparse.Namespace, window: _Window
-) -> Callable[[], object]:
-    """A subscription counting the messages of ``args.topic`` into ``window``, announced like any
-    other (node info, topic info -v and zros graph show it): messages stay undecoded bytes, and
-    their time is taken when the node spins, as ros2 topic hz takes it in its callback.
-
-    For a type zros has no definition of, it cannot announce the subscription (rmw_zenoh's keys
-    need the type's hash): it listens on the topic's keys unannounced, and says so.
-    Returns what closes it."""
-    from zros.cdr.errors import UnknownTypeError
-    from zros.pubsub import Subscriber
-    from zros.pubsub.taps import RawTap
-    from zros.qos import QoS, Reliability
-
-    type_name = _topic_type(node, args.topic, args.wait)
-    # as ros2's: best effort (it hears reliable publishers too), with room for bursts
-    qos = QoS(1000, Reliability.BEST_EFFORT, lifespan=getattr(args, 'max_age', None))
-    try:
-
-        def count(data: bytes) -> None:
-            window.add(len(data))
-
-        return Subscriber(args.topic, type_name, count, qos, node=node, raw=True).close
-    except UnknownTypeError:
-        pass
-    if qos.lifespan is not None:
-        raise CommandError(
-            f'--max-age needs the definition of {type_name} (ZROS_INTERFACE_PATH adds yours)'
-        )
-    wire = node.wire
-    key = wire.any_type_key(wire.key(node.resolve_name(args.topic)))  # any type and hash
-    print(
-        f'zros: note: no definition of {type_name} (ZROS_INTERFACE_PATH adds yours): measuring '
-        'without announcing the subscription',
-        file=sys.stderr,
-    )
-    tap = RawTap(node, args.topic, type_name, qos=qos, key=key, announce=False,
-                 callback=lambda sample: window.add(len(sample.payload)))  # fmt: skip
-    return tap.close
-
-
-def _report_loop(node: Node, args: argparse.Namespace, report: Callable[[], bool]) -> int:
-    reports = 0
-    try:
-        while node.ok():
-            node.spin(timeout=args.period)
-            if report():
-                reports += 1
-                if args.count and reports >= args.count:
-                    break
-    except KeyboardInterrupt:
-        pass
-    return 0
-
-
-def hz(args: argparse.Namespace) -> int:
-    with open_node(args) as node:
-        window = _Window(args.window)
-        close = _measuring_subscription(node, args, window)
-
-        def report() -> bool:
-            with window.lock:
-                times = list(window.times)
-            if len(times) < 2:
-                out('no new messages')
-                return False
-            gaps = [b - a for a, b in itertools.pairwise(times)]
-            mean = statistics.fmean(gaps)
-            deviation = statistics.pstdev(gaps)
-            out(f'average rate: {1 / mean:.3f}')
-            out(
-                f'\tmin: {min(gaps):.3f}s max: {max(gaps):.3f}s std dev: {deviation:.5f}s '
-                f'window: {len(times)}'
-            )
-            return True
-
-        try:
-            return _report_loop(node, args, report)
-        finally:
-            close()
-
-
-def _size(value: float) -> str:
-    for unit in ('B', 'KB', 'MB'):
-        if value < 1000 or unit == 'MB':
-            return f'{value:.0f} {unit}' if unit == 'B' else f'{value:.2f} {unit}'
-        value /= 1000
-    return f'{value:.2f} MB'
-
-
-def bw(args: argparse.Namespace) -> int:
-    with open_node(args) as node:
-        window = _Window(args.window)
-        close = _measuring_subscription(node, args, window)
-        out(f'Subscribed to [{node.resolve_name(args.topic)}]')
-
-        def report() -> bool:
-            with window.lock:
-                times, sizes = list(window.times), list(window.sizes)
-            if len(times) < 2:
-                return False
-            span = max(times[-1] - times[0], 1e-9)
-            rate = sum(sizes[1:]) / span
-            out(f'{_size(rate)}/s from {len(sizes)} messages')
-            out(
-                f'\tMessage size mean: {_size(statistics.fmean(sizes))} min: {_size(min(sizes))} '
-                f'max: {_size(max(sizes))}'
-            )
-            return True
-
-        try:
-            return _report_loop(node, args, report)
-        finally:
-            close()
-
-
-def delay(args: argparse.Namespace) -> int:
-    from zros.runtime.clock import Time
-
-    with open_node(args) as node:
-        type_name = known_type(
-            node, args.topic, args.type or _topic_type(node, args.topic, args.wait)
-        )
-        if 'header' not in message_class(type_name).__slots__:
-            raise CommandError(f'{type_name} has no header: its delay cannot be measured')
-        delays: deque[float] = deque(maxlen=args.window)
-
-        def on_message(message: Message) -> None:
-            delays.append((node.now() - Time.from_msg(message.header.stamp)).seconds)
-
-        node.create_subscription(type_name, args.topic, on_message, qos='sensor_data')
-
-        def report() -> bool:
-            if not delays:
-                out('no new messages')
-                return False
-            values = list(delays)
-            out(f'average delay: {statistics.fmean(values):.3f}')
-            out(
-                f'\tmin: {min(values):.3f}s max: {max(values):.3f}s '
-                f'std dev: {statistics.pstdev(values):.5f}s window: {len(values)}'
-            )
-            return True
-
-        return _report_loop(node, args, report)
-
-
 # --- the parser ------------------------------------------------------------------------------
 
 
@@ -383,27 +191,21 @@ def add_parser(
     topic = commands.add_parser('topic', help=help_line)
     verbs = topic.add_subparsers(dest='verb', metavar='VERB', required=True)
 
-    def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:
-        parser = verbs.add_parser(name, help=help_text, description=help_text)
-        parser.set_defaults(run=f'zros.cli.topic:{target}')
-        add_connection_options(parser)
-        return parser
-
-    listing = verb('list', 'list the topics on the network', 'list_topics')
+    listing = add_verb(verbs, 'list', 'list the topics on the network', list_topics)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
     listing.add_argument('-v', '--verbose', action='store_true', help='publishers, subscribers')
 
-    parser = verb('info', 'type and endpoints of a topic', 'info')
+    parser = add_verb(verbs, 'info', 'type and endpoints of a topic', info)
     parser.add_argument('topic')
     parser.add_argument('-v', '--verbose', action='store_true', help='each endpoint')
 
-    parser = verb('type', 'the type of a topic', 'topic_type')
+    parser = add_verb(verbs, 'type', 'the type of a topic', topic_type)
     parser.add_argument('topic')
 
-    parser = verb('find', 'the topics of a type', 'find')
+    parser = add_verb(verbs, 'find', 'the topics of a type', find)
     parser.add_argument('type')
 
-    parser = verb('echo', 'print the messages of a topic', 'echo')
+    parser = add_verb(verbs, 'echo', 'print the messages of a topic', echo)
     parser.add_argument('topic')
     parser.add_argument('type', nargs='?', help='its type (default: from the network)')
     parser.add_argument('--field', help='print only this field, e.g. pose.position')
@@ -419,7 +221,7 @@ def add_parser(
     parser.add_argument('--wait', type=float, default=10.0, metavar='S',
                         help='how long to wait for the topic to appear (default 10)')  # fmt: skip
 
-    parser = verb('pub', 'publish messages on a topic', 'pub')
+    parser = add_verb(verbs, 'pub', 'publish messages on a topic', pub)
     parser.add_argument('topic')
     parser.add_argument('type')
     parser.add_argument('values', nargs='?', help='YAML, e.g. "{data: hello}"')
@@ -443,12 +245,12 @@ def add_parser(
         help='what write() does on a full link (default: drop; docs/qos.md)',
     )  # fmt: skip
 
-    for name, help_text in (
-        ('hz', 'the rate of a topic'),
-        ('bw', 'the bandwidth of a topic'),
-        ('delay', 'the delay of a topic from its header stamps'),
+    for name, help_text, target in (
+        ('hz', 'the rate of a topic', hz),
+        ('bw', 'the bandwidth of a topic', bw),
+        ('delay', 'the delay of a topic from its header stamps', delay),
     ):
-        parser = verb(name, help_text, name)
+        parser = add_verb(verbs, name, help_text, target)
         parser.add_argument('topic')
         if name == 'delay':
             parser.add_argument('type', nargs='?')

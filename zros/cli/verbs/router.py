@@ -125,7 +125,7 @@ def add_parser(
         help="leave large messages' priority and congestion control as sent (default: 64 KiB "
         'on, sent with the defaults, go as data_low and block_first)',
     )  # fmt: skip
-    parser.set_defaults(run='zros.cli.router_command:run')
+    parser.set_defaults(run=run)
 
 
 def _topic_rate(text: str) -> tuple[str, float]:

@@ -1,4 +1,5 @@
-"""``zros bag record`` and ``zros bag play`` (as ``ros2 bag record`` and ``ros2 bag play``).
+"""``zros bag``: info, reindex, record and play (as ``ros2 bag info``, ``reindex``, ``record``
+and ``play``).
 
 ``record`` runs until Ctrl-C or SIGTERM, then finishes the bag (last chunk, summary,
 metadata.yaml); a SIGKILL leaves files readable up to their last chunk (written at least every
@@ -19,6 +20,23 @@ from zros.cli.shared import CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:  # the command imports the bag package only when it runs (start-up)
     from zros.bag.play.player import Player
+
+
+# --- info and reindex ------------------------------------------------------------------------
+
+
+def info(args: argparse.Namespace) -> int:
+    from zros.bag.read.info import info as read_info
+
+    out(read_info(args.path).format(args.sort))
+    return 0
+
+
+def reindex(args: argparse.Namespace) -> int:
+    from zros.bag.write.reindexer import reindex as reindex_bag
+
+    out(str(reindex_bag(args.path)))
+    return 0
 
 
 def default_bag_name() -> str:
@@ -162,11 +180,49 @@ def _positive(text: str) -> float:
     return value
 
 
-def add_verbs(verbs: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Add ``record`` and ``play`` to the verbs of ``zros bag``."""
+# --- the parser ------------------------------------------------------------------------------
+
+
+def add_parser(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
+) -> None:
+    bag = commands.add_parser('bag', help=help_line)
+    verbs = bag.add_subparsers(dest='verb', metavar='VERB', required=True)
+
+    show = verbs.add_parser(
+        'info',
+        help='print what a recording holds',
+        description='Print the files, size, time range and topics of a recording, laid out as '
+        '`ros2 bag info` lays them out. Reads ROS 2 bag folders, .mcap and .db3 files, and '
+        'ROS 1 .bag files.',
+    )
+    show.add_argument('path', help='a bag folder, .mcap, .db3 or ROS 1 .bag file')
+    show.add_argument(
+        '--sort',
+        choices=('name', 'type', 'count'),
+        default='name',
+        help='order of the topics (default name)',
+    )
+    show.set_defaults(run=info)
+
+    fix = verbs.add_parser(
+        'reindex',
+        help='make a bag a killed recorder left readable again',
+        description='Finish every MCAP file of a bag that was never finished (a recorder killed '
+        'with SIGKILL, a power loss) into one holding its messages up to the last complete '
+        'chunk, with summary, indexes and footer, and rewrite metadata.yaml from the files, '
+        'as `ros2 bag reindex` does. Finished files are left as they are; an unfinished one is '
+        'rewritten into a temporary file renamed over it once complete, so a failure leaves '
+        'the original unchanged. Not for a bag still being recorded.',
+    )
+    fix.add_argument('path', help='a bag folder or .mcap file')
+    fix.set_defaults(run=reindex)
+
+    # --- record and play ---------------------------------------------------------------------
+
     help_text = 'record topics into a bag (rosbag2 MCAP)'
     parser = verbs.add_parser('record', help=help_text, description=help_text)
-    parser.set_defaults(run='zros.cli.bag_record_play:record')
+    parser.set_defaults(run=record)
     add_connection_options(parser)
     parser.add_argument('topics', nargs='*', metavar='TOPIC', help='topics to record')
     parser.add_argument('-a', '--all', action='store_true', help='every topic, also later ones')
@@ -184,7 +240,7 @@ def add_verbs(verbs: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
 
     help_text = 'play a bag into the graph'
     parser = verbs.add_parser('play', help=help_text, description=help_text)
-    parser.set_defaults(run='zros.cli.bag_record_play:play')
+    parser.set_defaults(run=play)
     add_connection_options(parser)
     parser.add_argument('path', help='bag folder, .mcap, .db3 or ROS 1 .bag')
     parser.add_argument('-r', '--rate', type=_positive, default=1.0, help='speed (default 1)')

@@ -1,7 +1,7 @@
-"""``zros plot`` (rqt_plot: live topics, or a recording) and ``zros graph`` (rqt_graph).
+"""``zros plot`` (rqt_plot: live topics, or a recording).
 
-Both draw in a window when matplotlib has a display, else (or with ``--png``, ``--frames``,
-``-o``) into files through Agg. matplotlib is imported only when they run.
+It draws in a window when matplotlib has a display, else (or with ``--png``, ``--frames``)
+into files through Agg. matplotlib is imported only when it runs.
 """
 
 from __future__ import annotations
@@ -10,13 +10,12 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import DISCOVERY, CommandError, add_connection_options, open_node, out
+from zros.cli.shared import CommandError, add_connection_options, open_node, out
 
 if TYPE_CHECKING:
     from zros.plot.figure import SeriesFigure
     from zros.plot.live_plot import LivePlot
 DEFAULT_PNG = 'zros_plot.png'  #: where a plot goes when there is no display and no --png
-DEFAULT_GRAPH = 'graph.png'
 
 
 def _number(value: float) -> str:
@@ -152,24 +151,6 @@ def plot(args: argparse.Namespace) -> int:
     return _plot_live(args)
 
 
-def graph(args: argparse.Namespace) -> int:
-    from zros.plot.figure import can_show
-    from zros.plot.graph_picture import graph as draw
-    from zros.plot.graph_picture import graph_model
-
-    with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        model = graph_model(node, hide_hidden=args.hide_hidden, hide_debug=args.hide_debug)
-    output = args.output
-    show = output is None and can_show()
-    if output is None and not show:
-        output = DEFAULT_GRAPH
-    draw(model, output, show=show)
-    summary = f'{len(model.nodes)} nodes, {len(model.topics)} topics, {len(model.edges)} edges'
-    out(summary + (f' -> {output}' if output else ''))
-    return 0
-
-
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
@@ -185,7 +166,7 @@ def add_parser(
         '--filter 5; zros plot /scan/ranges[0] --duration 10 --png scan.png; '
         'zros plot run1/ /odom/pose/pose/position --png odom.png',
     )
-    parser.set_defaults(run='zros.cli.plot:plot')
+    parser.set_defaults(run=plot)
     parser.add_argument(
         'paths',
         nargs='+',
@@ -232,33 +213,5 @@ def add_parser(
     )
     parser.add_argument(
         '--end', type=float, metavar='S', help='bag: up to S seconds after its start'
-    )
-    add_connection_options(parser)
-
-
-def add_graph_parser(
-    commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
-) -> None:
-    text = 'draw the ROS graph like rqt_graph: nodes, topics, publisher -> topic -> subscriber'
-    parser = commands.add_parser('graph', help=help_line, description=text)
-    parser.set_defaults(run='zros.cli.plot:graph')
-    parser.add_argument(
-        '-o',
-        '--output',
-        metavar='FILE',
-        help='write the picture: .png, .svg, .pdf, or .dot (Graphviz text); '
-        'default: a window, or graph.png without a display',
-    )
-    parser.add_argument(
-        '--hide-hidden',
-        action=argparse.BooleanOptionalAction,
-        default=True,
-        help='leave out hidden names (a part starting with _)',
-    )
-    parser.add_argument(
-        '--hide-debug',
-        action=argparse.BooleanOptionalAction,
-        default=True,
-        help='leave out /rosout and /parameter_events',
     )
     add_connection_options(parser)

@@ -93,7 +93,7 @@ def add_parser(
         help=help_line,
         description=f'{help_line}. Needs the foxglove extra: pip install "zros[foxglove]".',
     )
-    parser.set_defaults(run='zros.cli.foxglove_command:run')
+    parser.set_defaults(run=run)
     add_gateway_listen_options(parser, 8765)
     parser.add_argument('--topics', nargs='+', action='extend', metavar='REGEX',
                         help='offer only topics matching one of these (whole names)')  # fmt: skip

@@ -7,6 +7,7 @@ bridge (whose ``ros2 param`` view needs the services, not the node list).
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from zros.cli.shared import DISCOVERY, CommandError, add_connection_options, open_node, out
@@ -193,10 +194,13 @@ def add_parser(
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
 
     def verb(
-        name: str, help_text: str, target: str, node_optional: bool = False
+        name: str,
+        help_text: str,
+        target: Callable[[argparse.Namespace], int],
+        node_optional: bool = False,
     ) -> argparse.ArgumentParser:
         sub = verbs.add_parser(name, help=help_text, description=help_text)
-        sub.set_defaults(run=f'zros.cli.param:{target}')
+        sub.set_defaults(run=target)
         if node_optional:
             sub.add_argument('node', nargs='?', help='e.g. /robot/driver (default: all)')
         else:
@@ -205,23 +209,23 @@ def add_parser(
         add_connection_options(sub)
         return sub
 
-    sub = verb('list', 'the parameters of a node, or of every node', 'list_parameters', True)
+    sub = verb('list', 'the parameters of a node, or of every node', list_parameters, True)
     sub.add_argument('--param-prefixes', dest='prefixes', nargs='*', default=[])
     sub.add_argument('--param-type', action='store_true', help='with their types')
-    sub = verb('get', "a parameter's value", 'get')
+    sub = verb('get', "a parameter's value", get)
     sub.add_argument('name')
     sub.add_argument('--hide-type', action='store_true', help='only the value')
     sub = verb(
-        'set', 'set a parameter (the value is YAML: 1, 1.0, true, "[1, 2]"...)', 'set_parameter'
+        'set', 'set a parameter (the value is YAML: 1, 1.0, true, "[1, 2]"...)', set_parameter
     )
     sub.add_argument('name')
     sub.add_argument('value')
-    sub = verb('delete', 'undeclare a parameter', 'delete')
+    sub = verb('delete', 'undeclare a parameter', delete)
     sub.add_argument('name')
-    sub = verb('describe', "parameters' types and constraints", 'describe')
+    sub = verb('describe', "parameters' types and constraints", describe)
     sub.add_argument('names', nargs='+', metavar='name')
-    sub = verb('dump', "a node's parameters as a parameter file", 'dump')
+    sub = verb('dump', "a node's parameters as a parameter file", dump)
     sub.add_argument('-o', '--output', metavar='FILE', help='write to FILE, not the screen')
-    sub = verb('load', 'set parameters from a parameter file', 'load')
+    sub = verb('load', 'set parameters from a parameter file', load)
     sub.add_argument('file')
     sub.add_argument('--atomic', action='store_true', help='all or none')

@@ -63,4 +63,4 @@ def add_parser(
         'for zsh: autoload -U bashcompinit && bashcompinit && eval "$(zros completion zsh)".',
     )
     parser.add_argument('shell', choices=('bash', 'zsh'))
-    parser.set_defaults(run='zros.cli.completion:run')
+    parser.set_defaults(run=run)

@@ -69,4 +69,4 @@ def add_parser(
         '--server-only', action='store_true', help='clients need no certificate (plain TLS)'
     )
     make.add_argument('--force', action='store_true', help='overwrite existing files')
-    make.set_defaults(run='zros.cli.tls:init')
+    make.set_defaults(run=init)

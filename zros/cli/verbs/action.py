@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
     CommandError,
-    add_connection_options,
+    add_verb,
     build_message,
     list_names,
     names_on_graph,
@@ -117,19 +117,13 @@ def add_parser(
     parser = commands.add_parser('action', help=help_line)
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
 
-    def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:
-        sub = verbs.add_parser(name, help=help_text, description=help_text)
-        sub.set_defaults(run=f'zros.cli.action:{target}')
-        add_connection_options(sub)
-        return sub
-
-    listing = verb('list', 'list the actions on the network', 'list_actions')
+    listing = add_verb(verbs, 'list', 'list the actions on the network', list_actions)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
-    verb('type', 'the type of an action', 'action_type').add_argument('action')
-    sub = verb('info', 'the clients and servers of an action', 'info')
+    add_verb(verbs, 'type', 'the type of an action', action_type).add_argument('action')
+    sub = add_verb(verbs, 'info', 'the clients and servers of an action', info)
     sub.add_argument('action')
     sub.add_argument('-t', '--show-types', action='store_true', help='with their types')
-    sub = verb('send_goal', 'send a goal and print its result', 'send_goal')
+    sub = add_verb(verbs, 'send_goal', 'send a goal and print its result', send_goal)
     sub.add_argument('action', help='e.g. /fibonacci')
     sub.add_argument('type', help='e.g. example_interfaces/action/Fibonacci')
     sub.add_argument('values', nargs='?', help='the goal as YAML, e.g. "{order: 5}"')

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
     CommandError,
-    add_connection_options,
+    add_verb,
     build_message,
     find_names,
     list_names,
@@ -86,17 +86,11 @@ def add_parser(
     parser = commands.add_parser('service', help=help_line)
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
 
-    def verb(name: str, help_text: str, target: str) -> argparse.ArgumentParser:
-        sub = verbs.add_parser(name, help=help_text, description=help_text)
-        sub.set_defaults(run=f'zros.cli.service:{target}')
-        add_connection_options(sub)
-        return sub
-
-    listing = verb('list', 'list the services on the network', 'list_services')
+    listing = add_verb(verbs, 'list', 'list the services on the network', list_services)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
-    verb('type', 'the type of a service', 'service_type').add_argument('service')
-    verb('find', 'the services of a type', 'find').add_argument('type')
-    sub = verb('call', 'call a service and print the response', 'call')
+    add_verb(verbs, 'type', 'the type of a service', service_type).add_argument('service')
+    add_verb(verbs, 'find', 'the services of a type', find).add_argument('type')
+    sub = add_verb(verbs, 'call', 'call a service and print the response', call)
     sub.add_argument('service', help='e.g. /add_two_ints')
     sub.add_argument('type', help='e.g. example_interfaces/srv/AddTwoInts')
     sub.add_argument('values', nargs='?', help='the request as YAML, e.g. "{a: 1, b: 2}"')

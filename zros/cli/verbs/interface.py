@@ -98,16 +98,16 @@ def add_parser(
     show_parser.add_argument(
         '--all', action='store_true', help='the bag format: the text, then each dependency'
     )
-    show_parser.set_defaults(run='zros.cli.interface:show')
+    show_parser.set_defaults(run=show)
     listing = verbs.add_parser('list', help='list the types zros can resolve')
     listing.add_argument('pattern', nargs='?', default='', help='only names containing this')
     listing.add_argument('-m', '--only-msgs', action='store_true')
     listing.add_argument('-s', '--only-srvs', action='store_true')
     listing.add_argument('-a', '--only-actions', action='store_true')
-    listing.set_defaults(run='zros.cli.interface:list_types')
+    listing.set_defaults(run=list_types)
     verbs.add_parser('packages', help='list the packages that have types').set_defaults(
-        run='zros.cli.interface:packages'
+        run=packages
     )
     one = verbs.add_parser('package', help='list the types of a package')
     one.add_argument('package')
-    one.set_defaults(run='zros.cli.interface:package')
+    one.set_defaults(run=package)

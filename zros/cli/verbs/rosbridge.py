@@ -64,7 +64,7 @@ def add_parser(
         help=help_line,
         description=f'{help_line}. Needs the rosbridge extra: pip install "zros[rosbridge]".',
     )
-    parser.set_defaults(run='zros.cli.rosbridge_command:run')
+    parser.set_defaults(run=run)
     add_gateway_listen_options(parser, 9090)
     parser.add_argument('--topics-glob', nargs='+', action='extend', metavar='GLOB',
                         help='allow only topics matching one of these ("/camera/*")')  # fmt: skip

@@ -188,4 +188,4 @@ def add_parser(
     parser.add_argument('--listen', type=float, default=2.0,
                         help='seconds to listen to /rosout for clock skew (0: skip)')  # fmt: skip
     add_connection_options(parser)
-    parser.set_defaults(run='zros.cli.doctor:run')
+    parser.set_defaults(run=run)

@@ -24,7 +24,7 @@ def add_parser(
     parser = commands.add_parser('tf', help=help_line)
     verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
 
-    echo = verbs.add_parser(
+    echo_parser = verbs.add_parser(
         'echo',
         help='print the transform between two frames, as tf2_echo',
         description='Print the transform taking data in SOURCE to TARGET (where SOURCE is in '
@@ -35,18 +35,22 @@ def add_parser(
         epilog='examples: zros tf echo map base_link; zros tf echo odom base_link --rate 10 '
         '--count 5; zros tf echo map base_footprint --bag run1/ --rate 0.5',
     )
-    echo.add_argument('target', metavar='TARGET', help='the frame to express the transform in')
-    echo.add_argument('source', metavar='SOURCE', help='the frame whose pose is printed')
-    echo.add_argument('--rate', type=float, default=1.0, metavar='HZ', help='default 1')
-    echo.add_argument('--bag', metavar='PATH', help='read a recording instead of the network')
-    echo.add_argument('--count', type=int, metavar='N', help='stop after N transforms')
-    echo.add_argument(
+    echo_parser.add_argument(
+        'target', metavar='TARGET', help='the frame to express the transform in'
+    )
+    echo_parser.add_argument('source', metavar='SOURCE', help='the frame whose pose is printed')
+    echo_parser.add_argument('--rate', type=float, default=1.0, metavar='HZ', help='default 1')
+    echo_parser.add_argument(
+        '--bag', metavar='PATH', help='read a recording instead of the network'
+    )
+    echo_parser.add_argument('--count', type=int, metavar='N', help='stop after N transforms')
+    echo_parser.add_argument(
         '--precision', type=int, default=3, metavar='DIGITS', help='decimals (default 3)'
     )
-    echo.set_defaults(run='zros.cli.tf_command:echo')
-    add_connection_options(echo)
+    echo_parser.set_defaults(run=echo)
+    add_connection_options(echo_parser)
 
-    frames = verbs.add_parser(
+    frames_parser = verbs.add_parser(
         'frames',
         help='the tree of frames: parents, publishers, rates (view_frames)',
         description='Print the tree of frames as tf2 does (each frame: its parent, the '
@@ -56,17 +60,19 @@ def add_parser(
         epilog='examples: zros tf frames; zros tf frames --bag run1/ -o frames.pdf; '
         'zros tf frames --wait 5 -o frames.svg',
     )
-    frames.add_argument('--bag', metavar='PATH', help='read a recording instead of the network')
-    frames.add_argument('-o', '--output', metavar='FILE', help='write the picture to FILE')
-    frames.add_argument(
+    frames_parser.add_argument(
+        '--bag', metavar='PATH', help='read a recording instead of the network'
+    )
+    frames_parser.add_argument('-o', '--output', metavar='FILE', help='write the picture to FILE')
+    frames_parser.add_argument(
         '--wait',
         type=float,
         default=2.0,
         metavar='S',
         help='live: seconds to listen before printing (default 2)',
     )
-    frames.set_defaults(run='zros.cli.tf_command:frames')
-    add_connection_options(frames)
+    frames_parser.set_defaults(run=frames)
+    add_connection_options(frames_parser)
 
 
 # --- echo --------------------------------------------------------------------------------------
