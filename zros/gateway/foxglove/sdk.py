@@ -145,3 +145,22 @@ def ros2msg_schema(registry: TypeRegistry, type_name: str) -> foxglove.Schema | 
         _log.warning('no definition of %s: Foxglove gets no schema for it (%s)', type_name, exc)
         return None
     return foxglove.Schema(name=type_name, encoding='ros2msg', data=text.encode())
+
+
+def connection_graph(
+    published: dict[str, list[str]],
+    subscribed: dict[str, list[str]],
+    providers: dict[str, list[str]],
+) -> foxglove.ConnectionGraph:
+    """The SDK's connection graph: the ids of the nodes publishing and subscribing each topic
+    and providing each service."""
+    import foxglove
+
+    graph = foxglove.ConnectionGraph()
+    for name, ids in published.items():
+        graph.set_published_topic(name, ids)
+    for name, ids in subscribed.items():
+        graph.set_subscribed_topic(name, ids)
+    for name, ids in providers.items():
+        graph.set_advertised_service(name, ids)
+    return graph
