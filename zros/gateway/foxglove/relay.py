@@ -18,10 +18,10 @@ import os
 import selectors
 import socket
 import ssl
-import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from zros.gateway.common.drop_notice import DropNotices
 from zros.gateway.foxglove.frames import droppable, end_of_frame, status_frame, whole_frames
 from zros.gateway.foxglove.handshake import HANDSHAKE_TIMEOUT, read_upgrade
 
@@ -30,8 +30,6 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros.gateway')
 
-#: seconds between two warnings to (and log lines about) one slow client
-REPORT_PERIOD = 1.0
 #: bytes read from the server at once (frames larger than this get a buffer of their own)
 _CHUNK = 1024 * 1024
 #: client bytes waiting for the server before the front stops reading the client
@@ -73,7 +71,7 @@ class Connection:
         self._queued = 0  # bytes in _kept and _queue
         self._dropped = 0
         self._dropped_bytes = 0
-        self._last_report = -REPORT_PERIOD
+        self._notices = DropNotices()
         # the client's bytes on their way to the server
         self._to_server = bytearray()
         self._upstream_done = False
@@ -377,10 +375,8 @@ class Connection:
         self._dropped += dropped
         self._dropped_bytes += dropped_bytes
         self.front.dropped += dropped
-        now = time.monotonic()
-        if now - self._last_report < REPORT_PERIOD:
+        if self._notices.due(self._dropped) is None:
             return
-        self._last_report = now
         self.front.reported += 1
         text = (
             f'client {self.name} does not read fast enough: its oldest messages are being '
