@@ -19,7 +19,7 @@ public address (with TLS, if any) and, per connection:
 
 This module listens; :mod:`~zros.gateway.foxglove.handshake` reads and rewrites the upgrade,
 :mod:`~zros.gateway.foxglove.relay` relays one connection and queues its frames,
-:mod:`~zros.gateway.foxglove.frames` delimits them. ``zros foxglove`` runs the front in a
+:mod:`~zros.gateway.foxglove.ws_frames` delimits them. ``zros foxglove`` runs the front in a
 process of its own, off the gateway's GIL (:mod:`zros.gateway.foxglove.front_process`): these
 modules import nothing of Zenoh or the SDK.
 """
@@ -57,10 +57,10 @@ class Front:
         origins: OriginPolicy,
         client_buffer: int,
     ) -> None:
-        self._upstream = upstream
+        self.server_address = upstream  #: the SDK's server
         self.origins = origins
         self.client_buffer = client_buffer
-        self._tls = listen.ssl_context()
+        self.tls = listen.ssl_context()
         try:
             self._socket = socket.create_server(
                 (listen.address, listen.port),
@@ -71,7 +71,8 @@ class Front:
                 f'cannot start the Foxglove server on {listen.address}:{listen.port}: {exc}'
             ) from None
         self.port: int = self._socket.getsockname()[1]
-        self._stop_r, self._stop_w = socket.socketpair()
+        #: readable once the front closes (every connection's loop watches it)
+        self.closing, self._stop_w = socket.socketpair()
         self._lock = threading.Lock()
         self._threads: dict[threading.Thread, socket.socket] = {}  # and their clients
         self._closed = False
@@ -127,7 +128,7 @@ class Front:
                 client.shutdown(socket.SHUT_RDWR)
         for thread in [self._thread, *threads]:
             thread.join(5.0)
-        self._stop_r.close()
+        self.closing.close()
         self._stop_w.close()
 
 

@@ -1,12 +1,6 @@
-"""One connection of the Foxglove front: the upgrade, then the relay between the client and
-the SDK's server, in one thread (the module docstring of :mod:`~zros.gateway.foxglove.front`
-says what it does).
-
-The server's frames to the client go, while it keeps up, in big sends from a reused buffer; a
-frame larger than that buffer moves from socket to socket in the kernel (``os.splice``) or
-into a buffer of its own. When the client does not keep up they queue, bounded in bytes: past
-the bound the oldest message data frames are dropped (text and control frames are kept).
-"""
+"""One connection of the Foxglove front, in one thread: the upgrade, then the relay between the
+client and the SDK's server, and the client's queue bounded in bytes (how:
+:mod:`~zros.gateway.foxglove.front`)."""
 
 from __future__ import annotations
 
@@ -19,14 +13,14 @@ import selectors
 import socket
 import ssl
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from zros.gateway.common.drop_notice import DropNotices
-from zros.gateway.foxglove.frames import droppable, end_of_frame, status_frame, whole_frames
 from zros.gateway.foxglove.handshake import HANDSHAKE_TIMEOUT, read_upgrade
+from zros.gateway.foxglove.ws_frames import droppable, end_of_frame, status_frame, whole_frames
 
 if TYPE_CHECKING:
-    from zros.gateway.foxglove.front import Front
+    from zros.gateway.common.origins import OriginPolicy
 
 _log = logging.getLogger('zros.gateway')
 
@@ -40,10 +34,23 @@ _F_GETPIPE_SZ = 1032
 _SPLICE_FLAGS = getattr(os, 'SPLICE_F_MOVE', 0) | getattr(os, 'SPLICE_F_NONBLOCK', 0)
 
 
+class Door(Protocol):
+    """The front a connection came through (:class:`~zros.gateway.foxglove.front.Front`): its
+    settings, and the counters of all its connections."""
+
+    tls: ssl.SSLContext | None
+    server_address: tuple[str, int]
+    origins: OriginPolicy
+    client_buffer: int
+    closing: socket.socket  #: readable once the front closes
+    dropped: int
+    reported: int
+
+
 class Connection:
     """One client: the handshake, then the relay (see the module docstring)."""
 
-    def __init__(self, front: Front, client: socket.socket, name: str) -> None:
+    def __init__(self, front: Door, client: socket.socket, name: str) -> None:
         self.front = front
         self.client = client
         self.name = name
@@ -83,12 +90,12 @@ class Connection:
         when the connection ends here."""
         front = self.front
         self.client.settimeout(HANDSHAKE_TIMEOUT)
-        if front._tls is not None:
-            self.client = front._tls.wrap_socket(self.client, server_side=True)
+        if front.tls is not None:
+            self.client = front.tls.wrap_socket(self.client, server_side=True)
         upgrade = read_upgrade(self.client, front.origins)
         if upgrade is None:
             return False
-        self.upstream = socket.create_connection(front._upstream, timeout=HANDSHAKE_TIMEOUT)
+        self.upstream = socket.create_connection(front.server_address, timeout=HANDSHAKE_TIMEOUT)
         self.upstream.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         after = upgrade.relay(self.upstream, self.client)
         if after is None:
@@ -128,7 +135,7 @@ class Connection:
         upstream.setblocking(False)
         selector = selectors.DefaultSelector()
         try:
-            selector.register(self.front._stop_r, selectors.EVENT_READ)
+            selector.register(self.front.closing, selectors.EVENT_READ)
             selector.register(upstream, selectors.EVENT_READ)
             selector.register(client, selectors.EVENT_READ)
             wanted = {upstream: selectors.EVENT_READ, client: selectors.EVENT_READ}
@@ -153,7 +160,7 @@ class Connection:
                 if not wanted[client] and not wanted[upstream]:
                     return
                 for key, events in selector.select():
-                    if key.fileobj is self.front._stop_r:
+                    if key.fileobj is self.front.closing:
                         return
                     if key.fileobj is upstream:
                         if events & selectors.EVENT_WRITE and not self._to_upstream():
@@ -279,7 +286,7 @@ class Connection:
     def _can_splice(self) -> bool:
         """Whether frames can move in the kernel (plain sockets, Linux): opens the pipe."""
         if self._pipe is None:
-            if self.front._tls is not None or not hasattr(os, 'splice'):
+            if self.front.tls is not None or not hasattr(os, 'splice'):
                 return False
             self._pipe = os.pipe2(os.O_NONBLOCK | os.O_CLOEXEC)
             with contextlib.suppress(OSError):  # a smaller pipe where the system says so

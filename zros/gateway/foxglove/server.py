@@ -33,9 +33,7 @@ from zros.gateway.common.views import offered_services, owners, parameter_nodes,
 from zros.gateway.common.watched_topics import Taps
 from zros.gateway.foxglove.assets import Assets
 from zros.gateway.foxglove.calls import ENCODINGS, ClientChannels, ServiceOffer
-from zros.gateway.foxglove.clock import follow_clock
 from zros.gateway.foxglove.front import CLIENT_BUFFER
-from zros.gateway.foxglove.listener import Listener
 from zros.gateway.foxglove.params import Parameters
 from zros.gateway.foxglove.sdk import (
     DEFAULT_BACKLOG,
@@ -44,6 +42,8 @@ from zros.gateway.foxglove.sdk import (
     import_sdk,
     ros2msg_schema,
 )
+from zros.gateway.foxglove.sdk_listener import Listener
+from zros.gateway.foxglove.sim_time import follow_clock
 from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
 from zros.qos import QoS
 

@@ -4,22 +4,41 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 if TYPE_CHECKING:
     from foxglove.websocket import ChannelView, Client, ClientChannel, Parameter
 
-    from zros.gateway.foxglove.server import FoxgloveGateway
+    from zros.gateway.foxglove.calls import ClientChannels
+    from zros.gateway.foxglove.params import Parameters
 
 _log = logging.getLogger('zros.gateway')
 _T = TypeVar('_T')
+
+
+class Gateway(Protocol):
+    """What the listener hands requests to
+    (:class:`~zros.gateway.foxglove.server.FoxgloveGateway`)."""
+
+    clients: ClientChannels
+    parameters: Parameters
+
+    def watch(self, client: int, channel_id: int) -> None: ...
+
+    def unwatch(self, client: int, channel_id: int) -> None: ...
+
+    def advertise(self, client: int, channel: ClientChannel) -> None: ...
+
+    def set_parameters(self, parameters: list[Parameter]) -> list[Parameter]: ...
+
+    def status(self, text: str, level: str = 'warning') -> None: ...
 
 
 class Listener:
     """The SDK's server listener: requests of clients, handed to the gateway's parts. A
     failure is logged and told to the clients; it never reaches the SDK."""
 
-    def __init__(self, gateway: FoxgloveGateway) -> None:
+    def __init__(self, gateway: Gateway) -> None:
         self._gateway = gateway
 
     def _guard(self, what: str, call: Callable[..., _T], *args: object) -> _T | None:
