@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from collections.abc import Callable
@@ -85,18 +86,17 @@ class Publisher(Entity):
         #: the Zenoh priority and express flag its messages carry
         self.priority, self.express = priority, express
         session = self.context.transport.session
-        if qos.transient_local:
-            return ext.declare_advanced_publisher(
-                session, self.key, cache=ext.CacheConfig(max_samples=qos.depth),
-                publisher_detection=True, congestion_control=congestion, reliability=reliability,
-                priority=PRIORITY[priority], express=express,
+        declare: Callable[..., ZenohPublisher | ext.AdvancedPublisher] = session.declare_publisher
+        if qos.transient_local:  # zenoh-ext's, which keeps the last messages for late joiners
+            declare = functools.partial(
+                ext.declare_advanced_publisher, session,
+                cache=ext.CacheConfig(max_samples=qos.depth), publisher_detection=True,
                 **wire.publisher_options(qos),
             )  # fmt: skip
-        publisher: ZenohPublisher = session.declare_publisher(
+        return declare(
             self.key, congestion_control=congestion, reliability=reliability,
             priority=PRIORITY[priority], express=express,
         )  # fmt: skip
-        return publisher
 
     def write(self, message: Message) -> None:
         """Publish a message (rosR: ``ros.WriteMessage``)."""

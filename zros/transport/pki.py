@@ -113,7 +113,7 @@ class Certificates:
 def _crypto() -> None:
     """CertificateError unless the cryptography package is installed."""
     try:
-        import cryptography  # noqa: F401, PLC0415 (optional: zros[tls])
+        import cryptography  # noqa: F401, PLC0415 (optional: the tls extra)
     except ImportError:
         raise CertificateError(
             "making certificates needs the cryptography package: pip install 'zros[tls]'"
@@ -122,7 +122,7 @@ def _crypto() -> None:
 
 def _subject_names(hosts: Iterable[str]) -> list[x509.GeneralName]:
     _crypto()
-    from cryptography import x509  # noqa: PLC0415 (optional: zros[tls])
+    from cryptography import x509  # noqa: PLC0415 (optional: the tls extra)
 
     names: list[x509.GeneralName] = []
     for host in hosts:
@@ -148,10 +148,10 @@ def make_certificates(
     certificate must name each. Private keys are written readable by their owner only.
     """
     _crypto()
-    from cryptography import x509  # noqa: PLC0415 (optional: zros[tls])
-    from cryptography.hazmat.primitives import hashes, serialization  # noqa: PLC0415 (optional: zros[tls])
-    from cryptography.hazmat.primitives.asymmetric import ec  # noqa: PLC0415 (optional: zros[tls])
-    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID  # noqa: PLC0415 (optional: zros[tls])
+    from cryptography import x509  # noqa: PLC0415 (optional: the tls extra)
+    from cryptography.hazmat.primitives import hashes, serialization  # noqa: PLC0415 (optional: the tls extra)
+    from cryptography.hazmat.primitives.asymmetric import ec  # noqa: PLC0415 (optional: the tls extra)
+    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID  # noqa: PLC0415 (optional: the tls extra)
 
     if not hosts:
         raise CertificateError('name at least one host the router is reached at')

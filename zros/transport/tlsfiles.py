@@ -73,7 +73,7 @@ def _certificate(path: str, role: str) -> Certificate | None:
             f'the {role} {path} cannot be read as a certificate ({exc.reason or exc}); {FIX}'
         ) from None
     try:
-        from cryptography import x509  # noqa: PLC0415 (optional: zros[tls])
+        from cryptography import x509  # noqa: PLC0415 (optional: the tls extra)
     except ImportError:  # expiry and usages are checked with the tls extra only
         return None
     try:
@@ -113,8 +113,8 @@ def _check_pair(certificate: str, key: str) -> None:
 
 def _can_serve(certificate: Certificate, path: str, hosts: Sequence[str]) -> None:
     """A peer's certificate must be a server certificate for the hosts other peers dial."""
-    from cryptography import x509  # noqa: PLC0415 (optional: zros[tls])
-    from cryptography.x509.oid import ExtendedKeyUsageOID  # noqa: PLC0415 (optional: zros[tls])
+    from cryptography import x509  # noqa: PLC0415 (optional: the tls extra)
+    from cryptography.x509.oid import ExtendedKeyUsageOID  # noqa: PLC0415 (optional: the tls extra)
 
     try:
         usages = certificate.extensions.get_extension_for_class(x509.ExtendedKeyUsage).value

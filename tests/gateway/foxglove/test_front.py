@@ -15,8 +15,9 @@ import pytest
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import OriginPolicy
-from zros.gateway.foxglove.front import SDK_SUBPROTOCOL, Front
+from zros.gateway.foxglove.front import Front
 from zros.gateway.foxglove.front_process import FrontProcess
+from zros.gateway.foxglove.handshake import SDK_SUBPROTOCOL
 from zros.testing import wait_for
 
 TIMEOUT = 20.0

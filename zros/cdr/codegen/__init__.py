@@ -11,9 +11,9 @@ input, and the *traced* one, which does one field at a time and turns any failur
 :class:`~zros.cdr.errors.CdrError` naming the field and offset. The fast codec runs first; the
 traced one only runs to explain a failure.
 
-``decoder`` and ``encoder`` generate the two codecs, ``methods`` the class's ``__init__``,
-``__eq__``, ``repr``, ``copy``, ``to_dict`` and row helpers; ``program`` holds the source under
-construction and compiles it.
+``decoder`` (from the operations ``decode_ops`` lists) and ``encoder`` generate the two
+codecs, ``methods`` the class's ``__init__``, ``__eq__``, ``repr``, ``copy``, ``to_dict`` and
+row helpers; ``program`` holds the source under construction and compiles it.
 """
 
 from __future__ import annotations

@@ -10,10 +10,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from zros.cdr import convert
+from zros.cdr.codegen.decode_ops import DecodeOps
 from zros.cdr.codegen.failures import decode_failure
 from zros.cdr.codegen.ops import (
     START,
-    STRUCT_CODES,
     UNKNOWN,
     Context,
     Fix,
@@ -25,13 +25,11 @@ from zros.cdr.codegen.ops import (
     Seq,
     State,
     Str,
-    empty_message,
-    fields_of,
     merge_state,
 )
 from zros.cdr.codegen.program import Program, path_literal
 from zros.cdr.layout import numpy_dtype
-from zros.cdr.model import PRIMITIVE_SIZES, Buffer, FieldType, Kind, MessageDef
+from zros.cdr.model import PRIMITIVE_SIZES, Buffer, MessageDef
 from zros.cdr.struct_seq import StructSeq
 
 if TYPE_CHECKING:
@@ -64,52 +62,6 @@ class _DecoderBuilder:
         #: fixed fields (which then reads the header too) is still to come
         self.header_fallback: str | None = None
         self.loops = LoopStates(lambda loop, start: self.dry_emit(loop.body, start))
-
-    # ops
-
-    def struct_ops(self, msg: MessageDef, var: str, path: str, ops: list[Op]) -> None:
-        if not msg.fields:
-            ops.append(empty_message(path))
-            return
-        for ref, fpath, t in fields_of(msg, var, path):
-            if t.kind is Kind.SCALAR:
-                self.scalar_ops(t, ref, fpath, ops)
-            elif t.kind is Kind.ARRAY:
-                if t.is_primitive:
-                    ops.append(FixArr(t.base, t.length, ref, fpath))
-                else:
-                    ops.append(self.loop(t, str(t.length), -1, ref, fpath))
-            else:
-                count = self.src.tmp('n')
-                ops.append(Fix('I', 4, count, fpath))
-                bound = t.length if t.kind is Kind.BOUNDED else -1
-                if t.is_primitive:
-                    ops.append(Seq(t.base, ref, count, bound, fpath, False))
-                elif t.is_nested and self.ctx.info(t.base).uniform:
-                    ops.append(Seq(t.base, ref, count, bound, fpath, True))
-                else:
-                    ops.append(self.loop(t, count, bound, ref, fpath))
-
-    def scalar_ops(self, t: FieldType, ref: str, path: str, ops: list[Op]) -> None:
-        if t.is_primitive:
-            ops.append(Fix(STRUCT_CODES[t.base], PRIMITIVE_SIZES[t.base], ref, path, t.base))
-        elif t.is_string:
-            count = self.src.tmp('n')
-            ops.append(Fix('I', 4, count, path))
-            ops.append(Str(ref, count, t.string_bound, path, t.base == 'wstring'))
-        else:
-            var = self.src.tmp('v')
-            blank = self.src.blank(self.ctx.cls(t.base))
-            ops.append(Pre([f'{var} = {blank}()', f'{ref} = {var}']))
-            self.struct_ops(self.ctx.resolve(t.base), var, path, ops)
-
-    def loop(self, t: FieldType, count: str, bound: int, ref: str, path: str) -> Loop:
-        index = self.src.tmp('i')
-        item = self.src.tmp('e')
-        body: list[Op] = []
-        self.scalar_ops(t.element, item, f'{path}[{{{index}}}]', body)
-        min_size = 4 if t.is_string else self.ctx.info(t.base).min_size
-        return Loop(count, bound, min_size, ref, item, index, body, path)
 
     # emission
 
@@ -427,7 +379,7 @@ def generate_decoder(
     src = builder.src
     blank = src.blank(ctx.cls(msg.name))
     ops: list[Op] = []
-    builder.struct_ops(msg, 'o', '', ops)
+    DecodeOps(ctx, src).struct_ops(msg, 'o', '', ops)
     if fallback is not None:
         other = src.ref(fallback, 'other')
         first = next((op for op in ops if not isinstance(op, Pre)), None)

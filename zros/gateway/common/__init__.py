@@ -3,7 +3,8 @@
 * ``errors``: :class:`GatewayError`; ``filters``: :class:`NameFilter` (regexes or globs);
   ``graph_watcher``: :class:`GraphWatcher` (a thread that follows the graph);
   ``watched_topics``: :class:`Taps` (a raw subscription per watched topic, latched messages
-  kept); ``send_queue``: :class:`SendQueue` (a client's bounded outbox); ``entities``: the
+  kept); ``send_queue``: :class:`SendQueue` (a client's bounded outbox); ``drop_notice``:
+  :class:`DropNotices` (when to tell a slow client of its drops); ``entities``: the
   gateway's node, the clients made for clients (:class:`ClientCache`) and the QoS of their
   publishers (:func:`publisher_qos`).
 * ``listen`` (address, port, TLS), ``origins`` (which browser pages may connect), ``throttle``

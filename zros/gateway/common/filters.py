@@ -10,6 +10,15 @@ from collections.abc import Iterable
 from zros.gateway.common.errors import GatewayError
 
 
+def compile_regex(pattern: str, refusal: str) -> re.Pattern[str]:
+    """``pattern`` compiled; GatewayError ``'<refusal>: <why>'`` when it is not a Python regular
+    expression."""
+    try:
+        return re.compile(pattern)
+    except re.error as exc:
+        raise GatewayError(f'{refusal}: {exc}') from None
+
+
 class NameFilter:
     """Which names pass: those matching an ``include`` pattern (every name when there is
     none) and no ``exclude`` pattern. Patterns match the whole name."""
@@ -27,15 +36,9 @@ class NameFilter:
         """Python regular expressions, as foxglove_bridge's ``topic_whitelist`` (full match)."""
 
         def compile_all(patterns: Iterable[str] | None) -> list[re.Pattern[str]]:
-            compiled = []
-            for pattern in patterns or ():
-                try:
-                    compiled.append(re.compile(pattern))
-                except re.error as exc:
-                    raise GatewayError(
-                        f'the pattern {pattern!r} is not a valid regex: {exc}'
-                    ) from None
-            return compiled
+            return [
+                compile_regex(p, f'the pattern {p!r} is not a valid regex') for p in patterns or ()
+            ]
 
         return cls(compile_all(include), compile_all(exclude))
 

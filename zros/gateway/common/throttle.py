@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterable
 from typing import TypeVar
 
 from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.filters import compile_regex
 
 _T = TypeVar('_T')
 
@@ -27,12 +28,7 @@ class Throttle:
     def __init__(self, rules: Iterable[tuple[str, float]] = ()) -> None:
         self.rules: list[tuple[re.Pattern[str], float]] = []
         for pattern, rate in rules:
-            try:
-                compiled = re.compile(pattern)
-            except re.error as exc:
-                raise GatewayError(
-                    f'--throttle {pattern!r}: not a regular expression: {exc}'
-                ) from None
+            compiled = compile_regex(pattern, f'--throttle {pattern!r}: not a regular expression')
             if not rate > 0:
                 raise GatewayError(f'--throttle {pattern!r}: the rate must be > 0 Hz, not {rate}')
             self.rules.append((compiled, float(rate)))

@@ -2,11 +2,12 @@
 is :mod:`zros.foxglove`.
 
 ``server`` (:class:`FoxgloveGateway`, :func:`serve`) follows the graph and feeds the Foxglove
-SDK's server; ``sdk`` starts that server behind ``front`` (our listener: ``Origin``, both
-subprotocol names, TLS, a byte bound per client) and renders schemas; ``calls`` (client
-publishing, services) and ``params`` (parameters) carry out what clients ask; ``bag_server``
-(:class:`BagGateway`) plays a recording; ``assets`` serves ``package://`` files. It imports
-:mod:`zros.gateway.common`, never another gateway.
+SDK's server (``sdk_listener`` hands it what clients ask, ``sim_time`` follows ``/clock``);
+``sdk`` starts that server behind ``front`` (our listener: ``Origin``, both subprotocol names,
+TLS, a byte bound per client; with ``handshake``, ``relay``, ``ws_frames``) and renders
+schemas; ``calls`` (client publishing, services) and ``params`` (parameters) carry out what
+clients ask; ``bag_server`` (:class:`BagGateway`) plays a recording; ``assets`` serves
+``package://`` files. It imports :mod:`zros.gateway.common`, never another gateway.
 
 The classes and ``serve`` load on first use here, so that one module of the folder (the front)
 loads without the server.

@@ -74,7 +74,7 @@ class BagGateway(Closing):
         asset_paths: Iterable[str | os.PathLike[str]] = (),
     ) -> None:
         foxglove = import_sdk()
-        from foxglove.websocket import Capability  # noqa: PLC0415 (optional: zros[foxglove])
+        from foxglove.websocket import Capability  # noqa: PLC0415 (optional: the foxglove extra)
 
         self.options = options or ServerOptions()
         selected = NameFilter.regexes(topics, exclude)
@@ -132,7 +132,7 @@ class BagGateway(Closing):
     def _schema(self, connection: Connection, types: BagTypes) -> foxglove.Schema | None:
         """The recording's own definition, unless its first message shows it wrong (as some
         recorders wrote them) and zros's registry has one that fits: then that one."""
-        import foxglove  # noqa: PLC0415 (optional: zros[foxglove])
+        import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
 
         if connection.definition and connection.definition_format in ('ros2msg', 'ros2idl'):
             recorded = foxglove.Schema(
@@ -222,7 +222,7 @@ class BagGateway(Closing):
 
     def _end(self) -> None:
         """The last message went out: tell the clients, wait for a seek or a play."""
-        from foxglove.websocket import PlaybackStatus  # noqa: PLC0415 (optional: zros[foxglove])
+        from foxglove.websocket import PlaybackStatus  # noqa: PLC0415 (optional: the foxglove extra)
 
         with self._lock:
             self._ended = True
@@ -235,7 +235,7 @@ class BagGateway(Closing):
     def _state(
         self, status: PlaybackStatus, did_seek: bool, request_id: str | None
     ) -> PlaybackState:
-        from foxglove.websocket import PlaybackState  # noqa: PLC0415 (optional: zros[foxglove])
+        from foxglove.websocket import PlaybackState  # noqa: PLC0415 (optional: the foxglove extra)
 
         return PlaybackState(
             status=status,
@@ -247,7 +247,7 @@ class BagGateway(Closing):
 
     def control(self, request: PlaybackControlRequest) -> PlaybackState:
         """Carry out a client's playback request (play, pause, speed, seek); the new state."""
-        from foxglove.websocket import PlaybackCommand, PlaybackStatus  # noqa: PLC0415 (optional: zros[foxglove])
+        from foxglove.websocket import PlaybackCommand, PlaybackStatus  # noqa: PLC0415 (optional: the foxglove extra)
 
         with self._lock:
             seek = request.seek_time

@@ -166,7 +166,7 @@ class ServiceOffer:
             self._offered.update({s.name: wanted[s.name] for s in added_services})
 
     def _service(self, name: str, type_name: str) -> foxglove.Service | None:
-        import foxglove  # noqa: PLC0415 (optional: zros[foxglove])
+        import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
 
         registry = self._node.registry
         schemas = []

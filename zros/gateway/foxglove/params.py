@@ -53,7 +53,7 @@ def to_foxglove(
 ) -> foxglove.Parameter:
     """A foxglove.Parameter of a zros value (doubles keep their type hint, as
     foxglove_bridge sends them; an empty array takes its type from ``kind``)."""
-    import foxglove  # noqa: PLC0415 (optional: zros[foxglove])
+    import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
 
     if value is None:
         return foxglove.Parameter(full)
@@ -67,7 +67,7 @@ def to_foxglove(
 
 def from_foxglove(parameter: foxglove.Parameter) -> tuple[ParamValue, ParameterType | None]:
     """The zros value and type of a foxglove.Parameter (None deletes)."""
-    import foxglove  # noqa: PLC0415 (optional: zros[foxglove])
+    import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
 
     value: JsonValue = parameter.get_value()  # a client's: converted as its type hint says
     hint = parameter.type

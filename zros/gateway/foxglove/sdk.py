@@ -51,7 +51,7 @@ DEFAULT_BACKLOG = 32
 def import_sdk() -> ModuleType:
     """The ``foxglove`` module of the SDK; GatewayError says how to install it."""
     try:
-        import foxglove  # noqa: PLC0415 (optional: zros[foxglove])
+        import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
     except ImportError:
         raise GatewayError(
             "the Foxglove SDK is not installed: pip install 'zros[foxglove]' (foxglove-sdk)"
@@ -135,7 +135,7 @@ class ServerOptions:
 def ros2msg_schema(registry: TypeRegistry, type_name: str) -> foxglove.Schema | None:
     """The Foxglove schema of a ROS type: the ``ros2msg`` text with its dependencies, as
     rosbag2 writes it into MCAP files; None when the registry does not know the type."""
-    import foxglove  # noqa: PLC0415 (optional: zros[foxglove])
+    import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
 
     from zros.cdr.render import render_bundle  # noqa: PLC0415 (zros.foxglove stays light: no numpy)
 
@@ -145,3 +145,22 @@ def ros2msg_schema(registry: TypeRegistry, type_name: str) -> foxglove.Schema | 
         _log.warning('no definition of %s: Foxglove gets no schema for it (%s)', type_name, exc)
         return None
     return foxglove.Schema(name=type_name, encoding='ros2msg', data=text.encode())
+
+
+def connection_graph(
+    published: dict[str, list[str]],
+    subscribed: dict[str, list[str]],
+    providers: dict[str, list[str]],
+) -> foxglove.ConnectionGraph:
+    """The SDK's connection graph: the ids of the nodes publishing and subscribing each topic
+    and providing each service."""
+    import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
+
+    graph = foxglove.ConnectionGraph()
+    for name, ids in published.items():
+        graph.set_published_topic(name, ids)
+    for name, ids in subscribed.items():
+        graph.set_subscribed_topic(name, ids)
+    for name, ids in providers.items():
+        graph.set_advertised_service(name, ids)
+    return graph

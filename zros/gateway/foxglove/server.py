@@ -18,12 +18,10 @@ import logging
 import os
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING
 
-from zros.cdr import CdrError
-from zros.cdr.message import decode
 from zros.errors import ZrosError
 from zros.gateway.common.entities import gateway_node
 from zros.gateway.common.errors import GatewayError
@@ -40,23 +38,24 @@ from zros.gateway.foxglove.params import Parameters
 from zros.gateway.foxglove.sdk import (
     DEFAULT_BACKLOG,
     ServerOptions,
+    connection_graph,
     import_sdk,
     ros2msg_schema,
 )
+from zros.gateway.foxglove.sdk_listener import Listener
+from zros.gateway.foxglove.sim_time import follow_clock
 from zros.pubsub.taps import GraphTopic, RawTap, graph_topics, is_hidden
-from zros.qos import QoS, Reliability
+from zros.qos import QoS
 
 if TYPE_CHECKING:
     import foxglove
-    import zenoh
-    from foxglove.websocket import ChannelView, Client, ClientChannel, Parameter
+    from foxglove.websocket import ClientChannel, Parameter
 
     from zros.gateway.foxglove.bag_server import BagGateway
     from zros.node import Node
     from zros.node.settings import NodeSetting
 
 _log = logging.getLogger('zros.gateway')
-_T = TypeVar('_T')
 
 #: seconds the gateway gives the graph to show ``/clock`` when deciding on sim time
 SIM_TIME_DISCOVERY = 1.0
@@ -98,7 +97,7 @@ class FoxgloveGateway:
         throttle: Iterable[str] = (),
     ) -> None:
         foxglove = import_sdk()
-        from foxglove.websocket import Capability
+        from foxglove.websocket import Capability  # noqa: PLC0415 (optional: the foxglove extra)
 
         self.node = node
         self.options = options or ServerOptions()
@@ -126,7 +125,7 @@ class FoxgloveGateway:
             capabilities.append(Capability.Time)
         self._server, self._front = self.options.start(
             capabilities=capabilities,
-            server_listener=_Listener(self),
+            server_listener=Listener(self),
             supported_encodings=list(ENCODINGS),
             asset_handler=self._assets.fetch if self._assets is not None else None,
             context=self._context,
@@ -144,7 +143,7 @@ class FoxgloveGateway:
         )
         self._clock: RawTap | None = None
         if sim_time:
-            self._clock = self._follow_clock()
+            self._clock = follow_clock(node, self._on_clock)
         self._watcher = GraphWatcher(node, self._follow_graph)
         _log.info(
             'Foxglove server on %s (%s wire%s)',
@@ -159,26 +158,9 @@ class FoxgloveGateway:
         """The server's time in ns: ``/clock`` under sim time, else the wall clock."""
         return self._sim_now if self.sim_time else time.time_ns()
 
-    def _follow_clock(self) -> RawTap:
-        cls = self.node.registry.get_class('rosgraph_msgs/msg/Clock')
-
-        def on_clock(sample: zenoh.Sample) -> None:
-            try:
-                clock = decode(cls, sample.payload.to_bytes()).clock
-            except CdrError as exc:
-                _log.debug('a /clock message does not decode: %s', exc)
-                return
-            self._sim_now = clock.sec * 1_000_000_000 + clock.nanosec
-            self._server.broadcast_time(self._sim_now)
-
-        return RawTap(
-            self.node,
-            '/clock',
-            cls.__msgtype__,
-            qos=QoS(1, Reliability.BEST_EFFORT),
-            key=None,
-            callback=on_clock,
-        )
+    def _on_clock(self, now: int) -> None:
+        self._sim_now = now
+        self._server.broadcast_time(now)
 
     # --- the graph ---------------------------------------------------------------------------
 
@@ -209,7 +191,7 @@ class FoxgloveGateway:
         self._publish_connection_graph(topics)
 
     def _update_channels(self, topics: dict[str, GraphTopic]) -> None:
-        import foxglove
+        import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
 
         gone: list[_Channel] = []
         with self._lock:
@@ -245,8 +227,6 @@ class FoxgloveGateway:
             return known.topic.offered if known is not None else []
 
     def _publish_connection_graph(self, topics: dict[str, GraphTopic]) -> None:
-        import foxglove
-
         graph = self.node.graph
         published = {name: owners(t.publishers, graph) for name, t in topics.items()}
         subscribed = {name: owners(t.subscribers, graph) for name, t in topics.items()}
@@ -254,14 +234,7 @@ class FoxgloveGateway:
         view = (published, subscribed, providers)
         if view == self._graph_published:
             return
-        connection_graph = foxglove.ConnectionGraph()
-        for name, ids in published.items():
-            connection_graph.set_published_topic(name, ids)
-        for name, ids in subscribed.items():
-            connection_graph.set_subscribed_topic(name, ids)
-        for name, ids in providers.items():
-            connection_graph.set_advertised_service(name, ids)
-        self._server.publish_connection_graph(connection_graph)
+        self._server.publish_connection_graph(connection_graph(*view))
         self._graph_published = view
 
     # --- clients acting on the graph -----------------------------------------------------------
@@ -316,7 +289,7 @@ class FoxgloveGateway:
 
     def status(self, text: str, level: str = 'warning') -> None:
         """Tell every client something (a status message, and a log line here)."""
-        import foxglove
+        import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
 
         levels = {
             'info': foxglove.StatusLevel.Info,
@@ -383,59 +356,6 @@ class FoxgloveGateway:
         return f'<zros FoxgloveGateway {self.url} ({len(self._channels)} channels)>'
 
 
-class _Listener:
-    """The SDK's server listener: requests of clients, handed to the gateway's parts. A
-    failure is logged and told to the clients; it never reaches the SDK."""
-
-    def __init__(self, gateway: FoxgloveGateway) -> None:
-        self._gateway = gateway
-
-    def _guard(self, what: str, call: Callable[..., _T], *args: object) -> _T | None:
-        try:
-            return call(*args)
-        except Exception as exc:  # a client's request: logged and told, never raised into the SDK
-            _log.debug('%s failed', what, exc_info=True)
-            self._gateway.status(f'{what} failed: {exc}', 'error')
-            return None
-
-    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
-        self._guard(f'subscribing to {channel.topic}', self._gateway.watch, client.id, channel.id)
-
-    def on_unsubscribe(self, client: Client, channel: ChannelView) -> None:
-        self._guard(f'unsubscribing {channel.topic}', self._gateway.unwatch, client.id, channel.id)
-
-    def on_client_advertise(self, client: Client, channel: ClientChannel) -> None:
-        self._guard(f'advertising {channel.topic}', self._gateway.advertise, client.id, channel)
-
-    def on_client_unadvertise(self, client: Client, client_channel_id: int) -> None:
-        self._gateway.clients.unadvertise(client.id, client_channel_id)
-
-    def on_message_data(self, client: Client, client_channel_id: int, data: bytes) -> None:
-        self._guard('publishing', self._gateway.clients.message, client.id, client_channel_id, data)
-
-    def on_get_parameters(
-        self, client: Client, param_names: list[str], request_id: str | None = None
-    ) -> list[Parameter]:
-        return self._guard('getting parameters', self._gateway.parameters.get, param_names) or []
-
-    def on_set_parameters(
-        self, client: Client, parameters: list[Parameter], request_id: str | None = None
-    ) -> list[Parameter]:
-        return self._guard('setting parameters', self._gateway.set_parameters, parameters) or []
-
-    def on_parameters_subscribe(self, param_names: list[str]) -> None:
-        self._guard('following parameters', self._gateway.parameters.subscribe, param_names)
-
-    def on_parameters_unsubscribe(self, param_names: list[str]) -> None:
-        self._gateway.parameters.unsubscribe(param_names)
-
-    def on_connection_graph_subscribe(self) -> None:
-        """The SDK sends the last graph published to a new subscriber by itself."""
-
-    def on_connection_graph_unsubscribe(self) -> None:
-        """Nothing to release: the graph is published on every change anyway."""
-
-
 def serve(
     *,
     port: int = 8765,
@@ -482,7 +402,7 @@ def serve(
         client_buffer=client_buffer,
     )
     if bag is not None:
-        from zros.gateway.foxglove.bag_server import BagGateway
+        from zros.gateway.foxglove.bag_server import BagGateway  # noqa: PLC0415 (loaded only to play a bag)
 
         return BagGateway(bag, options, topics=topics, exclude=exclude, asset_paths=asset_paths)
     own = node is None

@@ -24,12 +24,12 @@ import itertools
 import json
 import logging
 import threading
-import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from zros.errors import ZrosError
+from zros.gateway.common.drop_notice import DropNotices
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.send_queue import SendQueue
 from zros.gateway.rosbridge.frames import Frames, encode, frames_size
@@ -54,8 +54,6 @@ MAX_FRAGMENTS = 100_000
 MIN_FRAGMENT_SIZE = 1024
 #: how deep a client's message may nest (arrays and objects)
 MAX_DEPTH = 100
-#: seconds between two notices of a client's dropped messages (status and log line)
-DROP_NOTICE = 1.0
 #: the ops a read-only gateway refuses (``call_service`` but for rosapi's reads)
 ACTING_OPS = frozenset(
     ('advertise', 'publish', 'call_service', 'advertise_service', 'send_action_goal',
@@ -163,9 +161,7 @@ class ClientSession:
         self.level = LEVELS.index('error')
         self.outbox: SendQueue[Frames] = SendQueue(queue_items, queue_bytes)
         self._notice: Frames | None = None  #: the status of the latest drops, to send first
-        self._drops_lock = threading.Lock()
-        self._drops_told = 0  #: drops reported so far
-        self._next_notice = 0.0  #: when drops may be reported again (monotonic)
+        self._drops = DropNotices()
         self._partial: collections.OrderedDict[JsonValue, _Partial] = collections.OrderedDict()
         self._fragments = 0  #: fragments held in ``_partial``
         self._partial_size = 0  #: their characters
@@ -194,7 +190,7 @@ class ClientSession:
 
     def run(self) -> None:
         """Serve the client until it leaves (on the connection's thread)."""
-        from websockets.exceptions import ConnectionClosed  # noqa: PLC0415 (optional: zros[rosbridge])
+        from websockets.exceptions import ConnectionClosed  # noqa: PLC0415 (optional: the rosbridge extra)
 
         self._writer.start()
         try:
@@ -328,7 +324,7 @@ class ClientSession:
         """Queue encoded frames (dropped with the oldest when the client falls behind)."""
         outbox = self.outbox
         outbox.put(frames, frames_size(frames))
-        if outbox.dropped != self._drops_told:
+        if outbox.dropped != self._drops.told:
             self._tell_drops()
 
     def status(self, level: str, text: str, op_id: JsonValue = None) -> None:
@@ -342,14 +338,11 @@ class ClientSession:
             self.send(status)
 
     def _tell_drops(self) -> None:
-        """Log the drops and tell the client, at most once per ``DROP_NOTICE`` seconds."""
-        now = time.monotonic()
-        with self._drops_lock:
-            if now < self._next_notice:
-                return
-            self._next_notice = now + DROP_NOTICE
-            dropped = self.outbox.dropped
-            new, self._drops_told = dropped - self._drops_told, dropped
+        """Log the drops and tell the client (:class:`DropNotices`: at most once a second)."""
+        dropped = self.outbox.dropped
+        new = self._drops.due(dropped)
+        if new is None:
+            return
         text = (
             f'this client reads too slowly: its oldest messages are being dropped '
             f'({new} more, {dropped} so far; room for {self.outbox.max_items} messages, '
@@ -365,7 +358,7 @@ class ClientSession:
         return self.outbox.dropped
 
     def _write(self) -> None:
-        from websockets.exceptions import ConnectionClosed  # noqa: PLC0415 (optional: zros[rosbridge])
+        from websockets.exceptions import ConnectionClosed  # noqa: PLC0415 (optional: the rosbridge extra)
 
         send = self.connection.send
         while (frames := self.outbox.get()) is not None:

@@ -142,7 +142,7 @@ class Values:
                 blobs.append(text)
                 return blob_mark(len(blobs) - 1)
         if cbor and base in TYPED_ARRAY_TAGS:
-            import cbor2  # noqa: PLC0415 (optional: zros[rosbridge])
+            import cbor2  # noqa: PLC0415 (optional: the rosbridge extra)
 
             tag, dtype = TYPED_ARRAY_TAGS[base]
             return cbor2.CBORTag(tag, array.astype(dtype, copy=False).tobytes())

@@ -99,7 +99,7 @@ def to_text_with(message: JsonObject, blobs: list[str]) -> str:
 
 def to_cbor(message: JsonObject) -> bytes:
     """A protocol message as CBOR."""
-    import cbor2  # noqa: PLC0415 (optional: zros[rosbridge])
+    import cbor2  # noqa: PLC0415 (optional: the rosbridge extra)
 
     return cbor2.dumps(message)
 

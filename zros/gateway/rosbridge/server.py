@@ -71,7 +71,7 @@ CLOSE_TIMEOUT = 2.0
 def import_websockets() -> ModuleType:
     """The websockets server module; GatewayError says how to install it."""
     try:
-        from websockets.sync import server  # noqa: PLC0415 (optional: zros[rosbridge])
+        from websockets.sync import server  # noqa: PLC0415 (optional: the rosbridge extra)
     except ImportError:
         raise GatewayError(
             "the websockets library is not installed: pip install 'zros[rosbridge]'"
@@ -245,7 +245,7 @@ class RosbridgeGateway(Closing):
         if self._closed.is_set():
             return
         self._closed.set()
-        from websockets.protocol import State  # noqa: PLC0415 (optional: zros[rosbridge])
+        from websockets.protocol import State  # noqa: PLC0415 (optional: the rosbridge extra)
 
         for client in self.clients:
             if client.connection.state is State.OPEN:
