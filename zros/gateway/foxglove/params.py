@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     import foxglove
     import zenoh
 
-    from zros.cdr import JsonValue, Message
+    from zros.cdr import Message
     from zros.node import Node
     from zros.params import ParamValue
     from zros.params.client import ParameterClient
@@ -69,17 +69,30 @@ def from_foxglove(parameter: foxglove.Parameter) -> tuple[ParamValue, ParameterT
     """The zros value and type of a foxglove.Parameter (None deletes)."""
     import foxglove
 
-    value: JsonValue = parameter.get_value()  # a client's: converted as its type hint says
+    value = parameter.get_value()  # a client's: converted as its type hint says
     hint = parameter.type
     if value is None:
         return None, ParameterType.NOT_SET
     if hint == foxglove.ParameterType.Float64:
-        return float(value), ParameterType.DOUBLE
+        return _number(value), ParameterType.DOUBLE
     if hint == foxglove.ParameterType.Float64Array:
-        return [float(item) for item in value], ParameterType.DOUBLE_ARRAY
+        if not isinstance(value, list):
+            raise TypeError(f'{value!r} is not an array')
+        return [_number(item) for item in value], ParameterType.DOUBLE_ARRAY
     if hint == foxglove.ParameterType.ByteArray:
-        return bytes(value), ParameterType.BYTE_ARRAY
+        if isinstance(value, list):
+            return bytes(int(_number(item)) for item in value), ParameterType.BYTE_ARRAY
+        if not isinstance(value, bytes):
+            raise TypeError(f'{value!r} is not bytes')
+        return value, ParameterType.BYTE_ARRAY
     return value, None
+
+
+def _number(value: object) -> float:
+    """A number of a client's parameter (TypeError when it is none)."""
+    if not isinstance(value, (int, float, str)):
+        raise TypeError(f'{value!r} is not a number')
+    return float(value)
 
 
 class Parameters:
