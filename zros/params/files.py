@@ -26,7 +26,7 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.params.values import ParameterError, ParameterType, ParamValue, infer_type
+from zros.params.values import ParameterError, ParameterType, ParamValue, infer_type, normalize
 
 if TYPE_CHECKING:
     from zros.cdr import Untyped
@@ -104,16 +104,16 @@ def _value(node: Untyped, origin: str, key: Untyped = None) -> ParamValue:
             raise ParameterError(f'{_where(origin, key or node)}: no value')
         return scalar(node.value, quoted)
     if isinstance(node, SequenceNode):
-        items = []
+        items: list[ParamValue] = []
         for item in node.value:
             if not isinstance(item, ScalarNode):
                 raise ParameterError(f'{_where(origin, item)}: a parameter list holds scalars only')
             items.append(_value(item, origin))
-        try:
-            infer_type(items, ParameterType.STRING_ARRAY)  # the check; empty lists stay untyped
+        try:  # the check; empty lists stay untyped
+            kind = infer_type(items, ParameterType.STRING_ARRAY)
         except ParameterError as exc:
             raise ParameterError(f'{_where(origin, node)}: {exc}') from None
-        return items
+        return normalize(items, kind) if items else []
     if isinstance(node, MappingNode):
         raise ParameterError(f'{_where(origin, node)}: a mapping is not a value')
     raise ParameterError(f'{_where(origin, node)}: unreadable value')
@@ -239,8 +239,12 @@ def _format(value: ParamValue) -> str:
     return _format_scalar(value)
 
 
-def _nest(values: dict[str, ParamValue]) -> dict[str, ParamValue]:
-    tree: dict[str, ParamValue] = {}
+#: parameters nested by the dots of their names
+_Tree = dict[str, 'ParamValue | _Tree']
+
+
+def _nest(values: dict[str, ParamValue]) -> _Tree:
+    tree: _Tree = {}
     for name, value in sorted(values.items()):
         parts = name.split('.')
         level = tree
@@ -259,7 +263,7 @@ def dump(node_fqn: str, values: dict[str, ParamValue]) -> str:
     """The parameters of one node as a ROS 2 parameter file (``ros2 param dump`` layout)."""
     lines = [f'{node_fqn}:', f'  {PARAMETERS_KEY}:']
 
-    def emit(tree: dict[str, ParamValue], indent: int) -> None:
+    def emit(tree: _Tree, indent: int) -> None:
         for key, value in tree.items():
             if isinstance(value, dict):
                 lines.append(f'{" " * indent}{key}:')

@@ -21,13 +21,20 @@ from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.filters import NameFilter
 from zros.params.descriptor import Parameter
-from zros.params.values import ParameterType, from_message
+from zros.params.values import (
+    ParameterError,
+    ParameterType,
+    describe_value,
+    from_message,
+    is_param_value,
+)
 from zros.pubsub.taps import RawTap
 from zros.qos import PARAMETER_EVENTS
 
 if TYPE_CHECKING:
     import foxglove
     import zenoh
+    from foxglove import AnyInnerParameterValue
 
     from zros.cdr import Message
     from zros.node import Node
@@ -58,10 +65,13 @@ def to_foxglove(
     if value is None:
         return foxglove.Parameter(full)
     if kind is ParameterType.DOUBLE or isinstance(value, float):
-        return foxglove.Parameter(full, value=float(value), type=foxglove.ParameterType.Float64)
-    if kind is ParameterType.DOUBLE_ARRAY:
-        floats: list[ParamValue] = [float(item) for item in value]
+        return foxglove.Parameter(full, value=_number(value), type=foxglove.ParameterType.Float64)
+    if kind is ParameterType.DOUBLE_ARRAY and isinstance(value, list):
+        floats: list[AnyInnerParameterValue] = [_number(item) for item in value]
         return foxglove.Parameter(full, value=floats, type=foxglove.ParameterType.Float64Array)
+    if isinstance(value, list):  # foxglove infers the type
+        items: list[AnyInnerParameterValue] = list(value)
+        return foxglove.Parameter(full, value=items)
     return foxglove.Parameter(full, value=value)
 
 
@@ -85,6 +95,8 @@ def from_foxglove(parameter: foxglove.Parameter) -> tuple[ParamValue, ParameterT
         if not isinstance(value, bytes):
             raise TypeError(f'{value!r} is not bytes')
         return value, ParameterType.BYTE_ARRAY
+    if not is_param_value(value):
+        raise ParameterError(f'{describe_value(value)} is no parameter value')
     return value, None
 
 
@@ -169,7 +181,11 @@ class Parameters:
             if not name or not self._allowed(parameter.name):
                 self._status(f'the parameter {parameter.name} may not be set through this server')
                 continue
-            value, kind = from_foxglove(parameter)
+            try:
+                value, kind = from_foxglove(parameter)
+            except ParameterError as exc:
+                self._status(f'cannot set {parameter.name}: {exc}')
+                continue
             by_node.setdefault(node_name, []).append(Parameter(name, value, kind))
         futures = {
             n: self._pool.submit(self._client(n).set_parameters, items)
