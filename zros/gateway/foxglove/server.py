@@ -20,7 +20,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, ParamSpec, TypeVar
 
 from zros.cdr import CdrError
 from zros.cdr.message import decode
@@ -57,6 +57,7 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros.gateway')
 _T = TypeVar('_T')
+_P = ParamSpec('_P')
 
 #: seconds the gateway gives the graph to show ``/clock`` when deciding on sim time
 SIM_TIME_DISCOVERY = 1.0
@@ -390,9 +391,11 @@ class _Listener:
     def __init__(self, gateway: FoxgloveGateway) -> None:
         self._gateway = gateway
 
-    def _guard(self, what: str, call: Callable[..., _T], *args: object) -> _T | None:
+    def _guard(
+        self, what: str, call: Callable[_P, _T], *args: _P.args, **kwargs: _P.kwargs
+    ) -> _T | None:
         try:
-            return call(*args)
+            return call(*args, **kwargs)
         except Exception as exc:  # a client's request: logged and told, never raised into the SDK
             _log.debug('%s failed', what, exc_info=True)
             self._gateway.status(f'{what} failed: {exc}', 'error')
