@@ -29,7 +29,8 @@ from typing import TYPE_CHECKING
 from zros.params.values import ParameterError, ParameterType, ParamValue, infer_type, normalize
 
 if TYPE_CHECKING:
-    from zros.cdr import Untyped
+    from ruamel.yaml import YAML
+    from ruamel.yaml.nodes import MappingNode, Node
 
 PARAMETERS_KEY = 'ros__parameters'
 
@@ -79,18 +80,18 @@ def scalar(text: str, quoted: bool) -> ParamValue:
     return text
 
 
-def _yaml() -> Untyped:
+def _yaml() -> YAML:
     from ruamel.yaml import YAML
 
     return YAML(typ='safe', pure=True)
 
 
-def _where(origin: str, node: Untyped) -> str:
+def _where(origin: str, node: Node) -> str:
     mark = getattr(node, 'start_mark', None)
     return f'{origin}:{mark.line + 1}' if mark is not None else origin
 
 
-def _value(node: Untyped, origin: str, key: Untyped = None) -> ParamValue:
+def _value(node: Node, origin: str, key: Node | None = None) -> ParamValue:
     from ruamel.yaml.nodes import MappingNode, ScalarNode, SequenceNode
 
     if isinstance(node, ScalarNode):
@@ -119,7 +120,7 @@ def _value(node: Untyped, origin: str, key: Untyped = None) -> ParamValue:
     raise ParameterError(f'{_where(origin, node)}: unreadable value')
 
 
-def _flatten(node: Untyped, prefix: str, origin: str, into: dict[str, ParamValue]) -> None:
+def _flatten(node: MappingNode, prefix: str, origin: str, into: dict[str, ParamValue]) -> None:
     from ruamel.yaml.nodes import MappingNode
 
     for key_node, value_node in node.value:
@@ -130,7 +131,7 @@ def _flatten(node: Untyped, prefix: str, origin: str, into: dict[str, ParamValue
             into[name] = _value(value_node, origin, key_node)
 
 
-def _walk(node: Untyped, path: str, origin: str, found: Entries) -> None:
+def _walk(node: Node, path: str, origin: str, found: Entries) -> None:
     from ruamel.yaml.nodes import MappingNode
 
     if not isinstance(node, MappingNode):
