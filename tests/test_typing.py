@@ -32,6 +32,23 @@ def decode_twist(data: bytes) -> float:
     return speed
 
 qos: zros.QoS = zros.QoS(5, zros.Reliability.BEST_EFFORT)
+
+def serve(node: zros.Node) -> None:
+    def add(request: cdr.Message) -> cdr.Message:
+        return zros.Message('example_interfaces/srv/AddTwoInts_Response', sum=request.a + request.b)
+    def add_rclpy(request: cdr.Message, response: cdr.Message) -> cdr.Message:
+        response.sum = request.a + request.b
+        return response
+    async def add_async(request: cdr.Message) -> cdr.Message:
+        return add(request)
+    node.create_service('example_interfaces/srv/AddTwoInts', 'add', add)
+    node.create_service('example_interfaces/srv/AddTwoInts', 'add_rclpy', add_rclpy)
+    node.create_service('example_interfaces/srv/AddTwoInts', 'add_async', add_async)
+    zros.Service('add_lambda', 'example_interfaces/srv/AddTwoInts', lambda request: request, node=node)
+
+def gain(node: zros.Node) -> float:
+    value = node.get_parameter('gain')
+    return float(value) if isinstance(value, (int, float)) else 1.0
 """
 
 

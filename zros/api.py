@@ -12,6 +12,7 @@ while zros.ok():               # ros.OK (Ctrl-C makes it false)
 
 from __future__ import annotations
 
+import enum
 import signal
 import threading
 import time
@@ -206,7 +207,12 @@ def time_now() -> Time:
 
 # --- parameters (rosR: ros.ParamSet/Get/Type/Delete) ----------------------------------------
 
-_MISSING = object()
+
+class _Missing(enum.Enum):
+    MISSING = enum.auto()
+
+
+_MISSING = _Missing.MISSING
 _clients: dict[tuple[int, str], ParameterClient] = {}
 
 
@@ -249,7 +255,11 @@ def param_set(
 
 
 def param_get(
-    name: str, default: ParamValue = _MISSING, *, node: str | None = None, timeout: float = 5.0
+    name: str,
+    default: ParamValue | _Missing = _MISSING,
+    *,
+    node: str | None = None,
+    timeout: float = 5.0,
 ) -> ParamValue:
     """A parameter's value (rosR: ``ros.ParamGet``); ``default`` when it is not set, else
     ParameterNotDeclaredError."""
@@ -263,7 +273,7 @@ def param_get(
         value = own.parameters.get(parameter) if found else None
     if found:
         return value
-    if default is not _MISSING:
+    if not isinstance(default, _Missing):
         return default
     where = target or default_node().fully_qualified_name
     raise ParameterNotDeclaredError(f"node {where} has no parameter '{parameter}'")

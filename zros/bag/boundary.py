@@ -1,8 +1,9 @@
-"""Names for the values of bag files that have no static type."""
+"""Names for the values of bag files' YAML documents."""
 
 from __future__ import annotations
 
-from typing import Any
+from zros.cdr.model import JsonValue
 
-#: a value of a YAML document (``metadata.yaml``, QoS profiles): checked where it is read
-YamlValue = Any
+#: a value of a YAML document (``metadata.yaml``, QoS profiles): JSON's shapes, checked
+#: (isinstance) where it is read
+YamlValue = JsonValue

@@ -14,6 +14,7 @@ import hashlib
 import json
 import threading
 import weakref
+from typing import TypedDict
 
 from zros.cdr.errors import UnknownTypeError
 from zros.cdr.model import (
@@ -22,7 +23,6 @@ from zros.cdr.model import (
     Definition,
     Field,
     FieldType,
-    JsonValue,
     Kind,
     MessageDef,
     ServiceDef,
@@ -74,13 +74,46 @@ int64 sequence_number
 
 _PLACEHOLDER = Field(PLACEHOLDER_FIELD, FieldType('uint8'))
 
-Description = dict[str, JsonValue]
+
+class FieldTypeDescription(TypedDict):
+    """A ``type_description_interfaces/msg/FieldType`` as a dict."""
+
+    type_id: int
+    capacity: int
+    string_capacity: int
+    nested_type_name: str
+
+
+class FieldDescription(TypedDict, total=False):
+    """A ``type_description_interfaces/msg/Field`` as a dict (no ``default_value`` when
+    hashed)."""
+
+    name: str
+    type: FieldTypeDescription
+    default_value: str
+
+
+class IndividualTypeDescription(TypedDict):
+    """A ``type_description_interfaces/msg/IndividualTypeDescription`` as a dict."""
+
+    type_name: str
+    fields: list[FieldDescription]
+
+
+class TypeDescription(TypedDict):
+    """A ``type_description_interfaces/msg/TypeDescription`` as a dict."""
+
+    type_description: IndividualTypeDescription
+    referenced_type_descriptions: list[IndividualTypeDescription]
+
+
+Description = IndividualTypeDescription
 
 
 class _Entry:
     """A cached full description, with the definitions it was built from."""
 
-    def __init__(self, description: Description, sources: dict[str, Definition]) -> None:
+    def __init__(self, description: TypeDescription, sources: dict[str, Definition]) -> None:
         self.description = description
         self.sources = sources
         self.hash: str | None = None
@@ -143,7 +176,7 @@ def _default_text(value: DefaultValue | None) -> str:
     return str(value)
 
 
-def _field_type(ftype: FieldType) -> dict[str, JsonValue]:
+def _field_type(ftype: FieldType) -> FieldTypeDescription:
     if ftype.is_nested:
         type_id = _NESTED_ID
     elif ftype.string_bound:
@@ -158,9 +191,7 @@ def _field_type(ftype: FieldType) -> dict[str, JsonValue]:
     }
 
 
-def _field(
-    name: str, ftype: FieldType, default: DefaultValue | None = None
-) -> dict[str, JsonValue]:
+def _field(name: str, ftype: FieldType, default: DefaultValue | None = None) -> FieldDescription:
     return {'name': name, 'type': _field_type(ftype), 'default_value': _default_text(default)}
 
 
@@ -231,7 +262,7 @@ def _build(registry: TypeRegistry, name: str) -> _Entry:
             if nested and nested not in descriptions:
                 pending.append(nested)
     referenced = sorted(n for n in descriptions if n != name)
-    full = {
+    full: TypeDescription = {
         'type_description': descriptions[name],
         'referenced_type_descriptions': [descriptions[n] for n in referenced],
     }
@@ -269,12 +300,12 @@ def _entry(registry: TypeRegistry, name: str) -> _Entry:
 # --- public API -----------------------------------------------------------------------------
 
 
-def type_description(registry: TypeRegistry, name: str) -> dict[str, JsonValue]:
+def type_description(registry: TypeRegistry, name: str) -> TypeDescription:
     """The full TypeDescription of a type as rosidl builds it, default values included."""
     return copy.deepcopy(_entry(registry, name).description)
 
 
-def hash_description(description: dict[str, JsonValue]) -> str:
+def hash_description(description: TypeDescription) -> str:
     """The RIHS01 hash of a full TypeDescription (its default values are ignored)."""
     stripped = {
         'type_description': _without_defaults(description['type_description']),

@@ -20,8 +20,8 @@ FieldValue = Any
 Untyped = Any
 #: The bytes a decoder reads: CDR from the network, a file or the user.
 Buffer = bytes | bytearray | memoryview
-#: A JSON value (boundary): nested dicts and lists whose shape the reader checks where it reads.
-JsonValue = Any
+#: A JSON value: nested dicts and lists whose shape the reader checks (isinstance) where it reads.
+JsonValue = None | bool | int | float | str | list['JsonValue'] | dict[str, 'JsonValue']
 
 #: Wire size (and CDR alignment) of every primitive type.
 PRIMITIVE_SIZES: dict[str, int] = {

@@ -15,6 +15,7 @@ import threading
 from collections.abc import Iterable, Mapping, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from zros.cdr.builtin import SHIPPED_PACKAGES, builtin_definition, builtin_names
 from zros.cdr.classes import Decoder, build_message_class, compiled_decoder
@@ -27,7 +28,6 @@ from zros.cdr.model import (
     Definition,
     MessageDef,
     ServiceDef,
-    Untyped,
     action_parts,
     service_messages,
     split_type_name,
@@ -35,6 +35,9 @@ from zros.cdr.model import (
 )
 from zros.cdr.parser import parse_definition, parse_message_bundle
 from zros.cdr.typestore import from_rosbags
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
 
 #: Distros zros knows, and whether their services define an ``_Event`` message.
 DISTROS: dict[str, bool] = {'humble': False, 'iron': True, 'jazzy': True, 'kilted': True}
@@ -99,7 +102,7 @@ class TypeRegistry:
         self._types: dict[str, ServiceType | ActionType] = {}
         #: compiled decoders by every spelling asked for (``zros.cdr.decode`` reads them)
         self._decoders: dict[str, Decoder] = {}
-        self._store: Untyped = None
+        self._store: Typestore | None = None
         self._lock = threading.RLock()
         #: layout facts of this registry's message types
         self.layout = LayoutCache(self.message_definition)
@@ -112,7 +115,7 @@ class TypeRegistry:
     # --- sources ---------------------------------------------------------------------------
 
     @property
-    def typestore(self) -> Untyped:
+    def typestore(self) -> Typestore:
         """The rosbags typestore of this distro (loaded on first use)."""
         if self._store is None:
             from rosbags.typesys import Stores, get_typestore  # noqa: PLC0415 (lazy: rosbags, import time)

@@ -6,7 +6,12 @@ conversion restores the few defaults that are not zero and hides the placeholder
 
 from __future__ import annotations
 
-from zros.cdr.model import Constant, Field, FieldType, Kind, MessageDef, Untyped
+from typing import TYPE_CHECKING
+
+from zros.cdr.model import Constant, Field, FieldType, Kind, MessageDef
+
+if TYPE_CHECKING:
+    from rosbags.interfaces.typing import BaseDesc, Constdefs, Fielddefs, NameDesc
 
 #: rosbags and rclpy keep this dummy member in empty messages; zros hides it (the byte is still
 #: on the wire).
@@ -20,11 +25,11 @@ _TYPESTORE_DEFAULTS: dict[tuple[str, str], tuple[float | int, str | None]] = {
 }
 
 
-def from_rosbags(name: str, fielddefs: Untyped) -> MessageDef:
+def from_rosbags(name: str, fielddefs: tuple[Constdefs, Fielddefs]) -> MessageDef:
     """Convert one rosbags typestore entry to a MessageDef."""
     from rosbags.interfaces import Nodetype  # rosbags loads on first use: start-up stays fast  # noqa: PLC0415 (lazy: rosbags, import time)
 
-    def base_of(desc: Untyped) -> tuple[str, int]:
+    def base_of(desc: BaseDesc | NameDesc) -> tuple[str, int]:
         if desc[0] == Nodetype.NAME:
             return desc[1], 0
         return desc[1][0], desc[1][1]

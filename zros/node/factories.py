@@ -18,6 +18,7 @@ from zros.runtime.clock import Clock
 from zros.runtime.context import NodeContext
 from zros.runtime.timers import Rate, Timer
 from zros.services import Client, Service
+from zros.services.server import ServiceHandler
 
 
 class EntityFactories:
@@ -48,7 +49,7 @@ class EntityFactories:
         self,
         srv_type: str | ServiceType,
         name: str,
-        handler: Callable[..., object] | None = None,
+        handler: ServiceHandler | None = None,
     ) -> Service:
         """A service server; ``handler(request)`` returns the response (see ``zros.Service``)."""
         return Service(name, srv_type, handler, node=self)

@@ -26,10 +26,11 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.params.values import ParameterError, ParameterType, ParamValue, infer_type
+from zros.params.values import ParameterError, ParameterType, ParamValue, infer_type, normalize
 
 if TYPE_CHECKING:
-    from zros.cdr import Untyped
+    from ruamel.yaml import YAML
+    from ruamel.yaml.nodes import MappingNode, Node
 
 PARAMETERS_KEY = 'ros__parameters'
 
@@ -79,18 +80,18 @@ def scalar(text: str, quoted: bool) -> ParamValue:
     return text
 
 
-def _yaml() -> Untyped:
+def _yaml() -> YAML:
     from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     return YAML(typ='safe', pure=True)
 
 
-def _where(origin: str, node: Untyped) -> str:
+def _where(origin: str, node: Node) -> str:
     mark = getattr(node, 'start_mark', None)
     return f'{origin}:{mark.line + 1}' if mark is not None else origin
 
 
-def _value(node: Untyped, origin: str, key: Untyped = None) -> ParamValue:
+def _value(node: Node, origin: str, key: Node | None = None) -> ParamValue:
     from ruamel.yaml.nodes import MappingNode, ScalarNode, SequenceNode  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     if isinstance(node, ScalarNode):
@@ -104,22 +105,22 @@ def _value(node: Untyped, origin: str, key: Untyped = None) -> ParamValue:
             raise ParameterError(f'{_where(origin, key or node)}: no value')
         return scalar(node.value, quoted)
     if isinstance(node, SequenceNode):
-        items = []
+        items: list[ParamValue] = []
         for item in node.value:
             if not isinstance(item, ScalarNode):
                 raise ParameterError(f'{_where(origin, item)}: a parameter list holds scalars only')
             items.append(_value(item, origin))
-        try:
-            infer_type(items, ParameterType.STRING_ARRAY)  # the check; empty lists stay untyped
+        try:  # the check; empty lists stay untyped
+            kind = infer_type(items, ParameterType.STRING_ARRAY)
         except ParameterError as exc:
             raise ParameterError(f'{_where(origin, node)}: {exc}') from None
-        return items
+        return normalize(items, kind) if items else []
     if isinstance(node, MappingNode):
         raise ParameterError(f'{_where(origin, node)}: a mapping is not a value')
     raise ParameterError(f'{_where(origin, node)}: unreadable value')
 
 
-def _flatten(node: Untyped, prefix: str, origin: str, into: dict[str, ParamValue]) -> None:
+def _flatten(node: MappingNode, prefix: str, origin: str, into: dict[str, ParamValue]) -> None:
     from ruamel.yaml.nodes import MappingNode  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     for key_node, value_node in node.value:
@@ -130,7 +131,7 @@ def _flatten(node: Untyped, prefix: str, origin: str, into: dict[str, ParamValue
             into[name] = _value(value_node, origin, key_node)
 
 
-def _walk(node: Untyped, path: str, origin: str, found: Entries) -> None:
+def _walk(node: Node, path: str, origin: str, found: Entries) -> None:
     from ruamel.yaml.nodes import MappingNode  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
 
     if not isinstance(node, MappingNode):
@@ -239,8 +240,12 @@ def _format(value: ParamValue) -> str:
     return _format_scalar(value)
 
 
-def _nest(values: dict[str, ParamValue]) -> dict[str, ParamValue]:
-    tree: dict[str, ParamValue] = {}
+#: parameters nested by the dots of their names
+_Tree = dict[str, 'ParamValue | _Tree']
+
+
+def _nest(values: dict[str, ParamValue]) -> _Tree:
+    tree: _Tree = {}
     for name, value in sorted(values.items()):
         parts = name.split('.')
         level = tree
@@ -259,7 +264,7 @@ def dump(node_fqn: str, values: dict[str, ParamValue]) -> str:
     """The parameters of one node as a ROS 2 parameter file (``ros2 param dump`` layout)."""
     lines = [f'{node_fqn}:', f'  {PARAMETERS_KEY}:']
 
-    def emit(tree: dict[str, ParamValue], indent: int) -> None:
+    def emit(tree: _Tree, indent: int) -> None:
         for key, value in tree.items():
             if isinstance(value, dict):
                 lines.append(f'{" " * indent}{key}:')

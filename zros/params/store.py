@@ -265,14 +265,21 @@ class ParameterStore:
             ParameterType.INTEGER_ARRAY,
         ):
             items = value if isinstance(value, list) else [value]
-            if not all(in_integer_range(item, descriptor.integer_range) for item in items):
+            if not all(
+                isinstance(item, int) and in_integer_range(item, descriptor.integer_range)
+                for item in items
+            ):
                 return f"Parameter {{{name}}} doesn't comply with integer range."
         if descriptor.floating_point_range is not None and kind in (
             ParameterType.DOUBLE,
             ParameterType.DOUBLE_ARRAY,
         ):
             items = value if isinstance(value, list) else [value]
-            if not all(in_float_range(item, descriptor.floating_point_range) for item in items):
+            if not all(
+                isinstance(item, (int, float))
+                and in_float_range(item, descriptor.floating_point_range)
+                for item in items
+            ):
                 return f"Parameter {{{name}}} doesn't comply with floating point range."
         return None
 

@@ -4,16 +4,19 @@ from __future__ import annotations
 
 import enum
 import math
-from typing import TYPE_CHECKING, Any
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, SupportsFloat, SupportsInt, TypeGuard
 
 from zros.errors import ZrosError
 
 if TYPE_CHECKING:
     from zros.cdr import Message
 
-#: A parameter's value (boundary): bool, int, float, str, bytes or a list of one of them, as the
-#: user or a remote node chose at run time; ``ParameterType`` says which.
-ParamValue = Any
+#: A parameter's value in its canonical form: bool, int, float, str, bytes or a list of one of
+#: them, None when not set; ``ParameterType`` says which.
+ParamValue = (
+    bool | int | float | str | bytes | list[bool] | list[int] | list[float] | list[str] | None
+)
 
 
 class ParameterError(ZrosError):
@@ -131,18 +134,37 @@ def normalize(value: object, kind: ParameterType) -> ParamValue:
     if kind is ParameterType.BOOL:
         return bool(value)
     if kind is ParameterType.INTEGER:
-        number = int(value)  # type: ignore[call-overload]
-        if not -(2**63) <= number < 2**63:
-            raise ParameterError(f'{number} does not fit a 64-bit integer parameter')
-        return number
+        return _integer(value)
     if kind is ParameterType.DOUBLE:
-        return float(value)  # type: ignore[arg-type]
+        return _double(value)
     if kind is ParameterType.STRING:
         return str(value)
+    if not isinstance(value, Iterable):
+        raise ParameterError(f'{describe_value(value)} is not a {kind.ros_name}')
     if kind is ParameterType.BYTE_ARRAY:
-        return bytes(value)  # type: ignore[call-overload]
-    element = _ELEMENT[kind]
-    return [normalize(item, element) for item in value]  # type: ignore[attr-defined]
+        return bytes(value)
+    if kind is ParameterType.BOOL_ARRAY:
+        return [bool(item) for item in value]
+    if kind is ParameterType.INTEGER_ARRAY:
+        return [_integer(item) for item in value]
+    if kind is ParameterType.DOUBLE_ARRAY:
+        return [_double(item) for item in value]
+    return [str(item) for item in value]
+
+
+def _integer(value: object) -> int:
+    if not isinstance(value, (str, SupportsInt)):
+        raise ParameterError(f'{describe_value(value)} is not an integer')
+    number = int(value)
+    if not -(2**63) <= number < 2**63:
+        raise ParameterError(f'{number} does not fit a 64-bit integer parameter')
+    return number
+
+
+def _double(value: object) -> float:
+    if not isinstance(value, (str, SupportsFloat)):
+        raise ParameterError(f'{describe_value(value)} is not a double')
+    return float(value)
 
 
 def to_message(value: ParamValue, kind: ParameterType, message_class: type[Message]) -> Message:
@@ -169,7 +191,15 @@ def from_message(message: Message) -> tuple[ParamValue, ParameterType]:
     return raw, kind
 
 
-def same(a: ParamValue, b: ParamValue) -> bool:
+def is_param_value(value: object) -> TypeGuard[ParamValue]:
+    """Whether ``value`` has a parameter value's shape: None, a scalar, bytes or a list of
+    scalars (whether a list's items share one type, :func:`infer_type` checks)."""
+    if value is None or isinstance(value, (bool, int, float, str, bytes)):
+        return True
+    return isinstance(value, list) and all(isinstance(x, (bool, int, float, str)) for x in value)
+
+
+def same(a: object, b: object) -> bool:
     """Whether two parameter values are equal (NaN equals NaN, as a change detector needs)."""
     if isinstance(a, float) and isinstance(b, float):
         return a == b or (math.isnan(a) and math.isnan(b))

@@ -12,7 +12,7 @@ import concurrent.futures
 import contextlib
 import weakref
 from collections.abc import Generator
-from typing import Any, TypeVar
+from typing import Protocol, TypeVar
 
 from zros.runtime.signal import add_interrupt_listener, interrupted
 
@@ -42,15 +42,20 @@ class ServiceFuture(concurrent.futures.Future[T]):
             else:
                 self.set_result(outcome)
 
-    def __await__(self) -> Generator[Any, None, T]:
+    def __await__(self) -> Generator[object, None, T]:
         return asyncio.wrap_future(self).__await__()
 
 
-_unfinished: weakref.WeakSet[ServiceFuture[Any]] = weakref.WeakSet()
+class _Settles(Protocol):
+    def settle(self, outcome: BaseException) -> None: ...
 
 
-def _forget(future: concurrent.futures.Future[Any]) -> None:
-    _unfinished.discard(future)  # type: ignore[arg-type]  # only ServiceFutures have it
+_unfinished: weakref.WeakSet[_Settles] = weakref.WeakSet()
+
+
+def _forget(future: concurrent.futures.Future[T]) -> None:
+    if isinstance(future, ServiceFuture):
+        _unfinished.discard(future)
 
 
 def _interrupt_unfinished() -> None:

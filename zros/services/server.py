@@ -14,6 +14,7 @@ import inspect
 import logging
 import time
 from collections.abc import Callable, Coroutine
+from typing import cast
 
 from zenoh import Query
 
@@ -36,8 +37,12 @@ from zros.services.errors import (
 
 _log = logging.getLogger('zros')
 
+#: what answers a request: ``handler(request)`` or rclpy's ``handler(request, response)``,
+#: returning the response (or a coroutine that does)
+ServiceHandler = Callable[[Message], object] | Callable[[Message, Message], object]
 
-def _takes_response(handler: Callable[..., object]) -> bool:
+
+def _takes_response(handler: ServiceHandler) -> bool:
     """Whether ``handler`` has rclpy's form ``handler(request, response)``."""
     try:
         parameters = inspect.signature(handler).parameters.values()
@@ -75,7 +80,7 @@ class Service(Entity):
         self,
         name: str,
         srv_type: str | ServiceType,
-        handler: Callable[..., object] | None = None,
+        handler: ServiceHandler | None = None,
         *,
         node: NodeLike | None = None,
         announce: bool = True,
@@ -92,11 +97,16 @@ class Service(Entity):
             EntityKind.SERVICE_SERVER, self.name, self.type_name, registry_of(self.Request),
             announce=announce, own=True,
         )  # fmt: skip
-        self._handler = handler
+        self._handler: Callable[[Message], object] | None = None
+        if handler is not None and _takes_response(handler):
+            with_response = cast('Callable[[Message, Message], object]', handler)
+            response = self.Response
+            self._handler = lambda request: with_response(request, response())
+        elif handler is not None:
+            self._handler = cast('Callable[[Message], object]', handler)
         #: internal services whose handler runs no user code answer on Zenoh's thread while
         #: this says so (a node's parameters answer even when nobody spins it)
         self._inline = inline
-        self._with_response = handler is not None and _takes_response(handler)
         self._pending: collections.deque[tuple[Query, float]] = collections.deque()
         self._taken: dict[int, tuple[Message, Query, float]] = {}
         self._work = Work(self._dispatch)
@@ -192,10 +202,7 @@ class Service(Entity):
                 continue
             done += 1
             try:
-                if self._with_response:
-                    result = handler(request, self.Response())
-                else:
-                    result = handler(request)
+                result = handler(request)
             except Exception as exc:  # a user handler: logged, the caller gets an error reply
                 _log.exception('the handler of service %s raised', self.name)
                 self._fail(query, f'the handler of {self.name} raised {exc!r}', arrived, False)

@@ -19,7 +19,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 from zros.cdr.errors import UnknownTypeError
-from zros.cdr.hashing import message_text, type_description, type_hash
+from zros.cdr.hashing import TypeDescription, message_text, type_description, type_hash
 from zros.cdr.registry import registry_of
 from zros.errors import ZrosError
 from zros.runtime.defaults import NodeLike
@@ -28,7 +28,6 @@ from zros.services.errors import ServiceError
 from zros.services.server import Service
 
 if TYPE_CHECKING:
-    from zros.cdr import JsonValue
     from zros.cdr.message import Message
     from zros.cdr.registry import TypeRegistry
 
@@ -99,7 +98,7 @@ class TypeDescriptionService:
         self._service.close()
 
 
-def _sources(registry: TypeRegistry, description: dict[str, JsonValue]) -> Iterable[dict[str, str]]:
+def _sources(registry: TypeRegistry, description: TypeDescription) -> Iterable[dict[str, str]]:
     """TypeSource entries (``msg`` text with comments) for the types parsed from text."""
     individuals = [description['type_description'], *description['referenced_type_descriptions']]
     for individual in individuals:

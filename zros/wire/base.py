@@ -72,6 +72,13 @@ class KeyScheme(Protocol):
         """How the graph identifies a topic, service or action of this scheme."""
 
 
+class Put(Protocol):
+    """A Zenoh publisher's ``put``: a payload and, under rmw_zenoh, its attachment."""
+
+    def __call__(self, payload: bytes | bytearray, *, attachment: bytes | None = ...) -> None:
+        """Publish ``payload``."""
+
+
 class WireEntity:
     """Where one entity lives on the wire (``key``, ``tokens``, ``gid``) and what the wire
     asks of it. This base is the plain form: nothing attached, every sample accepted."""
@@ -84,7 +91,7 @@ class WireEntity:
         self.tokens = tokens  #: liveliness tokens announcing it, declared in order
         self.gid = gid  #: its GID, where the scheme gives entities one
 
-    def sender(self, put: Callable[..., None]) -> Callable[[bytes | bytearray], None]:
+    def sender(self, put: Put) -> Callable[[bytes | bytearray], None]:
         """The function that publishes one payload through ``put`` (a Zenoh publisher's)."""
         return put
 

@@ -42,6 +42,7 @@ from zros.transport.per_session import PerSession
 from zros.wire.base import (
     BatchCallback,
     PublisherOptions,
+    Put,
     QueryOptions,
     SampleCallback,
     SubscriberOptions,
@@ -113,7 +114,7 @@ class SequenceNumbers:
         """The attachment of the next publication or request."""
         return self._pack(next(self._numbers), time.time_ns(), GID_SIZE, self.gid)
 
-    def sender(self, put: Callable[..., None]) -> Callable[[bytes | bytearray], None]:
+    def sender(self, put: Put) -> Callable[[bytes | bytearray], None]:
         """``put(data, attachment=...)`` with the next attachment, everything bound once (a
         publisher's hot path: two calls less per message than going through :meth:`next`)."""
         pack, numbers, now, gid = self._pack, self._numbers, time.time_ns, self.gid
@@ -218,7 +219,7 @@ class RmwZenohEntity(WireEntity):
     def _next_attachment(self) -> bytes:
         return self._sequence().next()
 
-    def sender(self, put: Callable[..., None]) -> Callable[[bytes | bytearray], None]:
+    def sender(self, put: Put) -> Callable[[bytes | bytearray], None]:
         """``put`` with the next attachment (an entity without a GID raises when it sends)."""
         if self.gid is None:
 

@@ -81,11 +81,12 @@ class BridgeInfo:
         config = answers.get('config')
         settings: dict[str, JsonValue] = config if isinstance(config, dict) else {}
         version = answers.get('version')
+        namespace, nodename = settings.get('namespace'), settings.get('nodename')
         return cls(
             zid,
             str(version).lstrip('v') if version is not None else None,
-            settings.get('namespace'),
-            settings.get('nodename'),
+            namespace if isinstance(namespace, str) else None,
+            nodename if isinstance(nodename, str) else None,
         )
 
     @property

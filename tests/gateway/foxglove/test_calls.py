@@ -217,6 +217,13 @@ def test_parameters_of_a_zros_node(gateway: Make, foxglove_client: Make, zros_no
         lambda e: e['ev'] == 'status' and 'refused gain' in e['status']['message'], start=start
     )
     start = client.mark()
+    client.set_parameters([{'name': '/pnode.count', 'value': {'a': 1}}])  # no parameter's value
+    client.wait(
+        lambda e: e['ev'] == 'status' and 'cannot set /pnode.count' in e['status']['message'],
+        start=start,
+    )
+    assert node.get_parameter('count') == 6
+    start = client.mark()
     node.set_parameter('count', 8)  # the node changes it: the client is told
     client.wait(
         lambda e: (

@@ -113,7 +113,7 @@ def parse_qos_profiles(profiles: str | Sequence[Mapping[str, YamlValue]] | None)
             return []
         if not isinstance(loaded, list):
             raise ValueError('offered_qos_profiles is not a list of profiles')
-        items: Sequence[YamlValue] = loaded
+        items: Sequence[object] = loaded
     else:
         items = profiles
     result = []
@@ -167,7 +167,7 @@ def _scalar(value: object) -> str:
     return json.dumps(text)  # a JSON string is a YAML double-quoted scalar
 
 
-def _mapping(value: Mapping[str, YamlValue], indent: int) -> list[str]:
+def _mapping(value: Mapping[str, object], indent: int) -> list[str]:
     """A mapping in block style, yaml-cpp's way (sequences indented under their key)."""
     lines: list[str] = []
     pad = ' ' * indent
@@ -245,17 +245,17 @@ def bag_metadata(
     }
 
 
-def dump(value: Mapping[str, YamlValue]) -> str:
+def dump(value: Mapping[str, object]) -> str:
     """A mapping as yaml-cpp dumps it (block style, two-space indents)."""
     return '\n'.join(_mapping(value, 0)) + '\n'
 
 
-def metadata_yaml(metadata: Mapping[str, YamlValue]) -> str:
+def metadata_yaml(metadata: Mapping[str, object]) -> str:
     """The text of ``metadata.yaml`` for a ``rosbag2_bagfile_information`` mapping."""
     return dump({'rosbag2_bagfile_information': metadata})
 
 
-def write_metadata_yaml(folder: Path, metadata: Mapping[str, YamlValue]) -> Path:
+def write_metadata_yaml(folder: Path, metadata: Mapping[str, object]) -> Path:
     """Write ``folder/metadata.yaml`` through a temporary file renamed over it, so a process
     killed meanwhile leaves the old file or the new one, never half of one."""
     path = folder / 'metadata.yaml'

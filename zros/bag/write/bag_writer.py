@@ -161,7 +161,7 @@ class BagWriter(Closing):
         self._open_next()
         self.write_metadata()
 
-    def _metadata(self, files: Sequence[FileEntry]) -> dict[str, object]:
+    def _metadata(self, files: Sequence[FileEntry]) -> Mapping[str, object]:
         topics = [
             TopicEntry(t.name, t.type_name, qos_profiles_text(t.qos), t.type_hash, t.message_count)
             for t in self.topics

@@ -21,15 +21,22 @@ from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.filters import NameFilter
 from zros.params.descriptor import Parameter
-from zros.params.values import ParameterType, from_message
+from zros.params.values import (
+    ParameterError,
+    ParameterType,
+    describe_value,
+    from_message,
+    is_param_value,
+)
 from zros.pubsub.taps import RawTap
 from zros.qos import PARAMETER_EVENTS
 
 if TYPE_CHECKING:
     import foxglove
     import zenoh
+    from foxglove import AnyInnerParameterValue
 
-    from zros.cdr import JsonValue, Message
+    from zros.cdr import Message
     from zros.node import Node
     from zros.params import ParamValue
     from zros.params.client import ParameterClient
@@ -58,10 +65,13 @@ def to_foxglove(
     if value is None:
         return foxglove.Parameter(full)
     if kind is ParameterType.DOUBLE or isinstance(value, float):
-        return foxglove.Parameter(full, value=float(value), type=foxglove.ParameterType.Float64)
-    if kind is ParameterType.DOUBLE_ARRAY:
-        floats: list[ParamValue] = [float(item) for item in value]
+        return foxglove.Parameter(full, value=_number(value), type=foxglove.ParameterType.Float64)
+    if kind is ParameterType.DOUBLE_ARRAY and isinstance(value, list):
+        floats: list[AnyInnerParameterValue] = [_number(item) for item in value]
         return foxglove.Parameter(full, value=floats, type=foxglove.ParameterType.Float64Array)
+    if isinstance(value, list):  # foxglove infers the type
+        items: list[AnyInnerParameterValue] = list(value)
+        return foxglove.Parameter(full, value=items)
     return foxglove.Parameter(full, value=value)
 
 
@@ -69,17 +79,32 @@ def from_foxglove(parameter: foxglove.Parameter) -> tuple[ParamValue, ParameterT
     """The zros value and type of a foxglove.Parameter (None deletes)."""
     import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
 
-    value: JsonValue = parameter.get_value()  # a client's: converted as its type hint says
+    value = parameter.get_value()  # a client's: converted as its type hint says
     hint = parameter.type
     if value is None:
         return None, ParameterType.NOT_SET
     if hint == foxglove.ParameterType.Float64:
-        return float(value), ParameterType.DOUBLE
+        return _number(value), ParameterType.DOUBLE
     if hint == foxglove.ParameterType.Float64Array:
-        return [float(item) for item in value], ParameterType.DOUBLE_ARRAY
+        if not isinstance(value, list):
+            raise TypeError(f'{value!r} is not an array')
+        return [_number(item) for item in value], ParameterType.DOUBLE_ARRAY
     if hint == foxglove.ParameterType.ByteArray:
-        return bytes(value), ParameterType.BYTE_ARRAY
+        if isinstance(value, list):
+            return bytes(int(_number(item)) for item in value), ParameterType.BYTE_ARRAY
+        if not isinstance(value, bytes):
+            raise TypeError(f'{value!r} is not bytes')
+        return value, ParameterType.BYTE_ARRAY
+    if not is_param_value(value):
+        raise ParameterError(f'{describe_value(value)} is no parameter value')
     return value, None
+
+
+def _number(value: object) -> float:
+    """A number of a client's parameter (TypeError when it is none)."""
+    if not isinstance(value, (int, float, str)):
+        raise TypeError(f'{value!r} is not a number')
+    return float(value)
 
 
 class Parameters:
@@ -156,7 +181,11 @@ class Parameters:
             if not name or not self._allowed(parameter.name):
                 self._status(f'the parameter {parameter.name} may not be set through this server')
                 continue
-            value, kind = from_foxglove(parameter)
+            try:
+                value, kind = from_foxglove(parameter)
+            except ParameterError as exc:
+                self._status(f'cannot set {parameter.name}: {exc}')
+                continue
             by_node.setdefault(node_name, []).append(Parameter(name, value, kind))
         futures = {
             n: self._pool.submit(self._client(n).set_parameters, items)

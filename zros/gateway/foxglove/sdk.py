@@ -16,7 +16,7 @@ from __future__ import annotations
 import logging
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict, cast
 
 from zros.errors import ZrosError
 from zros.gateway.common.errors import GatewayError
@@ -29,14 +29,27 @@ if TYPE_CHECKING:
     from types import ModuleType
 
     import foxglove
-    from foxglove.websocket import WebSocketServer
+    from foxglove import AssetHandler, Context
+    from foxglove.websocket import Capability, ServerListener, WebSocketServer
+    from typing_extensions import Unpack
 
     from zros.cdr import TypeRegistry
 
 _log = logging.getLogger('zros.gateway')
 
-#: a keyword option of ``foxglove.start_server`` (listener, capabilities...), checked by the SDK
-SdkOption = Any
+
+class SdkOptions(TypedDict, total=False):
+    """The keyword options of ``foxglove.start_server`` a zros server chooses."""
+
+    capabilities: list[Capability] | None
+    #: an object with some of ``foxglove.websocket.ServerListener``'s methods: the SDK calls
+    #: those it has (the Protocol's defaults are no-ops)
+    server_listener: object
+    supported_encodings: list[str] | None
+    asset_handler: AssetHandler | None
+    context: Context | None
+    playback_time_range: tuple[int, int] | None
+
 
 #: foxglove_bridge's port
 DEFAULT_PORT = 8765
@@ -100,12 +113,13 @@ class ServerOptions:
                 f'the client buffer must be at least 1 byte, not {self.client_buffer}'
             )
 
-    def start(self, **settings: SdkOption) -> tuple[WebSocketServer, FrontProcess]:
+    def start(self, **settings: Unpack[SdkOptions]) -> tuple[WebSocketServer, FrontProcess]:
         """Start the SDK's server with these options and ``settings`` (capabilities, listener,
         context...), and the front clients reach it through, in a process of its own;
         GatewayError when either cannot listen."""
         foxglove = import_sdk()
         self.check()
+        listener = settings.pop('server_listener', None)
         listen = self._listen()
         host = private_loopback()
         try:
@@ -114,6 +128,7 @@ class ServerOptions:
                 host=host,
                 port=0,
                 message_backlog_size=self.message_backlog,
+                server_listener=cast('ServerListener | None', listener),
                 **settings,
             )
         except RuntimeError as exc:  # the SDK's FoxgloveError

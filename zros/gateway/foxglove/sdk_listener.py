@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Protocol, TypeVar
+from typing import TYPE_CHECKING, ParamSpec, Protocol, TypeVar
 
 if TYPE_CHECKING:
     from foxglove.websocket import ChannelView, Client, ClientChannel, Parameter
@@ -14,6 +14,7 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros.gateway')
 _T = TypeVar('_T')
+_P = ParamSpec('_P')
 
 
 class Gateway(Protocol):
@@ -41,9 +42,11 @@ class Listener:
     def __init__(self, gateway: Gateway) -> None:
         self._gateway = gateway
 
-    def _guard(self, what: str, call: Callable[..., _T], *args: object) -> _T | None:
+    def _guard(
+        self, what: str, call: Callable[_P, _T], *args: _P.args, **kwargs: _P.kwargs
+    ) -> _T | None:
         try:
-            return call(*args)
+            return call(*args, **kwargs)
         except Exception as exc:  # a client's request: logged and told, never raised into the SDK
             _log.debug('%s failed', what, exc_info=True)
             self._gateway.status(f'{what} failed: {exc}', 'error')

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, TypeAlias
 from zros.actions import ActionError, GoalStatus
 from zros.errors import ZrosError
 from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.json_types import text_field
 from zros.keyexpr.kinds import EntityKind
 
 if TYPE_CHECKING:
@@ -104,9 +105,9 @@ class ServedActions:
 
     def advertise_action(self, peer: Peer, op: JsonObject) -> None:
         """An ``advertise_action`` message: serve ``action`` by asking the client."""
-        text = op['action']
+        text = text_field(op, 'action')
         name = self._resolve(text, 'action')
-        type_text = op['type']
+        type_text = text_field(op, 'type')
         try:
             action_type = self._node.registry.get_action(type_text)
         except (ZrosError, TypeError) as exc:
@@ -143,7 +144,7 @@ class ServedActions:
 
     def unadvertise_action(self, peer: Peer, op: JsonObject) -> None:
         """An ``unadvertise_action`` message: running goals are aborted."""
-        name = self._resolve(op['action'], 'action')
+        name = self._resolve(text_field(op, 'action'), 'action')
         if not self._withdraw(name, peer):
             raise GatewayError(
                 f"Action {name} has not been advertised via rosbridge, can't unadvertise."
@@ -226,8 +227,8 @@ class ServedActions:
     # --- the client's answers ----------------------------------------------------------------
 
     def _goal(self, peer: Peer, op: JsonObject, pop: bool) -> tuple[_Advertised, str, _Running]:
-        name = self._resolve(op['action'], 'action')
-        goal_id = op['id']
+        name = self._resolve(text_field(op, 'action'), 'action')
+        goal_id = text_field(op, 'id')
         with self._lock:
             advertised = self._advertised.get(name)
             if advertised is None or advertised.peer is not peer:
@@ -279,7 +280,11 @@ def _status(op: JsonObject, handle: ServerGoalHandle) -> tuple[GoalStatus, str]:
     if op['result'] is False:
         return GoalStatus.ABORTED, ''
     status = op.get('status', int(GoalStatus.SUCCEEDED))  # roslib before 2 sends none
-    if isinstance(status, bool) or status not in [int(s) for s in ENDS]:
+    if (
+        isinstance(status, bool)
+        or not isinstance(status, int)
+        or status not in [int(s) for s in ENDS]
+    ):
         return GoalStatus.ABORTED, f'the status {status!r} is none of 4, 5, 6'
     end = GoalStatus(status)
     if end is GoalStatus.CANCELED and not handle.is_cancel_requested:

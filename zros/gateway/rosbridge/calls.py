@@ -30,6 +30,7 @@ from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.json_types import text_field
 from zros.gateway.common.views import offered_services, owners
 from zros.gateway.rosbridge.actions import ServedActions
 from zros.gateway.rosbridge.conversion import ConversionError, Values
@@ -123,7 +124,7 @@ class Calls:
         if op.get('op') != 'call_service':
             return False
         try:
-            name = self._name(op['service'])
+            name = self._name(text_field(op, 'service'))
         except GatewayError:
             return False
         return self.rosapi.handles(name) and not self.rosapi.writes(name)
@@ -132,9 +133,9 @@ class Calls:
         """Answer a refused ``call_service`` or ``send_action_goal`` as failed, so that the
         client's caller does not wait for good (other ops have no answer)."""
         if op.get('op') == 'call_service':
-            _Answer(peer, op, str(op['service'])).fail(reason)
+            _Answer(peer, op, str(text_field(op, 'service'))).fail(reason)
         elif op.get('op') == 'send_action_goal':
-            _Answer(peer, op, str(op['action']), 'action').fail(reason, STATUS_UNKNOWN)
+            _Answer(peer, op, str(text_field(op, 'action')), 'action').fail(reason, STATUS_UNKNOWN)
 
     def check_unserved(self, name: str, kind: EntityKind = EntityKind.SERVICE_SERVER) -> None:
         """Refuse to serve ``name`` when another node serves it (unless overriding is
@@ -163,7 +164,7 @@ class Calls:
 
     def call_service(self, peer: Peer, op: JsonObject) -> None:
         """A ``call_service`` message; the answer comes later as a ``service_response``."""
-        service = op['service']
+        service = text_field(op, 'service')
         name = self._name(service)
         answer = _Answer(peer, op, service)
         if self.rosapi.handles(name):
@@ -195,8 +196,8 @@ class Calls:
 
     def advertise_service(self, peer: Peer, op: JsonObject) -> None:
         """An ``advertise_service`` message: serve ``service`` by asking the client."""
-        name = self._name(op['service'])
-        type_text = op['type']
+        name = self._name(text_field(op, 'service'))
+        type_text = text_field(op, 'type')
         try:
             service_type = self._node.registry.get_service(type_text)
         except ZrosError as exc:
@@ -234,7 +235,7 @@ class Calls:
 
     def service_response(self, peer: Peer, op: JsonObject) -> None:
         """A ``service_response`` message: the answer to a request the gateway forwarded."""
-        name = self._name(op['service'])
+        name = self._name(text_field(op, 'service'))
         with self._lock:
             offered = self._offered.get(name)
         if offered is None or offered.peer is not peer:
@@ -255,7 +256,7 @@ class Calls:
 
     def unadvertise_service(self, peer: Peer, op: JsonObject) -> None:
         """An ``unadvertise_service`` message."""
-        name = self._name(op['service'])
+        name = self._name(text_field(op, 'service'))
         if not self._withdraw(name, peer):
             raise GatewayError(
                 f"Service {name} has not been advertised via rosbridge, can't unadvertise."
@@ -278,9 +279,9 @@ class Calls:
 
     def send_action_goal(self, peer: Peer, op: JsonObject) -> None:
         """A ``send_action_goal`` message: feedback (when asked) and the result follow."""
-        action = op['action']
+        action = text_field(op, 'action')
         name = self._name(action, 'action')
-        type_text = op['action_type']
+        type_text = text_field(op, 'action_type')
         try:
             client: ActionClient = self._actions.get(
                 (name, type_text), lambda: self._node.create_action_client(type_text, name)
@@ -301,7 +302,7 @@ class Calls:
             self._goals[peer.id, goal_id] = record
 
         def on_feedback(feedback: Message) -> None:
-            message = {
+            message: dict[str, object] = {
                 'op': 'action_feedback',
                 'action': action,
                 'values': self._values.to_json(feedback),
@@ -339,7 +340,7 @@ class Calls:
 
     def cancel_action_goal(self, peer: Peer, op: JsonObject) -> None:
         """A ``cancel_action_goal`` message (asked of the server on a thread of the pool)."""
-        self._name(op['action'], 'action')
+        self._name(text_field(op, 'action'), 'action')
         with self._lock:
             record = self._goals.get((peer.id, op.get('id')))
             if record is None:
@@ -411,9 +412,9 @@ class _Answer:
         size = op.get('fragment_size')
         self.fragment_size = size if isinstance(size, int) and size > 0 else 0
 
-    def _send(self, values: JsonValue, result: bool, status: int | None) -> None:
+    def _send(self, values: object, result: bool, status: int | None) -> None:
         if self.kind == 'service':
-            message: JsonObject = {'op': 'service_response', 'service': self.name}
+            message: dict[str, object] = {'op': 'service_response', 'service': self.name}
         else:
             message = {'op': 'action_result', 'action': self.name, 'status': status}
         message.update(values=values, result=result)
@@ -428,7 +429,7 @@ class _Answer:
     def done(
         self,
         future: concurrent.futures.Future[_T],
-        convert: Callable[[_T], JsonValue],
+        convert: Callable[[_T], object],
         status: int | None = None,
     ) -> None:
         """Send the outcome of ``future`` (its result converted, or its error)."""

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 from zros.errors import ZrosError
 from zros.gateway.common.drop_notice import DropNotices
 from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.json_types import int_field, text_field
 from zros.gateway.common.send_queue import SendQueue
 from zros.gateway.rosbridge.frames import Frames, encode, frames_size
 
@@ -38,7 +39,7 @@ if TYPE_CHECKING:
     from websockets.sync.server import ServerConnection
 
     from zros.cdr import JsonValue
-    from zros.gateway.common.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject, OutObject
     from zros.gateway.rosbridge.calls import Calls
     from zros.gateway.rosbridge.topics import Topics
 
@@ -265,7 +266,8 @@ class ClientSession:
     def _fragment(self, message: JsonObject) -> None:
         """Put fragments back together, in time linear in their number (the fragments held
         are bounded by ``MAX_PARTIAL`` messages, ``MAX_FRAGMENTS`` and the message size)."""
-        key, total, num, data = message['id'], message['total'], message['num'], message['data']
+        key, data = message['id'], text_field(message, 'data')
+        total, num = int_field(message, 'total'), int_field(message, 'num')
         if not 0 <= num < total or total > MAX_FRAGMENTS:
             raise GatewayError(
                 f'fragment {num} of {total} is out of range (at most {MAX_FRAGMENTS} fragments)'
@@ -306,7 +308,7 @@ class ClientSession:
 
     # --- out ---------------------------------------------------------------------------------
 
-    def send(self, message: JsonObject, compression: str = 'none', fragment_size: int = 0) -> None:
+    def send(self, message: OutObject, compression: str = 'none', fragment_size: int = 0) -> None:
         """Queue a protocol message (values in rosbridge's shapes) for the client."""
         size = self.max_message_size
         if fragment_size > 0:

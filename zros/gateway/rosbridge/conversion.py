@@ -37,7 +37,7 @@ from zros.errors import ZrosError
 
 if TYPE_CHECKING:
     from zros.cdr import FieldValue, JsonValue, Message, TypeRegistry
-    from zros.gateway.common.json_types import JsonObject
+    from zros.gateway.common.json_types import OutObject
 
 TIME_TYPES = ('builtin_interfaces/msg/Time', 'builtin_interfaces/msg/Duration')
 HEADER = 'std_msgs/msg/Header'
@@ -94,21 +94,21 @@ class Values:
 
     # --- to the client -----------------------------------------------------------------------
 
-    def to_json(self, message: Message, blobs: list[str] | None = None) -> JsonObject:
+    def to_json(self, message: Message, blobs: list[str] | None = None) -> OutObject:
         """The JSON values of a message, as rosbridge's ``extract_values``. With ``blobs``,
         base64 strings of :data:`BLOB_SIZE` characters or more go there, each replaced by
         :func:`blob_mark` of its index (JSON's encoder need not scan them: base64 has nothing
         to escape)."""
         return self._out(message, self.definition(message.__msgtype__), False, blobs)
 
-    def to_cbor(self, message: Message) -> JsonObject:
+    def to_cbor(self, message: Message) -> OutObject:
         """The CBOR values of a message (typed arrays as ``cbor2.CBORTag``)."""
         return self._out(message, self.definition(message.__msgtype__), True, None)
 
     def _out(
         self, message: Message, definition: MessageDef, cbor: bool, blobs: list[str] | None
-    ) -> JsonObject:
-        values = {}
+    ) -> OutObject:
+        values: dict[str, object] = {}
         for field in definition.fields:
             value = getattr(message, attribute_name(field.name))
             values[field.name] = self._out_field(value, field.type, cbor, blobs)
@@ -116,7 +116,7 @@ class Values:
 
     def _out_field(
         self, value: FieldValue, kind: FieldType, cbor: bool, blobs: list[str] | None
-    ) -> JsonValue:
+    ) -> object:
         base = kind.base
         if kind.kind is Kind.SCALAR:
             if kind.is_nested:

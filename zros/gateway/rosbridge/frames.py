@@ -32,8 +32,8 @@ from zros.cdr import decode
 from zros.gateway.rosbridge.conversion import blob_mark
 
 if TYPE_CHECKING:
-    from zros.cdr import JsonValue, Message
-    from zros.gateway.common.json_types import JsonObject
+    from zros.cdr import Message
+    from zros.gateway.common.json_types import OutObject
     from zros.gateway.rosbridge.conversion import Values
 
 COMPRESSIONS = ('none', 'png', 'cbor', 'cbor-raw')
@@ -48,7 +48,7 @@ class Fragmented:
 
     __slots__ = ('_head', 'size', 'text', 'total')
 
-    def __init__(self, text: str, size: int, message_id: JsonValue) -> None:
+    def __init__(self, text: str, size: int, message_id: object) -> None:
         self.text = text
         self.size = size
         self.total = math.ceil(len(text) / size)
@@ -78,12 +78,12 @@ def frames_size(frames: Frames) -> int:
     return sum(len(frame) for frame in frames)
 
 
-def to_text(message: JsonObject) -> str:
+def to_text(message: object) -> str:
     """A protocol message as JSON text (NaN is never written: values carry null instead)."""
     return json.dumps(message, separators=(',', ':'), allow_nan=False)
 
 
-def to_text_with(message: JsonObject, blobs: list[str]) -> str:
+def to_text_with(message: OutObject, blobs: list[str]) -> str:
     """:func:`to_text` of values holding :func:`blob_mark` marks, with the blobs put in their
     place (in order: the JSON text has the values in the order they were made)."""
     rest = to_text(message)
@@ -97,7 +97,7 @@ def to_text_with(message: JsonObject, blobs: list[str]) -> str:
     return ''.join(pieces)
 
 
-def to_cbor(message: JsonObject) -> bytes:
+def to_cbor(message: OutObject) -> bytes:
     """A protocol message as CBOR."""
     import cbor2  # noqa: PLC0415 (optional: the rosbridge extra)
 
@@ -129,7 +129,7 @@ def png_message(text: str) -> str:
     return to_text({'op': 'png', 'data': base64.b64encode(png).decode('ascii')})
 
 
-def split(text: str, size: int, message_id: JsonValue = None) -> Frames:
+def split(text: str, size: int, message_id: object = None) -> Frames:
     """``text`` as one frame, or as fragment messages of ``size`` characters of it when
     longer (made as they are sent)."""
     if size <= 0 or len(text) <= size:
@@ -139,13 +139,13 @@ def split(text: str, size: int, message_id: JsonValue = None) -> Frames:
     return Fragmented(text, size, message_id)
 
 
-def fragments(text: str, size: int, message_id: JsonValue = None) -> tuple[str | bytes, ...]:
+def fragments(text: str, size: int, message_id: object = None) -> tuple[str | bytes, ...]:
     """The frames of :func:`split`, made now."""
     return tuple(split(text, size, message_id))
 
 
 def encode(
-    message: JsonObject, compression: str = 'none', fragment_size: int | None = None
+    message: OutObject, compression: str = 'none', fragment_size: int | None = None
 ) -> Frames:
     """The frames of a protocol message whose values are already in rosbridge's shapes."""
     if compression in ('cbor', 'cbor-raw'):
@@ -185,7 +185,7 @@ class Sample:
         found = self._cache.get(key)
         if found is not None:
             return found
-        head: JsonObject = {'op': 'publish', 'topic': self.topic}
+        head: OutObject = {'op': 'publish', 'topic': self.topic}
         if compression == 'cbor-raw':
             secs, nsecs = divmod(self.stamp, 1_000_000_000)
             frames: Frames = (
@@ -198,7 +198,7 @@ class Sample:
         self._cache[key] = frames
         return frames
 
-    def _text(self, head: JsonObject, png: bool) -> str:
+    def _text(self, head: OutObject, png: bool) -> str:
         key = ('png' if png else 'json', -1)
         found = self._cache.get(key)
         if isinstance(found, tuple):

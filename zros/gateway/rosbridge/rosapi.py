@@ -24,13 +24,14 @@ from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.json_types import text_field
 from zros.gateway.common.views import endpoint_owner, offered_services, owners, parameter_nodes
 from zros.gateway.rosbridge.conversion import short_name
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.taps import is_hidden
 
 if TYPE_CHECKING:
-    from zros.gateway.common.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject, OutObject
     from zros.node import Node
     from zros.params.client import ParameterClient
 
@@ -55,7 +56,7 @@ class Rosapi:
         self._services = services
         self._params = params
         self._parameter_clients: ClientCache[ParameterClient] = ClientCache()
-        self._handlers: dict[str, Callable[[JsonObject], JsonObject]] = {
+        self._handlers: dict[str, Callable[[JsonObject], OutObject]] = {
             'topics': self._topics_and_types,
             'topics_for_type': self._topics_for_type,
             'topics_and_raw_types': self._raw_types,
@@ -90,7 +91,7 @@ class Rosapi:
         """Whether ``service`` (one of rosapi's) changes the robot."""
         return service[len(PREFIX) :] in WRITES
 
-    def call(self, service: str, args: JsonObject) -> JsonObject:
+    def call(self, service: str, args: JsonObject) -> OutObject:
         """The response values of a rosapi service (GatewayError says why there is none)."""
         return self._handlers[service[len(PREFIX) :]](args)
 
@@ -108,19 +109,19 @@ class Rosapi:
             if types and not is_hidden(name) and self._topics(name)
         }
 
-    def _topics_and_types(self, args: JsonObject) -> JsonObject:
+    def _topics_and_types(self, args: JsonObject) -> OutObject:
         found = self._topic_types()
         return {'topics': list(found), 'types': list(found.values())}
 
-    def _topics_for_type(self, args: JsonObject) -> JsonObject:
+    def _topics_for_type(self, args: JsonObject) -> OutObject:
         wanted = self._type_name(_text(args, 'type'))
         return {'topics': [n for n, t in self._topic_types().items() if t == wanted]}
 
-    def _topic_type(self, args: JsonObject) -> JsonObject:
+    def _topic_type(self, args: JsonObject) -> OutObject:
         name = self._resolve(_text(args, 'topic'))
         return {'type': self._topic_types().get(name, '')}
 
-    def _raw_types(self, args: JsonObject) -> JsonObject:
+    def _raw_types(self, args: JsonObject) -> OutObject:
         found = self._topic_types()
         texts = []
         for type_name in found.values():
@@ -134,7 +135,7 @@ class Rosapi:
         found = offered_services(self._node)
         return {name: t for name, t in found.items() if self._services(name)}
 
-    def _services_for_type(self, args: JsonObject) -> JsonObject:
+    def _services_for_type(self, args: JsonObject) -> OutObject:
         wanted = self._type_name(_text(args, 'type'))
         return {'services': [n for n, t in self._service_types().items() if t == wanted]}
 
@@ -156,10 +157,10 @@ class Rosapi:
         ]
         return owners(found, self._node.graph) if self._services(name) else []
 
-    def _service_providers(self, args: JsonObject) -> JsonObject:
+    def _service_providers(self, args: JsonObject) -> OutObject:
         return {'providers': self._servers(self._resolve(_text(args, 'service')))}
 
-    def _service_node(self, args: JsonObject) -> JsonObject:
+    def _service_node(self, args: JsonObject) -> OutObject:
         found = self._servers(self._resolve(_text(args, 'service')))
         return {'node': found[0] if found else ''}
 
@@ -173,7 +174,7 @@ class Rosapi:
         services = offered_services(self._node, include_hidden=True)
         return sorted(set(self._node.graph.nodes()) | set(parameter_nodes(services)))
 
-    def _node_details(self, args: JsonObject) -> JsonObject:
+    def _node_details(self, args: JsonObject) -> OutObject:
         node_name = self._resolve(_text(args, 'node'))
         graph = self._node.graph
         namespace = self._node.scheme.namespace
@@ -208,7 +209,7 @@ class Rosapi:
                 return str(getattr(found, attribute))
         return text
 
-    def typedefs(self, type_name: str) -> list[JsonObject]:
+    def typedefs(self, type_name: str) -> list[OutObject]:
         """rosapi's ``TypeDef`` list of a message type and every type in it (GatewayError for
         a type zros does not know)."""
         try:
@@ -217,8 +218,8 @@ class Rosapi:
             raise GatewayError(f'unknown type {type_name}: {exc}') from None
         return self._typedefs(definition)
 
-    def _typedefs(self, root: MessageDef) -> list[JsonObject]:
-        found: list[JsonObject] = []
+    def _typedefs(self, root: MessageDef) -> list[OutObject]:
+        found: list[OutObject] = []
         seen: set[str] = set()
         queue = [root]
         while queue:
@@ -231,7 +232,7 @@ class Rosapi:
                 queue.append(self._node.registry.message_definition(nested))
         return found
 
-    def _typedef(self, definition: MessageDef) -> JsonObject:
+    def _typedef(self, definition: MessageDef) -> OutObject:
         defaults = self._node.registry.get_class(definition.name)()
         names, types, lengths, examples = [], [], [], []
         for field in definition.fields:
@@ -260,7 +261,7 @@ class Rosapi:
             'constvalues': [str(c.value) for c in definition.constants],
         }
 
-    def _service_part(self, args: JsonObject, part: str) -> list[JsonObject]:
+    def _service_part(self, args: JsonObject, part: str) -> list[OutObject]:
         text = _text(args, 'type')
         try:
             service = self._node.registry.get_service(text)
@@ -290,10 +291,12 @@ class Rosapi:
         )
         return client
 
-    def _get_param(self, args: JsonObject) -> JsonObject:
+    def _get_param(self, args: JsonObject) -> OutObject:
         default_text = args.get('default_value', args.get('default', ''))
         try:
-            default = json.loads(default_text) if default_text else ''
+            default = (
+                json.loads(default_text) if isinstance(default_text, str) and default_text else ''
+            )
         except (ValueError, TypeError):
             default = default_text
         try:
@@ -310,7 +313,7 @@ class Rosapi:
             }
         return {'value': json.dumps(value), 'successful': True, 'reason': ''}
 
-    def _set_param(self, args: JsonObject) -> JsonObject:
+    def _set_param(self, args: JsonObject) -> OutObject:
         try:
             node_name, name, _ = self._parameter(args)
             try:
@@ -324,14 +327,14 @@ class Rosapi:
             return {'successful': False, 'reason': str(exc)}
         return {'successful': bool(result), 'reason': result.reason}
 
-    def _has_param(self, args: JsonObject) -> JsonObject:
+    def _has_param(self, args: JsonObject) -> OutObject:
         try:
             node_name, name, _ = self._parameter(args)
             return {'exists': self._client(node_name).get(name) is not None}
         except (GatewayError, ZrosError):
             return {'exists': False}
 
-    def _delete_param(self, args: JsonObject) -> JsonObject:
+    def _delete_param(self, args: JsonObject) -> OutObject:
         try:
             node_name, name, _ = self._parameter(args)
             (result,) = self._client(node_name).set_parameters({name: None})
@@ -339,7 +342,7 @@ class Rosapi:
             return {'successful': False, 'reason': str(exc)}
         return {'successful': bool(result), 'reason': result.reason}
 
-    def _param_names(self, args: JsonObject) -> JsonObject:
+    def _param_names(self, args: JsonObject) -> OutObject:
         own = self._node.fully_qualified_name
         names = []
         for node_name in parameter_nodes(offered_services(self._node, include_hidden=True)):
@@ -354,7 +357,7 @@ class Rosapi:
 
     # --- the rest ----------------------------------------------------------------------------
 
-    def _time(self, args: JsonObject) -> JsonObject:
+    def _time(self, args: JsonObject) -> OutObject:
         sec, nanosec = divmod(self._node.now().nanoseconds, 1_000_000_000)
         return {'time': {'sec': sec, 'nanosec': nanosec}}
 
@@ -369,7 +372,4 @@ class Rosapi:
 
 
 def _text(args: JsonObject, field: str) -> str:
-    value = args.get(field, '')
-    if not isinstance(value, str):
-        raise GatewayError(f'the field {field} must be a string, not {value!r}')
-    return value
+    return text_field(args, field, '')

@@ -27,6 +27,7 @@ from zros.errors import ZrosError
 from zros.gateway.common.entities import publisher_qos
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.json_types import int_field, optional_text, text_field
 from zros.gateway.common.watched_topics import Taps
 from zros.gateway.rosbridge.conversion import ConversionError, Values, short_name
 from zros.gateway.rosbridge.frames import COMPRESSIONS, Frames, Sample
@@ -34,7 +35,7 @@ from zros.pubsub.taps import GraphTopic, graph_topics
 
 if TYPE_CHECKING:
     from zros.cdr import JsonValue, Message
-    from zros.gateway.common.json_types import JsonObject
+    from zros.gateway.common.json_types import JsonObject, OutObject
     from zros.node import Node
     from zros.pubsub import Publisher
 
@@ -47,7 +48,7 @@ class Peer(Protocol):
     id: int
 
     def send(
-        self, message: JsonObject, compression: str = 'none', fragment_size: int = 0
+        self, message: OutObject, compression: str = 'none', fragment_size: int = 0
     ) -> None: ...
 
     def send_frames(self, frames: Frames) -> None: ...
@@ -251,12 +252,12 @@ class Topics:
 
     def subscribe(self, peer: Peer, op: JsonObject) -> None:
         """A ``subscribe`` message (GatewayError says why it was refused)."""
-        name = self._name(op['topic'])
+        name = self._name(text_field(op, 'topic'))
         request = _Request(
-            op.get('throttle_rate') or 0,
-            op.get('queue_length') or 0,
-            op.get('fragment_size') or 0,
-            op.get('compression') or 'none',
+            int_field(op, 'throttle_rate'),
+            int_field(op, 'queue_length'),
+            int_field(op, 'fragment_size'),
+            optional_text(op, 'compression') or 'none',
         )
         if request.compression not in COMPRESSIONS:
             raise GatewayError(f'unknown compression {request.compression!r}: {COMPRESSIONS}')
@@ -266,9 +267,11 @@ class Topics:
         with self._lock:
             subscription = self._subscriptions.get((peer.id, name))
             if subscription is not None:
-                self._type(name, op.get('type'), GraphTopic(name, subscription.type_name))
+                self._type(
+                    name, optional_text(op, 'type'), GraphTopic(name, subscription.type_name)
+                )
             else:
-                type_name = self._type(name, op.get('type'), known)
+                type_name = self._type(name, optional_text(op, 'type'), known)
                 subscription = Subscription(peer, name, type_name, self._pacer)
             subscription.requests[op.get('id')] = request
             subscription.update()
@@ -288,7 +291,7 @@ class Topics:
     def unsubscribe(self, peer: Peer, op: JsonObject) -> None:
         """An ``unsubscribe`` message: its id's request ends, or all of the client's for the
         topic without an id."""
-        name = self._name(op['topic'])
+        name = self._name(text_field(op, 'topic'))
         with self._lock:
             subscription = self._subscriptions.get((peer.id, name))
             if subscription is None:
@@ -323,8 +326,8 @@ class Topics:
 
     def advertise(self, peer: Peer, op: JsonObject) -> None:
         """An ``advertise`` message: the topic's publisher exists and counts the client."""
-        name = self._name(op['topic'])
-        self._publisher(peer, name, op['type'], bool(op.get('latch')))
+        name = self._name(text_field(op, 'topic'))
+        self._publisher(peer, name, text_field(op, 'type'), bool(op.get('latch')))
 
     def _publisher(self, peer: Peer, name: str, asked: str | None, latch: bool) -> _Published:
         with self._lock:
@@ -347,7 +350,7 @@ class Topics:
 
     def unadvertise(self, peer: Peer, op: JsonObject) -> None:
         """An ``unadvertise`` message: the last client out closes the publisher."""
-        name = self._name(op['topic'])
+        name = self._name(text_field(op, 'topic'))
         self._release(peer.id, name)
 
     def _release(self, peer: int, name: str) -> None:
@@ -363,7 +366,7 @@ class Topics:
 
     def publish(self, peer: Peer, op: JsonObject) -> None:
         """A ``publish`` message (the topic is advertised on the way if it was not)."""
-        name = self._name(op['topic'])
+        name = self._name(text_field(op, 'topic'))
         published = self._publisher(peer, name, None, bool(op.get('latch')))
         cls = published.publisher.msg_type
         try:
