@@ -33,12 +33,13 @@ def test_the_with_objects_of_zros_close_through_closing() -> None:
     from zros.bag import Bag, BagWriter, Player, Recorder
     from zros.bag.read.source_base import Source
     from zros.gateway.foxglove.bag_server import BagGateway
+    from zros.gateway.foxglove.server import FoxgloveGateway
     from zros.gateway.rosbridge.server import RosbridgeGateway
     from zros.node import Node
     from zros.transport import Router, Transport
 
     for cls in (Node, Transport, Router, Bag, Source, BagWriter, Recorder, Player):
         assert issubclass(cls, Closing), cls
-    for cls in (BagGateway, RosbridgeGateway):
+    for cls in (BagGateway, FoxgloveGateway, RosbridgeGateway):
         assert issubclass(cls, Closing), cls
         assert '__exit__' not in vars(cls), cls

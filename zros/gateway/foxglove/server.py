@@ -22,6 +22,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from zros.closing import Closing
 from zros.errors import ZrosError
 from zros.gateway.common.entities import gateway_node
 from zros.gateway.common.errors import GatewayError
@@ -67,7 +68,7 @@ class _Channel:
     topic: GraphTopic
 
 
-class FoxgloveGateway:
+class FoxgloveGateway(Closing):
     """A Foxglove WebSocket server showing the graph ``node`` sees (see the module docstring).
 
     ``topics`` and ``exclude`` are regular expressions of topic names (whole names; every
@@ -345,12 +346,6 @@ class FoxgloveGateway:
             item.channel.close()
         if self._own_node:
             self.node.destroy()
-
-    def __enter__(self) -> FoxgloveGateway:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f'<zros FoxgloveGateway {self.url} ({len(self._channels)} channels)>'
