@@ -123,7 +123,7 @@ def test_every_example_has_expectations() -> None:
 @pytest.mark.parametrize('script', SCRIPTS)
 def test_example_runs_on_its_own(script: str, tmp_path: Path) -> None:
     if script == 'wan_tls.py':
-        pytest.importorskip('cryptography', reason="wan_tls.py needs 'zros[tls]'")
+        pytest.importorskip('cryptography', reason='wan_tls.py needs the tls extra')
     result = run(script, cwd=tmp_path)
     output = result.stdout + result.stderr
     assert result.returncode == 0, output

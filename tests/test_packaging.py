@@ -3,8 +3,10 @@ install into a fresh virtual environment outside the checkout and run ``zros dem
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 import sysconfig
@@ -103,3 +105,41 @@ def test_the_wheel_installs_in_a_fresh_venv_and_runs_the_demo(dist: Path, tmp_pa
     assert zros_command.exists()
     output = run([str(zros_command), 'demo', '--output', 'out'], cwd=tmp_path, log=log)
     check_report(output, tmp_path / 'out')
+
+
+def test_no_install_hint_names_the_other_zros_project() -> None:
+    # `zros` on PyPI is somebody else's: every hint names zros-client (zros.version.install_hint)
+    hint = re.compile(r'(?<![\w-])zros\[[a-z]')
+    places = [*ROOT.joinpath('zros').rglob('*.py'), *ROOT.joinpath('docs').rglob('*.md')]
+    places += [ROOT / 'README.md', *ROOT.joinpath('examples').glob('*.py')]
+    found = [
+        f'{path.relative_to(ROOT)}:{number}'
+        for path in places
+        for number, line in enumerate(path.read_text().splitlines(), 1)
+        if hint.search(line)
+    ]
+    assert found == []
+
+
+@pytest.mark.parametrize(
+    ('missing', 'call', 'extra'),
+    [
+        ('foxglove', 'zros.gateway.foxglove.sdk:import_sdk', 'foxglove'),
+        ('websockets', 'zros.gateway.rosbridge.server:import_websockets', 'rosbridge'),
+        ('cryptography', 'zros.transport.pki:_crypto', 'tls'),
+    ],
+)
+def test_a_missing_extra_names_what_to_install(
+    missing: str, call: str, extra: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    module_name, function = call.split(':')
+    module = importlib.import_module(module_name)
+    for name in list(sys.modules):
+        if name == missing or name.startswith(missing + '.'):
+            monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, missing, None)  # import fails as when not installed
+    with pytest.raises(Exception, match=r'pip install') as raised:
+        getattr(module, function)()
+    text = str(raised.value)
+    assert f"pip install 'zros-client[{extra}]'" in text
+    assert f"pip install '.[{extra}]'" in text

@@ -1,7 +1,7 @@
 """The robot in the Foxglove app, with no ROS installed: ``zros.foxglove.serve()``.
 
 A thin door to :mod:`zros.gateway.foxglove` (the live graph, and recordings); needs the ``foxglove``
-extra (``pip install 'zros[foxglove]'``)::
+extra (``pip install 'zros-client[foxglove]'``)::
 
     import zros.foxglove
 

@@ -1,7 +1,7 @@
 """Web apps built on roslibjs and roslibpy, with no ROS installed: ``zros.rosbridge.serve()``.
 
 A thin door to :mod:`zros.gateway.rosbridge`; needs the ``rosbridge`` extra
-(``pip install 'zros[rosbridge]'``)::
+(``pip install 'zros-client[rosbridge]'``)::
 
     import zros.rosbridge
 

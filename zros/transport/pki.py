@@ -4,7 +4,7 @@ A private CA signs one router certificate (naming every host or address clients 
 client certificate per machine, for mutual TLS. A client certificate serves both ways and names
 ``localhost``, ``127.0.0.1`` and ``::1``, so that zros peers on one machine (which listen on
 loopback, on TLS) accept each other's. Needs the ``cryptography`` package
-(``pip install 'zros[tls]'``).
+(``pip install 'zros-client[tls]'``).
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 from zros.errors import ZrosError
 from zros.transport.config import Tls
+from zros.version import install_hint
 
 if TYPE_CHECKING:
     from cryptography import x509
@@ -116,7 +117,7 @@ def _crypto() -> None:
         import cryptography  # noqa: F401, PLC0415 (optional: the tls extra)
     except ImportError:
         raise CertificateError(
-            "making certificates needs the cryptography package: pip install 'zros[tls]'"
+            f'making certificates needs the cryptography package: {install_hint("tls")}'
         ) from None
 
 

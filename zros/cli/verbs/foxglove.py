@@ -21,6 +21,7 @@ from zros.cli.shared import (
     out,
     serve_until_interrupted,
 )
+from zros.version import install_hint
 
 
 class _Settings(TypedDict):
@@ -91,7 +92,7 @@ def add_parser(
     parser = commands.add_parser(
         'foxglove',
         help=help_line,
-        description=f'{help_line}. Needs the foxglove extra: pip install "zros[foxglove]".',
+        description=f'{help_line}. Needs the foxglove extra: {install_hint("foxglove")}.',
     )
     parser.set_defaults(run=run)
     add_gateway_listen_options(parser, 8765)

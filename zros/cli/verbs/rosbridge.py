@@ -17,6 +17,7 @@ from zros.cli.shared import (
     out,
     serve_until_interrupted,
 )
+from zros.version import install_hint
 
 
 def globs(values: list[str] | None) -> list[str]:
@@ -62,7 +63,7 @@ def add_parser(
     parser = commands.add_parser(
         'rosbridge',
         help=help_line,
-        description=f'{help_line}. Needs the rosbridge extra: pip install "zros[rosbridge]".',
+        description=f'{help_line}. Needs the rosbridge extra: {install_hint("rosbridge")}.',
     )
     parser.set_defaults(run=run)
     add_gateway_listen_options(parser, 9090)

@@ -24,6 +24,7 @@ from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import FOXGLOVE_APP
 from zros.gateway.foxglove.front import CLIENT_BUFFER, private_loopback
 from zros.gateway.foxglove.front_process import FrontProcess
+from zros.version import install_hint
 
 if TYPE_CHECKING:
     from types import ModuleType
@@ -67,7 +68,7 @@ def import_sdk() -> ModuleType:
         import foxglove  # noqa: PLC0415 (optional: the foxglove extra)
     except ImportError:
         raise GatewayError(
-            "the Foxglove SDK is not installed: pip install 'zros[foxglove]' (foxglove-sdk)"
+            f'the Foxglove SDK (foxglove-sdk) is not installed: {install_hint("foxglove")}'
         ) from None
     return foxglove
 

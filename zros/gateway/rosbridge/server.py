@@ -44,6 +44,7 @@ from zros.gateway.rosbridge.client import ClientSession
 from zros.gateway.rosbridge.conversion import Values
 from zros.gateway.rosbridge.rosapi import Rosapi
 from zros.gateway.rosbridge.topics import Topics
+from zros.version import install_hint
 
 if TYPE_CHECKING:
     from types import ModuleType
@@ -74,7 +75,7 @@ def import_websockets() -> ModuleType:
         from websockets.sync import server  # noqa: PLC0415 (optional: the rosbridge extra)
     except ImportError:
         raise GatewayError(
-            "the websockets library is not installed: pip install 'zros[rosbridge]'"
+            f'the websockets library is not installed: {install_hint("rosbridge")}'
         ) from None
     return server
 
