@@ -17,9 +17,12 @@ import zros
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='publish hello world on /chatter')
+    parser = argparse.ArgumentParser(
+        description='publish hello world on /chatter, until Ctrl-C',
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     add_connect(parser)
-    parser.add_argument('--count', type=int, default=10, help='messages to send (0: no end)')
+    parser.add_argument('--count', type=int, default=0, help='messages to send (0: until Ctrl-C)')
     args = parser.parse_args()
     router, args.connect = router_unless_given(args.connect)
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import queue
 import re
+import signal
 import subprocess
 import sys
 import threading
@@ -32,6 +33,9 @@ DOCS = Path(__file__).resolve().parent.parent / 'docs'
 #: the scripts (``_bootstrap.py`` is the start they share, not one of them)
 SCRIPTS = sorted(path.name for path in EXAMPLES.glob('*.py') if not path.name.startswith('_'))
 TIMEOUT = 90.0  # seconds for one script, on a loaded 2-core machine
+
+#: the arguments a script that runs until Ctrl-C gets to end by itself here
+ARGS: dict[str, tuple[str, ...]] = {'talker.py': ('--count', '10')}
 
 #: what each script prints when it runs on its own (regular expressions, all must match)
 EXPECTED: dict[str, list[str]] = {
@@ -124,7 +128,7 @@ def test_every_example_has_expectations() -> None:
 def test_example_runs_on_its_own(script: str, tmp_path: Path) -> None:
     if script == 'wan_tls.py':
         pytest.importorskip('cryptography', reason='wan_tls.py needs the tls extra')
-    result = run(script, cwd=tmp_path)
+    result = run(script, *ARGS.get(script, ()), cwd=tmp_path)
     output = result.stdout + result.stderr
     assert result.returncode == 0, output
     check_output(result.stdout, EXPECTED.get(script, []))
@@ -290,6 +294,24 @@ def test_talker_and_listener_in_two_processes(
     assert code == 0, output
     assert 'no robot given' not in output
     check_output(output, [r'I heard: "Hello World: \d+"', r'heard 5 messages'])
+
+
+def test_the_talker_talks_until_ctrl_c(
+    zros_router: Router, background: Callable[..., Background]
+) -> None:
+    # as ROS's talker does: the old default of ten messages ended it before a listener started
+    talker = background('talker.py', '--connect', zros_router.endpoint)
+    assert talker.wait_for('Hello World: 15'), ''.join(talker.output)
+    talker.process.send_signal(signal.SIGINT)
+    code, output = talker.finish()
+    assert code == 0, output
+    assert 'Traceback' not in output, output
+
+
+def test_the_talkers_help_shows_its_defaults(tmp_path: Path) -> None:
+    result = run('talker.py', '--help', cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert '(default: 0)' in result.stdout and 'until Ctrl-C' in result.stdout
 
 
 def test_service_server_and_client_in_two_processes(
