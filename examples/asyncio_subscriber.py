@@ -48,7 +48,7 @@ async def main(connect: str | None, count: int, seconds: float, own_talker: bool
         pub.wait_for_subscribers(timeout=5)
         tasks.append(asyncio.create_task(talk(pub)))
     try:
-        heard = await asyncio.wait_for(listen(sub, count), seconds)
+        heard = await asyncio.wait_for(listen(sub, count), seconds or None)
     except asyncio.TimeoutError:
         heard = []
         print(f'nothing for {seconds:g} s')
@@ -60,13 +60,23 @@ async def main(connect: str | None, count: int, seconds: float, own_talker: bool
 
 
 if __name__ == '__main__':
-    parser = argparse.ArgumentParser(description='print what arrives on /chatter, with asyncio')
+    parser = argparse.ArgumentParser(
+        description='print what arrives on /chatter, with asyncio, until Ctrl-C',
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     add_connect(parser)
-    parser.add_argument('--count', type=int, default=5, help='messages to wait for (0: no end)')
-    parser.add_argument('--seconds', type=float, default=30.0, help='give up after this long')
+    parser.add_argument(
+        '--count', type=int, default=0, help='messages to wait for (0: until Ctrl-C)'
+    )
+    parser.add_argument(
+        '--seconds', type=float, default=0.0, help='give up after this long (0: never)'
+    )
     args = parser.parse_args()
     router, args.connect = router_unless_given(args.connect, 'a talker task')
-    status = asyncio.run(main(args.connect, args.count, args.seconds, router is not None))
+    try:
+        status = asyncio.run(main(args.connect, args.count, args.seconds, router is not None))
+    except KeyboardInterrupt:  # Ctrl-C: asyncio.run cancelled main, which ended the node
+        status = 0
     zros.shutdown()  # closes the process's Zenoh session
     if router is not None:
         router.close()

@@ -2,7 +2,8 @@
 
 The callback runs on the thread that spins the node (here the main thread, in
 ``zros.spin_once()``), never on one of Zenoh's, so it may touch any state without locks.
-``zros.spin()`` would spin until Ctrl-C; this script spins until it heard ``--count`` messages.
+``zros.spin()`` would spin until Ctrl-C; this script spins in a loop of its own, until Ctrl-C or
+``--count`` messages.
 
 Start ``talker.py`` on the same router or robot (``--connect`` or ``ZROS_CONNECT``). With
 neither, this script starts a Zenoh router and a talker timer of its own.
@@ -19,10 +20,17 @@ import zros
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='print what arrives on /chatter, by callback')
+    parser = argparse.ArgumentParser(
+        description='print what arrives on /chatter, by callback, until Ctrl-C',
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     add_connect(parser)
-    parser.add_argument('--count', type=int, default=5, help='messages to wait for (0: no end)')
-    parser.add_argument('--seconds', type=float, default=30.0, help='give up after this long')
+    parser.add_argument(
+        '--count', type=int, default=0, help='messages to wait for (0: until Ctrl-C)'
+    )
+    parser.add_argument(
+        '--seconds', type=float, default=0.0, help='give up after this long (0: never)'
+    )
     args = parser.parse_args()
     router, args.connect = router_unless_given(args.connect, 'a talker')
 
@@ -46,7 +54,7 @@ def main() -> int:
             ),
         )
 
-    deadline = time.monotonic() + args.seconds
+    deadline = time.monotonic() + args.seconds if args.seconds else float('inf')
     while zros.ok() and (args.count == 0 or len(heard) < args.count):
         if time.monotonic() >= deadline:
             break

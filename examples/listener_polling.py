@@ -34,10 +34,17 @@ def background_talker(stop: threading.Event) -> None:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='print what arrives on /chatter, by polling')
+    parser = argparse.ArgumentParser(
+        description='print what arrives on /chatter, by polling, until Ctrl-C',
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     add_connect(parser)
-    parser.add_argument('--count', type=int, default=5, help='messages to wait for (0: no end)')
-    parser.add_argument('--seconds', type=float, default=30.0, help='give up after this long')
+    parser.add_argument(
+        '--count', type=int, default=0, help='messages to wait for (0: until Ctrl-C)'
+    )
+    parser.add_argument(
+        '--seconds', type=float, default=0.0, help='give up after this long (0: never)'
+    )
     args = parser.parse_args()
     talker = None
     stop = threading.Event()
@@ -51,7 +58,7 @@ def main() -> int:
         talker.start()
 
     heard = 0
-    deadline = time.monotonic() + args.seconds
+    deadline = time.monotonic() + args.seconds if args.seconds else float('inf')
     while zros.ok() and (args.count == 0 or heard < args.count) and time.monotonic() < deadline:
         zros.spin_once(timeout=0.05)  # runs callbacks and timers; there are none here
         if sub.has_new_message():

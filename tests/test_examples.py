@@ -35,7 +35,12 @@ SCRIPTS = sorted(path.name for path in EXAMPLES.glob('*.py') if not path.name.st
 TIMEOUT = 90.0  # seconds for one script, on a loaded 2-core machine
 
 #: the arguments a script that runs until Ctrl-C gets to end by itself here
-ARGS: dict[str, tuple[str, ...]] = {'talker.py': ('--count', '10')}
+ARGS: dict[str, tuple[str, ...]] = {
+    'talker.py': ('--count', '10'),
+    'listener_polling.py': ('--count', '5'),
+    'listener_callback.py': ('--count', '5'),
+    'asyncio_subscriber.py': ('--count', '5'),
+}
 
 #: what each script prints when it runs on its own (regular expressions, all must match)
 EXPECTED: dict[str, list[str]] = {
@@ -296,20 +301,32 @@ def test_talker_and_listener_in_two_processes(
     check_output(output, [r'I heard: "Hello World: \d+"', r'heard 5 messages'])
 
 
-def test_the_talker_talks_until_ctrl_c(
-    zros_router: Router, background: Callable[..., Background]
+@pytest.mark.parametrize(
+    ('script', 'line'),
+    [
+        ('talker.py', 'Hello World: 15'),
+        ('listener_polling.py', 'I heard: "Hello World: 15"'),
+        ('listener_callback.py', 'I heard: "Hello World: 15"'),
+        ('asyncio_subscriber.py', 'I heard: "Hello World: 15"'),
+    ],
+)
+def test_talkers_and_listeners_run_until_ctrl_c(
+    script: str, line: str, background: Callable[..., Background]
 ) -> None:
-    # as ROS's talker does: the old default of ten messages ended it before a listener started
-    talker = background('talker.py', '--connect', zros_router.endpoint)
-    assert talker.wait_for('Hello World: 15'), ''.join(talker.output)
-    talker.process.send_signal(signal.SIGINT)
-    code, output = talker.finish()
+    # as ROS's talker and listener do: ten messages ended the talker before a listener started
+    running = background(script)  # a router here, and the other end where a listener needs it
+    assert running.wait_for(line, timeout=60), ''.join(running.output)
+    running.process.send_signal(signal.SIGINT)
+    code, output = running.finish()
     assert code == 0, output
     assert 'Traceback' not in output, output
 
 
-def test_the_talkers_help_shows_its_defaults(tmp_path: Path) -> None:
-    result = run('talker.py', '--help', cwd=tmp_path)
+@pytest.mark.parametrize(
+    'script', ['talker.py', 'listener_polling.py', 'listener_callback.py', 'asyncio_subscriber.py']
+)
+def test_their_help_shows_the_defaults(script: str, tmp_path: Path) -> None:
+    result = run(script, '--help', cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert '(default: 0)' in result.stdout and 'until Ctrl-C' in result.stdout
 
