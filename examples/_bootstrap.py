@@ -14,6 +14,15 @@ import zros
 from zros.transport import Router
 
 
+class ShowDefaults(argparse.ArgumentDefaultsHelpFormatter):
+    """``--help`` shows each option's default, where it has one (not "None")."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.default is None:
+            return action.help
+        return super()._get_help_string(action)
+
+
 def add_connect(parser: argparse.ArgumentParser) -> None:
     """The ``--connect`` option every example has."""
     parser.add_argument(

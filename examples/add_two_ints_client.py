@@ -16,13 +16,13 @@ from __future__ import annotations
 import argparse
 import threading
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='call add_two_ints')
+    parser = argparse.ArgumentParser(description='call add_two_ints', formatter_class=ShowDefaults)
     add_connect(parser)
     parser.add_argument('a', type=int, nargs='?', default=2)
     parser.add_argument('b', type=int, nargs='?', default=3)

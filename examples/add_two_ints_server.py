@@ -17,7 +17,7 @@ import argparse
 import threading
 import time
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
@@ -40,7 +40,7 @@ def call_a_few(stop: threading.Event) -> None:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='serve add_two_ints')
+    parser = argparse.ArgumentParser(description='serve add_two_ints', formatter_class=ShowDefaults)
     add_connect(parser)
     parser.add_argument('--count', type=int, default=0, help='stop after this many (0: no end)')
     parser.add_argument('--seconds', type=float, default=0, help='stop after this long (0: never)')

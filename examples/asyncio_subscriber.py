@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
@@ -62,7 +62,7 @@ async def main(connect: str | None, count: int, seconds: float, own_talker: bool
 if __name__ == '__main__':
     parser = argparse.ArgumentParser(
         description='print what arrives on /chatter, with asyncio, until Ctrl-C',
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=ShowDefaults,
     )
     add_connect(parser)
     parser.add_argument(

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import matplotlib
 import numpy as np
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 from sharp_sensor import (
     CALIBRATION_TOPIC,
     PAIRS,
@@ -59,7 +59,9 @@ def record(connect: str | None, own_sensor: bool, path: Path, seconds: float) ->
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='record the GP2D120 into a bag, read it back')
+    parser = argparse.ArgumentParser(
+        description='record the GP2D120 into a bag, read it back', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     parser.add_argument('--bag', type=Path, help='read this recording instead of making one')
     parser.add_argument(

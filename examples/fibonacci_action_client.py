@@ -14,13 +14,15 @@ from __future__ import annotations
 
 import argparse
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='send goals to the fibonacci action')
+    parser = argparse.ArgumentParser(
+        description='send goals to the fibonacci action', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     parser.add_argument('--order', type=int, default=10, help='how many numbers to ask for')
     args = parser.parse_args()

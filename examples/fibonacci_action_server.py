@@ -18,7 +18,7 @@ import argparse
 import threading
 import time
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
@@ -52,7 +52,9 @@ def send_one_goal(done: threading.Event) -> None:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='serve the fibonacci action')
+    parser = argparse.ArgumentParser(
+        description='serve the fibonacci action', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     parser.add_argument('--count', type=int, default=0, help='stop after this many goals')
     parser.add_argument('--seconds', type=float, default=0, help='stop after this long (0: never)')

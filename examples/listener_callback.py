@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
@@ -22,7 +22,7 @@ import zros
 def main() -> int:
     parser = argparse.ArgumentParser(
         description='print what arrives on /chatter, by callback, until Ctrl-C',
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=ShowDefaults,
     )
     add_connect(parser)
     parser.add_argument(

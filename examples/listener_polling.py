@@ -15,7 +15,7 @@ import argparse
 import threading
 import time
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
@@ -36,7 +36,7 @@ def background_talker(stop: threading.Event) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(
         description='print what arrives on /chatter, by polling, until Ctrl-C',
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=ShowDefaults,
     )
     add_connect(parser)
     parser.add_argument(

@@ -21,14 +21,16 @@ import argparse
 import threading
 from pathlib import Path
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 from zros.params import subscribe_parameter_events
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='parameters: declare, load, set remotely')
+    parser = argparse.ArgumentParser(
+        description='parameters: declare, load, set remotely', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     args = parser.parse_args()
     router, args.connect = router_unless_given(args.connect)

@@ -16,6 +16,8 @@ from __future__ import annotations
 import argparse
 import os
 
+from _bootstrap import ShowDefaults
+
 import zros
 
 DEFAULT = 'tcp/127.0.0.1:7447'
@@ -37,7 +39,9 @@ Bridged ROS services need ROS nodes on rmw_cyclonedds_cpp; across the internet, 
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='connect to a robot through its bridge')
+    parser = argparse.ArgumentParser(
+        description='connect to a robot through its bridge', formatter_class=ShowDefaults
+    )
     parser.add_argument('--connect', help=f'the bridge (default: $ZROS_CONNECT, else {DEFAULT})')
     parser.add_argument('--topic', help='print one message of this topic')
     parser.add_argument('--timeout', type=float, default=5.0, help='seconds to wait for it')

@@ -24,6 +24,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+from _bootstrap import ShowDefaults
 from matplotlib.figure import Figure
 
 import zros
@@ -74,9 +75,11 @@ def write_demo_bag(path: Path) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split('\n')[0], formatter_class=ShowDefaults
+    )
     parser.add_argument('--bag', type=Path, help='a recording to read (default: write one)')
-    parser.add_argument('--target', default='map', help='the fixed frame (default map)')
+    parser.add_argument('--target', default='map', help='the fixed frame')
     parser.add_argument('--source', default='base_laser', help='the moving frame')
     parser.add_argument('--output', default='robot_path.png', help='the picture')
     args = parser.parse_args()

@@ -23,14 +23,16 @@ from __future__ import annotations
 import argparse
 import time
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 from sharp_sensor import VOLTAGE_TOPIC, SimulatedSensor
 
 import zros
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='log the voltage of a GP2D120 sensor')
+    parser = argparse.ArgumentParser(
+        description='log the voltage of a GP2D120 sensor', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     parser.add_argument('--seconds', type=float, default=10.0, help='stop after this long')
     args = parser.parse_args()

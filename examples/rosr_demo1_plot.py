@@ -17,7 +17,7 @@ import time
 
 import matplotlib
 import numpy as np
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 from sharp_sensor import VOLTAGE_TOPIC, SimulatedSensor
 
 import zros
@@ -34,7 +34,9 @@ def moving_average(values: np.ndarray, window: int = WINDOW) -> np.ndarray:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='plot a GP2D120 voltage, raw and filtered')
+    parser = argparse.ArgumentParser(
+        description='plot a GP2D120 voltage, raw and filtered', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     parser.add_argument('--seconds', type=float, default=10.0, help='stop after this long')
     parser.add_argument('--output', default='rosr_demo1.png', help='the PNG to write')

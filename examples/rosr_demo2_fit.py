@@ -22,7 +22,7 @@ import time
 
 import matplotlib
 import numpy as np
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 from numpy.polynomial import Polynomial
 from sharp_sensor import CALIBRATION_TOPIC, PAIRS, SimulatedSensor, register_linearization
 
@@ -49,7 +49,9 @@ def fit_curve(pairs: np.ndarray, degree: int = DEGREE) -> Polynomial:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='fit a GP2D120 curve to calibration pairs')
+    parser = argparse.ArgumentParser(
+        description='fit a GP2D120 curve to calibration pairs', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     parser.add_argument('--count', type=int, default=PAIRS, help='calibration pairs to wait for')
     parser.add_argument('--seconds', type=float, default=10.0, help='give up after this long')

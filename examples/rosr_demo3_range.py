@@ -17,7 +17,7 @@ import argparse
 import time
 from collections import deque
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 from rosr_demo2_fit import collect_pairs, fit_curve
 from sharp_sensor import (
     CALIBRATION_TOPIC,
@@ -35,7 +35,9 @@ DISTANCE_TOPIC = '/sharpGP2D120/Distance'
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='publish GP2D120 distances as sensor_msgs/Range')
+    parser = argparse.ArgumentParser(
+        description='publish GP2D120 distances as sensor_msgs/Range', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     parser.add_argument('--seconds', type=float, default=10.0, help='stop after this long')
     args = parser.parse_args()

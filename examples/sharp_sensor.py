@@ -23,7 +23,7 @@ import argparse
 import threading
 from pathlib import Path
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
@@ -123,7 +123,9 @@ class SimulatedSensor:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='publish a simulated GP2D120 sensor')
+    parser = argparse.ArgumentParser(
+        description='publish a simulated GP2D120 sensor', formatter_class=ShowDefaults
+    )
     add_connect(parser)
     parser.add_argument('--rate', type=float, default=200.0, help='voltage readings per second')
     parser.add_argument('--wait', type=float, default=5.0, help='seconds to wait for listeners')

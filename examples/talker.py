@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from _bootstrap import add_connect, router_unless_given
+from _bootstrap import ShowDefaults, add_connect, router_unless_given
 
 import zros
 
@@ -19,7 +19,7 @@ import zros
 def main() -> int:
     parser = argparse.ArgumentParser(
         description='publish hello world on /chatter, until Ctrl-C',
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=ShowDefaults,
     )
     add_connect(parser)
     parser.add_argument('--count', type=int, default=0, help='messages to send (0: until Ctrl-C)')

@@ -24,6 +24,8 @@ import argparse
 import os
 import tempfile
 
+from _bootstrap import ShowDefaults
+
 import zros
 from zros.transport import Tls, Transport, TransportConfig, TransportError
 
@@ -98,7 +100,9 @@ def to_a_robot(connect: str | None) -> int:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description='a laptop to a robot over TLS')
+    parser = argparse.ArgumentParser(
+        description='a laptop to a robot over TLS', formatter_class=ShowDefaults
+    )
     parser.add_argument('--connect', help='the robot, e.g. tls/robot.example.org:7447')
     args = parser.parse_args()
     if args.connect or os.environ.get('ZROS_CONNECT'):
