@@ -186,3 +186,13 @@ def test_bash_completion(words: str, expected: str) -> None:
         [bash, '-c', program], capture_output=True, text=True, timeout=60, check=True
     )
     assert result.stdout == expected + '\n'
+
+
+@pytest.mark.parametrize(
+    ('number', 'noun', 'said'),
+    [(0, 'topic', '0 topics'), (1, 'topic', '1 topic'), (2, 'node', '2 nodes')],
+)
+def test_counts_are_said_with_the_right_noun(number: int, noun: str, said: str) -> None:
+    from zros.cli.shared import counted
+
+    assert counted(number, noun) == said

@@ -43,7 +43,7 @@ def test_doctor_reports_the_router_graph_and_clock(cli: Cli, zros_node: Callable
     assert '  warn  no zenoh-bridge-ros2dds answered' in result.stdout
     assert '  ok    wire schemes present: bridge' in result.stdout
     graph = next(line for line in lines if line.endswith('actions'))
-    assert graph.startswith('  ok    1 nodes, ')
+    assert graph.startswith('  ok    1 node, ')
     skew = next(line for line in lines if 'from /rosout stamps' in line)
     seconds = float(skew.split('this clock is ')[1].split(' s')[0])
     assert abs(seconds) < 0.5  # one machine, one clock

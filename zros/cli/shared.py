@@ -370,3 +370,8 @@ def out(text: str = '') -> None:
     """Print and flush (output often goes to a pipe another program reads line by line)."""
     sys.stdout.write(text + '\n')
     sys.stdout.flush()
+
+
+def counted(number: int, noun: str) -> str:
+    """``1 topic``, ``2 topics``: a count and its noun, singular for one."""
+    return f'{number} {noun if number == 1 else noun + "s"}'

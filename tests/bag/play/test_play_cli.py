@@ -26,7 +26,7 @@ def test_play_with_rate_and_remap(zros_cli: Cli, zros_node: Node, tmp_path: Path
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
-    assert lines[0].startswith(f'Playing {bag}: 40 messages on 1 topics, ')
+    assert lines[0].startswith(f'Playing {bag}: 40 messages on 1 topic, ')
     assert lines[-1] == 'Played 40 messages'
     assert result.stderr == ''  # no progress line: stderr is not a terminal
     assert wait_for(lambda: len(listener.got) == 40)
@@ -109,7 +109,7 @@ def test_a_type_defined_nowhere_does_not_stop_info_or_play(
         'bag', 'play', str(bag), '--topics', '/chatter', '/secret', '--wait-for-subscribers', '10'
     )
     assert result.returncode == 0, result.stderr
-    assert result.stdout.splitlines()[0].startswith(f'Playing {bag}: 3 messages on 1 topics')
+    assert result.stdout.splitlines()[0].startswith(f'Playing {bag}: 3 messages on 1 topic')
     assert result.stdout.splitlines()[-1] == 'Played 3 messages'
     assert f'cannot play /secret: the bag has no definition of {SECRET}' in result.stderr
     assert 'ZROS_INTERFACE_PATH=' in result.stderr and 'playing the other topics' in result.stderr

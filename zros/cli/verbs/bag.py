@@ -16,7 +16,14 @@ import datetime
 import threading
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import CommandError, add_connection_options, open_node, out, stop_on_signals
+from zros.cli.shared import (
+    CommandError,
+    add_connection_options,
+    counted,
+    open_node,
+    out,
+    stop_on_signals,
+)
 
 if TYPE_CHECKING:  # the command imports the bag package only when it runs (start-up)
     from zros.bag.play.player import Player
@@ -87,7 +94,8 @@ def record(args: argparse.Namespace) -> int:
             progress.close()
             recorder.close()
         out(
-            f'Recorded {recorder.message_count} messages on {len(recorder.topics)} topics '
+            f'Recorded {counted(recorder.message_count, "message")} on '
+            f'{counted(len(recorder.topics), "topic")} '
             f'into {len(recorder.files)} file(s) of {recorder.path}'
             + (f'; {recorder.dropped} dropped: writing fell behind' if recorder.dropped else '')
         )
@@ -145,8 +153,8 @@ def play(args: argparse.Namespace) -> int:
             source = player.source
             count = sum(c.count for c in player.connections)
             out(
-                f'Playing {source.path}: {count} messages on '
-                f'{len(player.topics)} topics, {source.duration_ns / 1e9:.3f} s'
+                f'Playing {source.path}: {counted(count, "message")} on '
+                f'{counted(len(player.topics), "topic")}, {source.duration_ns / 1e9:.3f} s'
             )
             if keys.enabled:
                 progress.close()

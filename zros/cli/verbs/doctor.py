@@ -17,7 +17,7 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import add_connection_options, open_node, out
+from zros.cli.shared import add_connection_options, counted, open_node, out
 
 if TYPE_CHECKING:
     import zenoh
@@ -167,8 +167,15 @@ def run(args: argparse.Namespace) -> int:
         wires = graph.wires()
         report.ok(f'wire schemes present: {", ".join(wires) or "none yet"}')
         report.ok(
-            f'{len(graph.nodes())} nodes, {len(graph.topics())} topics, '
-            f'{len(graph.services())} services, {len(graph.actions())} actions'
+            ', '.join(
+                counted(len(items), noun)
+                for items, noun in (
+                    (graph.nodes(), 'node'),
+                    (graph.topics(), 'topic'),
+                    (graph.services(), 'service'),
+                    (graph.actions(), 'action'),
+                )
+            )
         )
         out('clocks')
         with open_node(args, transport=transport) as node:  # after counting: not counted

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from zros.cli.shared import DISCOVERY, add_connection_options, open_node, out
+from zros.cli.shared import DISCOVERY, add_connection_options, counted, open_node, out
 
 DEFAULT_GRAPH = 'graph.png'  #: where the picture goes when there is no display and no -o
 
@@ -24,7 +24,10 @@ def graph(args: argparse.Namespace) -> int:
     if output is None and not show:
         output = DEFAULT_GRAPH
     draw(model, output, show=show)
-    summary = f'{len(model.nodes)} nodes, {len(model.topics)} topics, {len(model.edges)} edges'
+    summary = ', '.join(
+        counted(len(items), noun)
+        for items, noun in ((model.nodes, 'node'), (model.topics, 'topic'), (model.edges, 'edge'))
+    )
     out(summary + (f' -> {output}' if output else ''))
     return 0
 
