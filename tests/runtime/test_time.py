@@ -122,6 +122,21 @@ def test_use_sim_time_switches_the_clock_at_run_time(zros_node: Callable[..., No
         assert node.clock.received == received
 
 
+def test_a_clock_switch_restarts_timers_without_a_burst(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('restarting')
+    ticks: list[Time] = []
+    node.create_timer(1.0, lambda: ticks.append(node.now()))
+    node.clock.set(Time.from_seconds(2e9))  # sim time past the monotonic clock, as a bag's
+    node.set_parameter('use_sim_time', True)
+    node.spin(timeout=0.3)
+    assert ticks == []  # no early tick: the period restarts on sim time
+    node.clock.set(Time.from_seconds(1.0))  # sim time behind the monotonic clock
+    node.spin(timeout=0.1)
+    node.set_parameter('use_sim_time', False)
+    node.spin(timeout=0.3)
+    assert ticks == []  # nor back on wall time
+
+
 def test_use_sim_time_from_arguments_and_environment(
     zros_node: Callable[..., Node], monkeypatch: pytest.MonkeyPatch
 ) -> None:
