@@ -8,6 +8,7 @@ executor runs callbacks and timers on whichever thread calls :meth:`Node.spin_on
 from __future__ import annotations
 
 import concurrent.futures
+import threading
 from collections.abc import Coroutine, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, TypeVar
 
@@ -122,6 +123,7 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         sink = RosoutSink(self, options.log_level, enable_rosout)
         self._logger = Logger(logger_name(self.name, self.namespace), sink)
         self._clock_feed: ClockSubscription | None = None
+        self._clock_lock = threading.Lock()  # parameter sets may come on several threads
         if options.use_sim_time:
             self._clock_feed = ClockSubscription(self, self.clock)
         self._node_token = node_wire.node_token
@@ -151,17 +153,17 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         """Follow ``/clock`` or leave it when ``use_sim_time`` changes, as ROS 2 nodes do."""
         for change in (*new, *changed):
             if change.name == 'use_sim_time' and change.value is not self.clock.sim:
-                self.set_use_sim_time(change.value is True)
+                self._follow_clock(change.value is True)
 
-    def set_use_sim_time(self, active: bool) -> None:
-        """Switch the node's clock to ``/clock`` (True) or the system clock (False) now; the
-        ``use_sim_time`` parameter does this when set."""
-        if active and self._clock_feed is None and not self.context.closed:
-            self._clock_feed = ClockSubscription(self, self.clock)
-        self.clock.switch(active)
-        if not active and self._clock_feed is not None:
-            self._clock_feed.close()
-            self._clock_feed = None
+    def _follow_clock(self, active: bool) -> None:
+        """Switch the node's clock to ``/clock`` (True) or the system clock (False)."""
+        with self._clock_lock:
+            if active and self._clock_feed is None and not self.context.closed:
+                self._clock_feed = ClockSubscription(self, self.clock)
+            self.clock.switch(active)
+            if not active and self._clock_feed is not None:
+                self._clock_feed.close()
+                self._clock_feed = None
 
     # --- names, time and logging -----------------------------------------------------------
 
