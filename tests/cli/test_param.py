@@ -131,6 +131,20 @@ def test_dump_and_load(cli: Cli, driver: Any, tmp_path: Path) -> None:
     assert 'missing.yaml' in absent.stderr
 
 
+def test_use_sim_time_set_and_load_switch_the_clock(cli: Cli, driver: Any, tmp_path: Path) -> None:
+    switched = cli.run('param', 'set', '/robot/driver', 'use_sim_time', 'true')
+    assert (switched.returncode, switched.stdout) == (0, 'Set parameter successful\n')
+    assert driver.use_sim_time and driver.get_parameter('use_sim_time') is True
+    saved = tmp_path / 'wall.yaml'
+    saved.write_text('/robot/driver:\n  ros__parameters:\n    use_sim_time: false\n')
+    loaded = cli.run('param', 'load', '/robot/driver', str(saved))
+    assert (loaded.returncode, loaded.stdout) == (0, 'Set parameter use_sim_time successful\n')
+    assert not driver.use_sim_time  # what it said it did
+    again = cli.run('param', 'load', '/robot/driver', str(saved))  # the same value: no refusal
+    assert (again.returncode, again.stdout) == (0, 'Set parameter use_sim_time successful\n')
+    assert not driver.use_sim_time
+
+
 def test_unknown_node(cli: Cli) -> None:
     result = cli.run('param', 'get', '/ghost', 'x', '--timeout', '0.3')
     assert (result.returncode, result.stderr) == (

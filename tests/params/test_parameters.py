@@ -177,8 +177,15 @@ def test_node_arguments_and_files(tmp_path: Path, zros_node: Callable[..., Node]
 def test_use_sim_time_is_a_parameter(zros_node: Callable[..., Node]) -> None:
     node = zros_node('timed', args=['--ros-args', '-p', 'use_sim_time:=true'])
     assert node.use_sim_time and node.get_parameter('use_sim_time') is True
-    with pytest.raises(ParameterError, match='zros sets use_sim_time when a node starts'):
-        node.set_parameter('use_sim_time', False)
+    node.set_parameter('use_sim_time', False)  # switches at run time, as in ROS 2
+    assert not node.use_sim_time and node.get_parameter('use_sim_time') is False
+    with pytest.raises(ParameterError, match='use_sim_time'):
+        node.set_parameter('use_sim_time', 'yes')
+    free = zros_node('free', parameters={'use_sim_time': True}, allow_undeclared_parameters=True)
+    assert free.use_sim_time
+    with pytest.raises(ParameterError, match='use_sim_time is true or false'):
+        free.set_parameter('use_sim_time', 'yes')
+    assert free.use_sim_time
 
 
 @pytest.fixture

@@ -99,6 +99,44 @@ def test_a_sim_time_timer_follows_clock_speed_and_pauses(zros_node: Callable[...
         assert 6 <= len(ticks) - count <= 14  # restarted at the same pace, no burst
 
 
+def test_use_sim_time_switches_the_clock_at_run_time(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('switching')
+    ticks: list[Time] = []
+    node.create_timer(0.05, lambda: ticks.append(node.now()))
+    with clock_publisher(zros_node('player'), speed=1.0):
+        node.spin(timeout=0.3)
+        assert abs(node.now().seconds - time.time()) < 5 and ticks  # wall time, ticking
+        node.set_parameter('use_sim_time', True)
+        assert node.use_sim_time
+        assert wait_for(lambda: 1000 <= node.now().seconds < 1_000_000)  # /clock's time
+        ticks.clear()
+        node.spin(timeout=0.5)
+        assert ticks and all(stamp.seconds < 1_000_000 for stamp in ticks)
+        node.set_parameter('use_sim_time', False)
+        assert abs(node.now().seconds - time.time()) < 5
+        ticks.clear()
+        node.spin(timeout=0.3)
+        assert ticks and all(abs(stamp.seconds - time.time()) < 5 for stamp in ticks)
+        received = node.clock.received  # left /clock: no more /clock messages reach the node
+        node.spin(timeout=0.2)
+        assert node.clock.received == received
+
+
+def test_a_clock_switch_restarts_timers_without_a_burst(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('restarting')
+    ticks: list[Time] = []
+    node.create_timer(1.0, lambda: ticks.append(node.now()))
+    node.clock.set(Time.from_seconds(2e9))  # sim time past the monotonic clock, as a bag's
+    node.set_parameter('use_sim_time', True)
+    node.spin(timeout=0.3)
+    assert ticks == []  # no early tick: the period restarts on sim time
+    node.clock.set(Time.from_seconds(1.0))  # sim time behind the monotonic clock
+    node.spin(timeout=0.1)
+    node.set_parameter('use_sim_time', False)
+    node.spin(timeout=0.3)
+    assert ticks == []  # nor back on wall time
+
+
 def test_use_sim_time_from_arguments_and_environment(
     zros_node: Callable[..., Node], monkeypatch: pytest.MonkeyPatch
 ) -> None:

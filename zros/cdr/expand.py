@@ -90,9 +90,19 @@ def _shape(definition: Definition) -> object:
 
 def definition_text(registry: TypeRegistry, name: str) -> str:
     """The text of a type with its comments where some source has them, else rendered."""
+    return _text(registry, name)[0]
+
+
+def text_origin(registry: TypeRegistry, name: str) -> str | None:
+    """Where the text :func:`definition_text` gives for ``name`` comes from (a file, a bag,
+    registered text), or None when no source has it and it is rendered without comments."""
+    return _text(registry, name)[1]
+
+
+def _text(registry: TypeRegistry, name: str) -> tuple[str, str | None]:
     definition = registry.definition(name)
     if definition.source:
-        return definition.source
+        return definition.source, definition.origin or '<registered text>'
     for path in registry.text_files(definition.name):
         try:
             text = path.read_text(encoding='utf-8')
@@ -100,8 +110,8 @@ def definition_text(registry: TypeRegistry, name: str) -> str:
         except (OSError, UnicodeDecodeError, ZrosError):
             continue
         if _shape(parsed) == _shape(definition):
-            return text
-    return render_definition(definition)
+            return text, str(path)
+    return render_definition(definition), None
 
 
 def _show(
@@ -134,4 +144,4 @@ def expanded_text(registry: TypeRegistry, name: str, comments: Comments = 'top')
     return ''.join(line + '\n' for line in lines)
 
 
-__all__ = ['Comments', 'definition_text', 'expanded_text']
+__all__ = ['Comments', 'definition_text', 'expanded_text', 'text_origin']

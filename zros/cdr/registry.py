@@ -75,7 +75,8 @@ class TypeRegistry:
 
     ``paths`` replaces ``ZROS_INTERFACE_PATH``; ``ament=False`` ignores ``AMENT_PREFIX_PATH``.
     Each entry of either may be a folder of packages (``<dir>/<pkg>/msg/X.msg``), a package
-    folder (``<dir>/msg/X.msg``) or an install prefix (``<dir>/share/<pkg>/msg/X.msg``).
+    folder (``<dir>/msg/X.msg``), an install prefix (``<dir>/share/<pkg>/msg/X.msg``) or, on
+    ``ZROS_INTERFACE_PATH``, a workspace's ``install`` (``<dir>/<pkg>/share/<pkg>/msg/X.msg``).
     """
 
     def __init__(
@@ -130,6 +131,8 @@ class TypeRegistry:
         for entry in self._paths:
             files.append(entry / package / kind / filename)
             files.append(entry / 'share' / package / kind / filename)
+            # a colcon workspace's install folder (one prefix per package)
+            files.append(entry / package / 'share' / package / kind / filename)
             if entry.name == package:
                 files.append(entry / kind / filename)
         files += [prefix / 'share' / package / kind / filename for prefix in self._ament]

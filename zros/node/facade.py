@@ -8,6 +8,7 @@ executor runs callbacks and timers on whichever thread calls :meth:`Node.spin_on
 from __future__ import annotations
 
 import concurrent.futures
+import threading
 from collections.abc import Coroutine, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, TypeVar
 
@@ -34,11 +35,6 @@ if TYPE_CHECKING:
     from zros.transport.config import SessionOptions
 
 T = TypeVar('T')
-
-_SIM_TIME_SWITCH = (
-    'zros sets use_sim_time when a node starts (zros.Node(use_sim_time=...) '
-    'or -p use_sim_time:=true), not while it runs'
-)
 
 
 class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
@@ -116,7 +112,8 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         #: the node's wire: ``wire.name`` is the scheme's name (``str(wire)`` too)
         self.wire: Wire = node_wire
         self.scheme: KeyScheme = node_wire.scheme  #: the pure key functions of the wire
-        self.clock: Clock = SimClock() if options.use_sim_time else Clock()
+        # one clock for the node's life: use_sim_time switches it in place (timers keep it)
+        self.clock: SimClock = SimClock(active=options.use_sim_time)
         #: what the node's entities get from it
         self.context = NodeContext(
             self.name, self.namespace, remapping=self.remapping, transport=self.transport,
@@ -125,8 +122,10 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         )  # fmt: skip
         sink = RosoutSink(self, options.log_level, enable_rosout)
         self._logger = Logger(logger_name(self.name, self.namespace), sink)
-        if isinstance(self.clock, SimClock):
-            ClockSubscription(self, self.clock)
+        self._clock_feed: ClockSubscription | None = None
+        self._clock_lock = threading.Lock()  # parameter sets may come on several threads
+        if options.use_sim_time:
+            self._clock_feed = ClockSubscription(self, self.clock)
         self._node_token = node_wire.node_token
         self.transport.declare_token(self._node_token)
         self.transport.on_close(self.destroy)
@@ -138,13 +137,33 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
             self._parameter_server = ParameterServer(self, self.parameters)
         if not self.parameters.has('use_sim_time'):
             self.parameters.declare('use_sim_time', options.use_sim_time)
-        self.parameters.add_on_set_callback(self._refuse_sim_time_switch, internal=True)
+        self.parameters.add_on_set_callback(self._check_sim_time, internal=True)
+        self.parameters.add_on_change(self._switch_sim_time)
 
-    def _refuse_sim_time_switch(self, changes: list[Parameter]) -> object:
+    @staticmethod
+    def _check_sim_time(changes: list[Parameter]) -> object:
         for change in changes:
-            if change.name == 'use_sim_time' and change.value is not self.use_sim_time:
-                return (False, _SIM_TIME_SWITCH)
+            if change.name == 'use_sim_time' and not isinstance(change.value, bool):
+                return (False, 'use_sim_time is true or false')
         return True
+
+    def _switch_sim_time(
+        self, new: list[Parameter], changed: list[Parameter], deleted: list[Parameter]
+    ) -> None:
+        """Follow ``/clock`` or leave it when ``use_sim_time`` changes, as ROS 2 nodes do."""
+        for change in (*new, *changed):
+            if change.name == 'use_sim_time' and change.value is not self.clock.sim:
+                self._follow_clock(change.value is True)
+
+    def _follow_clock(self, active: bool) -> None:
+        """Switch the node's clock to ``/clock`` (True) or the system clock (False)."""
+        with self._clock_lock:
+            if active and self._clock_feed is None and not self.context.closed:
+                self._clock_feed = ClockSubscription(self, self.clock)
+            self.clock.switch(active)
+            if not active and self._clock_feed is not None:
+                self._clock_feed.close()
+                self._clock_feed = None
 
     # --- names, time and logging -----------------------------------------------------------
 

@@ -85,6 +85,9 @@ class ParameterStore:
         self._entries: dict[str, _Entry] = {}
         self._callbacks: list[SetCallback] = []
         self._checks: list[SetCallback] = []
+        self._watchers: list[
+            Callable[[list[Parameter], list[Parameter], list[Parameter]], None]
+        ] = []
         self._lock = threading.RLock()
         #: called after every change with (new, changed, deleted) parameters
         self.on_change: (
@@ -382,8 +385,19 @@ class ParameterStore:
     def _changed(
         self, new: list[Parameter], changed: list[Parameter], deleted: list[Parameter]
     ) -> None:
-        if (new or changed or deleted) and self.on_change is not None:
+        if not (new or changed or deleted):
+            return
+        for watcher in tuple(self._watchers):
+            watcher(new, changed, deleted)
+        if self.on_change is not None:
             self.on_change(new, changed, deleted)
+
+    def add_on_change(
+        self, watcher: Callable[[list[Parameter], list[Parameter], list[Parameter]], None]
+    ) -> None:
+        """Call ``watcher(new, changed, deleted)`` after every change (the node's own reactions,
+        such as ``use_sim_time``; :attr:`on_change` stays the parameter server's)."""
+        self._watchers.append(watcher)
 
     def __repr__(self) -> str:
         return f'<zros parameters of {self.node_name}: {len(self._entries)}>'

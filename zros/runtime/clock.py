@@ -153,7 +153,15 @@ class Time:
 class Clock:
     """The system clock: ``now()`` is wall time; timers count on the monotonic clock."""
 
-    sim = False
+    @property
+    def sim(self) -> bool:
+        """Whether the clock follows ``/clock`` now."""
+        return False
+
+    @property
+    def switches(self) -> int:
+        """How many times the clock changed its time base (timers restart when it grows)."""
+        return 0
 
     def now(self) -> Time:
         """The current time."""
@@ -176,36 +184,60 @@ class Clock:
 
 
 class SimClock(Clock):
-    """Time read from ``/clock``; zero until the first message arrives."""
+    """Time read from ``/clock``; zero until the first message arrives. ``active=False`` (or
+    :meth:`switch`) makes it the system clock until switched back, as ``use_sim_time`` does."""
 
-    sim = True
-
-    def __init__(self) -> None:
+    def __init__(self, active: bool = True) -> None:
+        self._active = active
+        self._switches = 0
         self._now = 0
         self._listeners: list[Callable[[], None]] = []
         self._updated = Signal()
         self._lock = threading.Lock()
         self.received = 0
 
+    @property
+    def sim(self) -> bool:
+        """Whether the clock follows ``/clock`` now (else it is the system clock)."""
+        return self._active
+
+    def switch(self, active: bool) -> None:
+        """Follow ``/clock`` (True) or the system clock (False) from now on; wakes listeners so
+        waiting timers count on the new time base."""
+        if active != self._active:
+            self._active = active
+            self._switches += 1
+        self._wake()
+
+    @property
+    def switches(self) -> int:
+        """How many times :meth:`switch` changed the time base."""
+        return self._switches
+
     def now(self) -> Time:
         """The latest time ``/clock`` gave (0 before the first)."""
-        return Time(self._now)
+        return Time(self._now) if self._active else super().now()
 
     def set(self, stamp: Time) -> None:
         """Move the clock (called for every ``/clock`` message)."""
         self._now = stamp.nanoseconds
         self.received += 1
+        self._wake()
+
+    def _wake(self) -> None:
         for wake in tuple(self._listeners):
             wake()
         if self._updated:
             self._updated.notify()
 
     def timer_now(self) -> int:
-        """The nanoseconds timers count in: sim time."""
-        return self._now
+        """The nanoseconds timers count in: sim time (monotonic time while switched off)."""
+        return self._now if self._active else super().timer_now()
 
     def seconds_until(self, due: int) -> float | None:
         """None (wait for the next ``/clock``) before ``due``, else 0."""
+        if not self._active:
+            return super().seconds_until(due)
         # sim time moves only when /clock says so: wait for the next update
         return None if due > self._now else 0.0
 

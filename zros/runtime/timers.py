@@ -67,6 +67,7 @@ class Timer:
         self.callback = callback
         self._last = self.clock.timer_now()
         self._next = self._last + self._period
+        self._switches = self.clock.switches
         self._cancelled = False
         self._owner = context.name
         self._executor.add_timer(self)
@@ -79,8 +80,10 @@ class Timer:
     def seconds_until_due(self) -> float | None:
         """Wall seconds until due (<= 0: due now; None: when the sim clock moves)."""
         now = self.clock.timer_now()
-        if now < self._last or self._last == 0 < now:
-            # sim time jumped back (a bag looping) or /clock just started: count from now
+        if now < self._last or self._last == 0 < now or self._switches != self.clock.switches:
+            # sim time jumped back (a bag looping), /clock just started, or use_sim_time
+            # switched the time base: count from now
+            self._switches = self.clock.switches
             self._last = now
             self._next = now + self._period
         return self.clock.seconds_until(self._next)

@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING
 
 from zros.cli.shared import CommandError, UsageError, out
 
+_NO_SOURCES = '(no comments: no .msg sources found; set ZROS_INTERFACE_PATH)'
+
 if TYPE_CHECKING:
     from zros.cdr.expand import Comments
 
@@ -16,9 +18,11 @@ def show(args: argparse.Namespace) -> int:
     """Print a type as ``ros2 interface show`` does: nested types expanded beneath their fields,
     comments of the type itself (``--all-comments``: of nested types too; ``--no-comments``:
     none). ``--all`` prints the bag format instead (the definition, then its dependencies);
-    ``--hash`` adds the RIHS01 hash."""
+    ``--hash`` adds the RIHS01 hash. Comments come from ``.msg`` sources (``ZROS_INTERFACE_PATH``,
+    ``AMENT_PREFIX_PATH``, ROS 2 wheels); standard error says once which file, or that none
+    was found."""
     from zros.cdr import default_registry
-    from zros.cdr.expand import expanded_text
+    from zros.cdr.expand import expanded_text, text_origin
     from zros.cdr.model import MessageDef
     from zros.cdr.render import render_bundle
 
@@ -34,6 +38,11 @@ def show(args: argparse.Namespace) -> int:
     else:
         comments: Comments = 'none' if args.no_comments else 'all' if args.all_comments else 'top'
         text = expanded_text(registry, definition.name, comments)
+        if comments != 'none':
+            # on stderr: stdout stays what ros2 interface show prints
+            origin = text_origin(registry, definition.name)
+            note = _NO_SOURCES if origin is None else f'(comments from {origin})'
+            print(note, file=sys.stderr)
     sys.stdout.write(text)
     if args.hash:
         from zros.cdr.hashing import type_hash
