@@ -44,7 +44,7 @@ from zros.runtime.signal import (
     main_thread_raises,
     start_listener_thread,
 )
-from zros.transport import TransportConfig, close_default_transport
+from zros.transport import TransportConfig, close_default_transport, default_transport
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -124,6 +124,11 @@ def init(
                 'call zros.shutdown() first, or create more nodes with zros.Node(...)'
             )
         clear_interrupt()
+        if name is None and (connect is not None or config is not None):
+            # open the process's session now: the user's own Nodes use it too
+            config = config or TransportConfig.create(connect=connect)
+            default_transport(config)
+            connect = None
         settings = dict(
             connect=connect, config=config, args=args, bridge_namespace=bridge_namespace
         )

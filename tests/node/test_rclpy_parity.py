@@ -72,18 +72,6 @@ class MinimalPublisher(Node):
         self.get_logger().info(f'Publishing: "{msg.data}"')
         self.i += 1
 
-
-def main(args=None):
-    {init}
-    minimal_publisher = MinimalPublisher()
-    print('spinning', flush=True)
-    {spin}
-    minimal_publisher.destroy_node()
-    {shutdown}
-    print('ended', flush=True)
-
-
-main()
 """
 
 SUBSCRIBER = """
@@ -102,13 +90,16 @@ class MinimalSubscriber(Node):
     def listener_callback(self, msg):
         print(f'I heard: "{msg.data}"', flush=True)
 
+"""
 
+#: rclpy's main() of either example: {node} is minimal_publisher or minimal_subscriber
+MAIN = """
 def main(args=None):
     {init}
-    minimal_subscriber = MinimalSubscriber()
+    {node} = {cls}()
     print('spinning', flush=True)
     {spin}
-    minimal_subscriber.destroy_node()
+    {node}.destroy_node()
     {shutdown}
     print('ended', flush=True)
 
@@ -137,15 +128,13 @@ def test_minimal_examples_run_and_end_on_ctrl_c(
     style: str, zros_router: Router, zros_node: Callable[..., Node], scripts: list[Script]
 ) -> None:
     init, spin, shutdown = STYLES[style]
-    for code, node in ((SUBSCRIBER, 'minimal_subscriber'), (PUBLISHER, 'minimal_publisher')):
-        scripts.append(
-            Script(
-                code.replace('{init}', init)
-                .replace('{spin}', spin.replace('{node}', node))
-                .replace('{shutdown}', shutdown),
-                zros_router,
-            )
-        )
+    for code, cls, node in (
+        (SUBSCRIBER, 'MinimalSubscriber', 'minimal_subscriber'),
+        (PUBLISHER, 'MinimalPublisher', 'minimal_publisher'),
+    ):
+        main = MAIN.replace('{init}', init).replace('{spin}', spin).replace('{shutdown}', shutdown)
+        main = main.replace('{cls}', cls).replace('{node}', node)
+        scripts.append(Script(code + main, zros_router))
         scripts[-1].expect('spinning', 30)
     subscriber = scripts[0]
     subscriber.expect('I heard: "Hello World: ', 30)
@@ -172,7 +161,11 @@ def test_init_without_a_name_makes_the_default_node_when_needed(zros_router: Rou
     assert zros.init(connect=zros_router.endpoint, handle_sigint=False) is None
     try:
         assert zros.ok()
+        own = zros.Node('own')  # on the session init's connect= opened
+        assert wait_for(lambda: '/own' in own.get_node_names())
+        assert own.get_node_names() == ['/own']
         publisher = zros.Publisher('/lazy', 'std_msgs/msg/String')
+        assert publisher.node.transport is own.transport
         assert publisher.node is zros.default_node()
         assert zros.default_node().get_fully_qualified_name() == '/zros'
         with pytest.raises(zros.ZrosError, match='already called'):
