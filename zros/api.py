@@ -18,7 +18,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from types import FrameType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, overload
 
 from zros.errors import ZrosError
 from zros.node import Node
@@ -30,7 +30,11 @@ from zros.params import (
     ParamValue,
 )
 from zros.runtime.clock import Time
-from zros.runtime.defaults import NotInitializedError, set_default_node
+from zros.runtime.defaults import (
+    NotInitializedError,
+    set_default_node,
+    set_default_node_factory,
+)
 from zros.runtime.executor import wake_all
 from zros.runtime.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger, LogOptions
 from zros.runtime.signal import (
@@ -40,7 +44,7 @@ from zros.runtime.signal import (
     main_thread_raises,
     start_listener_thread,
 )
-from zros.transport import TransportConfig, close_default_transport
+from zros.transport import TransportConfig, close_default_transport, default_transport
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -48,6 +52,8 @@ if TYPE_CHECKING:
     from zros.node.settings import NodeOptions
 
 _default: Node | None = None
+#: makes the default node after ``zros.init()`` without a name, when first needed
+_pending: Callable[[str], Node] | None = None
 _previous_handler: signal.Handlers | int | Callable[[int, FrameType | None], object] | None = None
 _lock = threading.Lock()
 
@@ -62,8 +68,9 @@ def _on_sigint(signum: int, frame: FrameType | None) -> None:
         raise KeyboardInterrupt
 
 
+@overload
 def init(
-    name: str = 'zros',
+    name: str,
     namespace: str = '/',
     *,
     connect: str | Sequence[str] | None = None,
@@ -72,30 +79,68 @@ def init(
     bridge_namespace: str | None = None,
     handle_sigint: bool = True,
     **options: Unpack[NodeOptions],
-) -> Node:
+) -> Node: ...
+
+
+@overload
+def init(
+    name: None = None,
+    namespace: str = '/',
+    *,
+    connect: str | Sequence[str] | None = None,
+    config: TransportConfig | None = None,
+    args: Sequence[str] | None = None,
+    bridge_namespace: str | None = None,
+    handle_sigint: bool = True,
+    **options: Unpack[NodeOptions],
+) -> None: ...
+
+
+def init(
+    name: str | None = None,
+    namespace: str = '/',
+    *,
+    connect: str | Sequence[str] | None = None,
+    config: TransportConfig | None = None,
+    args: Sequence[str] | None = None,
+    bridge_namespace: str | None = None,
+    handle_sigint: bool = True,
+    **options: Unpack[NodeOptions],
+) -> Node | None:
     """Create the default node (rosR: ``ros.Init``) and return it.
 
-    With ``handle_sigint`` (the default, main thread only) the first Ctrl-C makes ``ok()``
-    false so a ``while zros.ok()`` loop ends cleanly; a second one raises KeyboardInterrupt.
+    Without ``name`` (rclpy's ``rclpy.init(args=args)``) no node is made now: the default node,
+    named ``zros``, appears when a module function or class first needs it, so a program of
+    ``zros.Node`` objects shows only its own nodes in the graph. With ``handle_sigint`` (the
+    default, main thread only) the first Ctrl-C makes ``ok()`` false so a ``while zros.ok()``
+    loop ends cleanly; a second one raises KeyboardInterrupt.
     """
-    global _default, _previous_handler  # noqa: PLW0603
+    global _default, _pending, _previous_handler  # noqa: PLW0603
     with _lock:
-        if _default is not None and _default.ok():
+        if (_default is not None and _default.ok()) or (_pending is not None and ok()):
+            where = f' (node {_default.fully_qualified_name})' if _default is not None else ''
             raise ZrosError(
-                f'zros.init was already called (node {_default.fully_qualified_name}); '
+                f'zros.init was already called{where}; '
                 'call zros.shutdown() first, or create more nodes with zros.Node(...)'
             )
         clear_interrupt()
-        _default = Node(
-            name,
-            namespace,
-            connect=connect,
-            config=config,
-            args=args,
-            bridge_namespace=bridge_namespace,
-            **options,
+        if name is None and (connect is not None or config is not None):
+            # open the process's session now: the user's own Nodes use it too
+            config = config or TransportConfig.create(connect=connect)
+            default_transport(config)
+            connect = None
+        settings = dict(
+            connect=connect, config=config, args=args, bridge_namespace=bridge_namespace
         )
-        set_default_node(_default)
+
+        def make(node_name: str) -> Node:
+            return Node(node_name, namespace, **settings, **options)  # type: ignore[arg-type]
+
+        _pending = make
+        set_default_node_factory(default_node)
+        if name is not None:
+            _default = make(name)
+            set_default_node(_default)
         if handle_sigint and threading.current_thread() is threading.main_thread():
             start_listener_thread()
             previous = signal.signal(signal.SIGINT, _on_sigint)
@@ -105,7 +150,13 @@ def init(
 
 
 def default_node() -> Node:
-    """The node ``zros.init`` created, which the module functions and classes use."""
+    """The node ``zros.init`` created (or, after ``zros.init()`` without a name, creates now),
+    which the module functions and classes use."""
+    global _default  # noqa: PLW0603
+    with _lock:
+        if _default is None and _pending is not None:
+            _default = _pending('zros')
+            set_default_node(_default)
     if _default is None:
         raise NotInitializedError(
             'no default node: call zros.init("my_node") first, or pass node= explicitly'
@@ -115,7 +166,9 @@ def default_node() -> Node:
 
 def ok() -> bool:
     """False after ``shutdown()``, after Ctrl-C, or before ``init`` (rosR: ``ros.OK``)."""
-    return _default is not None and _default.ok()
+    if _default is not None:
+        return _default.ok()
+    return _pending is not None and not interrupted()
 
 
 def spin_once(timeout: float | None = 0.0) -> int:
@@ -126,17 +179,23 @@ def spin_once(timeout: float | None = 0.0) -> int:
     return default_node().spin_once(timeout)
 
 
-def spin(timeout: float | None = None) -> None:
-    """Run the default node's callbacks until ``ok()`` turns false (or ``timeout`` seconds);
-    rosR had only ``ros.SpinOnce``, rclpy calls it ``rclpy.spin``."""
-    default_node().spin(timeout)
+def spin(node: Node | float | None = None, timeout: float | None = None) -> None:
+    """Run a node's callbacks until it stops being ok or Ctrl-C (or ``timeout`` seconds):
+    ``node``'s as rclpy's ``rclpy.spin(node)``, else the default node's (``zros.spin(0.5)``
+    reads as a timeout); rosR had only ``ros.SpinOnce``."""
+    if node is None or isinstance(node, (int, float)):
+        timeout = node if timeout is None else timeout
+        node = default_node()
+    node.spin(timeout)
 
 
 def shutdown() -> None:
     """Destroy the default node, close the process's Zenoh session, restore Ctrl-C (rclpy:
     ``rclpy.shutdown``)."""
-    global _default, _previous_handler  # noqa: PLW0603
+    global _default, _pending, _previous_handler  # noqa: PLW0603
     with _lock:
+        _pending = None
+        set_default_node_factory(None)
         _clients.clear()  # parameter clients of the default node
         if _default is not None:
             _default.destroy()

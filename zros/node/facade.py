@@ -172,6 +172,18 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         """``/namespace/name`` of this node."""
         return self.context.fully_qualified_name
 
+    def get_name(self) -> str:
+        """The node's name (rclpy's ``get_name``)."""
+        return self.name
+
+    def get_namespace(self) -> str:
+        """The node's namespace, ``/`` at the root (rclpy's ``get_namespace``)."""
+        return self.namespace
+
+    def get_fully_qualified_name(self) -> str:
+        """``/namespace/name`` (rclpy's ``get_fully_qualified_name``)."""
+        return self.fully_qualified_name
+
     def resolve_name(self, name: str, kind: str = 'topic name') -> str:
         """The fully qualified form of a topic or service name, remappings applied."""
         return self.context.resolve_name(name, kind)
@@ -205,8 +217,12 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         return self.context.executor.run_once(timeout)
 
     def spin(self, timeout: float | None = None) -> None:
-        """Run callbacks and timers until the node stops being ok (or ``timeout`` seconds)."""
-        self.context.executor.spin(timeout)
+        """Run callbacks and timers until the node stops being ok (or ``timeout`` seconds); Ctrl-C
+        ends it and it returns, with or without ``zros.init``."""
+        try:
+            self.context.executor.spin(timeout)
+        except KeyboardInterrupt:  # no zros.init handler: Python raised it; end as init's does
+            return
 
     def spin_until_clock(self, deadline: int) -> None:
         """Run callbacks and timers until the node clock's timer base reaches ``deadline``."""
@@ -237,9 +253,10 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         self.transport.release_token(self._node_token)
         self.transport.remove_on_close(self.destroy)
 
-    #: ``close()`` as every other zros object (and ``with``) spells it; ``destroy`` is rclpy's
-    #: ``destroy_node``
+    #: ``close()`` as every other zros object (and ``with``) spells it
     close = destroy
+    #: rclpy's name
+    destroy_node = destroy
 
     def __repr__(self) -> str:
         state = ' (destroyed)' if self.context.closed else ''

@@ -16,6 +16,7 @@ from zros.pubsub.subscriber import Received
 from zros.qos import QoSLike
 from zros.runtime.clock import Clock
 from zros.runtime.context import NodeContext
+from zros.runtime.entity import Entity
 from zros.runtime.timers import Rate, Timer
 from zros.services import Client, Service
 from zros.services.server import ServiceHandler
@@ -92,3 +93,34 @@ class EntityFactories:
     def create_rate(self, hz: float) -> Rate:
         """A rate whose ``sleep()`` runs this node's callbacks while it waits."""
         return Rate(hz, node=self)
+
+    # --- rclpy's destroy_* : True when the entity was this node's and open, else False ------
+
+    def _destroy(self, entity: Entity, kind: type[Entity]) -> bool:
+        if not isinstance(entity, kind) or entity not in self.context.entities:
+            return False
+        entity.close()
+        return True
+
+    def destroy_publisher(self, publisher: Publisher) -> bool:
+        """Close a publisher of this node (rclpy's name); False if it was not one, or closed."""
+        return self._destroy(publisher, Publisher)
+
+    def destroy_subscription(self, subscription: Subscriber) -> bool:
+        """Close a subscriber of this node (rclpy's name); False if it was not one, or closed."""
+        return self._destroy(subscription, Subscriber)
+
+    def destroy_client(self, client: Client) -> bool:
+        """Close a service client of this node (rclpy's name); False if not one, or closed."""
+        return self._destroy(client, Client)
+
+    def destroy_service(self, service: Service) -> bool:
+        """Close a service server of this node (rclpy's name); False if not one, or closed."""
+        return self._destroy(service, Service)
+
+    def destroy_timer(self, timer: Timer) -> bool:
+        """Cancel a timer of this node (rclpy's name); False if not one, or cancelled."""
+        if not isinstance(timer, Timer) or timer.node is not self or timer.cancelled:
+            return False
+        timer.cancel()
+        return True

@@ -5,6 +5,7 @@ The module API (:mod:`zros.api`) sets it; entities below that layer only read it
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol
 
 from zros.errors import ZrosError
@@ -24,6 +25,7 @@ class NodeLike(Protocol):
 
 
 _default: NodeLike | None = None
+_factory: Callable[[], NodeLike] | None = None
 
 
 def set_default_node(node: NodeLike | None) -> None:
@@ -32,8 +34,16 @@ def set_default_node(node: NodeLike | None) -> None:
     _default = node
 
 
+def set_default_node_factory(factory: Callable[[], NodeLike] | None) -> None:
+    """Make the default node with ``factory`` when first needed (``zros.init()`` without a name)."""
+    global _factory  # noqa: PLW0603
+    _factory = factory
+
+
 def default_node() -> NodeLike:
-    """The node ``zros.init`` created; NotInitializedError before."""
+    """The node ``zros.init`` created (or makes now); NotInitializedError before."""
+    if _default is None and _factory is not None:
+        return _factory()
     if _default is None:
         raise NotInitializedError(
             'no default node: call zros.init("my_node") first, or pass node= explicitly'

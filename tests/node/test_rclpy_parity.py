@@ -1,0 +1,175 @@
+"""rclpy code ports as docs/mapping.md says: rclpy's node methods, Node subclasses, spinning that
+Ctrl-C ends cleanly, and ``zros.init(args=...)`` adding no node of its own to the graph."""
+
+from __future__ import annotations
+
+import signal
+from collections.abc import Callable, Iterator
+
+import pytest
+
+import zros
+from tests.support.processes import Script
+from zros.node import Node
+from zros.testing import wait_for
+from zros.transport import Router
+
+
+def test_names_as_rclpy_spells_them(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('talker', '/robot')
+    assert node.get_name() == 'talker'
+    assert node.get_namespace() == '/robot'
+    assert node.get_fully_qualified_name() == '/robot/talker'
+    assert zros_node('root').get_namespace() == '/'
+
+
+def test_destroy_entities_as_rclpy_does(zros_node: Callable[..., Node]) -> None:
+    node, other = zros_node('owner'), zros_node('other')
+    publisher = node.create_publisher('std_msgs/msg/String', 'chatter', 10)
+    subscription = node.create_subscription('std_msgs/msg/String', 'chatter', None, 10)
+    service = node.create_service('std_srvs/srv/Trigger', 'trigger')
+    client = node.create_client('std_srvs/srv/Trigger', 'trigger')
+    timer = node.create_timer(0.01, lambda: None)
+    assert wait_for(lambda: node.count_subscribers('/chatter') == 1)
+    # another node's entity, or the wrong kind, is refused (False), as rclpy does
+    assert not other.destroy_publisher(publisher)
+    assert not node.destroy_subscription(publisher)  # type: ignore[arg-type]
+    assert not other.destroy_timer(timer)
+    assert node.destroy_publisher(publisher)
+    assert node.destroy_subscription(subscription)
+    assert node.destroy_service(service)
+    assert node.destroy_client(client)
+    assert node.destroy_timer(timer) and timer.cancelled
+    assert node.context.entities == [] or all(
+        entity not in node.context.entities for entity in (publisher, subscription, service, client)
+    )
+    assert wait_for(lambda: other.count_subscribers('/chatter') == 0)
+    # twice: already destroyed
+    assert not node.destroy_publisher(publisher)
+    assert not node.destroy_timer(timer)
+    node.destroy_node()
+    assert not node.ok()
+
+
+PUBLISHER = """
+import zros
+from zros import Node
+
+String = zros.get_type('std_msgs/msg/String')
+
+
+class MinimalPublisher(Node):
+    def __init__(self):
+        super().__init__('minimal_publisher')
+        self.publisher_ = self.create_publisher(String, 'topic', 10)
+        self.timer = self.create_timer(0.05, self.timer_callback)
+        self.i = 0
+
+    def timer_callback(self):
+        msg = String()
+        msg.data = f'Hello World: {self.i}'
+        self.publisher_.publish(msg)
+        self.get_logger().info(f'Publishing: "{msg.data}"')
+        self.i += 1
+
+"""
+
+SUBSCRIBER = """
+import zros
+from zros import Node
+
+String = zros.get_type('std_msgs/msg/String')
+
+
+class MinimalSubscriber(Node):
+    def __init__(self):
+        super().__init__('minimal_subscriber')
+        self.subscription = self.create_subscription(
+            String, 'topic', self.listener_callback, 10)
+
+    def listener_callback(self, msg):
+        print(f'I heard: "{msg.data}"', flush=True)
+
+"""
+
+#: rclpy's main() of either example: {node} is minimal_publisher or minimal_subscriber
+MAIN = """
+def main(args=None):
+    {init}
+    {node} = {cls}()
+    print('spinning', flush=True)
+    {spin}
+    {node}.destroy_node()
+    {shutdown}
+    print('ended', flush=True)
+
+
+main()
+"""
+
+STYLES = {
+    # rclpy's own shape: init(args=args), spin(node), shutdown()
+    'zros.init(args=args)': ('zros.init(args=args)', 'zros.spin({node})', 'zros.shutdown()'),
+    # no init at all: Ctrl-C reaches spin as Python's KeyboardInterrupt
+    'without init': ('pass', '{node}.spin()', 'pass'),
+}
+
+
+@pytest.fixture
+def scripts() -> Iterator[list[Script]]:
+    started: list[Script] = []
+    yield started
+    for script in started:
+        script.stop()
+
+
+@pytest.mark.parametrize('style', STYLES)
+def test_minimal_examples_run_and_end_on_ctrl_c(
+    style: str, zros_router: Router, zros_node: Callable[..., Node], scripts: list[Script]
+) -> None:
+    init, spin, shutdown = STYLES[style]
+    for code, cls, node in (
+        (SUBSCRIBER, 'MinimalSubscriber', 'minimal_subscriber'),
+        (PUBLISHER, 'MinimalPublisher', 'minimal_publisher'),
+    ):
+        main = MAIN.replace('{init}', init).replace('{spin}', spin).replace('{shutdown}', shutdown)
+        main = main.replace('{cls}', cls).replace('{node}', node)
+        scripts.append(Script(code + main, zros_router))
+        scripts[-1].expect('spinning', 30)
+    subscriber = scripts[0]
+    subscriber.expect('I heard: "Hello World: ', 30)
+    observer = zros_node('observer')
+    assert wait_for(
+        lambda: {'/minimal_publisher', '/minimal_subscriber'} <= set(observer.get_node_names())
+    )
+    # zros.init(args=...) made no node of its own: only the two nodes and the observer
+    assert set(observer.get_node_names()) == {
+        '/minimal_publisher',
+        '/minimal_subscriber',
+        '/observer',
+    }
+    for script in scripts:
+        script.process.send_signal(signal.SIGINT)
+    for script in scripts:
+        script.expect('ended', 10)
+        assert script.process.wait(10) == 0
+        errors = script.stop()
+        assert 'Traceback' not in errors, errors
+
+
+def test_init_without_a_name_makes_the_default_node_when_needed(zros_router: Router) -> None:
+    assert zros.init(connect=zros_router.endpoint, handle_sigint=False) is None
+    try:
+        assert zros.ok()
+        own = zros.Node('own')  # on the session init's connect= opened
+        assert wait_for(lambda: '/own' in own.get_node_names())
+        assert own.get_node_names() == ['/own']
+        publisher = zros.Publisher('/lazy', 'std_msgs/msg/String')
+        assert publisher.node.transport is own.transport
+        assert publisher.node is zros.default_node()
+        assert zros.default_node().get_fully_qualified_name() == '/zros'
+        with pytest.raises(zros.ZrosError, match='already called'):
+            zros.init(connect=zros_router.endpoint, handle_sigint=False)
+    finally:
+        zros.shutdown()
+    assert not zros.ok()
