@@ -9,11 +9,12 @@ traceback). Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
 from __future__ import annotations
 
 import argparse
+import difflib
 import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from types import FrameType
 from typing import TYPE_CHECKING
@@ -82,6 +83,20 @@ def add_verb(
     parser.set_defaults(run=run)
     add_connection_options(parser)
     return parser
+
+
+#: seconds ``--wait`` alone waits for a name to appear
+WAIT = 10.0
+
+
+def add_wait_option(parser: argparse.ArgumentParser, kind: str) -> None:
+    """``--wait [S]``: wait up to S seconds (default 10) for the ``kind`` to appear; without
+    it, a name the graph does not show fails at once with the closest known names."""
+    parser.add_argument(
+        '--wait', type=float, nargs='?', const=WAIT, metavar='S',
+        help=f'wait up to S seconds (default {WAIT:g}) for the {kind} to appear (without '
+        '--wait: a name not on the network fails at once, with the closest ones)',
+    )  # fmt: skip
 
 
 def wire_settings(args: argparse.Namespace) -> dict[str, WireOption]:
@@ -195,14 +210,39 @@ def message_class(type_name: str) -> type[Message]:
     return found
 
 
-def graph_topic_type(node: Node, topic: str, wait: float) -> str:
-    """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear."""
+def unknown_name(kind: str, name: str, known: Iterable[str], listing: str) -> CommandError:
+    """The error for a ``kind`` (topic, service...) the graph does not show: the closest known
+    names ("did you mean /chatter?"), else the command ``listing`` them."""
+    matches = difflib.get_close_matches(name, list(known), n=3, cutoff=0.6)
+    hint = f'did you mean {" or ".join(matches)}?' if matches else f'{listing} shows them'
+    return CommandError(f'{kind} {name} does not appear on the network: {hint}')
+
+
+def require_on_graph(node: Node, kind: str, name: str) -> None:
+    """Fail with the closest names unless ``name`` is among the graph's ``'topics'``,
+    ``'services'``, ``'actions'`` or ``'nodes'``, once the graph has answered (it normally
+    does at once): a mistyped name fails now, not after the whole wait."""
+    node.graph.refresh(DISCOVERY)
+    if kind == 'nodes':
+        known: Iterable[str] = [n for n in node.graph.nodes() if n != node.fully_qualified_name]
+    else:
+        known = names_on_graph(node, kind)
+    if name not in known:
+        raise unknown_name(kind[:-1], name, known, f'zros {kind[:-1]} list')
+
+
+def graph_topic_type(node: Node, topic: str, wait: float | None) -> str:
+    """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear;
+    ``None``: only until the graph has answered, failing with the closest names."""
     name = node.resolve_name(topic)
 
     def found() -> list[str]:
         return node.graph.topics(node.scheme.namespace).get(name, [])
 
-    node.graph.wait_until(found, wait)
+    if wait is None:
+        require_on_graph(node, 'topics', name)
+    else:
+        node.graph.wait_until(found, wait)
     types = found()
     if not types:
         raise CommandError(

@@ -10,6 +10,7 @@ from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     add_verb,
+    add_wait_option,
     build_message,
     find_names,
     graph_topic_type,
@@ -18,6 +19,7 @@ from zros.cli.shared import (
     open_node,
     out,
     parse_values,
+    unknown_name,
 )
 from zros.cli.topic_rates import bw, delay, hz
 from zros.qos import DEFAULT, LATCHED, Congestion, Priority, as_qos
@@ -26,6 +28,9 @@ if TYPE_CHECKING:
     from zros.cdr import Message
     from zros.graph import Endpoint
     from zros.node import Node
+
+#: what lists the topics, named when a mistyped one matches none
+LIST = 'zros topic list'
 
 
 def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
@@ -63,7 +68,7 @@ def info(args: argparse.Namespace) -> int:
         name = node.resolve_name(args.topic)
         types = node.graph.topics(node.scheme.namespace).get(name)
         if not types:
-            raise CommandError(f'unknown topic {name}')
+            raise unknown_name('topic', name, node.graph.topics(node.scheme.namespace), LIST)
         publishers, subscribers = _publishers_and_subscribers(node, name)
         out(f'Type: {", ".join(types)}')
         out()
@@ -218,8 +223,7 @@ def add_parser(
     parser.add_argument('--truncate-length', type=int, metavar='N', help='cut long values')
     parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
     _add_max_age(parser)
-    parser.add_argument('--wait', type=float, default=10.0, metavar='S',
-                        help='how long to wait for the topic to appear (default 10)')  # fmt: skip
+    add_wait_option(parser, 'topic')
 
     parser = add_verb(verbs, 'pub', 'publish messages on a topic', pub)
     parser.add_argument('topic')
@@ -254,8 +258,7 @@ def add_parser(
         parser.add_argument('topic')
         if name == 'delay':
             parser.add_argument('type', nargs='?')
-        parser.add_argument('--wait', type=float, default=10.0, metavar='S',
-                            help='how long to wait for the topic (default 10)')  # fmt: skip
+        add_wait_option(parser, 'topic')
         parser.add_argument('-w', '--window', type=int, default=10_000 if name == 'hz' else 100)
         if name != 'delay':
             _add_max_age(parser)
