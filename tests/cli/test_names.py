@@ -1,10 +1,12 @@
 """A mistyped name fails once the graph has answered, with the closest known names, instead of
-after the whole wait (issue 37, point 5); ``--wait`` still waits."""
+after the whole wait (issue 37, point 5; ``--wait`` still waits); a type other than the one the
+graph advertises is refused before anything is sent or printed (point 3)."""
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from tests.cli.conftest import Cli
@@ -86,3 +88,44 @@ def test_mistyped_node_and_parameter(cli: Cli, zros_node: Node) -> None:
         )
         waited = cli.run('param', 'get', '/talkr', 'x', '--wait', '--timeout', '0.3')
         assert 'node /talkr not found' in waited.stderr
+
+
+def test_a_type_the_graph_contradicts_is_refused(cli: Cli, zros_node: Node, tmp_path: Path) -> None:
+    """Issue 37, point 3: nothing is sent or printed with a type other than the advertised one."""
+    talker = zros_node('talker', enable_rosout=False, start_parameter_services=False)
+    talker.create_publisher('std_msgs/msg/String', '/chatter', 10)
+    heard: list[Any] = []
+    talker.create_subscription('std_msgs/msg/String', '/chatter', heard.append)
+    talker.create_service(ADD, '/add_two_ints', lambda request, response: response)
+    talker.create_action_server(FIB, '/fibonacci', lambda goal: None)
+    refused = 'zros: error: /chatter carries std_msgs/msg/String, not std_msgs/msg/Int32\n'
+    with spinning(talker):
+        for args in (
+            ('topic', 'echo', '/chatter', 'std_msgs/msg/Int32'),
+            ('topic', 'echo', '/chatter', 'std_msgs/Int32'),
+            ('topic', 'delay', '/chatter', 'std_msgs/msg/Int32'),
+            ('topic', 'pub', '/chatter', 'std_msgs/msg/Int32', '{data: 1}', '--once'),
+        ):
+            result = cli.run(*args)
+            assert (result.returncode, result.stdout, result.stderr) == (1, '', refused), args
+        call = cli.run('service', 'call', '/add_two_ints', 'std_srvs/srv/Trigger')
+        assert (call.returncode, call.stdout, call.stderr) == (
+            1,
+            '',
+            'zros: error: /add_two_ints carries example_interfaces/srv/AddTwoInts, '
+            'not std_srvs/srv/Trigger\n',
+        )
+        # an action type of our own, to send to the Fibonacci server
+        (tmp_path / 'zros_test_msgs' / 'action').mkdir(parents=True)
+        text = 'int32 steps\n---\nbool done\n---\nint32 left\n'
+        (tmp_path / 'zros_test_msgs' / 'action' / 'Count.action').write_text(text)
+        goal = cli.run(
+            'action', 'send_goal', '/fibonacci', 'zros_test_msgs/action/Count', '{steps: 1}',
+            env={'ZROS_INTERFACE_PATH': str(tmp_path)},
+        )  # fmt: skip
+        assert (goal.returncode, goal.stdout) == (1, '')
+        assert (
+            goal.stderr
+            == f'zros: error: /fibonacci carries {FIB}, not zros_test_msgs/action/Count\n'
+        )
+    assert heard == []

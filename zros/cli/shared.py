@@ -231,6 +231,16 @@ def require_on_graph(node: Node, kind: str, name: str) -> None:
         raise unknown_name(kind[:-1], name, known, f'zros {kind[:-1]} list')
 
 
+def require_advertised_type(node: Node, kind: str, name: str, type_name: str) -> None:
+    """Fail unless the graph's ``'topics'``, ``'services'`` or ``'actions'`` advertise
+    ``name`` with ``type_name`` (or not at all): a type that differs fails before anything is
+    sent or printed, naming the one the graph shows."""
+    node.graph.refresh(DISCOVERY)
+    types = names_on_graph(node, kind).get(node.resolve_name(name), [])
+    if types and type_name not in types:
+        raise CommandError(f'{node.resolve_name(name)} carries {", ".join(types)}, not {type_name}')
+
+
 def graph_topic_type(node: Node, topic: str, wait: float | None) -> str:
     """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear;
     ``None``: only until the graph has answered, failing with the closest names."""
@@ -282,6 +292,16 @@ def known_type(node: Node, topic: str, type_name: str) -> str:
         return type_name
     asked = ', '.join(owners) or 'none serves ~/get_type_description'
     raise CommandError(f'{unknown}\nThe nodes on the network did not describe it ({asked}).')
+
+
+def subscription_type(node: Node, topic: str, type_name: str | None, wait: float | None) -> str:
+    """The type to subscribe to ``topic`` with: ``type_name`` when given (refused when the graph
+    advertises another), else the graph's (:func:`graph_topic_type`); made known to ``node``."""
+    if not type_name:
+        return known_type(node, topic, graph_topic_type(node, topic, wait))
+    type_name = known_type(node, topic, type_name)
+    require_advertised_type(node, 'topics', topic, node.registry.get_class(type_name).__msgtype__)
+    return type_name
 
 
 def build_message(cls: type[Message], values: dict[str, FieldValue]) -> Message:

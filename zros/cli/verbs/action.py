@@ -16,6 +16,7 @@ from zros.cli.shared import (
     out,
     parse_values,
     print_types,
+    require_advertised_type,
     require_on_graph,
 )
 
@@ -72,6 +73,7 @@ def send_goal(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         if args.wait is None:  # before our own client shows the name on the graph
             require_on_graph(node, 'actions', node.resolve_name(args.action))
+        require_advertised_type(node, 'actions', args.action, action.__actiontype__)
         client = node.create_action_client(action, args.action)
         goal = build_message(client.Goal, values)
 

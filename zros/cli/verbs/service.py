@@ -18,6 +18,7 @@ from zros.cli.shared import (
     out,
     parse_values,
     print_types,
+    require_advertised_type,
     require_on_graph,
 )
 
@@ -56,6 +57,7 @@ def call(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         if args.wait is None:  # before our own client shows the name on the graph
             require_on_graph(node, 'services', node.resolve_name(args.service))
+        require_advertised_type(node, 'services', args.service, srv.__srvtype__)
         client = node.create_client(srv, args.service, timeout=args.timeout)
         request = build_message(client.Request, values)
         if not client.service_is_ready():

@@ -14,11 +14,12 @@ from zros.cli.shared import (
     build_message,
     find_names,
     graph_topic_type,
-    known_type,
     message_class,
     open_node,
     out,
     parse_values,
+    require_advertised_type,
+    subscription_type,
     unknown_name,
 )
 from zros.cli.topic_rates import bw, delay, hz
@@ -122,9 +123,7 @@ def echo(args: argparse.Namespace) -> int:
         return value_to_yaml(value, flow_style=args.flow_style, **options)
 
     with open_node(args) as node:
-        type_name = known_type(
-            node, args.topic, args.type or graph_topic_type(node, args.topic, args.wait)
-        )
+        type_name = subscription_type(node, args.topic, args.type, args.wait)
         publishers = _publishers_and_subscribers(node, args.topic)[0]
         latched = bool(publishers) and all(
             p.qos is not None and p.qos.transient_local for p in publishers
@@ -152,6 +151,7 @@ def pub(args: argparse.Namespace) -> int:
     cls = message_class(args.type)
     message = build_message(cls, parse_values(args.values))
     with open_node(args) as node:
+        require_advertised_type(node, 'topics', args.topic, cls.__msgtype__)
         qos = (LATCHED if args.latched else DEFAULT).with_(
             priority=args.priority, express=args.express, congestion=args.congestion
         )
