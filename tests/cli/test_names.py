@@ -86,6 +86,10 @@ def test_mistyped_node_and_parameter(cli: Cli, zros_node: Node) -> None:
             1,
             'zros: error: parameter publish_rat not set on /talker: did you mean publish_rate?\n',
         )
+        refused = cli.run('param', 'set', '/talker', 'publish_rat', '3.0')
+        assert refused.returncode == 1
+        assert refused.stdout.startswith('Setting parameter failed: ')
+        assert refused.stdout.endswith(': did you mean publish_rate?\n')
         waited = cli.run('param', 'get', '/talkr', 'x', '--wait', '--timeout', '0.3')
         assert 'node /talkr not found' in waited.stderr
 

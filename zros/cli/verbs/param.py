@@ -85,6 +85,14 @@ def list_parameters(args: argparse.Namespace) -> int:
     return 0
 
 
+def _closest_parameters(client: ParameterClient, name: str) -> str:
+    """``': did you mean rate?'`` when ``name`` is not one of the node's parameters but close
+    to some (difflib), else ``''``."""
+    names = client.list_parameters(())
+    matches = [] if name in names else difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+    return f': did you mean {" or ".join(matches)}?' if matches else ''
+
+
 def get(args: argparse.Namespace) -> int:
     from zros.params.values import ParameterType
 
@@ -92,9 +100,7 @@ def get(args: argparse.Namespace) -> int:
         client = _client(node, args.node, args.timeout, args.wait)
         kind = client.get_parameter_types([args.name])[args.name]
         if kind is ParameterType.NOT_SET:
-            names = client.list_parameters(())
-            matches = difflib.get_close_matches(args.name, names, n=3, cutoff=0.6)
-            hint = f': did you mean {" or ".join(matches)}?' if matches else ''
+            hint = _closest_parameters(client, args.name)
             raise CommandError(f'parameter {args.name} not set on {client.target}{hint}')
         value = client.get(args.name)
         if isinstance(value, (bytes, bytearray)):
@@ -112,12 +118,12 @@ def set_parameter(args: argparse.Namespace) -> int:
     except ParameterError as exc:
         raise CommandError(str(exc)) from None
     with open_node(args) as node:
-        (result,) = _client(node, args.node, args.timeout, args.wait).set_parameters(
-            {args.name: value}
-        )
-    if not result:
-        out(f'Setting parameter failed: {result.reason}')
-        return 1
+        client = _client(node, args.node, args.timeout, args.wait)
+        (result,) = client.set_parameters({args.name: value})
+        if not result:
+            hint = _closest_parameters(client, args.name)
+            out(f'Setting parameter failed: {result.reason}{hint}')
+            return 1
     out('Set parameter successful')
     return 0
 
