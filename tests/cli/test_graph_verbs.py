@@ -41,7 +41,7 @@ def test_node_list_and_info(cli: Cli, zros_node: Node) -> None:
     assert info[-3:] == ['  Service Clients:', '  Action Servers:', '  Action Clients:']
     unknown = cli.run('node', 'info', '/nobody')
     assert unknown.returncode == 1
-    assert 'unknown node /nobody' in unknown.stderr
+    assert 'node /nobody does not appear on the network: zros node list shows' in unknown.stderr
 
 
 def test_service_list_type_find_call(cli: Cli, zros_node: Node) -> None:

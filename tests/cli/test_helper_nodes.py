@@ -75,7 +75,7 @@ def test_helper_nodes_are_named_alike_and_fully_visible(
     )
     nobody = cli.run('param', 'list', '/nobody', '--wire', wire, '--timeout', '1')
     assert nobody.returncode == 1
-    assert 'node /nobody not found' in nobody.stderr
+    assert 'node /nobody does not appear on the network' in nobody.stderr
 
 
 def test_hz_of_a_type_without_definition_measures_unannounced(

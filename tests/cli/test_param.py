@@ -146,8 +146,13 @@ def test_use_sim_time_set_and_load_switch_the_clock(cli: Cli, driver: Any, tmp_p
 
 
 def test_unknown_node(cli: Cli) -> None:
-    result = cli.run('param', 'get', '/ghost', 'x', '--timeout', '0.3')
+    result = cli.run('param', 'get', '/ghost', 'x', '--timeout', '0.3', '--wait')
     assert (result.returncode, result.stderr) == (
         1,
         'zros: error: node /ghost not found (nothing serves its parameters)\n',
+    )
+    at_once = cli.run('param', 'get', '/ghost', 'x')
+    assert (at_once.returncode, at_once.stderr) == (
+        1,
+        'zros: error: node /ghost does not appear on the network: zros node list shows them\n',
     )

@@ -9,11 +9,12 @@ traceback). Continuous commands (echo, hz...) stopped with Ctrl-C exit 0.
 from __future__ import annotations
 
 import argparse
+import difflib
 import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from types import FrameType
 from typing import TYPE_CHECKING
@@ -82,6 +83,20 @@ def add_verb(
     parser.set_defaults(run=run)
     add_connection_options(parser)
     return parser
+
+
+#: seconds ``--wait`` alone waits for a name to appear
+WAIT = 10.0
+
+
+def add_wait_option(parser: argparse.ArgumentParser, kind: str) -> None:
+    """``--wait [S]``: wait up to S seconds (default 10) for the ``kind`` to appear; without
+    it, a name the graph does not show fails at once with the closest known names."""
+    parser.add_argument(
+        '--wait', type=float, nargs='?', const=WAIT, metavar='S',
+        help=f'wait up to S seconds (default {WAIT:g}) for the {kind} to appear (without '
+        '--wait: a name not on the network fails at once, with the closest ones)',
+    )  # fmt: skip
 
 
 def wire_settings(args: argparse.Namespace) -> dict[str, WireOption]:
@@ -195,14 +210,49 @@ def message_class(type_name: str) -> type[Message]:
     return found
 
 
-def graph_topic_type(node: Node, topic: str, wait: float) -> str:
-    """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear."""
+def unknown_name(kind: str, name: str, known: Iterable[str], listing: str) -> CommandError:
+    """The error for a ``kind`` (topic, service...) the graph does not show: the closest known
+    names ("did you mean /chatter?"), else the command ``listing`` them."""
+    matches = difflib.get_close_matches(name, list(known), n=3, cutoff=0.6)
+    hint = f'did you mean {" or ".join(matches)}?' if matches else f'{listing} shows them'
+    return CommandError(f'{kind} {name} does not appear on the network: {hint}')
+
+
+def require_on_graph(node: Node, kind: str, name: str) -> None:
+    """Fail with the closest names unless ``name`` is among the graph's ``'topics'``,
+    ``'services'``, ``'actions'`` or ``'nodes'``, once the graph has answered (it normally
+    does at once): a mistyped name fails now, not after the whole wait."""
+    node.graph.refresh(DISCOVERY)
+    if kind == 'nodes':
+        known: Iterable[str] = [n for n in node.graph.nodes() if n != node.fully_qualified_name]
+    else:
+        known = names_on_graph(node, kind)
+    if name not in known:
+        raise unknown_name(kind[:-1], name, known, f'zros {kind[:-1]} list')
+
+
+def require_advertised_type(node: Node, kind: str, name: str, type_name: str) -> None:
+    """Fail unless the graph's ``'topics'``, ``'services'`` or ``'actions'`` advertise
+    ``name`` with ``type_name`` (or not at all): a type that differs fails before anything is
+    sent or printed, naming the one the graph shows."""
+    node.graph.refresh(DISCOVERY)
+    types = names_on_graph(node, kind).get(node.resolve_name(name), [])
+    if types and type_name not in types:
+        raise CommandError(f'{node.resolve_name(name)} carries {", ".join(types)}, not {type_name}')
+
+
+def graph_topic_type(node: Node, topic: str, wait: float | None) -> str:
+    """The type of a topic from the graph, waiting up to ``wait`` seconds for it to appear;
+    ``None``: only until the graph has answered, failing with the closest names."""
     name = node.resolve_name(topic)
 
     def found() -> list[str]:
         return node.graph.topics(node.scheme.namespace).get(name, [])
 
-    node.graph.wait_until(found, wait)
+    if wait is None:
+        require_on_graph(node, 'topics', name)
+    else:
+        node.graph.wait_until(found, wait)
     types = found()
     if not types:
         raise CommandError(
@@ -242,6 +292,16 @@ def known_type(node: Node, topic: str, type_name: str) -> str:
         return type_name
     asked = ', '.join(owners) or 'none serves ~/get_type_description'
     raise CommandError(f'{unknown}\nThe nodes on the network did not describe it ({asked}).')
+
+
+def subscription_type(node: Node, topic: str, type_name: str | None, wait: float | None) -> str:
+    """The type to subscribe to ``topic`` with: ``type_name`` when given (refused when the graph
+    advertises another), else the graph's (:func:`graph_topic_type`); made known to ``node``."""
+    if not type_name:
+        return known_type(node, topic, graph_topic_type(node, topic, wait))
+    type_name = known_type(node, topic, type_name)
+    require_advertised_type(node, 'topics', topic, node.registry.get_class(type_name).__msgtype__)
+    return type_name
 
 
 def build_message(cls: type[Message], values: dict[str, FieldValue]) -> Message:

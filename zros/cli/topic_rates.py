@@ -16,10 +16,10 @@ from typing import TYPE_CHECKING
 from zros.cli.shared import (
     CommandError,
     graph_topic_type,
-    known_type,
     message_class,
     open_node,
     out,
+    subscription_type,
 )
 
 if TYPE_CHECKING:
@@ -166,9 +166,7 @@ def delay(args: argparse.Namespace) -> int:
     from zros.runtime.clock import Time
 
     with open_node(args) as node:
-        type_name = known_type(
-            node, args.topic, args.type or graph_topic_type(node, args.topic, args.wait)
-        )
+        type_name = subscription_type(node, args.topic, args.type, args.wait)
         if 'header' not in message_class(type_name).__slots__:
             raise CommandError(f'{type_name} has no header: its delay cannot be measured')
         delays: deque[float] = deque(maxlen=args.window)

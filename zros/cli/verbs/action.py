@@ -6,15 +6,18 @@ import argparse
 from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
+    WAIT,
     CommandError,
     add_verb,
+    add_wait_option,
     build_message,
     list_names,
-    names_on_graph,
     open_node,
     out,
     parse_values,
     print_types,
+    require_advertised_type,
+    require_on_graph,
 )
 
 if TYPE_CHECKING:
@@ -42,8 +45,7 @@ def info(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         name = node.resolve_name(args.action)
         key = node.scheme.key(name)
-        if name not in names_on_graph(node, 'actions'):
-            raise CommandError(f'action {name} does not appear on the network')
+        require_on_graph(node, 'actions', name)
         out(f'Action: {name}')
         for title, kind in (
             ('Action clients', EntityKind.ACTION_CLIENT),
@@ -69,6 +71,9 @@ def send_goal(args: argparse.Namespace) -> int:
         raise CommandError(f'{args.type} is not an action type')
     values = parse_values(args.values)
     with open_node(args) as node:
+        if args.wait is None:  # before our own client shows the name on the graph
+            require_on_graph(node, 'actions', node.resolve_name(args.action))
+        require_advertised_type(node, 'actions', args.action, action.__actiontype__)
         client = node.create_action_client(action, args.action)
         goal = build_message(client.Goal, values)
 
@@ -77,9 +82,10 @@ def send_goal(args: argparse.Namespace) -> int:
             out(_indented(message_to_yaml(feedback)))
             out()
 
+        wait = WAIT if args.wait is None else args.wait
         out('Waiting for an action server to become available...')
-        if not client.wait_for_server(args.wait):
-            raise CommandError(f'no server for {client.name} appeared within {args.wait:g} s')
+        if not client.wait_for_server(wait):
+            raise CommandError(f'no server for {client.name} appeared within {wait:g} s')
         out('Sending goal:')
         out(_indented(message_to_yaml(goal), 5))
         out()
@@ -128,4 +134,4 @@ def add_parser(
     sub.add_argument('type', help='e.g. example_interfaces/action/Fibonacci')
     sub.add_argument('values', nargs='?', help='the goal as YAML, e.g. "{order: 5}"')
     sub.add_argument('-f', '--feedback', action='store_true', help='print the feedback')
-    sub.add_argument('--wait', type=float, default=10.0, help='seconds to wait for a server')
+    add_wait_option(sub, 'action')

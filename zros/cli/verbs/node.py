@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import DISCOVERY, CommandError, add_connection_options, open_node, out
+from zros.cli.shared import DISCOVERY, add_connection_options, open_node, out, unknown_name
 
 if TYPE_CHECKING:
     from zros.graph import Endpoint
@@ -53,7 +53,7 @@ def info(args: argparse.Namespace) -> int:
         node.graph.refresh(DISCOVERY)
         name = node.resolve_name(args.node)
         if name not in _others(node):
-            raise CommandError(f'unknown node {name} (zros node list shows the nodes)')
+            raise unknown_name('node', name, _others(node), 'zros node list')
         endpoints = _endpoints_of(node, name)
         out(name)
         for title, code in _SECTIONS:

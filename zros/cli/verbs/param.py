@@ -7,10 +7,18 @@ bridge (whose ``ros2 param`` view needs the services, not the node list).
 from __future__ import annotations
 
 import argparse
+import difflib
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import DISCOVERY, CommandError, add_connection_options, open_node, out
+from zros.cli.shared import (
+    DISCOVERY,
+    CommandError,
+    add_connection_options,
+    open_node,
+    out,
+    unknown_name,
+)
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -29,10 +37,18 @@ _LABELS = {
 }
 
 
-def _client(node: Node, target: str, timeout: float) -> ParameterClient:
+def _client(node: Node, target: str, timeout: float, wait: bool) -> ParameterClient:
+    """A client of ``target``'s parameters; unless ``wait``, a node the graph does not show
+    fails at once with the closest names, else after ``timeout``."""
     from zros.params.client import ParameterClient
 
     client = ParameterClient(node.resolve_name(target), node=node, timeout=timeout)
+    if not wait and not client.wait_for_node(0):
+        node.graph.refresh(DISCOVERY)
+        known = set(node.graph.nodes()) | set(_parameter_nodes(node))
+        if client.target not in known:
+            known.discard(node.fully_qualified_name)
+            raise unknown_name('node', client.target, sorted(known), 'zros node list')
     if not client.wait_for_node(timeout):
         node.graph.refresh(DISCOVERY)
         if client.target in node.graph.nodes():  # e.g. the node of another zros command
@@ -58,7 +74,7 @@ def list_parameters(args: argparse.Namespace) -> int:
             node.graph.refresh(DISCOVERY)
             targets = _parameter_nodes(node)
         for target in targets:
-            client = _client(node, target, args.timeout)
+            client = _client(node, target, args.timeout, args.wait)
             names = sorted(client.list_parameters(args.prefixes or ()))
             if not args.node:
                 out(f'{target}:')
@@ -69,14 +85,23 @@ def list_parameters(args: argparse.Namespace) -> int:
     return 0
 
 
+def _closest_parameters(client: ParameterClient, name: str) -> str:
+    """``': did you mean rate?'`` when ``name`` is not one of the node's parameters but close
+    to some (difflib), else ``''``."""
+    names = client.list_parameters(())
+    matches = [] if name in names else difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+    return f': did you mean {" or ".join(matches)}?' if matches else ''
+
+
 def get(args: argparse.Namespace) -> int:
     from zros.params.values import ParameterType
 
     with open_node(args) as node:
-        client = _client(node, args.node, args.timeout)
+        client = _client(node, args.node, args.timeout, args.wait)
         kind = client.get_parameter_types([args.name])[args.name]
         if kind is ParameterType.NOT_SET:
-            raise CommandError(f'parameter {args.name} not set on {client.target}')
+            hint = _closest_parameters(client, args.name)
+            raise CommandError(f'parameter {args.name} not set on {client.target}{hint}')
         value = client.get(args.name)
         if isinstance(value, (bytes, bytearray)):
             value = list(value)
@@ -93,17 +118,21 @@ def set_parameter(args: argparse.Namespace) -> int:
     except ParameterError as exc:
         raise CommandError(str(exc)) from None
     with open_node(args) as node:
-        (result,) = _client(node, args.node, args.timeout).set_parameters({args.name: value})
-    if not result:
-        out(f'Setting parameter failed: {result.reason}')
-        return 1
+        client = _client(node, args.node, args.timeout, args.wait)
+        (result,) = client.set_parameters({args.name: value})
+        if not result:
+            hint = _closest_parameters(client, args.name)
+            out(f'Setting parameter failed: {result.reason}{hint}')
+            return 1
     out('Set parameter successful')
     return 0
 
 
 def delete(args: argparse.Namespace) -> int:
     with open_node(args) as node:
-        (result,) = _client(node, args.node, args.timeout).set_parameters({args.name: None})
+        (result,) = _client(node, args.node, args.timeout, args.wait).set_parameters(
+            {args.name: None}
+        )
     if not result:
         out(f'Deleting parameter failed: {result.reason}')
         return 1
@@ -113,7 +142,7 @@ def delete(args: argparse.Namespace) -> int:
 
 def describe(args: argparse.Namespace) -> int:
     with open_node(args) as node:
-        client = _client(node, args.node, args.timeout)
+        client = _client(node, args.node, args.timeout, args.wait)
         names = args.names
         descriptors = client.describe_parameters(names)
         kinds = client.get_parameter_types(names)
@@ -144,7 +173,7 @@ def dump(args: argparse.Namespace) -> int:
     from zros.params.files import dump as dump_file
 
     with open_node(args) as node:
-        client = _client(node, args.node, args.timeout)
+        client = _client(node, args.node, args.timeout, args.wait)
         names = client.list_parameters()
         values = client.get_parameters(names) if names else {}
     text = dump_file(client.target, values)
@@ -167,7 +196,7 @@ def load(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     failed = 0
     with open_node(args) as node:
-        client = _client(node, args.node, args.timeout)
+        client = _client(node, args.node, args.timeout, args.wait)
         values = values_for(entries, client.target)
         if not values:
             raise CommandError(f'{args.file} has no parameters for {client.target}')
@@ -206,6 +235,9 @@ def add_parser(
         else:
             sub.add_argument('node', help='e.g. /robot/driver')
         sub.add_argument('--timeout', type=float, default=5.0, help='seconds for each answer')
+        sub.add_argument('--wait', action='store_true',
+                         help='wait up to --timeout for the node to appear (without: a node '
+                         'not on the network fails at once, with the closest names)')  # fmt: skip
         add_connection_options(sub)
         return sub
 

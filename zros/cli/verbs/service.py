@@ -7,8 +7,10 @@ import time
 from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
+    WAIT,
     CommandError,
     add_verb,
+    add_wait_option,
     build_message,
     find_names,
     list_names,
@@ -16,6 +18,8 @@ from zros.cli.shared import (
     out,
     parse_values,
     print_types,
+    require_advertised_type,
+    require_on_graph,
 )
 
 if TYPE_CHECKING:
@@ -51,14 +55,17 @@ def call(args: argparse.Namespace) -> int:
     srv = _service_type(args.type)
     values = parse_values(args.values)
     with open_node(args) as node:
+        if args.wait is None:  # before our own client shows the name on the graph
+            require_on_graph(node, 'services', node.resolve_name(args.service))
+        require_advertised_type(node, 'services', args.service, srv.__srvtype__)
         client = node.create_client(srv, args.service, timeout=args.timeout)
         request = build_message(client.Request, values)
         if not client.service_is_ready():
+            wait = WAIT if args.wait is None else args.wait
             out('waiting for service to become available...')
-            if not client.wait_for_service(args.wait):
+            if not client.wait_for_service(wait):
                 raise CommandError(
-                    f'no server for {client.name} [{srv.__srvtype__}] appeared within '
-                    f'{args.wait:g} s'
+                    f'no server for {client.name} [{srv.__srvtype__}] appeared within {wait:g} s'
                 )
         rate = node.create_rate(args.rate) if args.rate else None
         for index in range(args.times or 1 if rate else 1):
@@ -98,5 +105,5 @@ def add_parser(
     sub.add_argument('--times', type=int, default=0, help='with --rate: how many calls')
     sub.add_argument('--yaml', action='store_true', help='print the response as YAML')
     sub.add_argument('--timeout', type=float, default=10.0, help='seconds for each reply')
-    sub.add_argument('--wait', type=float, default=10.0, help='seconds to wait for a server')
+    add_wait_option(sub, 'service')
     sub.add_argument('-v', '--verbose', action='store_true', help='with the round-trip time')

@@ -10,14 +10,17 @@ from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     add_verb,
+    add_wait_option,
     build_message,
     find_names,
     graph_topic_type,
-    known_type,
     message_class,
     open_node,
     out,
     parse_values,
+    require_advertised_type,
+    subscription_type,
+    unknown_name,
 )
 from zros.cli.topic_rates import bw, delay, hz
 from zros.qos import DEFAULT, LATCHED, Congestion, Priority, as_qos
@@ -26,6 +29,9 @@ if TYPE_CHECKING:
     from zros.cdr import Message
     from zros.graph import Endpoint
     from zros.node import Node
+
+#: what lists the topics, named when a mistyped one matches none
+LIST = 'zros topic list'
 
 
 def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
@@ -63,7 +69,7 @@ def info(args: argparse.Namespace) -> int:
         name = node.resolve_name(args.topic)
         types = node.graph.topics(node.scheme.namespace).get(name)
         if not types:
-            raise CommandError(f'unknown topic {name}')
+            raise unknown_name('topic', name, node.graph.topics(node.scheme.namespace), LIST)
         publishers, subscribers = _publishers_and_subscribers(node, name)
         out(f'Type: {", ".join(types)}')
         out()
@@ -117,9 +123,7 @@ def echo(args: argparse.Namespace) -> int:
         return value_to_yaml(value, flow_style=args.flow_style, **options)
 
     with open_node(args) as node:
-        type_name = known_type(
-            node, args.topic, args.type or graph_topic_type(node, args.topic, args.wait)
-        )
+        type_name = subscription_type(node, args.topic, args.type, args.wait)
         publishers = _publishers_and_subscribers(node, args.topic)[0]
         latched = bool(publishers) and all(
             p.qos is not None and p.qos.transient_local for p in publishers
@@ -147,6 +151,7 @@ def pub(args: argparse.Namespace) -> int:
     cls = message_class(args.type)
     message = build_message(cls, parse_values(args.values))
     with open_node(args) as node:
+        require_advertised_type(node, 'topics', args.topic, cls.__msgtype__)
         qos = (LATCHED if args.latched else DEFAULT).with_(
             priority=args.priority, express=args.express, congestion=args.congestion
         )
@@ -218,8 +223,7 @@ def add_parser(
     parser.add_argument('--truncate-length', type=int, metavar='N', help='cut long values')
     parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
     _add_max_age(parser)
-    parser.add_argument('--wait', type=float, default=10.0, metavar='S',
-                        help='how long to wait for the topic to appear (default 10)')  # fmt: skip
+    add_wait_option(parser, 'topic')
 
     parser = add_verb(verbs, 'pub', 'publish messages on a topic', pub)
     parser.add_argument('topic')
@@ -254,8 +258,7 @@ def add_parser(
         parser.add_argument('topic')
         if name == 'delay':
             parser.add_argument('type', nargs='?')
-        parser.add_argument('--wait', type=float, default=10.0, metavar='S',
-                            help='how long to wait for the topic (default 10)')  # fmt: skip
+        add_wait_option(parser, 'topic')
         parser.add_argument('-w', '--window', type=int, default=10_000 if name == 'hz' else 100)
         if name != 'delay':
             _add_max_age(parser)
