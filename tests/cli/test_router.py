@@ -131,3 +131,20 @@ def test_a_router_from_the_shell_downsamples_and_says_so(cli: Cli) -> None:
     for wrong in ('/camera', '/camera=0', '=2', '/a//b=1', '/camera=fast'):
         result = cli.run('router', '--downsample', wrong)
         assert result.returncode == 2 and 'give TOPIC=HZ with HZ > 0' in result.stderr, wrong
+
+
+def test_a_tls_router_suggests_an_address_its_certificate_names(cli: Cli, tmp_path: Path) -> None:
+    pytest.importorskip('cryptography', reason='the test extra (cryptography) is not installed')
+    from zros.transport.pki import make_certificates
+
+    pki = make_certificates(tmp_path / 'certs', hosts=['localhost'])
+    files = ['--tls-cert', str(pki.router_certificate), '--tls-key', str(pki.router_key)]
+    router = cli.start('router', *files, '--listen', 'tls/127.0.0.1:0')
+    port = endpoint_of(router).rsplit(':', 1)[1]
+    suggested = router.wait_line(lambda line: 'connect with' in line)
+    assert f'--connect tls/localhost:{port} or ZROS_CONNECT=tls/localhost:{port}' in suggested
+    listed = cli.run(
+        'topic', 'list', '--connect', f'tls/localhost:{port}', env={'ZROS_TLS_CA': str(pki.ca)}
+    )
+    assert listed.returncode == 0, listed.stderr
+    assert stopped(router) == (0, '')

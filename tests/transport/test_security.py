@@ -228,3 +228,17 @@ def test_certificate_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
     monkeypatch.setitem(sys.modules, 'cryptography', None)
     with pytest.raises(CertificateError, match=r"pip install 'zros\[tls\]'"):
         make_certificates(tmp_path / 'e')
+
+
+def test_zros_tls_init_names_this_machine_besides_the_hosts_given(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder = tmp_path / 'certs'
+    assert zros_command(['tls', 'init', str(folder), '--host', 'robot.example', '--port', '0']) == 0
+    assert 'robot.example, localhost, 127.0.0.1, ::1' in capsys.readouterr().out
+    client = Certificates(folder, ('robot.example',), ('laptop',)).client_tls('laptop')
+    with router_from_config_file(folder / 'router.json5', 'tls/127.0.0.1:0') as router:
+        for endpoint in (router.endpoint, by_name(router)):  # by address, then by name
+            config = TransportConfig.create(connect=endpoint, tls=client)
+            with Transport(config) as session:
+                assert session.zid
