@@ -86,7 +86,8 @@ def test_a_mutual_tls_router_from_the_shell(cli: Cli, tmp_path: Path) -> None:
     listed = cli.run('topic', 'list', '--connect', endpoint, env=laptop)
     assert listed.returncode == 0, listed.stderr
     refused = cli.run('topic', 'list', '--connect', endpoint, env={'ZROS_TLS_CA': str(pki.ca)})
-    one_line_error(refused, 1, 'requires a client certificate')
+    one_line_error(refused, 1, 'requires a client certificate', 'set ZROS_TLS_CERTIFICATE and')
+    assert not [w for w in ('Tls(', 'certificate=', 'zenoh-bridge') if w in refused.stderr]
     assert stopped(router) == (0, '')
     plain = cli.run('router', *files, '--listen', 'tcp/127.0.0.1:0')
     one_line_error(plain, 1, 'tls/ endpoints only, not tcp/127.0.0.1:0')
@@ -148,3 +149,10 @@ def test_a_tls_router_suggests_an_address_its_certificate_names(cli: Cli, tmp_pa
     )
     assert listed.returncode == 0, listed.stderr
     assert stopped(router) == (0, '')
+
+
+def test_nothing_listening_tells_the_shell_user_what_to_run(cli: Cli) -> None:
+    result = cli.run('topic', 'list', '--connect', 'tcp/127.0.0.1:1')
+    one_line_error(result, 1, 'nothing listens at tcp/127.0.0.1:1', '`zros router` runs one')
+    assert '--connect or ZROS_CONNECT=tcp/<host>:7447.' in result.stderr
+    assert not [w for w in ('connect=', 'start_router', 'Tls(') if w in result.stderr]

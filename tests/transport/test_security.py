@@ -82,8 +82,10 @@ def test_tls_with_a_server_certificate(server_tls: Router, pki: Certificates) ->
 def test_tls_with_the_wrong_ca_names_the_cause(server_tls: Router, other_ca: Path) -> None:
     message = refused(TransportConfig.create(connect=by_name(server_tls), tls=Tls(str(other_ca))))
     assert 'does not verify against' in message and str(other_ca) in message
+    assert 'zenoh-bridge-ros2dds' not in for_a_program(message)  # a bridge answered: TLS failed
     message = refused(TransportConfig.create(connect=by_name(server_tls)))
     assert 'is a TLS endpoint but no CA certificate is configured' in message
+    assert 'pass tls=zros.transport.Tls("ca.pem")' in for_a_program(message)
 
 
 def test_mutual_tls(mutual_tls: Router, pki: Certificates) -> None:
@@ -96,6 +98,8 @@ def test_mutual_tls_without_a_client_certificate_names_the_cause(
 ) -> None:
     message = refused(TransportConfig.create(connect=by_name(mutual_tls), tls=Tls(str(pki.ca))))
     assert 'requires a client certificate (mutual TLS)' in message
+    assert 'pass Tls(ca, certificate=..., private_key=...)' in for_a_program(message)
+    assert 'zenoh-bridge-ros2dds' not in message
 
 
 @pytest.fixture
@@ -126,9 +130,23 @@ def test_wrong_or_missing_password_names_the_cause(password_router: Router) -> N
     assert 'does it require a user and password' in refused(missing)
 
 
+#: what only a ``zros`` command's user can act on, and what only a program can
+CLI_WORDS = ('ZROS_', '--connect', '`zros router`', 'zros tls')
+API_WORDS = ('connect=', 'Tls(', 'tls=', 'start_router()', 'user=')
+
+
+def for_a_program(message: str) -> str:
+    assert not [word for word in CLI_WORDS if word in message], message
+    return message
+
+
 def test_nothing_listening_is_said_plainly() -> None:
-    message = refused(TransportConfig.create(connect='tcp/127.0.0.1:1'))
+    message = for_a_program(refused(TransportConfig.create(connect='tcp/127.0.0.1:1')))
     assert 'nothing listens at tcp/127.0.0.1:1' in message
+    assert 'zros.transport.start_router() runs one' in message
+    assert "Start zenoh-bridge-ros2dds (or zenohd) there, or pass connect='tcp/<host>:7447'." in (
+        message
+    )
 
 
 def test_an_unknown_host_is_said_plainly(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -138,7 +156,7 @@ def test_an_unknown_host_is_said_plainly(monkeypatch: pytest.MonkeyPatch) -> Non
 
     monkeypatch.setattr(socket, 'getaddrinfo', no_such_host)
     config = TransportConfig.create(connect='tcp/robot.invalid:7447')
-    assert "cannot resolve the host 'robot.invalid'" in explain_unreachable(config)
+    assert "cannot resolve the host 'robot.invalid'" in explain_unreachable(config).api
 
 
 def test_a_client_certificate_from_another_ca_is_refused(
@@ -226,7 +244,7 @@ def test_certificate_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
     with pytest.raises(CertificateError, match='no certificate for'):
         make_certificates(tmp_path / 'd').client_tls('robot')
     monkeypatch.setitem(sys.modules, 'cryptography', None)
-    with pytest.raises(CertificateError, match=r"pip install 'zros\[tls\]'"):
+    with pytest.raises(CertificateError, match=r"pip install 'zros-client\[tls\]'"):
         make_certificates(tmp_path / 'e')
 
 

@@ -89,13 +89,20 @@ def _explain(error: Exception, config: TransportConfig) -> TransportError:
 
     text = zenoh_reason(error, config.secrets())
     if 'Unable to connect' in text or 'connect' in text.lower():
-        cause = explain_unreachable(config) or text
-        return TransportError(
-            f'cannot reach a Zenoh router or bridge at {config.describe()}: {cause}. '
-            'Start zenoh-bridge-ros2dds (or zenohd, or `zros router`) there, or point zros '
-            'elsewhere with ZROS_CONNECT=tcp/<host>:7447 or connect=...; '
-            'zros.transport.start_router() runs one inside this process.'
-        )
+        diagnosis = explain_unreachable(config)
+        where = f'cannot reach a Zenoh router or bridge at {config.describe()}: '
+        api, cli = f'{where}{diagnosis.api or text}', f'{where}{diagnosis.cli or text}'
+        if diagnosis.unreachable or not diagnosis.reasons:
+            api += (
+                ". Start zenoh-bridge-ros2dds (or zenohd) there, or pass connect='tcp/<host>:7447'."
+            )
+            cli += (
+                '. Start zenoh-bridge-ros2dds (or zenohd, or `zros router`) there, or point zros '
+                'elsewhere with --connect or ZROS_CONNECT=tcp/<host>:7447.'
+            )
+        failure = TransportError(api)
+        failure.command_line = cli
+        return failure
     return TransportError(f'cannot open a Zenoh session to {config.describe()}: {text}')
 
 
