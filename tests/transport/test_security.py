@@ -260,3 +260,34 @@ def test_zros_tls_init_names_this_machine_besides_the_hosts_given(
             config = TransportConfig.create(connect=endpoint, tls=client)
             with Transport(config) as session:
                 assert session.zid
+
+
+def test_a_peer_that_cannot_reach_its_router_fails_at_open(
+    mutual_tls: Router, pki: Certificates, other_ca: Path
+) -> None:
+    def peer(endpoint: str, tls: Tls | None = None) -> str:
+        return refused(TransportConfig.create(connect=endpoint, mode='peer', listen=[], tls=tls))
+
+    assert 'nothing listens at tcp/127.0.0.1:1' in peer('tcp/127.0.0.1:1')
+    no_certificate = peer(by_name(mutual_tls), Tls(str(pki.ca)))
+    assert 'requires a client certificate (mutual TLS)' in no_certificate
+    assert 'does not verify against' in peer(by_name(mutual_tls), Tls(str(other_ca)))
+
+
+def test_a_peer_told_not_to_wait_opens_and_warns_until_it_reaches_its_router(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.transport import session
+
+    monkeypatch.setattr(session, 'UNREACHED_WARNING_PERIOD', 0.05)
+    config = TransportConfig.create(
+        connect='tcp/127.0.0.1:1', mode='peer', listen=[], wait_for_router=False
+    )
+    with caplog.at_level('WARNING', logger='zros.transport'), Transport(config) as lonely:
+        assert not lonely.connected
+
+        def warnings() -> list[str]:
+            return [r.getMessage() for r in caplog.records if 'has not reached' in r.getMessage()]
+
+        assert wait_for(lambda: len(warnings()) >= 2)
+    assert 'has not reached tcp/127.0.0.1:1 (Zenoh keeps trying): nothing listens' in warnings()[0]

@@ -142,6 +142,7 @@ class SettingOptions(TypedDict, total=False):
     user: str | None
     password: str | None
     zenoh: dict[str, JsonValue]
+    wait_for_router: bool
 
 
 class ConfigOptions(SettingOptions, total=False):
@@ -183,6 +184,9 @@ class TransportConfig:
     password: str | None = None
     zenoh: dict[str, JsonValue] = field(default_factory=dict)
     wire: str | None = None  #: 'rmw_zenoh': rmw_zenoh's session defaults (None: the bridge's)
+    #: True: a peer whose ``connect`` endpoints cannot be reached fails at open, as a client
+    #: does; False: it opens and Zenoh keeps trying (a warning at most every 10 s says why)
+    wait_for_router: bool = True
 
     def __post_init__(self) -> None:
         for name in ('connect', 'listen'):
@@ -267,6 +271,13 @@ class TransportConfig:
             put('connect/endpoints', list(self.connect))
         elif unset('connect/endpoints') and (mode == 'client' or rmw):
             put('connect/endpoints', [RMW_ZENOH_ENDPOINT if rmw else DEFAULT_ENDPOINT])
+        if self.connect is not None and mode == 'peer' and self.wait_for_router:
+            # a peer that cannot reach the router it was told of fails at open, as a client does
+            # (Zenoh's peers open regardless and keep trying in the background)
+            if _zenoh_default(config, 'connect/exit_on_failure'):
+                put('connect/exit_on_failure', {'peer': True, 'client': True, 'router': False})
+            if _zenoh_default(config, 'connect/timeout_ms'):
+                put('connect/timeout_ms', {'peer': 0, 'client': 0, 'router': -1})
         if self.listen is not None:
             put('listen/endpoints', list(self.listen))
         elif mode == 'peer' and _zenoh_default(config, 'listen/endpoints'):
