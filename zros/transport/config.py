@@ -350,12 +350,20 @@ class TransportConfig:
                     '(e.g. tls/127.0.0.1:0), or on none (listen=[])'
                 )
         if self.tls.certificate is None:
-            raise TransportError(
+            why = (
                 'a peer with TLS listens on TLS, and needs a certificate and key of its own for '
-                'that; this one has only a CA certificate. Pass Tls(ca, certificate, '
-                "private_key) (zros tls init makes them), connect as a client (mode='client'), "
-                'or listen nowhere (listen=[]: it can then reach only peers that listen)'
+                'that; this one has only a CA certificate. '
             )
+            failure = TransportError(
+                f'{why}Pass Tls(ca, certificate, private_key) (zros.transport.pki.'
+                "make_certificates makes them), connect as a client (mode='client'), or listen "
+                'nowhere (listen=[]: it can then reach only peers that listen)'
+            )
+            failure.command_line = (
+                f'{why}Set ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY (`zros tls init` makes them), '
+                'or connect as a client (--mode client)'
+            )
+            raise failure
         return {
             'transport/link/tls/listen_certificate': self.tls.certificate,
             'transport/link/tls/listen_private_key': self.tls.private_key,
