@@ -55,6 +55,7 @@ def test_a_busy_port_is_one_line(cli: Cli) -> None:
     with start_router() as taken:
         busy = cli.run('router', '--listen', taken.endpoint)
     one_line_error(busy, 1, f'cannot start a router on {taken.endpoint}', 'port is taken')
+    assert 'or --listen elsewhere' in busy.stderr and 'port 0' not in busy.stderr
 
 
 def test_listening_beyond_this_machine_warns(cli: Cli) -> None:

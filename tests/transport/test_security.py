@@ -229,7 +229,10 @@ def test_zros_tls_init_end_to_end(
         exchange(config, config)
     # a second run keeps the CA that signed the robot's certificate
     assert zros_command(['tls', 'init', str(folder)]) == 1
-    assert 'will not overwrite' in capsys.readouterr().err
+    refused = capsys.readouterr().err
+    assert 'will not overwrite' in refused and '(--force replaces them)' in refused
+    with pytest.raises(CertificateError, match=r'\(overwrite=True replaces them\)$'):
+        make_certificates(folder)
 
 
 def test_certificate_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
