@@ -101,7 +101,7 @@ def _explain(error: Exception, config: TransportConfig) -> TransportError:
                 ". Start zenoh-bridge-ros2dds (or zenohd) there, or pass connect='tcp/<host>:7447'."
             )
             cli += (
-                '. Start zenoh-bridge-ros2dds (or zenohd, or `zros router`) there, or point zros '
+                '. Start zenoh-bridge-ros2dds (or zenohd) there, or point zros '
                 'elsewhere with --connect or ZROS_CONNECT=tcp/<host>:7447.'
             )
         failure = TransportError(api)
