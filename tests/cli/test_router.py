@@ -55,6 +55,7 @@ def test_a_busy_port_is_one_line(cli: Cli) -> None:
     with start_router() as taken:
         busy = cli.run('router', '--listen', taken.endpoint)
     one_line_error(busy, 1, f'cannot start a router on {taken.endpoint}', 'port is taken')
+    assert 'or --listen elsewhere' in busy.stderr and 'port 0' not in busy.stderr
 
 
 def test_listening_beyond_this_machine_warns(cli: Cli) -> None:
@@ -86,7 +87,8 @@ def test_a_mutual_tls_router_from_the_shell(cli: Cli, tmp_path: Path) -> None:
     listed = cli.run('topic', 'list', '--connect', endpoint, env=laptop)
     assert listed.returncode == 0, listed.stderr
     refused = cli.run('topic', 'list', '--connect', endpoint, env={'ZROS_TLS_CA': str(pki.ca)})
-    one_line_error(refused, 1, 'requires a client certificate')
+    one_line_error(refused, 1, 'requires a client certificate', 'set ZROS_TLS_CERTIFICATE and')
+    assert not [w for w in ('Tls(', 'certificate=', 'zenoh-bridge') if w in refused.stderr]
     assert stopped(router) == (0, '')
     plain = cli.run('router', *files, '--listen', 'tcp/127.0.0.1:0')
     one_line_error(plain, 1, 'tls/ endpoints only, not tcp/127.0.0.1:0')
@@ -131,3 +133,27 @@ def test_a_router_from_the_shell_downsamples_and_says_so(cli: Cli) -> None:
     for wrong in ('/camera', '/camera=0', '=2', '/a//b=1', '/camera=fast'):
         result = cli.run('router', '--downsample', wrong)
         assert result.returncode == 2 and 'give TOPIC=HZ with HZ > 0' in result.stderr, wrong
+
+
+def test_a_tls_router_suggests_an_address_its_certificate_names(cli: Cli, tmp_path: Path) -> None:
+    pytest.importorskip('cryptography', reason='the test extra (cryptography) is not installed')
+    from zros.transport.pki import make_certificates
+
+    pki = make_certificates(tmp_path / 'certs', hosts=['localhost'])
+    files = ['--tls-cert', str(pki.router_certificate), '--tls-key', str(pki.router_key)]
+    router = cli.start('router', *files, '--listen', 'tls/127.0.0.1:0')
+    port = endpoint_of(router).rsplit(':', 1)[1]
+    suggested = router.wait_line(lambda line: 'connect with' in line)
+    assert f'--connect tls/localhost:{port} or ZROS_CONNECT=tls/localhost:{port}' in suggested
+    listed = cli.run(
+        'topic', 'list', '--connect', f'tls/localhost:{port}', env={'ZROS_TLS_CA': str(pki.ca)}
+    )
+    assert listed.returncode == 0, listed.stderr
+    assert stopped(router) == (0, '')
+
+
+def test_nothing_listening_tells_the_shell_user_what_to_run(cli: Cli) -> None:
+    result = cli.run('topic', 'list', '--connect', 'tcp/127.0.0.1:1')
+    one_line_error(result, 1, 'nothing listens at tcp/127.0.0.1:1', '`zros router` runs one')
+    assert '--connect or ZROS_CONNECT=tcp/<host>:7447.' in result.stderr
+    assert not [w for w in ('connect=', 'start_router', 'Tls(') if w in result.stderr]

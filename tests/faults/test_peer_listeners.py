@@ -284,8 +284,11 @@ def test_a_tls_peer_without_its_own_certificate_does_not_listen_by_surprise(
 ) -> None:
     connect = by_name(mtls_router)
     config = TransportConfig.create(connect=connect, mode='peer', tls=Tls(str(pki.ca)))
-    with pytest.raises(TransportError, match='needs a certificate and key of its own'):
+    with pytest.raises(TransportError, match='needs a certificate and key of its own') as info:
         Transport(config)
+    assert "mode='client'" in str(info.value) and 'zros tls init' not in str(info.value)
+    shell = info.value.command_line or ''
+    assert 'ZROS_TLS_CERTIFICATE' in shell and '--mode client' in shell and 'Tls(' not in shell
     plain = TransportConfig.create(
         connect=connect, mode='peer', tls=pki.client_tls('laptop'), listen='tcp/127.0.0.1:0'
     )

@@ -135,7 +135,7 @@ def test_no_router_is_a_clear_error_not_a_hang() -> None:
     assert time.monotonic() - started < 10
     assert result.returncode != 0
     assert 'cannot reach a Zenoh router or bridge at tcp/127.0.0.1:1' in result.stderr
-    assert 'ZROS_CONNECT' in result.stderr
+    assert "pass connect='tcp/<host>:7447'" in result.stderr  # a program's error names arguments
     assert zros  # the module is importable without a router
 
 

@@ -68,7 +68,9 @@ PEER = """
 import sys, time, zros
 from zros.transport import TransportConfig
 name, listen, connect, out_topic, in_topic = sys.argv[1:6]
-config = TransportConfig.create(mode='peer', listen=listen, connect=connect or None, shared_memory=False)
+# the other peer may not listen yet: open anyway, Zenoh keeps dialing
+config = TransportConfig.create(mode='peer', listen=listen, connect=connect or None,
+                                shared_memory=False, wait_for_router=False)
 node = zros.Node(name, config=config)
 sub = node.create_subscription('std_msgs/msg/String', in_topic, qos=100)
 pub = node.create_publisher('std_msgs/msg/String', out_topic)

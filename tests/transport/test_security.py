@@ -82,8 +82,10 @@ def test_tls_with_a_server_certificate(server_tls: Router, pki: Certificates) ->
 def test_tls_with_the_wrong_ca_names_the_cause(server_tls: Router, other_ca: Path) -> None:
     message = refused(TransportConfig.create(connect=by_name(server_tls), tls=Tls(str(other_ca))))
     assert 'does not verify against' in message and str(other_ca) in message
+    assert 'zenoh-bridge-ros2dds' not in for_a_program(message)  # a bridge answered: TLS failed
     message = refused(TransportConfig.create(connect=by_name(server_tls)))
     assert 'is a TLS endpoint but no CA certificate is configured' in message
+    assert 'pass tls=zros.transport.Tls("ca.pem")' in for_a_program(message)
 
 
 def test_mutual_tls(mutual_tls: Router, pki: Certificates) -> None:
@@ -96,6 +98,8 @@ def test_mutual_tls_without_a_client_certificate_names_the_cause(
 ) -> None:
     message = refused(TransportConfig.create(connect=by_name(mutual_tls), tls=Tls(str(pki.ca))))
     assert 'requires a client certificate (mutual TLS)' in message
+    assert 'pass Tls(ca, certificate=..., private_key=...)' in for_a_program(message)
+    assert 'zenoh-bridge-ros2dds' not in message
 
 
 @pytest.fixture
@@ -126,9 +130,23 @@ def test_wrong_or_missing_password_names_the_cause(password_router: Router) -> N
     assert 'does it require a user and password' in refused(missing)
 
 
+#: what only a ``zros`` command's user can act on, and what only a program can
+CLI_WORDS = ('ZROS_', '--connect', '`zros router`', 'zros tls')
+API_WORDS = ('connect=', 'Tls(', 'tls=', 'start_router()', 'user=')
+
+
+def for_a_program(message: str) -> str:
+    assert not [word for word in CLI_WORDS if word in message], message
+    return message
+
+
 def test_nothing_listening_is_said_plainly() -> None:
-    message = refused(TransportConfig.create(connect='tcp/127.0.0.1:1'))
+    message = for_a_program(refused(TransportConfig.create(connect='tcp/127.0.0.1:1')))
     assert 'nothing listens at tcp/127.0.0.1:1' in message
+    assert 'zros.transport.start_router() runs one' in message
+    assert "Start zenoh-bridge-ros2dds (or zenohd) there, or pass connect='tcp/<host>:7447'." in (
+        message
+    )
 
 
 def test_an_unknown_host_is_said_plainly(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -138,7 +156,7 @@ def test_an_unknown_host_is_said_plainly(monkeypatch: pytest.MonkeyPatch) -> Non
 
     monkeypatch.setattr(socket, 'getaddrinfo', no_such_host)
     config = TransportConfig.create(connect='tcp/robot.invalid:7447')
-    assert "cannot resolve the host 'robot.invalid'" in explain_unreachable(config)
+    assert "cannot resolve the host 'robot.invalid'" in explain_unreachable(config).api
 
 
 def test_a_client_certificate_from_another_ca_is_refused(
@@ -211,7 +229,10 @@ def test_zros_tls_init_end_to_end(
         exchange(config, config)
     # a second run keeps the CA that signed the robot's certificate
     assert zros_command(['tls', 'init', str(folder)]) == 1
-    assert 'will not overwrite' in capsys.readouterr().err
+    refused = capsys.readouterr().err
+    assert 'will not overwrite' in refused and '(--force replaces them)' in refused
+    with pytest.raises(CertificateError, match=r'\(overwrite=True replaces them\)$'):
+        make_certificates(folder)
 
 
 def test_certificate_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -226,5 +247,50 @@ def test_certificate_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
     with pytest.raises(CertificateError, match='no certificate for'):
         make_certificates(tmp_path / 'd').client_tls('robot')
     monkeypatch.setitem(sys.modules, 'cryptography', None)
-    with pytest.raises(CertificateError, match=r"pip install 'zros\[tls\]'"):
+    with pytest.raises(CertificateError, match=r"pip install 'zros-client\[tls\]'"):
         make_certificates(tmp_path / 'e')
+
+
+def test_zros_tls_init_names_this_machine_besides_the_hosts_given(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder = tmp_path / 'certs'
+    assert zros_command(['tls', 'init', str(folder), '--host', 'robot.example', '--port', '0']) == 0
+    assert 'robot.example, localhost, 127.0.0.1, ::1' in capsys.readouterr().out
+    client = Certificates(folder, ('robot.example',), ('laptop',)).client_tls('laptop')
+    with router_from_config_file(folder / 'router.json5', 'tls/127.0.0.1:0') as router:
+        for endpoint in (router.endpoint, by_name(router)):  # by address, then by name
+            config = TransportConfig.create(connect=endpoint, tls=client)
+            with Transport(config) as session:
+                assert session.zid
+
+
+def test_a_peer_that_cannot_reach_its_router_fails_at_open(
+    mutual_tls: Router, pki: Certificates, other_ca: Path
+) -> None:
+    def peer(endpoint: str, tls: Tls | None = None) -> str:
+        return refused(TransportConfig.create(connect=endpoint, mode='peer', listen=[], tls=tls))
+
+    assert 'nothing listens at tcp/127.0.0.1:1' in peer('tcp/127.0.0.1:1')
+    no_certificate = peer(by_name(mutual_tls), Tls(str(pki.ca)))
+    assert 'requires a client certificate (mutual TLS)' in no_certificate
+    assert 'does not verify against' in peer(by_name(mutual_tls), Tls(str(other_ca)))
+
+
+def test_a_peer_told_not_to_wait_opens_and_warns_until_it_reaches_its_router(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.transport import session
+
+    monkeypatch.setattr(session, 'UNREACHED_WARNING_PERIOD', 0.05)
+    config = TransportConfig.create(
+        connect='tcp/127.0.0.1:1', mode='peer', listen=[], wait_for_router=False
+    )
+    with caplog.at_level('WARNING', logger='zros.transport'), Transport(config) as lonely:
+        assert not lonely.connected
+
+        def warnings() -> list[str]:
+            return [r.getMessage() for r in caplog.records if 'has not reached' in r.getMessage()]
+
+        assert wait_for(lambda: len(warnings()) >= 2)
+    assert 'has not reached tcp/127.0.0.1:1 (Zenoh keeps trying): nothing listens' in warnings()[0]

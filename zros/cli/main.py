@@ -105,16 +105,16 @@ def _run(argv: Sequence[str] | None) -> int:
         return 2
     # only a command that runs needs these (keeps ``zros --help`` start-up fast)
     from zros.cli.shared import CommandError
-    from zros.errors import SettingError, ZrosError
+    from zros.errors import SettingError, ZrosError, command_line_text
 
     function: Callable[[argparse.Namespace], int] = target
     try:
         return int(function(args))
     except SettingError as exc:  # a setting that cannot work, as argparse's usage errors
-        print(f'zros: error: {exc}', file=sys.stderr)
+        print(f'zros: error: {command_line_text(exc)}', file=sys.stderr)
         return 2
     except (ZrosError, CommandError) as exc:
-        print(f'zros: error: {exc}', file=sys.stderr)
+        print(f'zros: error: {command_line_text(exc)}', file=sys.stderr)
         return exc.exit_code if isinstance(exc, CommandError) else 1
     except KeyboardInterrupt:
         return 130

@@ -142,6 +142,7 @@ class SettingOptions(TypedDict, total=False):
     user: str | None
     password: str | None
     zenoh: dict[str, JsonValue]
+    wait_for_router: bool
 
 
 class ConfigOptions(SettingOptions, total=False):
@@ -183,6 +184,9 @@ class TransportConfig:
     password: str | None = None
     zenoh: dict[str, JsonValue] = field(default_factory=dict)
     wire: str | None = None  #: 'rmw_zenoh': rmw_zenoh's session defaults (None: the bridge's)
+    #: True: a peer whose ``connect`` endpoints cannot be reached fails at open, as a client
+    #: does; False: it opens and Zenoh keeps trying (a warning at most every 10 s says why)
+    wait_for_router: bool = True
 
     def __post_init__(self) -> None:
         for name in ('connect', 'listen'):
@@ -267,6 +271,13 @@ class TransportConfig:
             put('connect/endpoints', list(self.connect))
         elif unset('connect/endpoints') and (mode == 'client' or rmw):
             put('connect/endpoints', [RMW_ZENOH_ENDPOINT if rmw else DEFAULT_ENDPOINT])
+        if self.connect is not None and mode == 'peer' and self.wait_for_router:
+            # a peer that cannot reach the router it was told of fails at open, as a client does
+            # (Zenoh's peers open regardless and keep trying in the background)
+            if _zenoh_default(config, 'connect/exit_on_failure'):
+                put('connect/exit_on_failure', {'peer': True, 'client': True, 'router': False})
+            if _zenoh_default(config, 'connect/timeout_ms'):
+                put('connect/timeout_ms', {'peer': 0, 'client': 0, 'router': -1})
         if self.listen is not None:
             put('listen/endpoints', list(self.listen))
         elif mode == 'peer' and _zenoh_default(config, 'listen/endpoints'):
@@ -339,12 +350,20 @@ class TransportConfig:
                     '(e.g. tls/127.0.0.1:0), or on none (listen=[])'
                 )
         if self.tls.certificate is None:
-            raise TransportError(
+            why = (
                 'a peer with TLS listens on TLS, and needs a certificate and key of its own for '
-                'that; this one has only a CA certificate. Pass Tls(ca, certificate, '
-                "private_key) (zros tls init makes them), connect as a client (mode='client'), "
-                'or listen nowhere (listen=[]: it can then reach only peers that listen)'
+                'that; this one has only a CA certificate. '
             )
+            failure = TransportError(
+                f'{why}Pass Tls(ca, certificate, private_key) (zros.transport.pki.'
+                "make_certificates makes them), connect as a client (mode='client'), or listen "
+                'nowhere (listen=[]: it can then reach only peers that listen)'
+            )
+            failure.command_line = (
+                f'{why}Set ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY (`zros tls init` makes them), '
+                'or connect as a client (--mode client)'
+            )
+            raise failure
         return {
             'transport/link/tls/listen_certificate': self.tls.certificate,
             'transport/link/tls/listen_private_key': self.tls.private_key,

@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import socket
 import ssl
+from dataclasses import dataclass, field
 
 from zros.transport.config import DEFAULT_ENDPOINT, TransportConfig
 from zros.transport.endpoints import EndpointError, parse_endpoint
@@ -18,12 +19,48 @@ from zros.transport.tlsfiles import check_tls_files
 PROBE_TIMEOUT = 2.0
 
 
-def _tls_problem(config: TransportConfig, host: str, port: int) -> str | None:
+@dataclass(frozen=True)
+class Reason:
+    """Why one endpoint refused, for a program (``api``: arguments) and for a ``zros`` command's
+    user (``cli``: flags and environment variables); ``unreachable``: nothing answered there."""
+
+    api: str
+    cli: str = ''
+    unreachable: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.cli:
+            object.__setattr__(self, 'cli', self.api)
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The reasons of every endpoint, joined for each reader."""
+
+    reasons: list[Reason] = field(default_factory=list)
+
+    @property
+    def api(self) -> str:
+        """For a program."""
+        return '; '.join(r.api for r in self.reasons)
+
+    @property
+    def cli(self) -> str:
+        """For a ``zros`` command's user."""
+        return '; '.join(r.cli for r in self.reasons)
+
+    @property
+    def unreachable(self) -> bool:
+        """Whether nothing answered at any endpoint (a router or bridge must be started)."""
+        return bool(self.reasons) and all(r.unreachable for r in self.reasons)
+
+
+def _tls_problem(config: TransportConfig, host: str, port: int) -> Reason | None:
     tls = config.tls
     if tls is None:
-        return (
-            f'tls/{host}:{port} is a TLS endpoint but no CA certificate is configured: '
-            'pass tls=zros.transport.Tls("ca.pem")'
+        problem = f'tls/{host}:{port} is a TLS endpoint but no CA certificate is configured: '
+        return Reason(
+            problem + 'pass tls=zros.transport.Tls("ca.pem")', problem + 'set ZROS_TLS_CA'
         )
     check_tls_files(tls.root_ca_certificate, tls.certificate, tls.private_key)
     context = ssl.create_default_context(cafile=tls.root_ca_certificate)
@@ -42,7 +79,7 @@ def _tls_problem(config: TransportConfig, host: str, port: int) -> str | None:
             with contextlib.suppress(TimeoutError):
                 secure.recv(1)
     except ssl.SSLCertVerificationError as exc:
-        return (
+        return Reason(
             f'the certificate of {host}:{port} does not verify against '
             f'{tls.root_ca_certificate} ({exc.verify_message}): is it the CA that signed the '
             "router's certificate, and does the certificate name this host?"
@@ -51,23 +88,28 @@ def _tls_problem(config: TransportConfig, host: str, port: int) -> str | None:
         reason = exc.reason or str(exc)
         if 'CERTIFICATE_REQUIRED' in reason.upper() or 'HANDSHAKE_FAILURE' in reason.upper():
             if tls.certificate is None:
-                return (
-                    f'{host}:{port} requires a client certificate (mutual TLS): pass '
-                    'Tls(ca, certificate=..., private_key=...)'
+                problem = f'{host}:{port} requires a client certificate (mutual TLS): '
+                return Reason(
+                    problem + 'pass Tls(ca, certificate=..., private_key=...)',
+                    problem + 'set ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY',
                 )
-            return f'{host}:{port} rejected the client certificate {tls.certificate} ({reason})'
+            return Reason(
+                f'{host}:{port} rejected the client certificate {tls.certificate} ({reason})'
+            )
         if 'UNKNOWN_CA' in reason.upper() or 'BAD_CERTIFICATE' in reason.upper():
-            return f'{host}:{port} rejected the client certificate {tls.certificate} ({reason})'
-        return f'the TLS handshake with {host}:{port} failed ({reason})'
+            return Reason(
+                f'{host}:{port} rejected the client certificate {tls.certificate} ({reason})'
+            )
+        return Reason(f'the TLS handshake with {host}:{port} failed ({reason})')
     except OSError:
         return None
     return None
 
 
-def explain_unreachable(config: TransportConfig) -> str:
+def explain_unreachable(config: TransportConfig) -> Diagnosis:
     """The most likely reason the configured endpoints refused the session."""
     endpoints = list(config.connect or ([] if config.config_file else [DEFAULT_ENDPOINT]))
-    reasons = []
+    reasons: list[Reason] = []
     for endpoint in endpoints:
         try:
             parsed = parse_endpoint(endpoint)
@@ -80,14 +122,24 @@ def explain_unreachable(config: TransportConfig) -> str:
             with socket.create_connection((host, port), timeout=PROBE_TIMEOUT):
                 pass
         except socket.gaierror:
-            reasons.append(f'cannot resolve the host {host!r} of {endpoint}')
+            reasons.append(Reason(f'cannot resolve the host {host!r} of {endpoint}', '', True))
             continue
         except ConnectionRefusedError:
-            here = ' (on this machine, `zros router` runs one)' if parsed.loopback else ''
-            reasons.append(f'nothing listens at {endpoint}{here}')
+            nothing = f'nothing listens at {endpoint}'
+            if parsed.loopback:
+                reasons.append(
+                    Reason(
+                        f'{nothing} (on this machine, zros.transport.start_router() runs one)',
+                        f'{nothing} (on this machine, `zros router` runs one)',
+                        True,
+                    )
+                )
+            else:
+                reasons.append(Reason(nothing, '', True))
             continue
         except OSError:
-            reasons.append(f'no answer from {endpoint} within {PROBE_TIMEOUT:g} s (a firewall?)')
+            no_answer = f'no answer from {endpoint} within {PROBE_TIMEOUT:g} s (a firewall?)'
+            reasons.append(Reason(no_answer, '', True))
             continue
         if protocol == 'tls':
             problem = _tls_problem(config, host, port)
@@ -96,12 +148,18 @@ def explain_unreachable(config: TransportConfig) -> str:
                 continue
         if config.user is not None:
             reasons.append(
-                f'{endpoint} answers but refused the session: is the user {config.user!r} and '
-                'its password right?'
+                Reason(
+                    f'{endpoint} answers but refused the session: is the user {config.user!r} '
+                    'and its password right?'
+                )
             )
         else:
+            refused = f'{endpoint} answers but refused the session: does it require a user and '
             reasons.append(
-                f'{endpoint} answers but refused the session: does it require a user and '
-                'password (user=, password=), TLS, or another Zenoh version?'
+                Reason(
+                    refused + 'password (user=, password=), TLS (tls=), or another Zenoh version?',
+                    refused + 'password (ZROS_USER, ZROS_PASSWORD), TLS (ZROS_TLS_CA), or another '
+                    'Zenoh version?',
+                )
             )
-    return '; '.join(reasons)
+    return Diagnosis(reasons)

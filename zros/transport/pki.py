@@ -169,9 +169,11 @@ def make_certificates(
         files += [result.client_certificate(client), result.client_key(client)]
     in_the_way = [str(path) for path in files if path.exists()]
     if in_the_way and not overwrite:
-        raise CertificateError(
-            f'will not overwrite {", ".join(in_the_way)} (--force or overwrite=True replaces them)'
+        failure = CertificateError(
+            f'will not overwrite {", ".join(in_the_way)} (overwrite=True replaces them)'
         )
+        failure.command_line = f'will not overwrite {", ".join(in_the_way)} (--force replaces them)'
+        raise failure
     alternative_names = x509.SubjectAlternativeName(_subject_names(hosts))
     result.folder.mkdir(parents=True, exist_ok=True)
 

@@ -149,10 +149,15 @@ class Router(Closing):
                 self.session: z.Session = z.open(config)
         except z.ZError as exc:
             reason = zenoh_reason(exc, secrets)
-            if 'Address already in use' in reason:
-                reason = 'the port is taken (another router or bridge? `zros doctor --connect` it)'
             where = ', '.join(listen)
-            raise TransportError(f'cannot start a router on {where}: {reason}') from None
+            if 'Address already in use' not in reason:
+                raise TransportError(f'cannot start a router on {where}: {reason}') from None
+            taken = (
+                f'cannot start a router on {where}: the port is taken (another router or bridge?'
+            )
+            failure = TransportError(f'{taken} listen on another port, or port 0 for a free one)')
+            failure.command_line = f'{taken} `zros doctor --connect` it, or --listen elsewhere)'
+            raise failure from None
         self.zid = str(self.session.zid())
         self.endpoints = self._locators()
         self._closed = False

@@ -48,6 +48,9 @@ _CALLBACK_THREAD = '(pyo3-closure)'
 _CALLBACK_JOIN_TIMEOUT = 5.0
 
 
+#: seconds between warnings of a session that opened without reaching its router
+UNREACHED_WARNING_PERIOD = 10.0
+
 #: daemon threads of zros that call into Zenoh (goals' threads, say): the exit hook waits for them
 _joined_at_exit: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
 
@@ -88,14 +91,22 @@ def _explain(error: Exception, config: TransportConfig) -> TransportError:
     from zros.transport.diagnose import explain_unreachable  # noqa: PLC0415 (ssl only on failure)
 
     text = zenoh_reason(error, config.secrets())
-    if 'Unable to connect' in text or 'connect' in text.lower():
-        cause = explain_unreachable(config) or text
-        return TransportError(
-            f'cannot reach a Zenoh router or bridge at {config.describe()}: {cause}. '
-            'Start zenoh-bridge-ros2dds (or zenohd, or `zros router`) there, or point zros '
-            'elsewhere with ZROS_CONNECT=tcp/<host>:7447 or connect=...; '
-            'zros.transport.start_router() runs one inside this process.'
-        )
+    # a peer's failed TLS handshake surfaces as the alert alone ("received fatal alert: ...")
+    if any(word in text.lower() for word in ('connect', 'alert', 'certificate', 'handshake')):
+        diagnosis = explain_unreachable(config)
+        where = f'cannot reach a Zenoh router or bridge at {config.describe()}: '
+        api, cli = f'{where}{diagnosis.api or text}', f'{where}{diagnosis.cli or text}'
+        if diagnosis.unreachable or not diagnosis.reasons:
+            api += (
+                ". Start zenoh-bridge-ros2dds (or zenohd) there, or pass connect='tcp/<host>:7447'."
+            )
+            cli += (
+                '. Start zenoh-bridge-ros2dds (or zenohd) there, or point zros '
+                'elsewhere with --connect or ZROS_CONNECT=tcp/<host>:7447.'
+            )
+        failure = TransportError(api)
+        failure.command_line = cli
+        return failure
     return TransportError(f'cannot open a Zenoh session to {config.describe()}: {text}')
 
 
@@ -140,8 +151,29 @@ class Transport(Closing):
         self._link_listener = self.session.info.declare_transport_events_listener(
             self._on_transport_event, history=False
         )
+        self._stopped = threading.Event()
+        if self.config.connect is not None and not self.config.wait_for_router:
+            threading.Thread(
+                target=self._warn_while_unreached, name='zros-router-watch', daemon=True
+            ).start()
         _install_exit_hook()
         _open.add(self)
+
+    def _warn_while_unreached(self) -> None:
+        """With ``wait_for_router=False``: while no link is up, say why, at most every 10 s."""
+        from zros.transport.diagnose import explain_unreachable  # noqa: PLC0415 (ssl only here)
+
+        while not self._stopped.is_set():
+            if not self._links:
+                reason = explain_unreachable(self.config).api or 'no link came up'
+                if not self._links and not self._stopped.is_set():
+                    _log.warning(
+                        'session %s has not reached %s (Zenoh keeps trying): %s',
+                        self.zid,
+                        self.config.describe(),
+                        reason,
+                    )
+            self._stopped.wait(UNREACHED_WARNING_PERIOD)
 
     @property
     def closed(self) -> bool:
@@ -211,6 +243,7 @@ class Transport(Closing):
         """Undeclare everything and close the session; safe to call twice."""
         if self._closed:
             return
+        self._stopped.set()
         for callback in reversed(list(self._close_callbacks)):  # they may remove themselves
             try:
                 callback()

@@ -111,6 +111,31 @@ def _check_pair(certificate: str, key: str) -> None:
         ) from None
 
 
+def _names(certificate: Certificate, host: str) -> bool:
+    """Whether ``certificate``'s subject alternative names cover ``host``."""
+    from cryptography import x509  # noqa: PLC0415 (optional: the tls extra)
+
+    try:
+        names = certificate.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    except x509.ExtensionNotFound:
+        return False
+    try:
+        return ipaddress.ip_address(host.strip('[]')) in names.get_values_for_type(x509.IPAddress)
+    except ValueError:
+        return host.lower() in {n.lower() for n in names.get_values_for_type(x509.DNSName)}
+
+
+def first_named(path: str, hosts: Sequence[str]) -> str | None:
+    """The first of ``hosts`` the certificate at ``path`` names (None: none, or unreadable)."""
+    try:
+        certificate = _certificate(path, 'certificate')
+    except TlsFileError:
+        return None
+    if certificate is None:
+        return None
+    return next((host for host in hosts if _names(certificate, host)), None)
+
+
 def _can_serve(certificate: Certificate, path: str, hosts: Sequence[str]) -> None:
     """A peer's certificate must be a server certificate for the hosts other peers dial."""
     from cryptography import x509  # noqa: PLC0415 (optional: the tls extra)
@@ -128,18 +153,8 @@ def _can_serve(certificate: Certificate, path: str, hosts: Sequence[str]) -> Non
         )
     if not hosts:
         return
-    try:
-        names = certificate.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
-    except x509.ExtensionNotFound:
-        names = None
-    named = {str(n).lower() for n in names.get_values_for_type(x509.DNSName)} if names else set()
-    addresses = set(names.get_values_for_type(x509.IPAddress)) if names else set()
     for host in hosts:
-        try:
-            found = ipaddress.ip_address(host) in addresses
-        except ValueError:
-            found = host.lower() in named
-        if not found:
+        if not _names(certificate, host):
             raise TlsFileError(
                 f'the certificate {path} does not name {host}, where this peer listens, so '
                 'other peers will refuse it: make certificates with a current '

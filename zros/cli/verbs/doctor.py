@@ -141,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
     from importlib.metadata import version
 
     import zros
-    from zros.errors import SettingError, ZrosError
+    from zros.errors import SettingError, ZrosError, command_line_text
     from zros.graph import Graph
     from zros.transport import Transport, TransportConfig
 
@@ -155,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
     except SettingError:
         raise  # a usage error: one line, exit 2
     except ZrosError as exc:
-        report.fail(str(exc))
+        report.fail(command_line_text(exc))
         return 1
     try:
         report.ok(f'connected to {config.describe()} as {transport.zid}')

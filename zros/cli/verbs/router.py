@@ -13,6 +13,7 @@ until Ctrl-C or SIGTERM, then exits 0.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import threading
@@ -50,6 +51,22 @@ def _warn_if_exposed(endpoints: list[str], guarded: bool) -> None:
     )
 
 
+def _suggested(endpoints: list[str], certificate: str | None) -> str:
+    """The endpoint to dial: with TLS, one at a host the certificate names (clients check)."""
+    if certificate is None:
+        return endpoints[0]
+    from zros.transport.endpoints import parse_endpoint
+    from zros.transport.tlsfiles import first_named
+
+    for endpoint in endpoints:
+        parsed = parse_endpoint(endpoint)
+        hosts = [parsed.host, *(['localhost'] if parsed.loopback else [])]
+        host = first_named(certificate, hosts)
+        if host is not None:
+            return str(dataclasses.replace(parsed, host=host))
+    return endpoints[0]
+
+
 def run(args: argparse.Namespace) -> int:
     from zros.transport import start_router
     from zros.transport.endpoints import normalize
@@ -82,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
                 out('  large messages (64 KiB on) sent with drop leave as block_first')
             for topic, rate in args.downsample or ():
                 out(f'  {topic}: at most {rate:g} messages a second out of each link')
-            out(f'  connect with --connect {router.endpoint} or ZROS_CONNECT={router.endpoint}')
+            endpoint = _suggested(router.endpoints, args.tls_cert)
+            out(f'  connect with --connect {endpoint} or ZROS_CONNECT={endpoint}')
             out('  Ctrl-C stops it')
             while not stop.wait(0.5):
                 pass

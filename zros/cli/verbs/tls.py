@@ -8,9 +8,10 @@ from pathlib import Path
 
 
 def init(args: argparse.Namespace) -> int:
-    from zros.transport.pki import make_certificates
+    from zros.transport.pki import PEER_HOSTS, make_certificates
 
-    hosts = args.host or ['localhost', '127.0.0.1']
+    # this machine's names too: the router's banner and a local test dial those
+    hosts = list(dict.fromkeys([*(args.host or ()), *PEER_HOSTS]))
     clients = args.client or ['laptop']
     certificates = make_certificates(
         args.folder, hosts=hosts, clients=clients, days=args.days, overwrite=args.force
@@ -60,7 +61,8 @@ def add_parser(
     make.add_argument(
         '--host',
         action='append',
-        help='a name or address the robot is reached at (repeat; default localhost, 127.0.0.1)',
+        help='a name or address the robot is reached at (repeat; localhost, 127.0.0.1 and ::1 are '
+        'always named)',
     )
     make.add_argument('--client', action='append', help='a client name (repeat; default laptop)')
     make.add_argument('--port', type=int, default=7447, help='the TLS port of the router')
