@@ -19,6 +19,7 @@ from zros.cli.shared import (
     require_advertised_type,
     require_on_graph,
 )
+from zros.errors import command_line_text
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -92,7 +93,7 @@ def send_goal(args: argparse.Namespace) -> int:
         try:
             handle = client.send_goal(goal, on_feedback if args.feedback else None)
         except ServiceError as exc:
-            raise CommandError(str(exc)) from None
+            raise CommandError(command_line_text(exc)) from None
         if not handle.accepted:
             out('Goal was rejected.')
             return 1

@@ -19,6 +19,7 @@ from zros.cli.shared import (
     out,
     unknown_name,
 )
+from zros.errors import command_line_text
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -116,7 +117,7 @@ def set_parameter(args: argparse.Namespace) -> int:
     try:
         _, value = parse_override(f'{args.name}:={args.value}')
     except ParameterError as exc:
-        raise CommandError(str(exc)) from None
+        raise CommandError(command_line_text(exc)) from None
     with open_node(args) as node:
         client = _client(node, args.node, args.timeout, args.wait)
         (result,) = client.set_parameters({args.name: value})
@@ -193,7 +194,7 @@ def load(args: argparse.Namespace) -> int:
     try:
         entries = load_file(args.file)
     except (OSError, ParameterError) as exc:
-        raise CommandError(str(exc)) from None
+        raise CommandError(command_line_text(exc)) from None
     failed = 0
     with open_node(args) as node:
         client = _client(node, args.node, args.timeout, args.wait)

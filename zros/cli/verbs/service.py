@@ -21,6 +21,7 @@ from zros.cli.shared import (
     require_advertised_type,
     require_on_graph,
 )
+from zros.errors import command_line_text
 
 if TYPE_CHECKING:
     from zros.cdr.interfaces import ServiceType
@@ -75,7 +76,7 @@ def call(args: argparse.Namespace) -> int:
             try:
                 response = client.call(request)
             except ServiceError as exc:
-                raise CommandError(str(exc)) from None
+                raise CommandError(command_line_text(exc)) from None
             elapsed = time.monotonic() - started
             out('response:')
             out(message_to_yaml(response).rstrip('\n') if args.yaml else repr(response))
