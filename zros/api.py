@@ -136,10 +136,11 @@ def init(
         def make(node_name: str) -> Node:
             return Node(node_name, namespace, **settings, **options)  # type: ignore[arg-type]
 
+        made = make(name) if name is not None else None  # a failure leaves nothing behind
         _pending = make
         set_default_node_factory(default_node)
-        if name is not None:
-            _default = make(name)
+        if made is not None:
+            _default = made
             set_default_node(_default)
         if handle_sigint and threading.current_thread() is threading.main_thread():
             start_listener_thread()
