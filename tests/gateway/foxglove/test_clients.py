@@ -129,7 +129,7 @@ def test_without_the_sdk_the_error_says_what_to_install(
     from zros.gateway.foxglove.server import serve
 
     monkeypatch.setitem(sys.modules, 'foxglove', None)
-    with pytest.raises(GatewayError, match=r'zros\[foxglove\]'):
+    with pytest.raises(GatewayError, match=r"pip install 'zros-client\[foxglove\]'"):
         serve(node=zros_node('zros_foxglove'), port=0)
 
 
