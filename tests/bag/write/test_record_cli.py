@@ -42,6 +42,7 @@ def complete_chunks(file: Path) -> list[tuple[str, bytes]]:
     from mcap.exceptions import McapError
     from mcap.records import Channel, Message
     from mcap.stream_reader import StreamReader
+    from zstandard import ZstdError
 
     channels: dict[int, str] = {}
     found: list[tuple[str, bytes]] = []
@@ -54,7 +55,7 @@ def complete_chunks(file: Path) -> list[tuple[str, bytes]]:
                     channels[record.id] = record.topic
                 elif isinstance(record, Message):
                     found.append((channels[record.channel_id], record.data))
-        except McapError:
+        except (McapError, ZstdError):  # a chunk still being written is cut short
             pass
     return found
 
