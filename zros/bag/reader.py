@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
+from zros.bag.columns.align import Columns, align
 from zros.bag.columns.extract import dataframe, extract, structured
 from zros.bag.errors import BagError
 from zros.bag.read.source import Connection, RawMessage, Source, open_source
 from zros.bag.read.types import BagTypes
 from zros.closing import Closing
+from zros.timesync import ApproximatePolicy, header_stamp
 
 if TYPE_CHECKING:
     import numpy as np
@@ -215,6 +218,70 @@ class Bag(Closing):
         2-D columns are spread over ``name[0]``, ``name[1]``...; ``time`` is a column of int64 ns.
         """
         return dataframe(self.columns(topic, fields, start, end))
+
+    # --- topics on one clock -----------------------------------------------------------------
+
+    def align(
+        self,
+        columns: Columns,
+        on: str | float,
+        *,
+        method: str = 'nearest',
+        tolerance: float | None = None,
+        stamp: str = 'header',
+        as_dataframe: bool = False,
+    ) -> np.ndarray | Untyped:
+        """Fields of several topics in one table, a row per instant of ``on``.
+
+        ``columns`` names topics and fields as ``'/imu'`` (every numeric field) or
+        ``'/imu.linear_acceleration'`` (a field, or a struct's fields), in a list, or as a
+        mapping ``{'/imu': ['linear_acceleration.x'], '/odom': None}``. ``on`` is a topic (its
+        messages' stamps are the rows) or a period in seconds (from the first stamp to the
+        last). ``method`` is ``'nearest'``, ``'previous'`` or ``'linear'``; a match farther
+        than ``tolerance`` seconds leaves NaN. ``stamp`` is ``'header'`` (``header.stamp``;
+        topics without one use their receive time, with a warning) or ``'receive'``. The
+        result is a numpy structured array (``time``, int64 ns, then ``topic.field``, float64),
+        or a pandas DataFrame with ``as_dataframe``. See docs/bags.md for the rules.
+        """
+        columns_ = align(
+            self.path, self.columns, self.message_class, columns,
+            on=on, method=method, tolerance=tolerance, stamp=stamp,
+        )  # fmt: skip
+        return dataframe(columns_) if as_dataframe else structured(columns_, self.path)
+
+    def synchronize(
+        self,
+        topics: Iterable[str],
+        slop: float,
+        queue_size: int = 10,
+        allow_headerless: bool = False,
+    ) -> Iterator[tuple[Message, ...]]:
+        """Sets of one message per topic whose header stamps lie less than ``slop`` seconds
+        apart, matched as ``zros.message_filters.ApproximateTimeSynchronizer`` matches live
+        messages (fed in receive order). Messages without a header are skipped with a
+        warning, or with ``allow_headerless`` stamped with their receive time."""
+        order = list(topics)
+        if len(set(order)) != len(order):
+            raise ValueError(f'each topic once, please: {", ".join(order)}')
+        index = {topic: i for i, topic in enumerate(order)}
+        policy: ApproximatePolicy[Message] = ApproximatePolicy(
+            len(order), queue_size, round(slop * 1_000_000_000)
+        )
+        warned: set[str] = set()
+        for topic, received, message in self.messages(order):
+            stamp = header_stamp(message)
+            if stamp is None:
+                if not allow_headerless:
+                    if topic not in warned:
+                        warned.add(topic)
+                        warnings.warn(
+                            f'synchronize: {topic} has no header stamp; its messages are '
+                            'skipped (allow_headerless=True uses their receive times)',
+                            stacklevel=2,
+                        )
+                    continue
+                stamp = received
+            yield from policy.add(index[topic], stamp, message)
 
     # --- lifetime -------------------------------------------------------------------------
 
