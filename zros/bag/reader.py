@@ -263,10 +263,16 @@ class Bag(Closing):
         order = list(topics)
         if len(set(order)) != len(order):
             raise ValueError(f'each topic once, please: {", ".join(order)}')
-        index = {topic: i for i, topic in enumerate(order)}
+        self._connections(order)  # an unknown topic fails here, not at the first next()
         policy: ApproximatePolicy[Message] = ApproximatePolicy(
             len(order), queue_size, round(slop * 1_000_000_000)
         )
+        return self._synchronized(order, policy, allow_headerless)
+
+    def _synchronized(
+        self, order: list[str], policy: ApproximatePolicy[Message], allow_headerless: bool
+    ) -> Iterator[tuple[Message, ...]]:
+        index = {topic: i for i, topic in enumerate(order)}
         warned: set[str] = set()
         for topic, received, message in self.messages(order):
             stamp = header_stamp(message)

@@ -238,6 +238,12 @@ def test_synchronize_skips_headerless_or_stamps_them_with_receive_time(two: Path
             assert list(bag.synchronize(['/a', '/f'], 1.0)) == []
         pairs = list(bag.synchronize(['/f', '/a'], 5e-9, allow_headerless=True))
         with pytest.raises(ValueError, match='each topic once'):
-            list(bag.synchronize(['/a', '/a'], 1.0))
+            bag.synchronize(['/a', '/a'], 1.0)
+        with pytest.raises(BagError, match='no topic /nope'):
+            bag.synchronize(['/a', '/nope'], 1.0)
+        with pytest.raises(ValueError, match='slop must not be negative'):
+            bag.synchronize(['/a', '/f'], -1.0)
+        with pytest.raises(ValueError, match='queue_size must be at least 1'):
+            bag.synchronize(['/a', '/f'], 1.0, queue_size=0)
     # /f received at 12 and 28 meets /a stamped 10 and 30 (2 ns apart)
     assert [(f.data, a.point.x) for f, a in pairs] == [(1.0, 1.0), (2.6, 3.0)]
