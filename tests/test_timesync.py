@@ -74,3 +74,21 @@ def test_header_stamp_reads_messages_and_times() -> None:
     stamped = new_message('geometry_msgs/msg/PointStamped', header=message)
     assert header_stamp(stamped) == 3_000_000_007
     assert header_stamp(new_message('std_msgs/msg/Float64')) is None
+
+
+@pytest.mark.parametrize(('first', 'second'), [(95, 105), (105, 95)])
+def test_a_tie_goes_to_the_one_queued_first(first: int, second: int) -> None:
+    """Both are 5 from the arrival: rclpy sorts candidates stably, in queue order."""
+    policy: ApproximatePolicy[str] = ApproximatePolicy(2, 10, 10)
+    policy.add(1, first, f'b{first}')
+    policy.add(1, second, f'b{second}')
+    assert policy.add(0, 100, 'a100') == [('a100', f'b{first}')]
+
+
+def test_exact_with_out_of_order_stamps() -> None:
+    policy: ExactPolicy[str] = ExactPolicy(2, 10)
+    for stamp in (30, 10, 20):
+        policy.add(0, stamp, f'a{stamp}')
+    assert policy.add(1, 20, 'b20') == [('a20', 'b20')]
+    assert policy.add(1, 10, 'b10') == [('a10', 'b10')]
+    assert policy.queues == [{30: 'a30'}, {}]

@@ -237,6 +237,7 @@ def test_synchronize_skips_headerless_or_stamps_them_with_receive_time(two: Path
         with pytest.warns(UserWarning, match='/f has no header stamp'):
             assert list(bag.synchronize(['/a', '/f'], 1.0)) == []
         pairs = list(bag.synchronize(['/f', '/a'], 5e-9, allow_headerless=True))
+        assert list(bag.synchronize(['/a', '/c'], 1.0)) == []  # /c is empty
         with pytest.raises(ValueError, match='each topic once'):
             bag.synchronize(['/a', '/a'], 1.0)
         with pytest.raises(BagError, match='no topic /nope'):
