@@ -129,3 +129,19 @@ def test_bad_settings() -> None:
         ApproximateTimeSynchronizer([source, SimpleFilter()], 10, -0.1)
     with pytest.raises(ValueError, match='at least one input'):
         ApproximateTimeSynchronizer([], 10, 0.1)
+
+
+def test_with_immediate_callbacks_the_synchronizer_calls_back_without_spinning(
+    zros_node: Callable[..., Node],
+) -> None:
+    talker, listener = zros_node('talker'), zros_node('listener', immediate_callbacks=True)
+    a, b = Subscriber(listener, POINT, '/a'), Subscriber(listener, POINT, '/b')
+    pairs: list[tuple[float, float]] = []
+    TimeSynchronizer([a, b], 5).registerCallback(
+        lambda ma, mb: pairs.append((ma.point.x, mb.point.x))
+    )
+    pub_a, pub_b = talker.create_publisher(POINT, '/a'), talker.create_publisher(POINT, '/b')
+    assert pub_a.wait_for_subscribers() and pub_b.wait_for_subscribers()
+    pub_a.write(stamped(5, 1.0))
+    pub_b.write(stamped(5, 2.0))
+    assert wait_for(lambda: pairs == [(1.0, 2.0)])  # no spin_once anywhere
