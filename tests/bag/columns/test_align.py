@@ -122,7 +122,7 @@ def test_a_struct_selects_its_fields_and_a_bare_topic_all(two: Path) -> None:
 
 
 def test_headerless_topics_use_receive_time_and_say_so(two: Path) -> None:
-    with Bag(two) as bag, pytest.warns(UserWarning, match='/f has no header stamp'):
+    with Bag(two) as bag, pytest.warns(UserWarning, match='no header stamp in /f: receive times'):
         table = bag.align(['/f.data'], on='/a', method='linear')
     assert same(values(table, '/f.data'), [NaN, 1.8, NaN])  # 20 is half way from 12 to 28
 

@@ -45,12 +45,13 @@ ReadColumns = Callable[[str, list[str]], dict[str, np.ndarray]]
 
 @dataclass
 class _Topic:
-    """One topic's values in stamp order, a message per distinct stamp."""
+    """One topic's columns as read, and the orders that put them on the clock."""
 
-    stamps: np.ndarray  #: int64 ns, increasing
-    values: dict[str, np.ndarray]  #: leaf path -> column, rows as ``stamps``
-    every_stamp: np.ndarray  #: every message's stamp, in stamp order (for the reference)
-    every_row: dict[str, np.ndarray]  #: leaf path -> column, rows as ``every_stamp``
+    columns: dict[str, np.ndarray]  #: as ``Bag.columns`` gave them (receive order)
+    every: np.ndarray  #: every message's row, in stamp order (stable)
+    every_stamp: np.ndarray  #: their stamps, int64 ns
+    rows: np.ndarray  #: a row per distinct stamp: the last received
+    stamps: np.ndarray  #: their stamps, increasing
 
 
 def requested(columns: Columns) -> dict[str, list[str] | None]:
@@ -147,13 +148,7 @@ class Aligner:
         every = stamps[order]
         last = np.ones(len(every), bool)  # of equal stamps, the last received
         last[:-1] = every[1:] != every[:-1]
-        rows = order[last]
-        return leaves, _Topic(
-            every[last],
-            {name: read[name][rows] for name in wanted},
-            every,
-            {name: read[name][order] for name in wanted},
-        )
+        return leaves, _Topic(read, order, every, order[last], every[last])
 
 
 def _match(
@@ -240,8 +235,8 @@ def align(
         topics[on] = aligner.topic(on, [])
     if aligner.headerless:
         warnings.warn(
-            f'align: {", ".join(aligner.headerless)} has no header stamp; its receive times '
-            "are used (stamp='receive' uses them for every topic)",
+            f'align: no header stamp in {", ".join(aligner.headerless)}: receive times are '
+            "used there (stamp='receive' uses them for every topic)",
             stacklevel=3,
         )
     if isinstance(on, str):
@@ -261,12 +256,15 @@ def align(
             continue
         if name == on:  # the reference topic: its own messages, row for row
             for leaf in leaves:
-                result[f'{name}.{leaf.path}'] = topic.every_row[leaf.path].astype(np.float64)
+                column = topic.columns[leaf.path][topic.every]
+                result[f'{name}.{leaf.path}'] = column.astype(np.float64)
             continue
         low, high, weight, ok = _match(topic, instants, method, limit)
         nearest = np.where(weight > 0.5, high, low) if method == 'linear' else low
+        if len(topic.rows):  # positions among the distinct stamps -> rows of the columns
+            low, high, nearest = topic.rows[low], topic.rows[high], topic.rows[nearest]
         for leaf in leaves:
-            column = topic.values[leaf.path]
+            column = topic.columns[leaf.path]
             if method == 'linear' and leaf.value == np.bool_:
                 flat.append(f'{name}.{leaf.path}')
                 result[f'{name}.{leaf.path}'] = _fill(
