@@ -119,19 +119,22 @@ def _clock_of(filters: Sequence[object]) -> Callable[[], int]:
 
 
 def _stamp_or_warn(
-    msg: object, allow_headerless: bool, now: Callable[[], int], who: str
+    msg: object, allow_headerless: bool, now: Callable[[], int], who: str, warned: set[str]
 ) -> int | None:
     stamp = header_stamp(msg)
     if stamp is not None:
         return stamp
     if allow_headerless:
         return now()
-    _log.warning(
-        '%s dropped a %s: it has no header.stamp (allow_headerless=True stamps such messages '
-        'with the time they arrive)',
-        who,
-        type(msg).__name__,
-    )
+    kind = type(msg).__name__
+    if kind not in warned:  # once per type: a headerless topic would warn at its rate
+        warned.add(kind)
+        _log.warning(
+            '%s drops every %s: it has no header.stamp (allow_headerless=True stamps such '
+            'messages with the time they arrive)',
+            who,
+            kind,
+        )
     return None
 
 
@@ -149,12 +152,13 @@ class Cache(SimpleFilter):
         self.cache_msgs: list[object] = []
         self.cache_times: list[int] = []  #: stamps in ns, in arrival order
         self._now = _clock_of([f])
+        self._warned: set[str] = set()
         self._lock = threading.Lock()
         self.incoming_connection = f.registerCallback(self.add)
 
     def add(self, msg: object) -> None:
         """Keep ``msg`` (dropping the oldest past ``cache_size``) and hand it on."""
-        stamp = _stamp_or_warn(msg, self.allow_headerless, self._now, 'Cache')
+        stamp = _stamp_or_warn(msg, self.allow_headerless, self._now, 'Cache', self._warned)
         if stamp is None:
             return
         with self._lock:
@@ -217,6 +221,7 @@ class TimeSynchronizer(SimpleFilter):
         self.queue_size = queue_size
         self._policy = self._make_policy(len(fs))
         self._now = _clock_of(fs)
+        self._warned: set[str] = set()
         self._lock = threading.Lock()
         self.input_connections = [f.registerCallback(self.add, i) for i, f in enumerate(fs)]
 
@@ -225,7 +230,9 @@ class TimeSynchronizer(SimpleFilter):
 
     def add(self, msg: object, index: int) -> None:
         """Queue ``msg`` from input ``index``; call back with the sets it completes."""
-        stamp = _stamp_or_warn(msg, self.allow_headerless, self._now, type(self).__name__)
+        stamp = _stamp_or_warn(
+            msg, self.allow_headerless, self._now, type(self).__name__, self._warned
+        )
         if stamp is None:
             return
         with self._lock:
