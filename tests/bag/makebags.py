@@ -131,7 +131,13 @@ def make_sensor_bag(path: Path, count: int, storage: str = 'mcap', vary: bool = 
 
 
 def make_points_mcap(
-    path: Path, count: int, compression: str = 'zstd', chunked: bool = True, shuffle: bool = True
+    path: Path,
+    count: int,
+    compression: str = 'zstd',
+    chunked: bool = True,
+    shuffle: bool = True,
+    *,
+    chunk_size: int = 2048,
 ) -> Path:
     """A bare ``.mcap`` of geometry_msgs/Point on /point written by the mcap library, chunks
     compressed with ``compression`` ('zstd', 'lz4', 'none'), or no chunks and no summary.
@@ -144,7 +150,7 @@ def make_points_mcap(
     with path.open('wb') as stream:
         writer = Writer(
             stream,
-            chunk_size=2048,
+            chunk_size=chunk_size,
             compression=kind[compression],
             use_chunking=chunked,
             index_types=IndexType.ALL if chunked else IndexType.NONE,

@@ -20,7 +20,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from zros.bag.errors import BagError, Unsupported
-from zros.bag.read.mcap_chunks import ordered_messages, read_blocks
+from zros.bag.read.damage import Skipped
+from zros.bag.read.mcap_chunks import Damaged, ordered_messages, read_blocks
 from zros.bag.read.mcap_recover import RecoveredMcap, is_mcap
 from zros.bag.read.source_base import Block, Connection, RawMessage, Source, normalise_type_name
 
@@ -238,7 +239,11 @@ class Rosbag2Source(Source):
             path = Path(getattr(stream.reader, 'path', ''))
             try:
                 for connection, timestamp, data in ordered_messages(
-                    path, {item.id: mapping[item.id] for item in wanted}, start, end
+                    path,
+                    {item.id: mapping[item.id] for item in wanted},
+                    start,
+                    end,
+                    self._damaged(path, mapping),
                 ):
                     if skip and timestamp != start:
                         skip = []
@@ -255,6 +260,32 @@ class Rosbag2Source(Source):
             raw = data if decompress is None else decompress(data)
             yield RawMessage(mapping[item.id], timestamp, raw)
 
+    def locate(self, message: RawMessage) -> tuple[Path, int | None, int | None]:
+        """A db3 message's file and row; the bag's path for others."""
+        if self.storage_id == 'sqlite3' and self._decompress is None:
+            for stream in self._streams:
+                ids = [n for n, c in stream.mapping.items() if c == message.connection]
+                if not ids:
+                    continue
+                found = stream.reader.dbconn.execute(
+                    'SELECT id FROM messages WHERE timestamp = ? AND data = ? AND topic_id IN '
+                    f'({",".join("?" * len(ids))})',
+                    [message.timestamp, bytes(message.data), *ids],
+                ).fetchone()
+                if found:
+                    return Path(stream.reader.path), None, int(found[0])
+        return self.path, None, None
+
+    def _damaged(self, path: Path, mapping: dict[int, Connection]) -> Damaged:
+        """Reports a chunk of ``path`` that cannot be read (channel ids as in ``mapping``)."""
+
+        def report(offset: int, lost: dict[int, int], reason: str) -> None:
+            self.damage.report(
+                [Skipped(path, offset, None, mapping[c].topic, n, reason) for c, n in lost.items()]
+            )
+
+        return report
+
     def blocks(
         self, connections: Iterable[Connection], start: int | None = None, end: int | None = None
     ) -> Iterator[list[Block]]:
@@ -269,7 +300,9 @@ class Rosbag2Source(Source):
             if self.storage_id == 'sqlite3':
                 yield from _sqlite_blocks(stream, set(channels), start, end)
                 continue
-            for found in read_blocks(Path(stream.reader.path), channels, start, end, mapped=True):
+            path = Path(stream.reader.path)
+            damaged = self._damaged(path, stream.mapping)
+            for found in read_blocks(path, channels, start, end, mapped=True, damaged=damaged):
                 blocks = [
                     Block(b.connection, b.times, base + b.keys, b.data)
                     for b in found
