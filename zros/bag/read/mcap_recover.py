@@ -31,7 +31,9 @@ class LinearScan:
     """One pass over the complete records of an MCAP file, from its start.
 
     Chunks are read whole and their CRCs checked before any record inside them is yielded, so
-    a chunk cut short or corrupt yields nothing. After the iteration, ``stopped_at`` says why it
+    a chunk cut short or corrupt yields nothing; a whole chunk that does not decompress or whose
+    CRC fails is listed in ``skipped`` (with its messages per channel, from the message index
+    records after it) and the scan goes on after it. After the iteration, ``stopped_at`` says why it
     stopped before the end ('' when it reached the footer), ``end`` is the byte offset just past
     the last complete record, and ``compression`` is the first chunk's ('' without chunks).
     """
@@ -42,12 +44,14 @@ class LinearScan:
         self.end = 0
         self.size = 0  #: the file's size when the scan began
         self.compression = ''
+        #: chunks skipped as damaged: (offset, messages lost per channel id, why)
+        self.skipped: list[tuple[int, dict[int, int], str]] = []
         self._chunked = False
 
     def records(self) -> Iterator[McapRecord]:
         """Header, schemas, channels, messages, metadata, attachments... in file order."""
         from mcap.exceptions import EndOfFile  # noqa: PLC0415 (lazy: mcap, import time)
-        from mcap.records import Chunk  # noqa: PLC0415 (lazy: mcap, import time)
+        from mcap.records import Chunk, MessageIndex  # noqa: PLC0415 (lazy: mcap, import time)
         from mcap.stream_reader import StreamReader, breakup_chunk  # noqa: PLC0415 (lazy: mcap, import time)
 
         self.size = size = self.path.stat().st_size
@@ -56,25 +60,66 @@ class LinearScan:
                 stream, emit_chunks=True, validate_crcs=True, record_size_limit=size
             )
             records = reader.records
+            damaged: dict[int, int] | None = None  # the lost counts of the chunk just skipped
+            held: list[McapRecord] = []  # the last chunk's records, until its indexes are read
+            held_at = 0
+            indexed: dict[int, list[int]] = {}  # its message index: channel -> log times
             while True:
+                at = stream.tell()
                 try:
                     record = next(records)
-                    inner = [record]
-                    if isinstance(record, Chunk):
-                        inner = breakup_chunk(record, validate_crc=True)
-                        if not self._chunked:
-                            self._chunked = True
-                            self.compression = record.compression
                 except StopIteration:
-                    return
-                except EndOfFile:
-                    self.stopped_at = 'the file ends before its footer'
+                    yield from self._checked(held, held_at, indexed)
                     return
                 except Exception as exc:  # a record cut short or corrupt: stop there
-                    self.stopped_at = str(exc) or type(exc).__name__
+                    yield from self._checked(held, held_at, indexed)
+                    self.stopped_at = (
+                        'the file ends before its footer'
+                        if isinstance(exc, EndOfFile)
+                        else str(exc) or type(exc).__name__
+                    )
                     return
                 self.end = stream.tell()
-                yield from inner
+                if isinstance(record, MessageIndex):
+                    if damaged is not None:
+                        damaged[record.channel_id] = len(record.records)
+                    elif held:
+                        indexed[record.channel_id] = sorted(t for t, _ in record.records)
+                    continue
+                yield from self._checked(held, held_at, indexed)
+                held, indexed, damaged = [], {}, None
+                if not isinstance(record, Chunk):
+                    yield record
+                    continue
+                if not self._chunked:
+                    self._chunked = True
+                    self.compression = record.compression
+                try:
+                    held, held_at = breakup_chunk(record, validate_crc=True), at
+                except Exception as exc:  # whole but damaged: skipped, the scan goes on
+                    damaged = {}
+                    self.skipped.append((at, damaged, str(exc) or type(exc).__name__))
+
+    def _checked(
+        self, held: list[McapRecord], at: int, indexed: dict[int, list[int]]
+    ) -> list[McapRecord]:
+        """A chunk's records, without its messages when they do not match its message index
+        (a chunk without CRC, damaged: what it parses into is not what was written)."""
+        from mcap.records import Message  # noqa: PLC0415 (lazy: mcap, import time)
+
+        if not indexed:
+            return held
+        found: dict[int, list[int]] = {}
+        for record in held:
+            if isinstance(record, Message):
+                found.setdefault(record.channel_id, []).append(record.log_time)
+        if all(sorted(found.get(c, [])) == times for c, times in indexed.items()) and set(
+            found
+        ) <= set(indexed):
+            return held
+        lost = {channel: len(times) for channel, times in indexed.items()}
+        self.skipped.append((at, lost, 'its messages do not match its message index'))
+        return [record for record in held if not isinstance(record, Message)]
 
 
 class RecoveredMcap:
@@ -85,12 +130,15 @@ class RecoveredMcap:
         self.connections: list[Connection] = []
         self.metadata: ReaderMetadata | None = None
         self.stopped_at = ''  #: why the scan stopped before the end ('' when it reached it)
+        #: damaged chunks skipped: (offset, messages lost per channel id, why)
+        self.skipped: list[tuple[int, dict[int, int], str]] = []
         self.in_order = True
 
     def _records(self) -> Iterator[McapRecord]:
         scan = LinearScan(self.path)
         yield from scan.records()
         self.stopped_at = scan.stopped_at
+        self.skipped = scan.skipped
 
     def open(self) -> None:
         """Scan the file once for its schemas, channels, counts and times."""

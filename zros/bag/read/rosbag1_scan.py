@@ -139,6 +139,8 @@ class ScannedBag1:
         self.stopped_at = ''
         self.start_time = 2**63 - 1
         self.end_time = 0
+        self.compression = 'none'  #: the first chunk's
+        self._chunked = False
         self._found: list[tuple[int, int, bytes]] = []  #: (time, connection id, data)
 
     def open(self) -> None:
@@ -209,6 +211,9 @@ class ScannedBag1:
         read: dict[int, int] = {}
         try:
             compression = header.get_string('compression')
+            if not self._chunked:
+                self._chunked = True
+                self.compression = compression
             if compression not in decompressors:
                 return read, f'compression {compression!r} unknown'
             inner = decompressors[compression](data)

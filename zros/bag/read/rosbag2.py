@@ -148,6 +148,11 @@ class Rosbag2Source(Source):
         self.files = ([metadata] if metadata.is_file() else []) + paths
         self.storage_id = 'sqlite3' if paths[0].suffix == '.db3' else 'mcap'
         self._build_connections([])
+        for stream in self._streams:
+            if isinstance(stream.reader, RecoveredMcap):
+                report = self._damaged(stream.reader.path, stream.mapping)
+                for offset, lost, why in stream.reader.skipped:
+                    report(offset, lost or {-1: -1}, why)
         if notes or self.path.is_dir():
             _log.warning(
                 '%s: %s: read file by file%s', self.path, reason, ''.join('; ' + n for n in notes)
@@ -281,7 +286,10 @@ class Rosbag2Source(Source):
 
         def report(offset: int, lost: dict[int, int], reason: str) -> None:
             self.damage.report(
-                [Skipped(path, offset, None, mapping[c].topic, n, reason) for c, n in lost.items()]
+                [
+                    Skipped(path, offset, None, mapping[c].topic if c in mapping else '', n, reason)
+                    for c, n in lost.items()
+                ]
             )
 
         return report

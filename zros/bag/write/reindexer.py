@@ -50,10 +50,11 @@ _TEMPORARY = '.{}.reindex'
 class FileReport:
     """What :func:`reindex` did with one storage file.
 
-    ``action`` is ``'complete'`` (already finished: untouched), ``'rewritten'`` (finished from
-    its complete records; ``dropped_bytes`` were past the last one, ``reason`` says why the scan
-    stopped) or ``'skipped'`` (not even an MCAP header: left as it is, not listed in the
-    metadata).
+    ``action`` is ``'complete'`` (already finished and intact: untouched), ``'rewritten'``
+    (finished from its complete records; ``dropped_bytes`` were past the last one, ``reason``
+    says why the scan stopped; damaged chunks are left out, ``lost_messages`` counts their
+    messages, -1 when a chunk's count is unknown) or ``'skipped'`` (not even an MCAP header:
+    left as it is, not listed in the metadata).
     """
 
     name: str
@@ -61,12 +62,21 @@ class FileReport:
     message_count: int
     dropped_bytes: int = 0
     reason: str = ''
+    lost_messages: int = 0
+    damaged: tuple[int, ...] = ()  #: byte offsets of the damaged chunks left out
 
     def __str__(self) -> str:
         if self.action == 'complete':
             return f'{self.name}: complete, {self.message_count} messages'
         if self.action == 'skipped':
             return f'{self.name}: skipped, no complete MCAP record ({self.reason})'
+        if self.damaged:
+            lost = 'an unknown number of' if self.lost_messages < 0 else str(self.lost_messages)
+            at = ', '.join(map(str, self.damaged))
+            return (
+                f'{self.name}: rewritten, {self.message_count} messages; could not keep {lost} '
+                f'messages (damaged or cut short at byte {at})'
+            )
         tail = (
             f'{self.dropped_bytes} bytes after it dropped: {self.reason}'
             if self.dropped_bytes
@@ -176,8 +186,25 @@ def reindex(path: str | os.PathLike[str]) -> ReindexReport:
     if not location.exists():
         raise BagError(location, 'no such file or folder')
     if location.is_file():
+        if location.suffix == '.bag':
+            from zros.bag.write.reindex_ros1 import reindex_ros1  # noqa: PLC0415 (ROS 1 only)
+
+            done = reindex_ros1(location)
+            action = 'rewritten' if done.rewritten else 'complete'
+            report = FileReport(
+                location.name,
+                action,
+                done.message_count,
+                0,
+                done.reason,
+                done.lost_messages,
+                done.damaged,
+            )
+            return ReindexReport(location, [report], None, 0)
         if location.suffix != '.mcap':
-            raise BagError(location, 'reindex reads MCAP bags (a folder or a .mcap file)')
+            raise BagError(
+                location, 'reindex reads MCAP and ROS 1 bags (a folder, a .mcap or .bag file)'
+            )
         return ReindexReport(location, [_reindex_file(location, _Bag())], None, 0)
     files = storage_files(location)
     if not files:
@@ -197,17 +224,40 @@ def _reindex_file(file: Path, bag: _Bag) -> FileReport:
     if not _has_magic(file):
         return FileReport(file.name, 'skipped', 0, reason='no MCAP magic')
     summary = _finished_summary(file)
-    if summary is not None:
+    if summary is not None and _intact(file):
         report = FileReport(file.name, 'complete', summary.entry.message_count)
     else:
+        finished = summary is not None
         summary, scan = _rewrite(file, bag)
         if summary is None:
             return FileReport(file.name, 'skipped', 0, reason=scan.stopped_at)
-        dropped = max(0, scan.size - scan.end)
+        # a finished file's summary is past its last chunk: not dropped, rewritten
+        dropped = 0 if finished else max(0, scan.size - scan.end)
         count = summary.entry.message_count
-        report = FileReport(file.name, 'rewritten', count, dropped, scan.stopped_at)
+        losses = [
+            sum(lost.values()) if lost and -1 not in lost else -1 for _, lost, _ in scan.skipped
+        ]
+        report = FileReport(
+            file.name,
+            'rewritten',
+            count,
+            dropped,
+            '' if finished else scan.stopped_at,
+            -1 if -1 in losses else sum(losses),
+            tuple(offset for offset, _, _ in scan.skipped),
+        )
     bag.add(summary)
     return report
+
+
+def _intact(file: Path) -> bool:
+    """Whether every chunk of a finished file reads: decompresses, its CRC matches, its
+    messages match their index (a pass over the file: reindex is the repair, it takes the
+    time)."""
+    scan = LinearScan(file)
+    for _ in scan.records():
+        pass
+    return not scan.skipped
 
 
 def _has_magic(file: Path) -> bool:
