@@ -390,3 +390,71 @@ def test_real_ros1_bags_damaged(testdata: Path, tmp_path: Path, name: str) -> No
         assert 'AssertionError' not in str(exc) or 'damaged' in str(exc)
     else:
         assert len(got) <= len(whole)
+
+
+def test_damage_is_logged_ten_times_per_topic_then_counted(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    point = encode(new_message('geometry_msgs/msg/Point', x=1.0))
+    rows = [(0, stamp, point if stamp % 2 else b'\x00\x01\x00\x00') for stamp in range(40)]
+    path = make_db3(tmp_path / 'many.db3', [('/b', 'geometry_msgs/msg/Point')], rows)
+    with caplog.at_level(logging.DEBUG, 'zros.bag'), Bag(path) as bag:
+        assert sum(1 for _ in bag) == 20
+        assert len(bag.skipped) == 20
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 10
+    assert 'further damage on /b is counted in Bag.skipped, not logged' in warnings[-1]
+    assert sum(1 for r in caplog.records if r.levelno == logging.DEBUG) >= 10
+
+
+def test_a_zeroed_chunk_and_message_index_lose_an_unknown_count(tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+
+    file = make_points_mcap(tmp_path / 'p.mcap', 6100, chunk_size=1 << 16, shuffle=False)
+    with file.open('rb') as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    chunk = sorted(summary.chunk_indexes, key=lambda i: i.chunk_start_offset)[2]
+    begin = chunk.chunk_start_offset + chunk.chunk_length // 2
+    end = chunk.chunk_start_offset + chunk.chunk_length + chunk.message_index_length
+    data = bytearray(file.read_bytes())
+    data[begin:end] = bytes(end - begin)
+    file.write_bytes(bytes(data))
+    with Bag(file) as bag:
+        assert len(bag.columns('/point')['x']) < 6100
+        [skipped] = bag.skipped
+    assert (skipped.offset, skipped.topic, skipped.lost) == (chunk.chunk_start_offset, '/point', -1)
+    assert 'an unknown number of messages of /point' in str(skipped)
+
+
+def test_ros1_chunk_of_an_unknown_compression_is_skipped(tmp_path: Path) -> None:
+    path = make_ros1_bag(tmp_path / 'r.bag', 300)
+    chunks = _ros1_chunks(path)
+    data = path.read_bytes()
+    at = data.index(b'compression=none', chunks[2][0])
+    path.write_bytes(data[:at] + b'compression=nope' + data[at + 16 :])
+    got, skipped = _ros1_read(path)
+    assert got == sorted(m for i, (_, _, found) in enumerate(chunks) if i != 2 for m in found)
+    assert {(s.offset, s.lost) for s in skipped} == {
+        (chunks[2][0], sum(1 for t, _ in chunks[2][2] if t == topic)) for topic in ('/a', '/b')
+    }
+    assert "compression 'nope' unknown" in skipped[0].reason
+
+
+def test_a_ros1_bag_with_no_readable_chunk_is_an_error(tmp_path: Path) -> None:
+    path = make_ros1_bag(tmp_path / 'r.bag', 300)
+    data = path.read_bytes()
+    first = _ros1_chunks(path)[0][0]
+    path.write_bytes(data[: first + 20])
+    with pytest.raises(BagError, match='no chunk could be read'):
+        Bag(path)
+
+
+def test_bare_assertion_errors_say_what_they_mean() -> None:
+    from zros.bag.read.rosbag1_scan import why
+
+    assert (
+        why(AssertionError()) == 'the data does not parse, damaged (AssertionError: AssertionError)'
+    )
+    assert why(KeyError(7)).startswith('the data does not parse, damaged (KeyError')
+    assert why(ValueError('a\nb')) == 'a b'

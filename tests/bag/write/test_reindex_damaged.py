@@ -141,3 +141,34 @@ def test_reindex_drops_a_ros1_chunk_that_does_not_decompress(tmp_path: Path) -> 
     with Reader(path) as reader:
         got = sorted((c.topic, t) for c, t, _ in reader.messages())
     assert got == sorted(set(whole) - set(lost))
+
+
+def test_reindex_refuses_what_is_no_ros1_bag(tmp_path: Path) -> None:
+    from zros.bag import BagError
+
+    path = tmp_path / 'x.bag'
+    path.write_bytes(b'not a bag at all')
+    with pytest.raises(BagError, match='cannot read it as a ROS 1 bag'):
+        reindex(path)
+
+
+def test_a_failed_ros1_rewrite_leaves_the_original(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rosbags.rosbag1 import Writer
+
+    from zros.bag import BagError
+
+    path = make_ros1_bag(tmp_path / 'r.bag', 300)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) * 9 // 10])
+    before = path.read_bytes()
+
+    def disk_full(*args: object) -> None:
+        raise OSError(28, 'No space left on device')
+
+    monkeypatch.setattr(Writer, 'write', disk_full)
+    with pytest.raises(BagError, match='original is unchanged'):
+        reindex(path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ['r.bag']

@@ -11,7 +11,6 @@ reads whole is left untouched.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,12 +19,11 @@ from typing import TYPE_CHECKING
 from zros.bag.errors import BagError
 from zros.bag.read.rosbag1_scan import ScannedBag1, indexed_messages
 from zros.bag.read.source_base import describe_error
+from zros.bag.write.replace import replacing, temporary_of
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
     from rosbags.rosbag1 import Reader
-
-_TEMPORARY = '.{}.reindex'
 
 
 class _Readable:
@@ -123,9 +121,8 @@ def reindex_ros1(file: Path) -> Rebuilt:
 def _rewrite(file: Path, bag: _Readable) -> None:
     from rosbags.rosbag1 import Writer  # noqa: PLC0415 (lazy: rosbags, import time)
 
-    temporary = file.with_name(_TEMPORARY.format(file.name))
-    temporary.unlink(missing_ok=True)  # left by a reindex that was itself interrupted
-    try:
+    temporary_of(file).unlink(missing_ok=True)  # left by a reindex itself interrupted
+    with replacing(file) as temporary:
         writer = Writer(temporary)
         if bag.compression != 'none':
             writer.set_compression(Writer.CompressionFormat[bag.compression.upper()])
@@ -157,11 +154,3 @@ def _rewrite(file: Path, bag: _Readable) -> None:
             for connection, stamp, data in bag.messages():
                 writer.write(written[connection.id], stamp, data)
             del bag.losses[losses:]  # the second pass meets the same damage
-        with temporary.open('rb+') as stream:
-            os.fsync(stream.fileno())
-        os.replace(temporary, file)
-    except BaseException as exc:
-        temporary.unlink(missing_ok=True)
-        if isinstance(exc, OSError):
-            raise BagError(file, f'cannot rewrite it ({exc}); the original is unchanged') from exc
-        raise

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 from zros.bag.errors import BagError
 from zros.bag.read.mcap_recover import LinearScan, is_mcap
 from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
+from zros.bag.write.replace import replacing, temporary_of
 
 if TYPE_CHECKING:
     from mcap.records import Channel, Message, Schema
@@ -42,8 +43,6 @@ from zros.bag.read.rosbag2_yaml import (
     dump,
     write_metadata_yaml,
 )
-
-_TEMPORARY = '.{}.reindex'
 
 
 @dataclass(frozen=True)
@@ -219,7 +218,7 @@ def reindex(path: str | os.PathLike[str]) -> ReindexReport:
 
 def _reindex_file(file: Path, bag: _Bag) -> FileReport:
     """Finish one file if needed and add it to ``bag``."""
-    stale = file.with_name(_TEMPORARY.format(file.name))
+    stale = temporary_of(file)
     stale.unlink(missing_ok=True)  # left by a reindex that was itself interrupted
     if not _has_magic(file):
         return FileReport(file.name, 'skipped', 0, reason='no MCAP magic')
@@ -364,7 +363,6 @@ def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
     from mcap.writer import Writer  # noqa: PLC0415 (lazy: mcap, import time)
 
     scan = LinearScan(file)
-    temporary = file.with_name(_TEMPORARY.format(file.name))
     records = scan.records()
     header = next(records, None)
     if not isinstance(header, Header):
@@ -372,61 +370,52 @@ def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
     stats = _Stats()
     schemas: dict[int, int] = {0: 0}
     channels: dict[int, int] = {}
-    try:
-        with temporary.open('xb') as stream:
-            writer: Untyped = None  # mcap's Writer: ``finish`` has no annotations
-            for record in records:
-                if writer is None:
-                    kind = compression_type(scan.compression or 'none')
-                    writer = Writer(stream, chunk_size=DEFAULT_CHUNK_SIZE, compression=kind)
-                    writer.start(profile=header.profile, library=header.library)
-                if isinstance(record, Schema) and record.id not in schemas:
-                    schemas[record.id] = writer.register_schema(
-                        record.name, record.encoding, record.data
-                    )
-                elif isinstance(record, Channel) and record.id not in channels:
-                    channels[record.id] = writer.register_channel(
-                        record.topic,
-                        record.message_encoding,
-                        schemas.get(record.schema_id, 0),
-                        dict(record.metadata),
-                    )
-                elif isinstance(record, Message) and record.channel_id in channels:
-                    writer.add_message(
-                        channels[record.channel_id],
-                        record.log_time,
-                        record.data,
-                        record.publish_time,
-                        record.sequence,
-                    )
-                elif isinstance(record, Metadata) and record.name != 'rosbag2':
-                    writer.add_metadata(record.name, dict(record.metadata))
-                elif isinstance(record, Attachment):
-                    writer.add_attachment(
-                        record.create_time,
-                        record.log_time,
-                        record.name,
-                        record.media_type,
-                        record.data,
-                    )
-                else:
-                    continue
-                if isinstance(record, Schema | Channel | Message):
-                    stats.add(record)
+    with replacing(file) as temporary, temporary.open('xb') as stream:
+        writer: Untyped = None  # mcap's Writer: ``finish`` has no annotations
+        for record in records:
             if writer is None:
-                writer = Writer(stream, compression=compression_type('none'))
+                kind = compression_type(scan.compression or 'none')
+                writer = Writer(stream, chunk_size=DEFAULT_CHUNK_SIZE, compression=kind)
                 writer.start(profile=header.profile, library=header.library)
-            summary = stats.summary(file)
-            writer.add_metadata('rosbag2', {'serialized_metadata': bag.serialized_with(summary)})
-            writer.finish()
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, file)
-    except BaseException as exc:
-        temporary.unlink(missing_ok=True)
-        if isinstance(exc, OSError):
-            raise BagError(file, f'cannot rewrite it ({exc}); the original is unchanged') from exc
-        raise
+            if isinstance(record, Schema) and record.id not in schemas:
+                schemas[record.id] = writer.register_schema(
+                    record.name, record.encoding, record.data
+                )
+            elif isinstance(record, Channel) and record.id not in channels:
+                channels[record.id] = writer.register_channel(
+                    record.topic,
+                    record.message_encoding,
+                    schemas.get(record.schema_id, 0),
+                    dict(record.metadata),
+                )
+            elif isinstance(record, Message) and record.channel_id in channels:
+                writer.add_message(
+                    channels[record.channel_id],
+                    record.log_time,
+                    record.data,
+                    record.publish_time,
+                    record.sequence,
+                )
+            elif isinstance(record, Metadata) and record.name != 'rosbag2':
+                writer.add_metadata(record.name, dict(record.metadata))
+            elif isinstance(record, Attachment):
+                writer.add_attachment(
+                    record.create_time,
+                    record.log_time,
+                    record.name,
+                    record.media_type,
+                    record.data,
+                )
+            else:
+                continue
+            if isinstance(record, Schema | Channel | Message):
+                stats.add(record)
+        if writer is None:
+            writer = Writer(stream, compression=compression_type('none'))
+            writer.start(profile=header.profile, library=header.library)
+        summary = stats.summary(file)
+        writer.add_metadata('rosbag2', {'serialized_metadata': bag.serialized_with(summary)})
+        writer.finish()
     return summary, scan
 
 
