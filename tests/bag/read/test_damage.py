@@ -458,3 +458,34 @@ def test_bare_assertion_errors_say_what_they_mean() -> None:
     )
     assert why(KeyError(7)).startswith('the data does not parse, damaged (KeyError')
     assert why(ValueError('a\nb')) == 'a b'
+
+
+@pytest.mark.parametrize('compression', ['zstd', 'none'])
+def test_without_summary_the_scan_goes_on_at_the_next_chunk(
+    tmp_path: Path, compression: str
+) -> None:
+    from mcap.reader import make_reader
+
+    file = make_points_mcap(
+        tmp_path / 'p.mcap', 6100, compression, chunk_size=1 << 16, shuffle=False
+    )
+    whole = sorted((t, s, d) for t, _, s, d in raw_messages(file))
+    with file.open('rb') as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    chunks = sorted(summary.chunk_indexes, key=lambda i: i.chunk_start_offset)
+    assert len(chunks) > 3
+    damaged = chunks[1]
+    lost = _chunk_messages(file, damaged.chunk_start_offset)
+    data = bytearray(file.read_bytes()[: chunks[-1].chunk_start_offset + chunks[-1].chunk_length])
+    # the chunk's record length: the scan cannot step over it, it has to find the next chunk
+    data[damaged.chunk_start_offset + 1 : damaged.chunk_start_offset + 9] = (2**40).to_bytes(
+        8, 'little'
+    )
+    file.write_bytes(bytes(data))
+    with Bag(file) as bag:
+        got = sorted((r.connection.topic, r.timestamp, bytes(r.data)) for r in bag.raw_messages())
+        [skipped] = bag.skipped
+    assert got == sorted(set(whole) - set(lost))
+    assert (skipped.offset, skipped.topic, skipped.lost) == (damaged.chunk_start_offset, '', -1)
+    assert f'read on at byte {chunks[2].chunk_start_offset}' in skipped.reason

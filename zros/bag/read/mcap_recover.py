@@ -8,9 +8,11 @@ interface of rosbags' storage readers, so :mod:`zros.bag.read.rosbag2` treats it
 
 from __future__ import annotations
 
+import mmap
+import struct
 from collections.abc import Collection, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, BinaryIO
 
 if TYPE_CHECKING:
     from mcap.records import Channel, McapRecord, Schema
@@ -33,7 +35,9 @@ class LinearScan:
     Chunks are read whole and their CRCs checked before any record inside them is yielded, so
     a chunk cut short or corrupt yields nothing; a whole chunk that does not decompress or whose
     CRC fails is listed in ``skipped`` (with its messages per channel, from the message index
-    records after it) and the scan goes on after it. After the iteration, ``stopped_at`` says why it
+    records after it) and the scan goes on after it; after a record that does not parse, it
+    goes on at the next record laid out as a chunk (``skipped`` counts what lay between as
+    unknown, channel and count -1). After the iteration, ``stopped_at`` says why it
     stopped before the end ('' when it reached the footer), ``end`` is the byte offset just past
     the last complete record, and ``compression`` is the first chunk's ('' without chunks).
     """
@@ -65,20 +69,32 @@ class LinearScan:
             held_at = 0
             indexed: dict[int, list[int]] = {}  # its message index: channel -> log times
             while True:
-                at = stream.tell()
+                at = max(stream.tell(), len(MAGIC))  # the first read takes the magic too
                 try:
                     record = next(records)
                 except StopIteration:
                     yield from self._checked(held, held_at, indexed)
                     return
-                except Exception as exc:  # a record cut short or corrupt: stop there
+                except Exception as exc:  # a record cut short or corrupt
                     yield from self._checked(held, held_at, indexed)
-                    self.stopped_at = (
-                        'the file ends before its footer'
-                        if isinstance(exc, EndOfFile)
-                        else str(exc) or type(exc).__name__
-                    )
-                    return
+                    held, indexed, damaged = [], {}, None
+                    why = str(exc) or type(exc).__name__
+                    following = None if isinstance(exc, EndOfFile) else next_chunk(stream, at + 1)
+                    if following is None:  # the end of what can be read
+                        self.stopped_at = (
+                            'the file ends before its footer' if isinstance(exc, EndOfFile) else why
+                        )
+                        return
+                    self.skipped.append((at, {-1: -1}, f'{why}; read on at byte {following}'))
+                    stream.seek(following)
+                    records = StreamReader(
+                        stream,
+                        skip_magic=True,
+                        emit_chunks=True,
+                        validate_crcs=True,
+                        record_size_limit=size,
+                    ).records
+                    continue
                 self.end = stream.tell()
                 if isinstance(record, MessageIndex):
                     if damaged is not None:
@@ -120,6 +136,39 @@ class LinearScan:
         lost = {channel: len(times) for channel, times in indexed.items()}
         self.skipped.append((at, lost, 'its messages do not match its message index'))
         return [record for record in held if not isinstance(record, Message)]
+
+
+#: a chunk record's opcode, and the byte lengths of its fields before the compression name
+_CHUNK_OPCODE = 0x06
+_CHUNK_HEAD = struct.Struct('<BQQQQII')
+_COMPRESSIONS = (b'', b'lz4', b'zstd')
+
+
+def next_chunk(stream: BinaryIO, start: int) -> int | None:
+    """The offset of the first record at or after ``start`` that is laid out as a chunk (its
+    lengths add up, a known compression), for a scan to go on after a damaged record; None
+    when there is none. The chunk itself may still fail its CRC."""
+    with mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        found = _find_chunk(data, start)
+    return found
+
+
+def _find_chunk(data: mmap.mmap, at: int) -> int | None:
+    while (found := data.find(bytes([_CHUNK_OPCODE]), at)) >= 0:
+        at = found + 1
+        if found + _CHUNK_HEAD.size > len(data):
+            return None
+        _, length, _, _, _, _, name_length = _CHUNK_HEAD.unpack_from(data, found)
+        name_at = found + _CHUNK_HEAD.size
+        if name_length > 4 or data[name_at : name_at + name_length] not in _COMPRESSIONS:
+            continue
+        records_at = name_at + name_length
+        if found + 9 + length > len(data) or records_at + 8 > len(data):
+            continue
+        (records,) = struct.unpack_from('<Q', data, records_at)
+        if records_at + 8 + records == found + 9 + length:
+            return found
+    return None
 
 
 class RecoveredMcap:
