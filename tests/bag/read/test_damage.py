@@ -489,3 +489,46 @@ def test_without_summary_the_scan_goes_on_at_the_next_chunk(
     assert got == sorted(set(whole) - set(lost))
     assert (skipped.offset, skipped.topic, skipped.lost) == (damaged.chunk_start_offset, '', -1)
     assert f'read on at byte {chunks[2].chunk_start_offset}' in skipped.reason
+
+
+def test_garbage_rows_in_a_real_db3(testdata: Path, tmp_path: Path) -> None:
+    import sqlite3
+
+    folder = tmp_path / 'tf'
+    shutil.copytree(testdata / 'ros2' / 'tf_example_db3', folder)
+    [file] = folder.glob('*.db3')
+    with Bag(folder) as bag:
+        whole = sum(1 for _ in bag)
+        topic_of = {c.id: c.topic for c in bag.connections}
+    db = sqlite3.connect(file)
+    try:
+        rows = [row for (row,) in db.execute('SELECT id FROM messages ORDER BY id')][5::50]
+        db.executemany(
+            'UPDATE messages SET data = ? WHERE id = ?',
+            [(b'\x00\x01\x00\x00' + bytes(3), row) for row in rows],
+        )
+        db.commit()
+    finally:
+        db.close()
+    with Bag(folder) as bag:
+        assert sum(1 for _ in bag) == whole - len(rows)
+        assert sorted(s.row for s in bag.skipped) == rows
+        assert {s.file for s in bag.skipped} == {file}
+        assert {s.topic for s in bag.skipped} <= set(topic_of.values())
+    with pytest.raises(BagError, match=f'row {rows[0]}'):
+        bag_read(folder, strict=True)
+
+
+def test_a_real_one_chunk_mcap_zeroed_reads_nothing_and_says_so(
+    testdata: Path, tmp_path: Path
+) -> None:
+    folder = tmp_path / 'nav2'
+    shutil.copytree(testdata / 'ros2' / 'tf_nav2_mcap', folder)
+    [file] = folder.glob('*.mcap')
+    whole = len(raw_messages(file))
+    offset, lost = zero_a_chunk(file)
+    assert len(lost) == whole
+    with Bag(folder) as bag:
+        assert list(bag.messages()) == []
+        assert sum(s.lost for s in bag.skipped) == whole
+        assert {s.offset for s in bag.skipped} == {offset}
