@@ -532,3 +532,20 @@ def test_a_real_one_chunk_mcap_zeroed_reads_nothing_and_says_so(
         assert list(bag.messages()) == []
         assert sum(s.lost for s in bag.skipped) == whole
         assert {s.offset for s in bag.skipped} == {offset}
+
+
+def test_ros1_scan_with_a_damaged_connection_record_loses_only_its_messages(
+    tmp_path: Path,
+) -> None:
+    path = make_ros1_bag(tmp_path / 'r.bag', 300)
+    chunks = _ros1_chunks(path)
+    data = path.read_bytes()
+    cut = chunks[-1][1]  # after the last chunk: the index and the connections at the end gone
+    first = data.index(b'type=std_msgs/String', chunks[0][0])  # /a's record, in chunk 1
+    data = data[:first] + b'typo' + data[first + 4 : cut]
+    path.write_bytes(data)
+    got, skipped = _ros1_read(path)
+    assert got == sorted(m for _, _, found in chunks for m in found if m[0] == '/b')
+    [lost] = skipped
+    assert (lost.topic, lost.lost) == ('', 300)
+    assert 'the record of connection' in lost.reason

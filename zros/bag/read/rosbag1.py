@@ -105,13 +105,17 @@ class Rosbag1Source(Source):
             self.end_ns = reader.end_time - 1
         self._broken = broken
         for cid, reason in broken.items():
-            self._damaged(0, {cid: self._by_native(cid).count}, reason)
+            self._damaged(0, {cid: getattr(self._by_native(cid), 'count', -1)}, reason)
         if isinstance(reader, ScannedBag1):
             for offset, lost, reason in reader.losses:
                 self._damaged(offset, lost, reason)
 
-    def _by_native(self, native: int) -> Connection:
-        return next(c for c in self.connections if self._native[c.id].id == native)
+    def _by_native(self, native: int) -> Connection | None:
+        return next((c for c in self.connections if self._native[c.id].id == native), None)
+
+    def _topic(self, native: int) -> str:
+        connection = self._by_native(native)
+        return '' if connection is None else connection.topic
 
     def _damaged(self, offset: int, lost: dict[int, int], reason: str) -> None:
         """Report a damaged unit (lost: messages per native connection id; -1: unknown)."""
@@ -121,7 +125,7 @@ class Rosbag1Source(Source):
                     self.path,
                     offset or None,
                     None,
-                    self._by_native(cid).topic if cid >= 0 else '',
+                    self._topic(cid),
                     count,
                     reason,
                 )

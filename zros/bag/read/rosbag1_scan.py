@@ -194,9 +194,12 @@ class ScannedBag1:
                     loss[1][-1] = -1
         for _, cid, _ in self._found:
             counts[cid] = counts.get(cid, 0) + 1
-        self.connections = [
-            _connection(self, cid, *pair, counts.get(cid, 0)) for cid, pair in headers.items()
-        ]
+        for cid, pair in headers.items():
+            try:
+                self.connections.append(_connection(self, cid, *pair, counts.get(cid, 0)))
+            except Exception as exc:  # a damaged connection record: its messages are lost
+                reason = f'the record of connection {cid}: {why(exc)}'
+                self.losses.append((0, {-1: counts.get(cid, 0)}, reason))
         self._found.sort(key=lambda item: item[0])
         if self._found:
             self.start_time = self._found[0][0]
