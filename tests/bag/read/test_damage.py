@@ -549,3 +549,47 @@ def test_ros1_scan_with_a_damaged_connection_record_loses_only_its_messages(
     [lost] = skipped
     assert (lost.topic, lost.lost) == ('', 300)
     assert 'the record of connection' in lost.reason
+
+
+def _zero_a_page(path: Path) -> None:
+    data = bytearray(path.read_bytes())
+    page = 4096
+    middle = len(data) // 2 // page * page
+    data[middle : middle + page] = bytes(page)
+    path.write_bytes(bytes(data))
+
+
+def test_a_db3_with_a_zeroed_page_reads_every_other_row(tmp_path: Path) -> None:
+    texts = [
+        encode(new_message('std_msgs/msg/String', data='x' * 200 + str(i))) for i in range(5000)
+    ]
+    path = make_db3(
+        tmp_path / 'paged.db3',
+        [('/a', 'std_msgs/msg/String')],
+        [(0, 1000 + i, text) for i, text in enumerate(texts)],
+    )
+    _zero_a_page(path)
+    with Bag(path) as bag:
+        got = [(stamp, encode(m)) for _, stamp, m in bag.messages()]
+        skipped = bag.skipped
+        assert len(bag.columns('/a')['time']) == len(got)
+    rows = [s.row for s in skipped]
+    assert 0 < len(rows) < 100 and all(s.lost == 1 and s.file == path for s in skipped)
+    # the rows that read are the originals, the others are counted by row id (row i is message
+    # i - 1): every message is one or the other
+    assert got == [(1000 + i, text) for i, text in enumerate(texts) if i + 1 not in rows]
+    with pytest.raises(BagError, match=f'row {rows[0]}'):
+        Bag(path, strict=True)
+
+
+def test_a_real_db3_with_a_zeroed_page(testdata: Path, tmp_path: Path) -> None:
+    original = testdata / 'ros2' / 'tf_franka_db3' / 'rosbagFrankaPandaRos2.bag.db3'
+    path = tmp_path / original.name
+    shutil.copy(original, path)
+    whole = {(t, s, d) for t, _, s, d in raw_messages(original)}
+    _zero_a_page(path)
+    with Bag(path) as bag:
+        got = {(r.connection.topic, r.timestamp, bytes(r.data)) for r in bag.raw_messages()}
+        lost = sum(s.lost for s in bag.skipped)
+    assert got <= whole
+    assert lost > 0 and len(got) + lost == len(whole)

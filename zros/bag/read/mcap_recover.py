@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import mmap
 import struct
-from collections.abc import Collection, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
+
+from zros.bag.read.recovered import Recovered, within
 
 if TYPE_CHECKING:
     from mcap.records import Channel, McapRecord, Schema
@@ -171,7 +173,7 @@ def _find_chunk(data: mmap.mmap, at: int) -> int | None:
     return None
 
 
-class RecoveredMcap:
+class RecoveredMcap(Recovered):
     """The complete records of an MCAP file without summary, as a rosbags-like storage."""
 
     def __init__(self, path: Path) -> None:
@@ -251,23 +253,15 @@ class RecoveredMcap:
     def close(self) -> None:
         """Nothing stays open between scans."""
 
-    def messages(
-        self,
-        connections: Collection[Connection],
-        start: int | None = None,
-        stop: int | None = None,
+    def _select(
+        self, by_id: dict[int, Connection], start: int | None, stop: int | None
     ) -> Iterator[tuple[Connection, int, bytes]]:
-        """(connection, log time, data) of the wanted connections, in time order."""
         from mcap.records import Message  # noqa: PLC0415 (lazy: mcap, import time)
 
-        by_id = {c.id: c for c in connections}
         found = (
             (by_id[r.channel_id], r.log_time, r.data)
             for r in self._records()
-            if isinstance(r, Message)
-            and r.channel_id in by_id
-            and (start is None or r.log_time >= start)
-            and (stop is None or r.log_time < stop)
+            if isinstance(r, Message) and r.channel_id in by_id and within(r.log_time, start, stop)
         )
         if self.in_order:
             yield from found

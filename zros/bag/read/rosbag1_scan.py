@@ -17,6 +17,7 @@ from collections.abc import Callable, Collection, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
+from zros.bag.read.recovered import Recovered, within
 from zros.bag.read.source_base import describe_error
 
 if TYPE_CHECKING:
@@ -126,7 +127,7 @@ class _Unreadable(Exception):
         self.op = op
 
 
-class ScannedBag1:
+class ScannedBag1(Recovered):
     """The records of a ROS 1 bag read in one pass (for a bag rosbags cannot open), with the
     interface of rosbags' reader. After :meth:`open`, ``losses`` lists the damaged chunks
     (offset, lost per connection id, why) and ``stopped_at`` why the scan ended before the end
@@ -240,16 +241,11 @@ class ScannedBag1:
     def close(self) -> None:
         """Nothing stays open."""
 
-    def messages(
-        self,
-        connections: Collection[Connection] = (),
-        start: int | None = None,
-        stop: int | None = None,
+    def _select(
+        self, by_id: dict[int, Connection], start: int | None, stop: int | None
     ) -> Iterator[tuple[Connection, int, bytes]]:
-        """(connection, time, data) of ``connections`` (default all), in time order."""
-        by_id = {c.id: c for c in connections or self.connections}
         for time, cid, data in self._found:
-            if cid in by_id and (start is None or time >= start) and (stop is None or time < stop):
+            if cid in by_id and within(time, start, stop):
                 yield by_id[cid], time, data
 
 
