@@ -131,7 +131,13 @@ def make_sensor_bag(path: Path, count: int, storage: str = 'mcap', vary: bool = 
 
 
 def make_points_mcap(
-    path: Path, count: int, compression: str = 'zstd', chunked: bool = True, shuffle: bool = True
+    path: Path,
+    count: int,
+    compression: str = 'zstd',
+    chunked: bool = True,
+    shuffle: bool = True,
+    *,
+    chunk_size: int = 2048,
 ) -> Path:
     """A bare ``.mcap`` of geometry_msgs/Point on /point written by the mcap library, chunks
     compressed with ``compression`` ('zstd', 'lz4', 'none'), or no chunks and no summary.
@@ -144,7 +150,7 @@ def make_points_mcap(
     with path.open('wb') as stream:
         writer = Writer(
             stream,
-            chunk_size=2048,
+            chunk_size=chunk_size,
             compression=kind[compression],
             use_chunking=chunked,
             index_types=IndexType.ALL if chunked else IndexType.NONE,
@@ -161,4 +167,37 @@ def make_points_mcap(
             stamp = 1000 + index * 10 - (15 if shuffle and index % 7 == 6 else 0)
             writer.add_message(channel, log_time=stamp, data=data, publish_time=stamp)
         writer.finish()
+    return path
+
+
+def make_ros1_bag(
+    path: Path, count: int, compression: str | None = None, bad_definition: bool = False
+) -> Path:
+    """A ROS 1 bag of String on /a and Point on /b (``count`` each, interleaved) in chunks of
+    about 4 KB, ``compression`` 'bz2', 'lz4' or None; with ``bad_definition`` a third topic
+    /c whose connection's message definition does not parse."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    string, point = store.types['std_msgs/msg/String'], store.types['geometry_msgs/msg/Point']
+    writer = Writer(path)
+    if compression:
+        writer.set_compression(Writer.CompressionFormat[compression.upper()])
+    writer.chunk_threshold = 4096
+    with writer:
+        a = writer.add_connection('/a', 'std_msgs/msg/String', typestore=store)
+        b = writer.add_connection('/b', 'geometry_msgs/msg/Point', typestore=store)
+        c = None
+        if bad_definition:
+            c = writer.add_connection(
+                '/c', 'zros_test/msg/Broken', msgdef='float64 x\n}{ not a field', md5sum='0' * 32
+            )
+        for index in range(count):
+            text = string(data=f'message {index} ' * 3)
+            writer.write(a, 1000 + index * 10, store.serialize_ros1(text, string.__msgtype__))
+            spot = point(x=float(index), y=0.0, z=0.0)
+            writer.write(b, 1005 + index * 10, store.serialize_ros1(spot, point.__msgtype__))
+            if c is not None and index % 10 == 0:
+                writer.write(c, 1007 + index * 10, bytes(8))
     return path

@@ -105,7 +105,7 @@ def test_wrong_embedded_definition_falls_back_to_the_registry(
     assert 'talker_sqlite3' in warnings[0] and '/rosout' in warnings[0]
 
 
-def test_definition_mismatch_without_fallback(tmp_path: Path) -> None:
+def test_definition_mismatch_without_fallback_skips_or_raises_strict(tmp_path: Path) -> None:
     # a type no registry knows, whose embedded definition is too short for its data
     data = b'\x00\x01\x00\x00' + bytes(range(12))
     path = make_db3(
@@ -114,10 +114,14 @@ def test_definition_mismatch_without_fallback(tmp_path: Path) -> None:
         [(0, 5, data)],
         {'zros_test/msg/Thing': 'uint8 level'},
     )
-    with Bag(path) as bag, pytest.raises(BagError) as info:
+    with Bag(path) as bag:
+        assert list(bag.messages()) == []  # skipped, counted
+        [skipped] = bag.skipped
+    assert (skipped.file, skipped.row, skipped.topic, skipped.lost) == (path, 1, '/thing', 1)
+    with Bag(path, strict=True) as bag, pytest.raises(BagError) as info:
         list(bag.messages())
     text = str(info.value)
-    assert str(path) in text
+    assert str(path) in text and 'row 1' in text
     assert 'cannot decode the message of /thing at 5 as zros_test/msg/Thing' in text
     assert 'bytes left after the end of the message' in text
 
@@ -212,9 +216,12 @@ def test_data_that_fits_no_definition(tmp_path: Path) -> None:
         {'std_msgs/msg/String': 'string data'},
     )
     with Bag(path) as bag:
+        assert [m.data for _, _, m in bag.messages()] == ['hello']
+        assert [(s.row, s.lost) for s in bag.skipped] == [(2, 1)]
+    with Bag(path, strict=True) as bag:
         stream = bag.messages()
         assert next(stream)[2].data == 'hello'
-        with pytest.raises(BagError, match='cannot decode the message of /chatter at 2'):
+        with pytest.raises(BagError, match=r'row 2 .*cannot decode the message of /chatter at 2'):
             next(stream)
 
 

@@ -167,3 +167,29 @@ def test_ros1_tf_messages(tmp_path: Path) -> None:
     assert t.rotation.z == pytest.approx(math.sin(0.025), abs=TOL)
     with pytest.raises(ExtrapolationException, match='into the future'):
         buffer.lookup_transforms('odom', 'base_link', [200 * 10**9], strict=True)
+
+
+def test_a_damaged_tf_message_is_skipped_and_counted(tmp_path: Path) -> None:
+    from tests.bag.makebags import make_db3
+    from zros.cdr import encode, new_message
+
+    def tf(x: float, sec: int) -> bytes:
+        stamped = {
+            'header': {'stamp': {'sec': sec}, 'frame_id': 'odom'},
+            'child_frame_id': 'base_link',
+            'transform': {'translation': {'x': x}, 'rotation': {'w': 1.0}},
+        }
+        return encode(new_message('tf2_msgs/msg/TFMessage', transforms=[stamped]))
+
+    rows = [
+        (0, 10**9, tf(1.0, 1)),
+        (0, 2 * 10**9, b'\x00\x01\x00\x00garbage'),
+        (0, 3 * 10**9, tf(3.0, 3)),
+    ]
+    path = make_db3(tmp_path / 'tf.db3', [('/tf', 'tf2_msgs/msg/TFMessage')], rows)
+    with Bag(path) as bag:
+        buffer = Buffer.from_bag(bag)
+        [skipped] = bag.skipped
+    assert (skipped.topic, skipped.row, skipped.lost) == ('/tf', 2, 1)
+    t = buffer.lookup_transform('odom', 'base_link', 2 * 10**9).transform
+    assert t.translation.x == pytest.approx(2.0, abs=TOL)  # between the two intact messages

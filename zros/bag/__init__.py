@@ -25,6 +25,7 @@ _LAZY = {
     'info': 'zros.bag.read.info',
     'Connection': 'zros.bag.read.source',
     'RawMessage': 'zros.bag.read.source',
+    'Skipped': 'zros.bag.read.damage',
     'Source': 'zros.bag.read.source',
     'open_source': 'zros.bag.read.source',
     'UndecodedMessage': 'zros.bag.read.types',
@@ -39,6 +40,7 @@ _LAZY = {
 
 if TYPE_CHECKING:
     from zros.bag.play.player import Player
+    from zros.bag.read.damage import Skipped
     from zros.bag.read.info import BagInfo, info
     from zros.bag.read.source import Connection, RawMessage, Source, open_source
     from zros.bag.read.types import UndecodedMessage
@@ -78,6 +80,7 @@ __all__ = [
     'Recorder',
     'RecorderError',
     'ReindexReport',
+    'Skipped',
     'Source',
     'TopicInfo',
     'UndecodedMessage',

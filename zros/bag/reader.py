@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Protocol
 from zros.bag.columns.align import Columns, align
 from zros.bag.columns.extract import dataframe, extract, structured
 from zros.bag.errors import BagError
+from zros.bag.read.damage import Skipped
 from zros.bag.read.source import Connection, RawMessage, Source, open_source
 from zros.bag.read.types import BagTypes
 from zros.closing import Closing
@@ -64,12 +65,24 @@ class Bag(Closing):
 
     ``registry`` is the type registry consulted for types the recording does not define
     (default: the process-wide one).
+
+    A damaged part (a chunk or row that does not decompress, parse or decode) is skipped with a
+    warning and listed in :attr:`skipped`; everything else is read. ``strict=True`` raises
+    :class:`BagError` on it instead.
     """
 
-    def __init__(self, path: str | Path, registry: TypeRegistry | None = None) -> None:
-        self.source: Source = open_source(path)
+    def __init__(
+        self, path: str | Path, registry: TypeRegistry | None = None, *, strict: bool = False
+    ) -> None:
+        self.source: Source = open_source(path, strict)
         try:
-            self.types = BagTypes(self.source.path, self.source.connections, registry)
+            self.types = BagTypes(
+                self.source.path,
+                self.source.connections,
+                registry,
+                self.source.damage,
+                self.source.locate,
+            )
         except BaseException:
             self.source.close()
             raise
@@ -122,6 +135,12 @@ class Bag(Closing):
         """How many messages the recording holds."""
         return self.source.message_count
 
+    @property
+    def skipped(self) -> list[Skipped]:
+        """What damage cost so far: a :class:`~zros.bag.read.damage.Skipped` per damaged unit
+        and topic (file, byte offset or row, topic, messages lost, reason), in the order met."""
+        return list(self.source.damage.skipped)
+
     def message_class(self, topic: str) -> type[Message]:
         """The class the messages of ``topic`` decode to."""
         return self.types.message_class(self._connections([topic])[0])
@@ -163,9 +182,11 @@ class Bag(Closing):
         ``start`` and ``end`` bound the receive time (``start <= time < end``), in integer
         nanoseconds or as ``zros.Time``. Messages are decoded as the iteration reaches them.
         """
-        decode = self.types.decode
+        decode = self.types.decode_or_skip
         for raw in self.raw_messages(topics, start, end):
-            yield raw.connection.topic, raw.timestamp, decode(raw)
+            message = decode(raw)
+            if message is not None:
+                yield raw.connection.topic, raw.timestamp, message
 
     def __iter__(self) -> Iterator[tuple[str, int, Message]]:
         return self.messages()

@@ -42,14 +42,17 @@ def bag_read(
     topics: str | Iterable[str] | None = None,
     start: TimeLike = None,
     end: TimeLike = None,
+    *,
+    strict: bool = False,
 ) -> BagRead:
     """Read a recording's messages into memory (rosR: ``ros.BagRead(file, topics)``).
 
     ``topics`` selects topics (default all); ``start``/``end`` bound the receive time
-    (``start <= time < end``, integer ns or ``zros.Time``).
+    (``start <= time < end``, integer ns or ``zros.Time``). Damaged parts are skipped with a
+    warning (``strict``: :class:`~zros.bag.BagError` instead), as :class:`~zros.bag.Bag` does.
     """
     result = BagRead()
-    with Bag(path) as bag:
+    with Bag(path, strict=strict) as bag:
         for topic, stamp, message in bag.messages(topics, start, end):
             result.topic.append(topic)
             result.data_type.append(message.__msgtype__)

@@ -54,12 +54,13 @@ def _read(bag: Bag, topics: tuple[str, ...], rejections: checks.Rejections) -> l
         )
     # (parent, child, static, authority) -> stamps, poses; checked one by one, stored at once
     batches: dict[tuple[str, str, bool, str], tuple[list[int], list[tuple[float, ...]]]] = {}
-    decode = bag.types.decode
+    decode = bag.types.decode_or_skip  # a damaged message is skipped and counted, as Bag does
     for raw in bag.raw_messages(present):
         topic = raw.connection.topic
         static = _is_static(topic)
         authority = f'{topic} (connection {raw.connection.id} of {bag.path.name})'
-        for transform in decode(raw).transforms:
+        message = decode(raw)
+        for transform in message.transforms if message is not None else ():
             header = transform.header
             parent = header.frame_id.lstrip('/')
             child = transform.child_frame_id.lstrip('/')

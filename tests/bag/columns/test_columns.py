@@ -161,14 +161,18 @@ def test_big_endian_and_unplannable_messages_are_decoded_one_by_one(tmp_path: Pa
     assert joints['position'].tolist() == [[0.5, 1.5]]
 
 
-def test_data_that_fits_no_definition_is_an_error(tmp_path: Path) -> None:
+def test_data_that_fits_no_definition_is_skipped_or_an_error_if_strict(tmp_path: Path) -> None:
     path = make_db3(
         tmp_path / 'long.db3',
         [('/point', 'geometry_msgs/msg/Point')],
         [(0, 1, _point(1.0)), (0, 2, _point(1.0) + bytes(8))],
     )
+    with Bag(path) as bag:
+        columns = bag.columns('/point')
+        assert columns['time'].tolist() == [1] and columns['x'].tolist() == [1.0]
+        assert [(s.row, s.topic, s.lost) for s in bag.skipped] == [(2, '/point', 1)]
     with (
-        Bag(path) as bag,
+        Bag(path, strict=True) as bag,
         pytest.raises(BagError, match='cannot decode the message of /point at 2'),
     ):
         bag.columns('/point')

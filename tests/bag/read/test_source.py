@@ -294,13 +294,20 @@ def test_metadata_naming_a_missing_file(testdata: Path, tmp_path: Path) -> None:
 def test_corrupt_record_length_is_an_error_not_an_allocation(
     testdata: Path, tmp_path: Path
 ) -> None:
-    data = bytearray((testdata / 'ros2' / 'padded_mcap' / 'multiple_files_2.mcap').read_bytes())
+    original = testdata / 'ros2' / 'padded_mcap' / 'multiple_files_2.mcap'
+    data = bytearray(original.read_bytes())
     # the header record's length (after 8 magic bytes and the opcode): claim 2**62 bytes
     data[9:17] = (2**62).to_bytes(8, 'little')
     path = tmp_path / 'corrupt.mcap'
     path.write_bytes(bytes(data))
-    with pytest.raises(BagError, match=r'corrupt\.mcap: no complete record: .*exceeds'):
-        open_source(path)
+    with pytest.raises(BagError, match=r'corrupt\.mcap: .*byte 8 .*exceeds'):
+        open_source(path, strict=True)
+    # the scan goes on at the chunk after it: every message reads
+    with open_source(path) as source:
+        got = [(m.timestamp, bytes(m.data)) for m in source.messages()]
+        [skipped] = source.damage.skipped
+    assert got == [(e[2], e[3]) for e in raw_messages(original)]
+    assert skipped.offset == 8 and 'exceeds' in skipped.reason
 
 
 @pytest.mark.parametrize('mode', ['MESSAGE', 'FILE'])

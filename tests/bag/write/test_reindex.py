@@ -230,7 +230,7 @@ def test_reindex_refusals(tmp_path: Path) -> None:
     (tmp_path / 'x.db3').write_bytes(b'')
     with pytest.raises(BagError, match=r'\.db3'):
         reindex(tmp_path)
-    with pytest.raises(BagError, match='MCAP bags'):
+    with pytest.raises(BagError, match='MCAP and ROS 1 bags'):
         reindex(tmp_path / 'x.db3')
     junk = tmp_path / 'junk'
     junk.mkdir()

@@ -179,19 +179,24 @@ def _payloads(data: Sequence[bytes]) -> Payloads:
     return data if isinstance(data, Payloads) else Payloads.joined(data)
 
 
-def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
-    """Decode one by one (with the reader's definition fallback) and pick the fields."""
+def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, np.ndarray]:
+    """Decode one by one (with the reader's definition fallback) and pick the fields; also the
+    positions of the messages kept (those no definition decodes are reported and skipped)."""
     getters = [(leaf, leaf.path.split('.')) for leaf in leaves]
     values: dict[str, list[FieldValue]] = {leaf.path: [] for leaf in leaves}
     connection = block.connection
-    for stamp, data in zip(block.times.tolist(), block.data, strict=True):
-        message = types.decode(RawMessage(connection, stamp, data))
+    kept = []
+    for row, (stamp, data) in enumerate(zip(block.times.tolist(), block.data, strict=True)):
+        message = types.decode_or_skip(RawMessage(connection, stamp, data))
+        if message is None:
+            continue
+        kept.append(row)
         for leaf, parts in getters:
             value = message
             for part in parts:
                 value = getattr(value, part if hasattr(value, part) else part + '_')
             values[leaf.path].append(value)
-    where = np.arange(len(block.times), dtype=np.int64)
+    where = np.arange(len(kept), dtype=np.int64)
     pieces: Pieces = {}
     for leaf in leaves:
         column = values[leaf.path]
@@ -205,7 +210,7 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> Pieces:
             ]
         else:
             pieces[leaf.path] = [(where, _stack(column, leaf, leaf.length))]
-    return pieces
+    return pieces, np.asarray(kept, np.int64)
 
 
 def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> np.ndarray:
@@ -325,9 +330,17 @@ class _Extraction:
             result[leaf.path] = column if order is None else column[order]
         return result
 
-    def _settle(self, block: Block) -> tuple[Plan, list[Leaf]]:
-        first = RawMessage(block.connection, int(block.times[0]), block.data[0])
-        self.types.decode(first)  # settles which definition fits the data
+    def _settle(self, queue: list[Block]) -> tuple[Plan, list[Leaf]] | None:
+        """The plan of a connection, once a message settles which definition fits the data
+        (None while every message so far is damaged)."""
+        block = queue[0]
+        messages = (
+            RawMessage(b.connection, stamp, data)
+            for b in queue
+            for stamp, data in zip(b.times.tolist(), b.data, strict=True)
+        )
+        if all(self.types.decode_or_skip(raw) is None for raw in messages):
+            return None
         cls = self.types.message_class(block.connection)
         own = _leaves(self.path, self.topic, cls, self.fields)
         if self.leaves is None:
@@ -345,13 +358,18 @@ class _Extraction:
         keys = np.concatenate([b.keys for b in queue])
         known = self.plans.get(cid)
         if known is None:
-            known = self.plans[cid] = self._settle(queue[0])
+            known = self._settle(queue)
+            if known is None:
+                return  # every message damaged (reported)
+            self.plans[cid] = known
         plan_, own = known
         try:
             found = _fast(plan_, own, batch)
         except _Unplannable:
             datas = [data for payloads in batch for data in payloads]
-            found = _slow(self.types, Block(queue[0].connection, times, keys, datas), own)
+            found, kept = _slow(self.types, Block(queue[0].connection, times, keys, datas), own)
+            if len(kept) < len(times):
+                times, keys = times[kept], keys[kept]
         for leaf in own:
             column = _assemble(leaf, found[leaf.path], len(times))
             self.chunks.setdefault(leaf.path, []).append(column)

@@ -14,7 +14,8 @@ import io
 import itertools
 import mmap
 import struct
-from collections.abc import Iterator, Mapping
+import zlib
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -23,7 +24,7 @@ import numpy as np
 
 from zros.bag.errors import Unsupported
 from zros.bag.read.payloads import Payloads
-from zros.bag.read.source_base import Block, Connection
+from zros.bag.read.source_base import Block, Connection, describe_error
 
 if TYPE_CHECKING:
     from mcap.records import Chunk
@@ -37,6 +38,30 @@ _HEAD = 1 + 8 + 2 + 4 + 8 + 8
 #: a decompressed chunk larger than this is not trusted to the fast path
 _MAX_CHUNK = 1 << 31
 _INDEX = np.dtype([('time', '<u8'), ('offset', '<u8')])
+#: what a reader is told of a chunk it cannot read: its offset, the messages lost per channel
+#: (-1: unknown), why
+Damaged = Callable[[int, dict[int, int], str], None]
+#: refusals that mean the chunk's bytes are damaged (others: the fast path cannot read it)
+_DAMAGE = ('damaged chunk record', 'chunk size does not match', 'no chunk where')
+
+
+def _damaged_chunk(exc: Exception, chunk: Chunk | None) -> bool:
+    """Whether a chunk that failed to read is damaged (else: the fast path cannot read it, and
+    the caller hands it to a reader that can). Where its messages do not match their index,
+    the chunk's CRC tells (checked only then: it costs a pass over the chunk)."""
+    if not isinstance(exc, Unsupported):
+        return True  # a decompression or parse error
+    if str(exc).startswith(_DAMAGE):
+        return True
+    if chunk is None or not str(exc).startswith('message index'):
+        return False
+    if not chunk.uncompressed_crc:
+        return True  # no CRC to tell (rosbags writes none): the records are not where indexed
+    try:
+        data = _decompress(chunk)
+    except Exception:
+        return True
+    return zlib.crc32(data) != chunk.uncompressed_crc
 
 
 @dataclass
@@ -116,13 +141,15 @@ def read_blocks(
     *,
     ordered: bool = False,
     mapped: bool = False,
+    damaged: Damaged | None = None,
 ) -> Iterator[list[Block]]:
     """The blocks of each chunk holding messages of ``channels`` (channel id -> the connection
     its blocks carry) with ``start <= log time < end``, in file order (chunks may overlap in
     time: the caller sorts); a block's ``keys`` rank its messages in their chunk. ``ordered``
     refuses (before the first block) files whose chunks of those messages overlap in time.
     ``mapped``: the file is memory-mapped and the payloads of uncompressed chunks stay in the
-    map (no copy: for readers that copy out a few fields of each message)."""
+    map (no copy: for readers that copy out a few fields of each message). ``damaged``: a chunk
+    that does not read or decompress is skipped and reported to it (else it raises)."""
     from mcap.data_stream import ReadDataStream  # noqa: PLC0415 (lazy: mcap, import time)
     from mcap.reader import make_reader  # noqa: PLC0415 (lazy: mcap, import time)
     from mcap.records import Chunk  # noqa: PLC0415 (lazy: mcap, import time)
@@ -157,22 +184,38 @@ def read_blocks(
             limit = index.chunk_start_offset + index.chunk_length + index.message_index_length
             if limit > size:
                 raise Unsupported('chunk beyond the end of the file')
-            if view is not None:
-                chunk = _mapped_chunk(view, index.chunk_start_offset)
-            else:
-                stream.seek(index.chunk_start_offset + 1 + 8)
-                chunk = Chunk.read(ReadDataStream(stream))
-            data = _decompress(chunk)
-            runs = [
-                _window(
-                    _block(
-                        data, channel, _index(stream, index.message_index_offsets[channel], limit)
-                    ),
-                    start,
-                    end,
-                )
-                for channel in wanted
-            ]
+            try:
+                if view is not None:
+                    chunk = _mapped_chunk(view, index.chunk_start_offset)
+                else:
+                    stream.seek(index.chunk_start_offset + 1 + 8)
+                    chunk = Chunk.read(ReadDataStream(stream))
+                data = _decompress(chunk)
+                runs = [
+                    _window(
+                        _block(
+                            data,
+                            channel,
+                            _index(stream, index.message_index_offsets[channel], limit),
+                        ),
+                        start,
+                        end,
+                    )
+                    for channel in wanted
+                ]
+            except Exception as exc:  # the compression libraries raise what they like
+                if damaged is None or not _damaged_chunk(exc, locals().get('chunk')):
+                    raise
+                lost = {}
+                for channel in wanted:
+                    try:
+                        entries = _index(stream, index.message_index_offsets[channel], limit)
+                        times = entries['time'].astype(np.int64)
+                        lost[channel] = int(_in_window(times, start, end).sum())
+                    except Unsupported:
+                        lost[channel] = -1
+                damaged(index.chunk_start_offset, lost, describe_error(exc))
+                continue
             offsets = np.concatenate([run.offsets for run in runs])
             ranks = np.empty(len(offsets), np.int64)
             ranks[np.argsort(offsets, kind='stable')] = np.arange(len(offsets))
@@ -186,7 +229,11 @@ def read_blocks(
 
 
 def ordered_messages(
-    path: Path, channels: Mapping[int, Connection], start: int | None, end: int | None
+    path: Path,
+    channels: Mapping[int, Connection],
+    start: int | None,
+    end: int | None,
+    damaged: Damaged | None = None,
 ) -> Iterator[tuple[Connection, int, bytes]]:
     """``(connection, log time, payload)`` of the messages of ``channels`` with ``start <= log time
     < end``, in time order (file order among equal times), chunk by chunk.
@@ -195,7 +242,7 @@ def ordered_messages(
     :func:`read_blocks` refuses the file), and possibly later where a chunk's index does not
     match it.
     """
-    for blocks in read_blocks(path, channels, start, end, ordered=True):
+    for blocks in read_blocks(path, channels, start, end, ordered=True, damaged=damaged):
         times = np.concatenate([block.times for block in blocks])
         ranks = np.concatenate([block.keys for block in blocks])
         connection_of = list(
@@ -208,12 +255,17 @@ def ordered_messages(
             yield connection_of[at], stamps[at], payloads[at]
 
 
-def _window(run: _Run, start: int | None, end: int | None) -> _Run:
-    keep = np.ones(len(run.times), bool)
+def _in_window(times: np.ndarray, start: int | None, end: int | None) -> np.ndarray:
+    keep = np.ones(len(times), bool)
     if start is not None:
-        keep &= run.times >= start
+        keep &= times >= start
     if end is not None:
-        keep &= run.times < end
+        keep &= times < end
+    return keep
+
+
+def _window(run: _Run, start: int | None, end: int | None) -> _Run:
+    keep = _in_window(run.times, start, end)
     if keep.all():
         return run
     return _Run(run.times[keep], run.offsets[keep], run.data.select(keep))

@@ -8,9 +8,13 @@ interface of rosbags' storage readers, so :mod:`zros.bag.read.rosbag2` treats it
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterator
+import mmap
+import struct
+from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, BinaryIO
+
+from zros.bag.read.recovered import Recovered, within
 
 if TYPE_CHECKING:
     from mcap.records import Channel, McapRecord, Schema
@@ -31,7 +35,11 @@ class LinearScan:
     """One pass over the complete records of an MCAP file, from its start.
 
     Chunks are read whole and their CRCs checked before any record inside them is yielded, so
-    a chunk cut short or corrupt yields nothing. After the iteration, ``stopped_at`` says why it
+    a chunk cut short or corrupt yields nothing; a whole chunk that does not decompress or whose
+    CRC fails is listed in ``skipped`` (with its messages per channel, from the message index
+    records after it) and the scan goes on after it; after a record that does not parse, it
+    goes on at the next record laid out as a chunk (``skipped`` counts what lay between as
+    unknown, channel and count -1). After the iteration, ``stopped_at`` says why it
     stopped before the end ('' when it reached the footer), ``end`` is the byte offset just past
     the last complete record, and ``compression`` is the first chunk's ('' without chunks).
     """
@@ -42,12 +50,14 @@ class LinearScan:
         self.end = 0
         self.size = 0  #: the file's size when the scan began
         self.compression = ''
+        #: chunks skipped as damaged: (offset, messages lost per channel id, why)
+        self.skipped: list[tuple[int, dict[int, int], str]] = []
         self._chunked = False
 
     def records(self) -> Iterator[McapRecord]:
         """Header, schemas, channels, messages, metadata, attachments... in file order."""
         from mcap.exceptions import EndOfFile  # noqa: PLC0415 (lazy: mcap, import time)
-        from mcap.records import Chunk  # noqa: PLC0415 (lazy: mcap, import time)
+        from mcap.records import Chunk, MessageIndex  # noqa: PLC0415 (lazy: mcap, import time)
         from mcap.stream_reader import StreamReader, breakup_chunk  # noqa: PLC0415 (lazy: mcap, import time)
 
         self.size = size = self.path.stat().st_size
@@ -56,28 +66,114 @@ class LinearScan:
                 stream, emit_chunks=True, validate_crcs=True, record_size_limit=size
             )
             records = reader.records
+            damaged: dict[int, int] | None = None  # the lost counts of the chunk just skipped
+            held: list[McapRecord] = []  # the last chunk's records, until its indexes are read
+            held_at = 0
+            indexed: dict[int, list[int]] = {}  # its message index: channel -> log times
             while True:
+                at = max(stream.tell(), len(MAGIC))  # the first read takes the magic too
                 try:
                     record = next(records)
-                    inner = [record]
-                    if isinstance(record, Chunk):
-                        inner = breakup_chunk(record, validate_crc=True)
-                        if not self._chunked:
-                            self._chunked = True
-                            self.compression = record.compression
                 except StopIteration:
+                    yield from self._checked(held, held_at, indexed)
                     return
-                except EndOfFile:
-                    self.stopped_at = 'the file ends before its footer'
-                    return
-                except Exception as exc:  # a record cut short or corrupt: stop there
-                    self.stopped_at = str(exc) or type(exc).__name__
-                    return
+                except Exception as exc:  # a record cut short or corrupt
+                    yield from self._checked(held, held_at, indexed)
+                    held, indexed, damaged = [], {}, None
+                    why = str(exc) or type(exc).__name__
+                    following = None if isinstance(exc, EndOfFile) else next_chunk(stream, at + 1)
+                    if following is None:  # the end of what can be read
+                        self.stopped_at = (
+                            'the file ends before its footer' if isinstance(exc, EndOfFile) else why
+                        )
+                        return
+                    self.skipped.append((at, {-1: -1}, f'{why}; read on at byte {following}'))
+                    stream.seek(following)
+                    records = StreamReader(
+                        stream,
+                        skip_magic=True,
+                        emit_chunks=True,
+                        validate_crcs=True,
+                        record_size_limit=size,
+                    ).records
+                    continue
                 self.end = stream.tell()
-                yield from inner
+                if isinstance(record, MessageIndex):
+                    if damaged is not None:
+                        damaged[record.channel_id] = len(record.records)
+                    elif held:
+                        indexed[record.channel_id] = sorted(t for t, _ in record.records)
+                    continue
+                yield from self._checked(held, held_at, indexed)
+                held, indexed, damaged = [], {}, None
+                if not isinstance(record, Chunk):
+                    yield record
+                    continue
+                if not self._chunked:
+                    self._chunked = True
+                    self.compression = record.compression
+                try:
+                    held, held_at = breakup_chunk(record, validate_crc=True), at
+                except Exception as exc:  # whole but damaged: skipped, the scan goes on
+                    damaged = {}
+                    self.skipped.append((at, damaged, str(exc) or type(exc).__name__))
+
+    def _checked(
+        self, held: list[McapRecord], at: int, indexed: dict[int, list[int]]
+    ) -> list[McapRecord]:
+        """A chunk's records, without its messages when they do not match its message index
+        (a chunk without CRC, damaged: what it parses into is not what was written)."""
+        from mcap.records import Message  # noqa: PLC0415 (lazy: mcap, import time)
+
+        if not indexed:
+            return held
+        found: dict[int, list[int]] = {}
+        for record in held:
+            if isinstance(record, Message):
+                found.setdefault(record.channel_id, []).append(record.log_time)
+        if all(sorted(found.get(c, [])) == times for c, times in indexed.items()) and set(
+            found
+        ) <= set(indexed):
+            return held
+        lost = {channel: len(times) for channel, times in indexed.items()}
+        self.skipped.append((at, lost, 'its messages do not match its message index'))
+        return [record for record in held if not isinstance(record, Message)]
 
 
-class RecoveredMcap:
+#: a chunk record's opcode, and the byte lengths of its fields before the compression name
+_CHUNK_OPCODE = 0x06
+_CHUNK_HEAD = struct.Struct('<BQQQQII')
+_COMPRESSIONS = (b'', b'lz4', b'zstd')
+
+
+def next_chunk(stream: BinaryIO, start: int) -> int | None:
+    """The offset of the first record at or after ``start`` that is laid out as a chunk (its
+    lengths add up, a known compression), for a scan to go on after a damaged record; None
+    when there is none. The chunk itself may still fail its CRC."""
+    with mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        found = _find_chunk(data, start)
+    return found
+
+
+def _find_chunk(data: mmap.mmap, at: int) -> int | None:
+    while (found := data.find(bytes([_CHUNK_OPCODE]), at)) >= 0:
+        at = found + 1
+        if found + _CHUNK_HEAD.size > len(data):
+            return None
+        _, length, _, _, _, _, name_length = _CHUNK_HEAD.unpack_from(data, found)
+        name_at = found + _CHUNK_HEAD.size
+        if name_length > 4 or data[name_at : name_at + name_length] not in _COMPRESSIONS:
+            continue
+        records_at = name_at + name_length
+        if found + 9 + length > len(data) or records_at + 8 > len(data):
+            continue
+        (records,) = struct.unpack_from('<Q', data, records_at)
+        if records_at + 8 + records == found + 9 + length:
+            return found
+    return None
+
+
+class RecoveredMcap(Recovered):
     """The complete records of an MCAP file without summary, as a rosbags-like storage."""
 
     def __init__(self, path: Path) -> None:
@@ -85,12 +181,15 @@ class RecoveredMcap:
         self.connections: list[Connection] = []
         self.metadata: ReaderMetadata | None = None
         self.stopped_at = ''  #: why the scan stopped before the end ('' when it reached it)
+        #: damaged chunks skipped: (offset, messages lost per channel id, why)
+        self.skipped: list[tuple[int, dict[int, int], str]] = []
         self.in_order = True
 
     def _records(self) -> Iterator[McapRecord]:
         scan = LinearScan(self.path)
         yield from scan.records()
         self.stopped_at = scan.stopped_at
+        self.skipped = scan.skipped
 
     def open(self) -> None:
         """Scan the file once for its schemas, channels, counts and times."""
@@ -154,23 +253,15 @@ class RecoveredMcap:
     def close(self) -> None:
         """Nothing stays open between scans."""
 
-    def messages(
-        self,
-        connections: Collection[Connection],
-        start: int | None = None,
-        stop: int | None = None,
+    def _select(
+        self, by_id: dict[int, Connection], start: int | None, stop: int | None
     ) -> Iterator[tuple[Connection, int, bytes]]:
-        """(connection, log time, data) of the wanted connections, in time order."""
         from mcap.records import Message  # noqa: PLC0415 (lazy: mcap, import time)
 
-        by_id = {c.id: c for c in connections}
         found = (
             (by_id[r.channel_id], r.log_time, r.data)
             for r in self._records()
-            if isinstance(r, Message)
-            and r.channel_id in by_id
-            and (start is None or r.log_time >= start)
-            and (stop is None or r.log_time < stop)
+            if isinstance(r, Message) and r.channel_id in by_id and within(r.log_time, start, stop)
         )
         if self.in_order:
             yield from found

@@ -20,7 +20,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from zros.bag.errors import BagError, Unsupported
-from zros.bag.read.mcap_chunks import ordered_messages, read_blocks
+from zros.bag.read.damage import Skipped
+from zros.bag.read.db3_recover import RecoveredDb3, is_sqlite
+from zros.bag.read.mcap_chunks import Damaged, ordered_messages, read_blocks
 from zros.bag.read.mcap_recover import RecoveredMcap, is_mcap
 from zros.bag.read.source_base import Block, Connection, RawMessage, Source, normalise_type_name
 
@@ -77,10 +79,10 @@ class Rosbag2Source(Source):
             reader.open()
         except Exception:  # whatever rosbags raised: raised again unless the MCAP files recover
             files = self._listed_files() if folder else [self.path]
-            if not files or not all(f.suffix == '.mcap' and _mcap_file(f) for f in files):
+            if not files or not all(_recoverable(f) for f in files):
                 raise
             _log.debug('rosbags cannot open %s: recovering its files', self.path, exc_info=True)
-            self._open_files(files, 'its files do not open as complete MCAP files')
+            self._open_files(files, 'its files do not open as complete MCAP or db3 files')
             return
         self._closers.append(reader.close)
         storage: Untyped = reader.storage  # a folder's reader, or one file's (see _Stream)
@@ -126,10 +128,17 @@ class Rosbag2Source(Source):
             storage: Untyped = Sqlite3Reader(path) if path.suffix == '.db3' else McapReader(path)
             try:
                 storage.open()
-            except Exception:  # whatever rosbags raised: raised again unless the MCAP recovers
-                if path.suffix != '.mcap' or not _mcap_file(path):
+            except Exception as exc:  # whatever rosbags raised: raised again unless it recovers
+                if not _recoverable(path):
                     raise
                 _log.debug('rosbags cannot open %s: recovering it', path, exc_info=True)
+                if path.suffix == '.db3':
+                    storage = RecoveredDb3(path)
+                    self._closers.append(storage.close)
+                    storage.open()
+                    notes.append(f'{path.name}: read row by row ({exc})')
+                    self._streams.append(_Stream(storage))
+                    continue
                 storage = RecoveredMcap(path)
                 storage.open()
                 if not storage.connections:
@@ -147,6 +156,16 @@ class Rosbag2Source(Source):
         self.files = ([metadata] if metadata.is_file() else []) + paths
         self.storage_id = 'sqlite3' if paths[0].suffix == '.db3' else 'mcap'
         self._build_connections([])
+        for stream in self._streams:
+            if isinstance(stream.reader, RecoveredMcap):
+                report = self._damaged(stream.reader.path, stream.mapping)
+                for offset, lost, why in stream.reader.skipped:
+                    report(offset, lost or {-1: -1}, why)
+            elif isinstance(stream.reader, RecoveredDb3):
+                for row in stream.reader.lost_rows:
+                    self.damage.report(
+                        [Skipped(stream.reader.path, None, row, '', 1, 'the row does not read')]
+                    )
         if notes or self.path.is_dir():
             _log.warning(
                 '%s: %s: read file by file%s', self.path, reason, ''.join('; ' + n for n in notes)
@@ -238,7 +257,11 @@ class Rosbag2Source(Source):
             path = Path(getattr(stream.reader, 'path', ''))
             try:
                 for connection, timestamp, data in ordered_messages(
-                    path, {item.id: mapping[item.id] for item in wanted}, start, end
+                    path,
+                    {item.id: mapping[item.id] for item in wanted},
+                    start,
+                    end,
+                    self._damaged(path, mapping),
                 ):
                     if skip and timestamp != start:
                         skip = []
@@ -255,6 +278,38 @@ class Rosbag2Source(Source):
             raw = data if decompress is None else decompress(data)
             yield RawMessage(mapping[item.id], timestamp, raw)
 
+    def locate(self, message: RawMessage) -> tuple[Path, int | None, int | None]:
+        """A db3 message's file and row; the bag's path for others."""
+        if self.storage_id == 'sqlite3' and self._decompress is None:
+            for stream in self._streams:
+                ids = [n for n, c in stream.mapping.items() if c == message.connection]
+                if not ids:
+                    continue
+                try:
+                    found = stream.reader.dbconn.execute(
+                        'SELECT id FROM messages WHERE timestamp = ? AND data = ? AND topic_id IN '
+                        f'({",".join("?" * len(ids))})',
+                        [message.timestamp, bytes(message.data), *ids],
+                    ).fetchone()
+                except Exception:  # a damaged database: the row stays unnamed
+                    continue
+                if found:
+                    return Path(stream.reader.path), None, int(found[0])
+        return self.path, None, None
+
+    def _damaged(self, path: Path, mapping: dict[int, Connection]) -> Damaged:
+        """Reports a chunk of ``path`` that cannot be read (channel ids as in ``mapping``)."""
+
+        def report(offset: int, lost: dict[int, int], reason: str) -> None:
+            self.damage.report(
+                [
+                    Skipped(path, offset, None, mapping[c].topic if c in mapping else '', n, reason)
+                    for c, n in lost.items()
+                ]
+            )
+
+        return report
+
     def blocks(
         self, connections: Iterable[Connection], start: int | None = None, end: int | None = None
     ) -> Iterator[list[Block]]:
@@ -266,10 +321,14 @@ class Rosbag2Source(Source):
             channels = {cid: c for cid, c in stream.mapping.items() if c.id in ids}
             if not channels:
                 continue
+            if isinstance(stream.reader, RecoveredDb3):
+                raise Unsupported('a damaged db3 is read row by row')
             if self.storage_id == 'sqlite3':
                 yield from _sqlite_blocks(stream, set(channels), start, end)
                 continue
-            for found in read_blocks(Path(stream.reader.path), channels, start, end, mapped=True):
+            path = Path(stream.reader.path)
+            damaged = self._damaged(path, stream.mapping)
+            for found in read_blocks(path, channels, start, end, mapped=True, damaged=damaged):
                 blocks = [
                     Block(b.connection, b.times, base + b.keys, b.data)
                     for b in found
@@ -317,6 +376,16 @@ def _timestamp(message: RawMessage) -> int:
 def _mcap_file(path: Path) -> bool:
     try:
         return path.is_file() and is_mcap(path)
+    except OSError:
+        return False
+
+
+def _recoverable(path: Path) -> bool:
+    """Whether a storage file rosbags cannot open is one zros reads around its damage."""
+    try:
+        if path.suffix == '.db3':
+            return path.is_file() and is_sqlite(path)
+        return path.suffix == '.mcap' and _mcap_file(path)
     except OSError:
         return False
 

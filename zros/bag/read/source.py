@@ -54,8 +54,12 @@ FORMATS: dict[str, Format] = {
 }
 
 
-def open_source(path: str | Path) -> Source:
-    """Open a recording for raw reading; raises :class:`BagError` naming the file and cause."""
+def open_source(path: str | Path, strict: bool = False) -> Source:
+    """Open a recording for raw reading; raises :class:`BagError` naming the file and cause.
+
+    Damaged parts are skipped and reported in ``source.damage`` (see
+    :mod:`zros.bag.read.damage`); ``strict`` raises :class:`BagError` on them instead.
+    """
     location = Path(path).expanduser()
     if not location.exists():
         raise BagError(location, 'no such file or folder')
@@ -66,6 +70,7 @@ def open_source(path: str | Path) -> Source:
         expected = ' or '.join(f.described for f in FORMATS.values())
         raise BagError(location, f'not a recording zros reads (expected {expected})')
     source = found.reader(location)
+    source.damage.strict = strict
     try:
         source.open()
     except BagError:

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError, Unsupported
+from zros.bag.read.damage import Damage
 from zros.closing import Closing
 
 if TYPE_CHECKING:
@@ -85,6 +86,8 @@ class Source(Closing):
         self.compression_mode = ''
         self._closers: list[Callable[[], None]] = []
         self._closed = False
+        #: what damage cost (``strict``: raise instead); :func:`open_source` sets the mode
+        self.damage = Damage()
 
     def open(self) -> None:
         """Read the recording's connections and time range (:func:`open_source` calls it)."""
@@ -130,6 +133,10 @@ class Source(Closing):
 
     def _messages(self, ids: set[int], start: int | None, end: int | None) -> Iterator[RawMessage]:
         raise NotImplementedError
+
+    def locate(self, message: RawMessage) -> tuple[Path, int | None, int | None]:
+        """Where a message lies, for a report of damage: (file, byte offset, row)."""
+        return self.path, None, None
 
     def blocks(
         self, connections: Iterable[Connection], start: int | None = None, end: int | None = None

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
+from zros.bag.read.damage import Damage, Skipped
 from zros.bag.read.source import Connection, RawMessage
 from zros.cdr import CdrError, Message, TypeRegistry, UnknownTypeError, default_registry
 from zros.cdr.message import decode
@@ -88,7 +89,10 @@ def _undecoded(type_name: str, data: bytes) -> UndecodedMessage:
 
 def how_to_define(type_name: str) -> str:
     """The one thing to do so zros knows a type: where its file goes, or the call."""
-    package, kind, short = split_type_name(type_name)
+    try:
+        package, kind, short = split_type_name(type_name)
+    except ValueError as exc:  # a damaged or foreign name: no file or call can define it
+        return f'the name is not one a definition can have ({exc})'
     return (
         f'to decode it, run with ZROS_INTERFACE_PATH=<a folder holding '
         f'{package}/{kind}/{short}.{kind}>, or call '
@@ -114,8 +118,14 @@ class BagTypes:
         path: Path,
         connections: list[Connection],
         registry: TypeRegistry | None = None,
+        damage: Damage | None = None,
+        locate: Callable[[RawMessage], tuple[Path, int | None, int | None]] | None = None,
     ) -> None:
         self.path = path
+        #: where messages that no definition decodes are reported (:meth:`decode_or_skip`)
+        self.damage = damage or Damage()
+        #: a message's (file, byte offset, row), for the report
+        self.locate = locate or (lambda message: (path, None, None))
         self.fallback = registry or default_registry()
         self.registry = TypeRegistry(self.fallback.distro)
         self._embedded: set[int] = set()
@@ -244,6 +254,18 @@ class BagTypes:
             f'cannot decode the message of {message.connection.topic} at {message.timestamp} '
             f'as {message.connection.type_name}: ' + '; '.join(problems),
         )
+
+    def decode_or_skip(self, message: RawMessage) -> Message | None:
+        """:meth:`decode`, but a message no definition decodes (damaged data) is reported to
+        ``damage`` and skipped (None); in strict mode that raises :class:`BagError`."""
+        try:
+            return self.decode(message)
+        except BagError as exc:
+            file, offset, row = self.locate(message)
+            self.damage.report(
+                [Skipped(file, offset, row, message.connection.topic, 1, exc.reason)]
+            )
+            return None
 
     def _undecoded(self, message: RawMessage) -> Message:
         name = message.connection.type_name

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 from zros.bag.errors import BagError
 from zros.bag.read.mcap_recover import LinearScan, is_mcap
 from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
+from zros.bag.write.replace import replacing, temporary_of
 
 if TYPE_CHECKING:
     from mcap.records import Channel, Message, Schema
@@ -43,17 +44,16 @@ from zros.bag.read.rosbag2_yaml import (
     write_metadata_yaml,
 )
 
-_TEMPORARY = '.{}.reindex'
-
 
 @dataclass(frozen=True)
 class FileReport:
     """What :func:`reindex` did with one storage file.
 
-    ``action`` is ``'complete'`` (already finished: untouched), ``'rewritten'`` (finished from
-    its complete records; ``dropped_bytes`` were past the last one, ``reason`` says why the scan
-    stopped) or ``'skipped'`` (not even an MCAP header: left as it is, not listed in the
-    metadata).
+    ``action`` is ``'complete'`` (already finished and intact: untouched), ``'rewritten'``
+    (finished from its complete records; ``dropped_bytes`` were past the last one, ``reason``
+    says why the scan stopped; damaged chunks are left out, ``lost_messages`` counts their
+    messages, -1 when a chunk's count is unknown) or ``'skipped'`` (not even an MCAP header:
+    left as it is, not listed in the metadata).
     """
 
     name: str
@@ -61,12 +61,21 @@ class FileReport:
     message_count: int
     dropped_bytes: int = 0
     reason: str = ''
+    lost_messages: int = 0
+    damaged: tuple[int, ...] = ()  #: byte offsets of the damaged chunks left out
 
     def __str__(self) -> str:
         if self.action == 'complete':
             return f'{self.name}: complete, {self.message_count} messages'
         if self.action == 'skipped':
             return f'{self.name}: skipped, no complete MCAP record ({self.reason})'
+        if self.damaged:
+            lost = 'an unknown number of' if self.lost_messages < 0 else str(self.lost_messages)
+            at = ', '.join(map(str, self.damaged))
+            return (
+                f'{self.name}: rewritten, {self.message_count} messages; could not keep {lost} '
+                f'messages (damaged or cut short at byte {at})'
+            )
         tail = (
             f'{self.dropped_bytes} bytes after it dropped: {self.reason}'
             if self.dropped_bytes
@@ -176,8 +185,25 @@ def reindex(path: str | os.PathLike[str]) -> ReindexReport:
     if not location.exists():
         raise BagError(location, 'no such file or folder')
     if location.is_file():
+        if location.suffix == '.bag':
+            from zros.bag.write.reindex_ros1 import reindex_ros1  # noqa: PLC0415 (ROS 1 only)
+
+            done = reindex_ros1(location)
+            action = 'rewritten' if done.rewritten else 'complete'
+            report = FileReport(
+                location.name,
+                action,
+                done.message_count,
+                0,
+                done.reason,
+                done.lost_messages,
+                done.damaged,
+            )
+            return ReindexReport(location, [report], None, 0)
         if location.suffix != '.mcap':
-            raise BagError(location, 'reindex reads MCAP bags (a folder or a .mcap file)')
+            raise BagError(
+                location, 'reindex reads MCAP and ROS 1 bags (a folder, a .mcap or .bag file)'
+            )
         return ReindexReport(location, [_reindex_file(location, _Bag())], None, 0)
     files = storage_files(location)
     if not files:
@@ -192,22 +218,45 @@ def reindex(path: str | os.PathLike[str]) -> ReindexReport:
 
 def _reindex_file(file: Path, bag: _Bag) -> FileReport:
     """Finish one file if needed and add it to ``bag``."""
-    stale = file.with_name(_TEMPORARY.format(file.name))
+    stale = temporary_of(file)
     stale.unlink(missing_ok=True)  # left by a reindex that was itself interrupted
     if not _has_magic(file):
         return FileReport(file.name, 'skipped', 0, reason='no MCAP magic')
     summary = _finished_summary(file)
-    if summary is not None:
+    if summary is not None and _intact(file):
         report = FileReport(file.name, 'complete', summary.entry.message_count)
     else:
+        finished = summary is not None
         summary, scan = _rewrite(file, bag)
         if summary is None:
             return FileReport(file.name, 'skipped', 0, reason=scan.stopped_at)
-        dropped = max(0, scan.size - scan.end)
+        # a finished file's summary is past its last chunk: not dropped, rewritten
+        dropped = 0 if finished else max(0, scan.size - scan.end)
         count = summary.entry.message_count
-        report = FileReport(file.name, 'rewritten', count, dropped, scan.stopped_at)
+        losses = [
+            sum(lost.values()) if lost and -1 not in lost else -1 for _, lost, _ in scan.skipped
+        ]
+        report = FileReport(
+            file.name,
+            'rewritten',
+            count,
+            dropped,
+            '' if finished else scan.stopped_at,
+            -1 if -1 in losses else sum(losses),
+            tuple(offset for offset, _, _ in scan.skipped),
+        )
     bag.add(summary)
     return report
+
+
+def _intact(file: Path) -> bool:
+    """Whether every chunk of a finished file reads: decompresses, its CRC matches, its
+    messages match their index (a pass over the file: reindex is the repair, it takes the
+    time)."""
+    scan = LinearScan(file)
+    for _ in scan.records():
+        pass
+    return not scan.skipped
 
 
 def _has_magic(file: Path) -> bool:
@@ -314,7 +363,6 @@ def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
     from mcap.writer import Writer  # noqa: PLC0415 (lazy: mcap, import time)
 
     scan = LinearScan(file)
-    temporary = file.with_name(_TEMPORARY.format(file.name))
     records = scan.records()
     header = next(records, None)
     if not isinstance(header, Header):
@@ -322,61 +370,52 @@ def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
     stats = _Stats()
     schemas: dict[int, int] = {0: 0}
     channels: dict[int, int] = {}
-    try:
-        with temporary.open('xb') as stream:
-            writer: Untyped = None  # mcap's Writer: ``finish`` has no annotations
-            for record in records:
-                if writer is None:
-                    kind = compression_type(scan.compression or 'none')
-                    writer = Writer(stream, chunk_size=DEFAULT_CHUNK_SIZE, compression=kind)
-                    writer.start(profile=header.profile, library=header.library)
-                if isinstance(record, Schema) and record.id not in schemas:
-                    schemas[record.id] = writer.register_schema(
-                        record.name, record.encoding, record.data
-                    )
-                elif isinstance(record, Channel) and record.id not in channels:
-                    channels[record.id] = writer.register_channel(
-                        record.topic,
-                        record.message_encoding,
-                        schemas.get(record.schema_id, 0),
-                        dict(record.metadata),
-                    )
-                elif isinstance(record, Message) and record.channel_id in channels:
-                    writer.add_message(
-                        channels[record.channel_id],
-                        record.log_time,
-                        record.data,
-                        record.publish_time,
-                        record.sequence,
-                    )
-                elif isinstance(record, Metadata) and record.name != 'rosbag2':
-                    writer.add_metadata(record.name, dict(record.metadata))
-                elif isinstance(record, Attachment):
-                    writer.add_attachment(
-                        record.create_time,
-                        record.log_time,
-                        record.name,
-                        record.media_type,
-                        record.data,
-                    )
-                else:
-                    continue
-                if isinstance(record, Schema | Channel | Message):
-                    stats.add(record)
+    with replacing(file) as temporary, temporary.open('xb') as stream:
+        writer: Untyped = None  # mcap's Writer: ``finish`` has no annotations
+        for record in records:
             if writer is None:
-                writer = Writer(stream, compression=compression_type('none'))
+                kind = compression_type(scan.compression or 'none')
+                writer = Writer(stream, chunk_size=DEFAULT_CHUNK_SIZE, compression=kind)
                 writer.start(profile=header.profile, library=header.library)
-            summary = stats.summary(file)
-            writer.add_metadata('rosbag2', {'serialized_metadata': bag.serialized_with(summary)})
-            writer.finish()
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, file)
-    except BaseException as exc:
-        temporary.unlink(missing_ok=True)
-        if isinstance(exc, OSError):
-            raise BagError(file, f'cannot rewrite it ({exc}); the original is unchanged') from exc
-        raise
+            if isinstance(record, Schema) and record.id not in schemas:
+                schemas[record.id] = writer.register_schema(
+                    record.name, record.encoding, record.data
+                )
+            elif isinstance(record, Channel) and record.id not in channels:
+                channels[record.id] = writer.register_channel(
+                    record.topic,
+                    record.message_encoding,
+                    schemas.get(record.schema_id, 0),
+                    dict(record.metadata),
+                )
+            elif isinstance(record, Message) and record.channel_id in channels:
+                writer.add_message(
+                    channels[record.channel_id],
+                    record.log_time,
+                    record.data,
+                    record.publish_time,
+                    record.sequence,
+                )
+            elif isinstance(record, Metadata) and record.name != 'rosbag2':
+                writer.add_metadata(record.name, dict(record.metadata))
+            elif isinstance(record, Attachment):
+                writer.add_attachment(
+                    record.create_time,
+                    record.log_time,
+                    record.name,
+                    record.media_type,
+                    record.data,
+                )
+            else:
+                continue
+            if isinstance(record, Schema | Channel | Message):
+                stats.add(record)
+        if writer is None:
+            writer = Writer(stream, compression=compression_type('none'))
+            writer.start(profile=header.profile, library=header.library)
+        summary = stats.summary(file)
+        writer.add_metadata('rosbag2', {'serialized_metadata': bag.serialized_with(summary)})
+        writer.finish()
     return summary, scan
 
 

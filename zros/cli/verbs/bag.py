@@ -215,15 +215,17 @@ def add_parser(
 
     fix = verbs.add_parser(
         'reindex',
-        help='make a bag a killed recorder left readable again',
+        help='make a bag a killed recorder left, or a damaged one, readable again',
         description='Finish every MCAP file of a bag that was never finished (a recorder killed '
         'with SIGKILL, a power loss) into one holding its messages up to the last complete '
         'chunk, with summary, indexes and footer, and rewrite metadata.yaml from the files, '
         'as `ros2 bag reindex` does. Finished files are left as they are; an unfinished one is '
         'rewritten into a temporary file renamed over it once complete, so a failure leaves '
-        'the original unchanged. Not for a bag still being recorded.',
+        'the original unchanged. A file with a damaged chunk, and a ROS 1 .bag cut short or '
+        'damaged, is rebuilt the same way from what reads; the report says how many messages '
+        'could not be kept. Not for a bag still being recorded.',
     )
-    fix.add_argument('path', help='a bag folder or .mcap file')
+    fix.add_argument('path', help='a bag folder, .mcap or ROS 1 .bag file')
     fix.set_defaults(run=reindex)
 
     # --- record and play ---------------------------------------------------------------------

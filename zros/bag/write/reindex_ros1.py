@@ -1,0 +1,156 @@
+"""``zros bag reindex`` of a ROS 1 bag: rewrite it from what can be read.
+
+A ROS 1 bag cut short has lost its index (at the end of the file) and a damaged one has chunks
+or records that no longer read: rosbags refuses the first and stops at the second. The bag is
+read as :mod:`zros.bag.read.rosbag1_scan` reads it (chunk by chunk, or record by record without
+index), and every message that reads is written into a new bag with its connections, chunk
+compression and index; the rest is counted. As for MCAP files, the new bag is written beside
+the original (``.<name>.reindex``) and renamed over it once complete and on disk; a bag that
+reads whole is left untouched.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from zros.bag.errors import BagError
+from zros.bag.read.rosbag1_scan import ScannedBag1, indexed_messages
+from zros.bag.read.source_base import describe_error
+from zros.bag.write.replace import replacing, temporary_of
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Connection
+    from rosbags.rosbag1 import Reader
+
+
+class _Readable:
+    """A ROS 1 bag opened for reindexing: by rosbags where its index reads, else scanned."""
+
+    def __init__(self, path: Path) -> None:
+        from rosbags.rosbag1 import Reader  # noqa: PLC0415 (lazy: rosbags, import time)
+
+        self.losses: list[tuple[int, dict[int, int], str]] = []
+        self.indexed: Reader | None = Reader(path)
+        self.scanned: ScannedBag1 | None = None
+        self.compression = 'none'
+        try:
+            self.indexed.open()
+        except Exception:  # cut short, a damaged index: read its records
+            self.indexed = None
+            self.scanned = ScannedBag1(path)
+            self.scanned.open()
+            self.losses += self.scanned.losses
+            self.compression = self.scanned.compression
+        else:
+            self.compression = _compression(self.indexed)
+
+    @property
+    def connections(self) -> list[Connection]:
+        """The connections that were read."""
+        reader = self.indexed if self.indexed is not None else self.scanned
+        assert reader is not None
+        return list(reader.connections)
+
+    def messages(self) -> Iterator[tuple[Connection, int, bytes]]:
+        """Every message that reads, in time order (losses are added to ``losses``)."""
+        if self.scanned is not None:
+            return self.scanned.messages()
+        assert self.indexed is not None
+        return indexed_messages(
+            self.indexed,
+            self.indexed.connections,
+            None,
+            None,
+            lambda offset, lost, why: self.losses.append((offset, lost, why)),
+        )
+
+    def close(self) -> None:
+        if self.indexed is not None:
+            self.indexed.close()
+
+
+def _compression(reader: Reader) -> str:
+    from rosbags.rosbag1.reader import decompressors  # noqa: PLC0415 (lazy: rosbags, import time)
+
+    for chunk in reader.chunks.values():
+        for name, function in decompressors.items():
+            if chunk.decompressor is function:
+                return name
+        break
+    return 'none'
+
+
+@dataclass(frozen=True)
+class Rebuilt:
+    """What :func:`reindex_ros1` did: ``rewritten`` or not (everything read), the messages
+    the bag holds now, those it could not keep (-1: unknown) and where the damage was."""
+
+    rewritten: bool
+    message_count: int
+    reason: str = ''
+    lost_messages: int = 0
+    damaged: tuple[int, ...] = ()
+
+
+def reindex_ros1(file: Path) -> Rebuilt:
+    """Rewrite a ROS 1 bag from what can be read (untouched when everything reads)."""
+    try:
+        bag = _Readable(file)
+    except Exception as exc:  # not even a bag header: nothing to rebuild from
+        raise BagError(file, f'cannot read it as a ROS 1 bag: {describe_error(exc)}') from exc
+    try:
+        count = sum(1 for _ in bag.messages())
+        if bag.indexed is not None and not bag.losses:
+            return Rebuilt(False, count)
+        _rewrite(file, bag)
+    finally:
+        bag.close()
+    counts = [sum(lost.values()) if -1 not in lost else -1 for _, lost, _ in bag.losses]
+    return Rebuilt(
+        True,
+        count,
+        '' if bag.indexed is not None else 'its index is gone or damaged',
+        -1 if -1 in counts else sum(counts),
+        tuple(dict.fromkeys(offset for offset, _, _ in bag.losses)),
+    )
+
+
+def _rewrite(file: Path, bag: _Readable) -> None:
+    from rosbags.rosbag1 import Writer  # noqa: PLC0415 (lazy: rosbags, import time)
+
+    temporary_of(file).unlink(missing_ok=True)  # left by a reindex itself interrupted
+    with replacing(file) as temporary:
+        writer = Writer(temporary)
+        if bag.compression != 'none':
+            writer.set_compression(Writer.CompressionFormat[bag.compression.upper()])
+        with writer:
+            written: dict[int, Connection] = {}
+            same: dict[tuple[object, ...], Connection] = {}  # rosbags refuses a duplicate
+            for connection in bag.connections:
+                ext = connection.ext
+                key = (
+                    connection.topic,
+                    connection.msgtype,
+                    connection.msgdef.data,
+                    connection.digest or '*',
+                    getattr(ext, 'callerid', None),
+                    getattr(ext, 'latching', None),
+                )
+                if key not in same:
+                    topic, msgtype, msgdef, md5sum, callerid, latching = key
+                    same[key] = writer.add_connection(
+                        str(topic),
+                        str(msgtype),
+                        msgdef=str(msgdef),
+                        md5sum=str(md5sum),
+                        callerid=callerid if isinstance(callerid, str) else None,
+                        latching=latching if isinstance(latching, int) else None,
+                    )
+                written[connection.id] = same[key]
+            losses = len(bag.losses)
+            for connection, stamp, data in bag.messages():
+                writer.write(written[connection.id], stamp, data)
+            del bag.losses[losses:]  # the second pass meets the same damage
