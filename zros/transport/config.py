@@ -127,7 +127,10 @@ class Tls:
 
     def __post_init__(self) -> None:
         if (self.certificate is None) != (self.private_key is None):
-            raise SettingError('mutual TLS needs both a certificate and a private key')
+            raise SettingError(
+                'mutual TLS needs both a certificate and a private key: '
+                'Tls(ca, certificate=..., private_key=...)'
+            )
         require_file(self.root_ca_certificate, 'CA certificate')
         require_file(self.certificate, 'certificate')
         require_file(self.private_key, 'private key')
@@ -227,10 +230,13 @@ class TransportConfig:
         """Settings from arguments, falling back on the environment for what is not given."""
         env = os.environ
         if 'tls' not in options and env.get('ZROS_TLS_CA'):
-            options['tls'] = Tls(
-                env['ZROS_TLS_CA'], env.get('ZROS_TLS_CERTIFICATE'), env.get('ZROS_TLS_KEY')
-            )
+            certificate, key = env.get('ZROS_TLS_CERTIFICATE'), env.get('ZROS_TLS_KEY')
+            if (certificate is None) != (key is None):
+                raise SettingError('set ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY together, or neither')
+            options['tls'] = Tls(env['ZROS_TLS_CA'], certificate, key)
         if 'user' not in options and env.get('ZROS_USER'):
+            if 'password' not in options and env.get('ZROS_PASSWORD') is None:
+                raise SettingError('ZROS_USER needs ZROS_PASSWORD: set it too')
             options['user'] = env['ZROS_USER']
             options.setdefault('password', env.get('ZROS_PASSWORD'))
         options['wire'] = _wire(options.get('wire') or env.get('ZROS_WIRE'))
@@ -344,11 +350,13 @@ class TransportConfig:
             return {}
         for endpoint in listening:
             if parse_endpoint(endpoint).protocol not in ('tls', 'quic'):
-                raise TransportError(
+                why = (
                     f'this node has TLS settings but would listen on {endpoint}, where anyone '
                     'connects without them: listen on tls/ endpoints only '
-                    '(e.g. tls/127.0.0.1:0), or on none (listen=[])'
                 )
+                failure = TransportError(f'{why}(e.g. tls/127.0.0.1:0), or on none (listen=[])')
+                failure.command_line = f'{why}(ZROS_LISTEN=tls/127.0.0.1:0)'
+                raise failure
         if self.tls.certificate is None:
             why = (
                 'a peer with TLS listens on TLS, and needs a certificate and key of its own for '
