@@ -49,12 +49,13 @@ PEER_LISTEN = 'tcp/127.0.0.1:0'
 MODES = ('client', 'peer')
 
 
-def _wire(value: str | None) -> str | None:
-    """None for the bridge (the default), 'rmw_zenoh' for rmw_zenoh's session defaults."""
+def _wire(value: str | None, source: str = 'wire') -> str | None:
+    """None for the bridge (the default), 'rmw_zenoh' for rmw_zenoh's session defaults;
+    ``source`` names where ``value`` came from (the argument, or ``ZROS_WIRE``)."""
     if value in (None, '', 'bridge'):
         return None
     if value != 'rmw_zenoh':
-        raise SettingError(f'wire must be "bridge" or "rmw_zenoh", got {value!r}')
+        raise SettingError(f'{source} must be "bridge" or "rmw_zenoh", got {value!r}')
     return value
 
 
@@ -239,7 +240,8 @@ class TransportConfig:
                 raise SettingError('ZROS_USER needs ZROS_PASSWORD: set it too')
             options['user'] = env['ZROS_USER']
             options.setdefault('password', env.get('ZROS_PASSWORD'))
-        options['wire'] = _wire(options.get('wire') or env.get('ZROS_WIRE'))
+        given = options.get('wire')
+        options['wire'] = _wire(given or env.get('ZROS_WIRE'), 'wire' if given else 'ZROS_WIRE')
         if not config_file and options['wire']:
             config_file = env.get('ZENOH_SESSION_CONFIG_URI')
         config = cls(
