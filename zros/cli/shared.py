@@ -19,6 +19,7 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import TYPE_CHECKING
 
+from zros.version import counted as counted  # noqa: PLC0414 (the commands' import of it)
 from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, check_wire, scheme_settings
 
 # commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
@@ -439,8 +440,3 @@ def out(text: str = '') -> None:
     """Print and flush (output often goes to a pipe another program reads line by line)."""
     sys.stdout.write(text + '\n')
     sys.stdout.flush()
-
-
-def counted(number: int, noun: str) -> str:
-    """``1 topic``, ``2 topics``: a count and its noun, singular for one."""
-    return f'{number} {noun if number == 1 else noun + "s"}'
