@@ -119,6 +119,10 @@ def test_dump_and_load(cli: Cli, driver: Any, tmp_path: Path) -> None:
     atomic = cli.run('param', 'load', '/robot/driver', str(saved), '--atomic')
     assert atomic.returncode == 1
     assert atomic.stdout.startswith('Setting parameters failed: ')
+    one = tmp_path / 'one.yaml'
+    one.write_text('/robot/driver:\n  ros__parameters:\n    speed: 0.7\n')
+    single = cli.run('param', 'load', '/robot/driver', str(one), '--atomic')
+    assert (single.returncode, single.stdout) == (0, 'Set 1 parameter successfully\n')
     other = tmp_path / 'other.yaml'
     other.write_text('/someone_else:\n  ros__parameters:\n    x: 1\n')
     none = cli.run('param', 'load', '/robot/driver', str(other))

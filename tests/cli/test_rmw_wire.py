@@ -40,4 +40,12 @@ def test_each_scheme_has_its_own_settings(cli: Cli, zros_node: Callable[..., Any
     assert echo.stdout == 'data: domain 5\n---\n', echo.stderr
     wrong = cli.run('topic', 'list', '--wire', 'bridge', '--domain-id', '5')
     assert wrong.returncode == 2
-    assert "domain_id= is for wire='rmw_zenoh', not wire='bridge'" in wrong.stderr
+    # named as typed: the command's flags, not Node's keywords
+    assert '--domain-id is for --wire rmw_zenoh, not --wire bridge' in wrong.stderr
+    assert 'domain_id=' not in wrong.stderr
+    chosen = cli.run('topic', 'list', '--bridge-namespace', '/x', env={'ZROS_WIRE': 'rmw_zenoh'})
+    assert chosen.returncode == 2
+    assert '--bridge-namespace is for --wire bridge, not ZROS_WIRE=rmw_zenoh' in chosen.stderr
+    bogus = cli.run('topic', 'list', env={'ZROS_WIRE': 'dds'})
+    assert bogus.returncode == 2
+    assert 'zros: error: ZROS_WIRE must be "bridge" or "rmw_zenoh", got \'dds\'' in bogus.stderr

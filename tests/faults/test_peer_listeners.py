@@ -292,8 +292,12 @@ def test_a_tls_peer_without_its_own_certificate_does_not_listen_by_surprise(
     plain = TransportConfig.create(
         connect=connect, mode='peer', tls=pki.client_tls('laptop'), listen='tcp/127.0.0.1:0'
     )
-    with pytest.raises(TransportError, match=r'would listen on tcp/127\.0\.0\.1:0'):
+    with pytest.raises(TransportError, match=r'would listen on tcp/127\.0\.0\.1:0') as info:
         Transport(plain)
+    assert 'listen=[]' in str(info.value) and 'ZROS_' not in str(info.value)
+    shell = info.value.command_line or ''
+    assert 'would listen on tcp/127.0.0.1:0' in shell
+    assert 'ZROS_LISTEN=tls/127.0.0.1:0' in shell and 'listen=[]' not in shell
 
 
 def test_a_tls_peer_listens_nowhere_when_told(

@@ -22,7 +22,8 @@ from tests.faults.certs import by_name, leaf
 from zros.transport import Router, Tls, Transport, TransportConfig, TransportError, start_router
 from zros.transport.pki import Certificates, make_certificates
 
-FIX = 'zros tls init'
+#: the fix a program's error names, and the one the zros command's names
+FIX, CLI_FIX = 'zros.transport.pki.make_certificates(folder)', '`zros tls init FOLDER`'
 
 
 @pytest.fixture(scope='module')
@@ -41,13 +42,18 @@ def router(pki: Certificates) -> Iterator[Router]:
         yield running
 
 
-def refusal(router: Router, files: tuple[str, str, str], mode: str = 'client') -> str:
+def refused(router: Router, files: tuple[str, str, str], mode: str = 'client') -> TransportError:
     """The error of a node dialing ``router`` with TLS files (CA, certificate, key)."""
     connect = by_name(router)
     with pytest.raises(TransportError) as info:
         # a missing file is refused when the settings are made, the others when used
         Transport(TransportConfig.create(connect=connect, tls=Tls(*files), mode=mode))
-    return str(info.value)
+    return info.value
+
+
+def refusal(router: Router, files: tuple[str, str, str], mode: str = 'client') -> str:
+    """The message of :func:`refused`."""
+    return str(refused(router, files, mode))
 
 
 def write(folder: Path, name: str, data: bytes | str) -> str:
@@ -128,10 +134,15 @@ def test_a_bad_tls_file_is_named(
     }
     bad = make(pki, other, tmp_path)
     files[role] = bad
-    message = refusal(router, (files['ca'], files['certificate'], files['key']))
+    error = refused(router, (files['ca'], files['certificate'], files['key']))
+    message, shell = str(error), error.command_line or str(error)
     assert bad in message and words in message
     assert '\n' not in message
     assert FIX in message or 'openssl' in message
+    # a program is told what to call, the zros command's user what to type: never the other
+    assert 'zros tls init' not in message and 'make_certificates' not in shell
+    assert CLI_FIX in shell or 'openssl' in shell
+    assert 'zenoh-bridge-ros2dds' not in message + shell  # a bad file: no router is to blame
 
 
 def test_a_peer_with_a_client_only_certificate_is_told(
@@ -140,8 +151,14 @@ def test_a_peer_with_a_client_only_certificate_is_told(
     """Certificates from zros before peers listened on TLS cannot serve: said, not a silent
     peer that no other peer accepts."""
     certificate, key = leaf(pki, tmp_path / 'old_client', server=False)
-    message = refusal(router, (str(pki.ca), str(certificate), str(key)), mode='peer')
+    error = refused(router, (str(pki.ca), str(certificate), str(key)), mode='peer')
+    message, shell = str(error), error.command_line or ''
     assert str(certificate) in message and 'is for clients only' in message
+    assert "mode='client'" in message and 'make_certificates' in message
+    assert 'zros tls init' not in message and '--mode' not in message
+    assert shell.startswith(f'the certificate {certificate} is for clients only')
+    assert '--mode client' in shell and CLI_FIX in shell
+    assert "mode='client'" not in shell and 'make_certificates' not in shell
     # as a client it is still fine: clients do not listen
     connect = by_name(router)
     config = TransportConfig.create(
@@ -161,3 +178,22 @@ def test_the_command_line_names_a_bad_tls_file(router: Router, tmp_path: Path) -
     assert result.returncode == 1
     assert result.stderr.count('\n') == 1 and 'Traceback' not in result.stderr
     assert result.stderr.startswith(f'zros: error: the CA certificate {ca} is not a PEM file')
+    assert CLI_FIX in result.stderr and 'make_certificates' not in result.stderr
+
+
+def test_a_peer_listening_where_its_certificate_does_not_name_is_told(pki: Certificates) -> None:
+    """The client certificates name localhost, 127.0.0.1 and ::1: a peer listening on
+    127.0.0.2 is refused before it opens, each reader told its own way out."""
+    tls = Tls(str(pki.ca), str(pki.client_certificate('laptop')), str(pki.client_key('laptop')))
+    config = TransportConfig.create(
+        connect='tls/127.0.0.1:1', mode='peer', listen='tls/127.0.0.2:0', tls=tls
+    )
+    with pytest.raises(TransportError) as info:
+        Transport(config)
+    message, shell = str(info.value), info.value.command_line or ''
+    assert 'does not name 127.0.0.2, where this peer listens' in message
+    assert 'make_certificates' in message and 'verify_name=False' in message
+    assert 'zros tls init' not in message and 'ZROS_' not in message
+    assert 'does not name 127.0.0.2, where this peer listens' in shell
+    assert CLI_FIX in shell and 'ZROS_LISTEN=' in shell
+    assert 'make_certificates' not in shell and 'verify_name' not in shell

@@ -43,7 +43,7 @@ def test_rmw_zenoh_session_defaults() -> None:
     bridge = TransportConfig.create()
     assert bridge.wire is None and setting(bridge, 'mode') == 'client'
     assert TransportConfig.create(wire='bridge') == bridge
-    with pytest.raises(ValueError, match='wire must be'):
+    with pytest.raises(ValueError, match=r'^wire must be'):
         TransportConfig.create(wire='dds')
 
 
@@ -68,6 +68,9 @@ def test_environment_selects_and_overrides(monkeypatch: pytest.MonkeyPatch, tmp_
     bridge = TransportConfig.create()
     assert bridge.config_file is None
     assert setting(bridge, 'connect/endpoints') == ['tcp/127.0.0.1:7447']
+    monkeypatch.setenv('ZROS_WIRE', 'dds')  # the error names where the bad value is
+    with pytest.raises(ValueError, match=r'^ZROS_WIRE must be "bridge" or "rmw_zenoh", got'):
+        TransportConfig.create()
 
 
 def test_override_syntax() -> None:

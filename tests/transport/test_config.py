@@ -80,13 +80,14 @@ def test_security_and_raw_settings(tmp_path: Path) -> None:
 def test_setting_errors(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match='mode must be "client" or "peer"'):
         TransportConfig.create(mode='router')
-    with pytest.raises(ValueError, match='a user needs a password'):
+    with pytest.raises(ValueError, match=r'^a user needs a password \(password=\)$'):
         TransportConfig.create(user='robot')
     with pytest.raises(TransportError, match=r'the CA certificate .*missing\.pem does not exist'):
         Tls(str(tmp_path / 'missing.pem'))
-    with pytest.raises(ValueError, match='both a certificate and a private key'):
+    with pytest.raises(ValueError, match='both a certificate and a private key') as half:
         (tmp_path / 'ca.pem').write_text('x')
         Tls(str(tmp_path / 'ca.pem'), certificate=str(tmp_path / 'ca.pem'))
+    assert str(half.value).endswith('Tls(ca, certificate=..., private_key=...)')
     with pytest.raises(TransportError, match=r'Zenoh configuration file .*none\.json5 does not'):
         TransportConfig.create(config_file=tmp_path / 'none.json5').to_zenoh()
 
@@ -106,3 +107,14 @@ def test_unreachable_router_and_busy_port() -> None:
             assert re.fullmatch(r'[0-9a-f]{1,32}', transport.zid)
         assert transport.closed
     assert router.closed
+
+
+def test_half_a_client_certificate_in_the_environment_names_both_variables(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (tmp_path / 'ca.pem').write_text('x')
+    monkeypatch.setenv('ZROS_TLS_CA', str(tmp_path / 'ca.pem'))
+    monkeypatch.setenv('ZROS_TLS_CERTIFICATE', str(tmp_path / 'ca.pem'))
+    with pytest.raises(ValueError) as info:
+        TransportConfig.create()
+    assert str(info.value) == 'set ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY together, or neither'

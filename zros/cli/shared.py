@@ -19,7 +19,8 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, scheme_settings
+from zros.version import counted as counted  # noqa: PLC0414 (the commands' import of it)
+from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, check_wire, scheme_settings
 
 # commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
 # `zros --help` loads none of them
@@ -107,11 +108,20 @@ def wire_settings(args: argparse.Namespace) -> dict[str, WireOption]:
         for scheme in SCHEMES.values()
         for setting in scheme.settings
     }
-    wire = getattr(args, 'wire', None) or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE
+    chosen = getattr(args, 'wire', None)
+    wire = chosen or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE
     try:
-        return scheme_settings(wire, given)
-    except (TypeError, ValueError) as exc:
+        check_wire(wire, 'ZROS_WIRE')  # --wire's choices are checked already
+    except ValueError as exc:
         raise UsageError(str(exc)) from None
+    for scheme in SCHEMES.values():  # named as typed, not as Node's keywords
+        for setting in scheme.settings:
+            if given[setting.keyword] is not None and not SCHEMES[wire].takes(setting.keyword):
+                using = f'--wire {wire}' if chosen else f'ZROS_WIRE={wire}'
+                if not chosen and 'ZROS_WIRE' not in os.environ:
+                    using = f'the default wire, {wire}'
+                raise UsageError(f'{setting.flag} is for --wire {scheme.name}, not {using}')
+    return scheme_settings(wire, given)
 
 
 def node_name(args: argparse.Namespace) -> str:
@@ -430,8 +440,3 @@ def out(text: str = '') -> None:
     """Print and flush (output often goes to a pipe another program reads line by line)."""
     sys.stdout.write(text + '\n')
     sys.stdout.flush()
-
-
-def counted(number: int, noun: str) -> str:
-    """``1 topic``, ``2 topics``: a count and its noun, singular for one."""
-    return f'{number} {noun if number == 1 else noun + "s"}'

@@ -165,6 +165,11 @@ class Graph:
         self._changed.wait_for(lambda: predicate() or self._closed, timeout, interruptible)
         return bool(predicate())
 
+    @property
+    def closed(self) -> bool:
+        """Whether it stopped following the network (its session closed)."""
+        return self._closed
+
     def close(self) -> None:
         """Stop following the network's announcements."""
         if self._closed:

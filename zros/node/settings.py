@@ -130,7 +130,9 @@ class NodeSettings:
             if log_level is not None
             else (ros_args.log_level or level_from_environment() or INFO)
         )
-        chosen = check_wire(wire or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE)
+        chosen = check_wire(
+            wire or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE, 'wire' if wire else 'ZROS_WIRE'
+        )
         return cls(name, namespace, remapping, overrides, use_sim_time, level, chosen)
 
 

@@ -16,6 +16,7 @@ from zros.cdr.message import Message
 from zros.cdr.model import Kind
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
+from zros.pubsub.type_watch import forget_types, type_watch_of
 from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity, message_class
@@ -76,6 +77,10 @@ class Publisher(Entity):
         ):
             self._buffer = EncodeBuffer()
             self._large = self._buffer.threshold
+        if announce:  # before its tokens: the check warns from this side, before it returns
+            type_watch_of(context.transport).watch(
+                self, EntityKind.PUBLISHER, self.topic, self.type_name
+            )
         self._announce()
 
     def _declare(self, wire: WireEntity) -> ZenohPublisher | ext.AdvancedPublisher:
@@ -132,6 +137,7 @@ class Publisher(Entity):
     def close(self) -> None:
         """Withdraw it from the network; safe to call twice. Later writes raise ``zenoh.ZError``."""
         self._put = self._refuse
+        forget_types(self)
         super().close()
 
     def _refuse(self, data: bytes | bytearray) -> None:

@@ -22,6 +22,7 @@ from zros.cdr.message import Message, decode
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.senders import describe_sender
+from zros.pubsub.type_watch import forget_types, type_watch_of
 from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.drops import DropCounter, sender_key
@@ -117,6 +118,10 @@ class Subscriber(Entity):
         self._expiries = DropCounter(self.topic)
         self._rejection = wire.rejection
         self._subscribe(wire, self.qos, batches=self._on_samples, rejected=self._on_rejected)
+        if announce:  # before its tokens: the check warns from this side, before it returns
+            type_watch_of(context.transport).watch(
+                self, EntityKind.SUBSCRIBER, self.topic, self.type_name
+            )
         self._announce()
 
     @property
@@ -369,6 +374,7 @@ class Subscriber(Entity):
         super().close()
 
     def _on_close(self) -> None:
+        forget_types(self)
         self._drops.flush()
         self._overflows.flush()
         self._expiries.flush()

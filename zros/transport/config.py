@@ -49,12 +49,13 @@ PEER_LISTEN = 'tcp/127.0.0.1:0'
 MODES = ('client', 'peer')
 
 
-def _wire(value: str | None) -> str | None:
-    """None for the bridge (the default), 'rmw_zenoh' for rmw_zenoh's session defaults."""
+def _wire(value: str | None, source: str = 'wire') -> str | None:
+    """None for the bridge (the default), 'rmw_zenoh' for rmw_zenoh's session defaults;
+    ``source`` names where ``value`` came from (the argument, or ``ZROS_WIRE``)."""
     if value in (None, '', 'bridge'):
         return None
     if value != 'rmw_zenoh':
-        raise SettingError(f'wire must be "bridge" or "rmw_zenoh", got {value!r}')
+        raise SettingError(f'{source} must be "bridge" or "rmw_zenoh", got {value!r}')
     return value
 
 
@@ -127,7 +128,10 @@ class Tls:
 
     def __post_init__(self) -> None:
         if (self.certificate is None) != (self.private_key is None):
-            raise SettingError('mutual TLS needs both a certificate and a private key')
+            raise SettingError(
+                'mutual TLS needs both a certificate and a private key: '
+                'Tls(ca, certificate=..., private_key=...)'
+            )
         require_file(self.root_ca_certificate, 'CA certificate')
         require_file(self.certificate, 'certificate')
         require_file(self.private_key, 'private key')
@@ -227,13 +231,17 @@ class TransportConfig:
         """Settings from arguments, falling back on the environment for what is not given."""
         env = os.environ
         if 'tls' not in options and env.get('ZROS_TLS_CA'):
-            options['tls'] = Tls(
-                env['ZROS_TLS_CA'], env.get('ZROS_TLS_CERTIFICATE'), env.get('ZROS_TLS_KEY')
-            )
+            certificate, key = env.get('ZROS_TLS_CERTIFICATE'), env.get('ZROS_TLS_KEY')
+            if (certificate is None) != (key is None):
+                raise SettingError('set ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY together, or neither')
+            options['tls'] = Tls(env['ZROS_TLS_CA'], certificate, key)
         if 'user' not in options and env.get('ZROS_USER'):
+            if 'password' not in options and env.get('ZROS_PASSWORD') is None:
+                raise SettingError('ZROS_USER needs ZROS_PASSWORD: set it too')
             options['user'] = env['ZROS_USER']
             options.setdefault('password', env.get('ZROS_PASSWORD'))
-        options['wire'] = _wire(options.get('wire') or env.get('ZROS_WIRE'))
+        given = options.get('wire')
+        options['wire'] = _wire(given or env.get('ZROS_WIRE'), 'wire' if given else 'ZROS_WIRE')
         if not config_file and options['wire']:
             config_file = env.get('ZENOH_SESSION_CONFIG_URI')
         config = cls(
@@ -344,11 +352,13 @@ class TransportConfig:
             return {}
         for endpoint in listening:
             if parse_endpoint(endpoint).protocol not in ('tls', 'quic'):
-                raise TransportError(
+                why = (
                     f'this node has TLS settings but would listen on {endpoint}, where anyone '
                     'connects without them: listen on tls/ endpoints only '
-                    '(e.g. tls/127.0.0.1:0), or on none (listen=[])'
                 )
+                failure = TransportError(f'{why}(e.g. tls/127.0.0.1:0), or on none (listen=[])')
+                failure.command_line = f'{why}(ZROS_LISTEN=tls/127.0.0.1:0)'
+                raise failure
         if self.tls.certificate is None:
             why = (
                 'a peer with TLS listens on TLS, and needs a certificate and key of its own for '

@@ -82,7 +82,7 @@ def scrub(text: str, secrets: Iterable[str | None]) -> str:
 def check_user(user: str, password: str | None) -> None:
     """A user name and password that a Zenoh dictionary line can carry (SettingError if not)."""
     if password is None:
-        raise SettingError('a user needs a password')
+        raise SettingError('a user needs a password (password=)')
     if not user or ':' in user or any(c in user for c in '\r\n'):
         raise SettingError(f'user name {user!r}: give a non-empty name without ":" or line breaks')
     if not password or any(c in password for c in '\r\n'):

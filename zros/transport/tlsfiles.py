@@ -22,15 +22,25 @@ from zros.transport.errors import TlsFileError
 if TYPE_CHECKING:
     from cryptography.x509 import Certificate
 
-FIX = 'make a matching set with `zros tls init FOLDER`'
+#: how a program makes a matching set of TLS files, and how a ``zros`` command's user does
+FIX = 'make a matching set with zros.transport.pki.make_certificates(folder)'
+CLI_FIX = 'make a matching set with `zros tls init FOLDER`'
 _BLOCK = re.compile(rb'-----BEGIN ([A-Z0-9 ]+)-----')
+
+
+def _failure(before: str, after: str = '', api: str = FIX, cli: str = CLI_FIX) -> TlsFileError:
+    """A TlsFileError saying ``before``, the fix for its reader (``api`` for a program,
+    ``cli`` for a ``zros`` command's user), then ``after``."""
+    failure = TlsFileError(f'{before}{api}{after}')
+    failure.command_line = f'{before}{cli}{after}'
+    return failure
 
 
 def require_file(path: str | None, role: str) -> None:
     """``path`` names an existing file (TlsFileError otherwise)."""
     if path is not None and not Path(path).is_file():
         what = 'is a folder' if Path(path).is_dir() else 'does not exist'
-        raise TlsFileError(f'the {role} {path} {what}; {FIX}')
+        raise _failure(f'the {role} {path} {what}; ')
 
 
 def _pem(path: str, role: str, wanted: str) -> bytes:
@@ -41,26 +51,26 @@ def _pem(path: str, role: str, wanted: str) -> bytes:
     except OSError as exc:
         raise TlsFileError(f'cannot read the {role} {path}: {exc.strerror}') from None
     if not data.strip():
-        raise TlsFileError(f'the {role} {path} is empty; {FIX}')
+        raise _failure(f'the {role} {path} is empty; ')
     kinds = [kind.decode() for kind in _BLOCK.findall(data)]
     if any(wanted in kind for kind in kinds):
         if 'ENCRYPTED' in ' '.join(kinds):
-            raise TlsFileError(
+            raise _failure(
                 f'the {role} {path} is encrypted with a passphrase, which Zenoh cannot read: '
-                f'decrypt it (openssl pkey -in {path} -out plain.key), or {FIX}'
+                f'decrypt it (openssl pkey -in {path} -out plain.key), or '
             )
         return data
     if kinds:
         found = ', '.join(sorted(set(kinds))).lower()
-        raise TlsFileError(
-            f'the {role} {path} holds a {found}, not a {wanted.lower()} (the wrong file?); {FIX}'
+        raise _failure(
+            f'the {role} {path} holds a {found}, not a {wanted.lower()} (the wrong file?); '
         )
     if data[:1] == b'\x30':
         raise TlsFileError(
             f'the {role} {path} is DER (binary), Zenoh reads PEM: convert it with openssl '
             f'(x509 -inform der -in {path} -out {Path(path).stem}.pem)'
         )
-    raise TlsFileError(f'the {role} {path} is not a PEM file (no BEGIN {wanted} line); {FIX}')
+    raise _failure(f'the {role} {path} is not a PEM file (no BEGIN {wanted} line); ')
 
 
 def _certificate(path: str, role: str) -> Certificate | None:
@@ -69,8 +79,8 @@ def _certificate(path: str, role: str) -> Certificate | None:
     try:
         ssl.create_default_context(cafile=path)
     except ssl.SSLError as exc:
-        raise TlsFileError(
-            f'the {role} {path} cannot be read as a certificate ({exc.reason or exc}); {FIX}'
+        raise _failure(
+            f'the {role} {path} cannot be read as a certificate ({exc.reason or exc}); '
         ) from None
     try:
         from cryptography import x509  # noqa: PLC0415 (optional: the tls extra)
@@ -82,9 +92,7 @@ def _certificate(path: str, role: str) -> Certificate | None:
         return None  # ssl read it: leave the finer points to the handshake
     now = datetime.datetime.now(datetime.timezone.utc)
     if certificate.not_valid_after_utc < now:
-        raise TlsFileError(
-            f'the {role} {path} expired on {certificate.not_valid_after_utc:%Y-%m-%d}; {FIX}'
-        )
+        raise _failure(f'the {role} {path} expired on {certificate.not_valid_after_utc:%Y-%m-%d}; ')
     if certificate.not_valid_before_utc > now:
         raise TlsFileError(
             f'the {role} {path} is not valid before '
@@ -101,13 +109,13 @@ def _check_pair(certificate: str, key: str) -> None:
         context.load_cert_chain(certificate, key)
     except ssl.SSLError as exc:
         if 'KEY_VALUES_MISMATCH' in str(exc):
-            raise TlsFileError(
+            raise _failure(
                 f'the private key {key} does not belong to the certificate {certificate}: '
-                f'use the .key file made with that .pem; {FIX}'
+                'use the .key file made with that .pem; '
             ) from None
-        raise TlsFileError(
+        raise _failure(
             f'the private key {key} cannot be used with the certificate {certificate} '
-            f'({exc.reason or exc}); {FIX}'
+            f'({exc.reason or exc}); '
         ) from None
 
 
@@ -146,20 +154,28 @@ def _can_serve(certificate: Certificate, path: str, hosts: Sequence[str]) -> Non
     except x509.ExtensionNotFound:
         usages = None
     if usages is not None and ExtendedKeyUsageOID.SERVER_AUTH not in usages:
-        raise TlsFileError(
+        raise _failure(
             f'the certificate {path} is for clients only, so other peers cannot accept it from '
-            'a peer listening on TLS: make certificates with a current `zros tls init FOLDER` '
-            "(its client certificates serve both ways), or connect with mode='client'"
+            'a peer listening on TLS: make certificates with a current ',
+            '',
+            'make_certificates (its client certificates serve both ways), or connect as a '
+            "client (mode='client')",
+            '`zros tls init FOLDER` (its client certificates serve both ways), or connect as a '
+            'client (--mode client)',
         )
     if not hosts:
         return
     for host in hosts:
         if not _names(certificate, host):
-            raise TlsFileError(
+            names = '(client certificates name localhost, 127.0.0.1 and ::1)'
+            raise _failure(
                 f'the certificate {path} does not name {host}, where this peer listens, so '
-                'other peers will refuse it: make certificates with a current '
-                '`zros tls init FOLDER` (client certificates name localhost, 127.0.0.1 and ::1), '
-                'or set verify_name=False on every peer'
+                'other peers will refuse it: make certificates with a current ',
+                '',
+                f'zros.transport.pki.make_certificates {names}, or set verify_name=False on '
+                'every peer',
+                f'`zros tls init FOLDER` {names}, or listen at an address it names '
+                '(ZROS_LISTEN=tls/127.0.0.1:0)',
             )
 
 

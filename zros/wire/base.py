@@ -138,6 +138,8 @@ class Wire(abc.ABC):
     scheme: KeyScheme
     #: what a session's graph hears of the scheme's tokens
     token_view: ClassVar[type[TokenView]]
+    #: what two endpoints of one topic with different types do on this scheme (for the warning)
+    type_conflict: ClassVar[str]
 
     def __init__(
         self,

@@ -230,6 +230,10 @@ class BridgeWire(Wire):
 
     name = 'bridge'
     token_view: ClassVar[type[TokenView]] = BridgeTokens
+    type_conflict = (
+        "a bridge's key is the topic's name alone, so each gets the other's messages and "
+        'cannot read them: they fail to decode or decode as wrong values'
+    )
 
     def __init__(
         self,

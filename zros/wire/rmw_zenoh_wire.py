@@ -353,6 +353,10 @@ class RmwZenohWire(Wire):
 
     name = 'rmw_zenoh'
     token_view: ClassVar[type[TokenView]] = RmwZenohTokens
+    type_conflict = (
+        "rmw_zenoh puts the type and its hash in a topic's key, so the two keys never match "
+        'and no message passes between them'
+    )
 
     def __init__(
         self,

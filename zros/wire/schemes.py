@@ -78,11 +78,12 @@ SCHEMES: dict[str, Scheme] = {
 DEFAULT_WIRE = next(iter(SCHEMES))
 
 
-def check_wire(wire: str) -> str:
-    """``wire`` if it names a scheme zros speaks, else ValueError."""
+def check_wire(wire: str, source: str = 'wire') -> str:
+    """``wire`` if it names a scheme zros speaks, else ValueError naming ``source`` (where
+    ``wire`` came from: the argument, or ``ZROS_WIRE``)."""
     if wire not in SCHEMES:
         names = ' or '.join(f'"{name}"' for name in SCHEMES)
-        raise ValueError(f'wire must be {names}, got {wire!r}')
+        raise ValueError(f'{source} must be {names}, got {wire!r}')
     return wire
 
 

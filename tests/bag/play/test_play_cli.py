@@ -34,6 +34,15 @@ def test_play_with_rate_and_remap(zros_cli: Cli, zros_node: Node, tmp_path: Path
     assert statistics.median(gap_errors_ms(listener, messages, 2.0)) < 5.0
 
 
+def test_one_message_is_counted_as_one(zros_cli: Cli, tmp_path: Path) -> None:  # noqa: F811
+    bag = write_bag(tmp_path / 'bag', irregular(1, ['/cli/once'], seed=1))
+    result = zros_cli.run('bag', 'play', str(bag))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith(f'Playing {bag}: 1 message on 1 topic, ')
+    assert lines[-1] == 'Played 1 message'
+
+
 def test_play_selected_topics_in_a_loop_until_interrupted(
     zros_cli: Cli,  # noqa: F811
     zros_node: Node,

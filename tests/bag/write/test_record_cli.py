@@ -88,7 +88,7 @@ def test_record_until_stopped_by_a_signal(
     running.process.send_signal(stop)
     code, rest = running.finish()
     assert code == 0, rest
-    assert 'Recorded 200 messages on 2 topics into 1 file(s)' in rest
+    assert f'Recorded 200 messages on 2 topics into 1 file of {folder}' in rest
     got = read_rosbags(folder)
     assert [m.data for t, _, m in got if t == '/chatter'] == [f'c{n}' for n in range(100)]
     assert [m.data for t, _, m in got if t == '/numbers'] == list(range(100))

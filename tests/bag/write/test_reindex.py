@@ -17,8 +17,10 @@ from tests.bag.write.test_record_cli import complete_chunks, texts, zros_cli  # 
 from tests.cli.conftest import Cli
 from zros.bag import Bag, BagError, BagTopic, BagWriter, reindex
 from zros.bag.read.rosbag2 import storage_files
+from zros.bag.write.reindexer import FileReport, ReindexReport
 from zros.cdr import default_registry, encode
 from zros.testing import wait_for
+from zros.version import counted
 
 Node = Callable[..., Any]
 STRING = 'std_msgs/msg/String'
@@ -118,7 +120,7 @@ def test_a_killed_recording_reads_everywhere_after_reindex(
     skipped = f'{files[-1].name}: skipped' in result.stdout
     assert skipped or f'{files[-1].name}: rewritten, ' in result.stdout
     used = files[:-1] if skipped else files
-    assert f'{len(recovered)} messages on 1 topics in {len(used)} file(s)' in result.stdout
+    assert f'{len(recovered)} messages on 1 topic in {counted(len(used), "file")}' in result.stdout
 
     assert rosbags_reader(folder) == recovered
     assert any_reader(folder) == [(topic, text) for topic, text in zip(
@@ -237,3 +239,11 @@ def test_reindex_refusals(tmp_path: Path) -> None:
     (junk / 'junk_0.mcap').write_bytes(b'not an mcap file')
     report = reindex(junk)
     assert [(f.action, f.reason) for f in report.files] == [('skipped', 'no MCAP magic')]
+
+
+def test_the_summary_counts_one_as_one(tmp_path: Path) -> None:
+    files = [FileReport('bag_0.mcap', 'complete', 1)]
+    report = ReindexReport(tmp_path, files, tmp_path / 'metadata.yaml', 1)
+    assert str(report).splitlines()[-1] == (
+        f'Wrote {tmp_path / "metadata.yaml"}: 1 message on 1 topic in 1 file'
+    )

@@ -29,6 +29,7 @@ from zros.bag.errors import BagError
 from zros.bag.read.mcap_recover import LinearScan, is_mcap
 from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
 from zros.bag.write.replace import replacing, temporary_of
+from zros.version import counted
 
 if TYPE_CHECKING:
     from mcap.records import Channel, Message, Schema
@@ -107,8 +108,8 @@ class ReindexReport:
         if self.metadata is not None:
             used = sum(1 for f in self.files if f.action != 'skipped')
             lines.append(
-                f'Wrote {self.metadata}: {self.message_count} messages on {self.topic_count} '
-                f'topics in {used} file(s)'
+                f'Wrote {self.metadata}: {counted(self.message_count, "message")} on '
+                f'{counted(self.topic_count, "topic")} in {counted(used, "file")}'
             )
         return '\n'.join(lines)
 

@@ -86,8 +86,8 @@ def record(args: argparse.Namespace) -> int:
         try:
             while not stop.wait(0.1) and recorder.error is None:
                 progress.update(
-                    f'[RECORDING] {recorder.message_count} messages, '
-                    f'{format_size(recorder.size)}, {len(recorder.files)} file(s)'
+                    f'[RECORDING] {counted(recorder.message_count, "message")}, '
+                    f'{format_size(recorder.size)}, {counted(len(recorder.files), "file")}'
                     + (f', {recorder.dropped} dropped' if recorder.dropped else '')
                 )
         finally:
@@ -96,7 +96,7 @@ def record(args: argparse.Namespace) -> int:
         out(
             f'Recorded {counted(recorder.message_count, "message")} on '
             f'{counted(len(recorder.topics), "topic")} '
-            f'into {len(recorder.files)} file(s) of {recorder.path}'
+            f'into {counted(len(recorder.files), "file")} of {recorder.path}'
             + (f'; {recorder.dropped} dropped: writing fell behind' if recorder.dropped else '')
         )
     return 0
@@ -111,7 +111,7 @@ def _status(player: Player) -> str:
     total = max(0, player.end_ns - player.start_ns) / 1e9
     return (
         f'[{state}] bag time {player.clock.now() / 1e9:.3f}  {elapsed:.1f}/{total:.1f} s  '
-        f'rate {player.rate:.2f}  {player.published} messages'
+        f'rate {player.rate:.2f}  {counted(player.published, "message")}'
     )
 
 
@@ -174,7 +174,7 @@ def play(args: argparse.Namespace) -> int:
             player.stop()
         if player.error is not None:
             raise CommandError(f'playing {args.path} failed: {player.error}')
-        out(f'Played {player.published} messages')
+        out(f'Played {counted(player.published, "message")}')
     return 0
 
 

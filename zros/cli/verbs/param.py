@@ -15,6 +15,7 @@ from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     add_connection_options,
+    counted,
     open_node,
     out,
     unknown_name,
@@ -206,7 +207,7 @@ def load(args: argparse.Namespace) -> int:
             if not result:
                 out(f'Setting parameters failed: {result.reason}')
                 return 1
-            out(f'Set {len(values)} parameters successfully')
+            out(f'Set {counted(len(values), "parameter")} successfully')
             return 0
         for (name, _), result in zip(values.items(), client.set_parameters(values), strict=True):
             if result:
