@@ -247,3 +247,13 @@ def test_the_summary_counts_one_as_one(tmp_path: Path) -> None:
     assert str(report).splitlines()[-1] == (
         f'Wrote {tmp_path / "metadata.yaml"}: 1 message on 1 topic in 1 file'
     )
+
+
+def test_a_file_report_counts_in_words() -> None:
+    from zros.bag.write.reindexer import FileReport
+
+    assert str(FileReport('a.mcap', 'complete', 1)) == 'a.mcap: complete, 1 message'
+    damaged = FileReport('b.mcap', 'rewritten', 2, lost_messages=1, damaged=(70,))
+    assert str(damaged) == (
+        'b.mcap: rewritten, 2 messages; could not keep 1 message (damaged or cut short at byte 70)'
+    )

@@ -67,15 +67,19 @@ class FileReport:
 
     def __str__(self) -> str:
         if self.action == 'complete':
-            return f'{self.name}: complete, {self.message_count} messages'
+            return f'{self.name}: complete, {counted(self.message_count, "message")}'
         if self.action == 'skipped':
             return f'{self.name}: skipped, no complete MCAP record ({self.reason})'
         if self.damaged:
-            lost = 'an unknown number of' if self.lost_messages < 0 else str(self.lost_messages)
+            lost = (
+                'an unknown number of messages'
+                if self.lost_messages < 0
+                else counted(self.lost_messages, 'message')
+            )
             at = ', '.join(map(str, self.damaged))
             return (
-                f'{self.name}: rewritten, {self.message_count} messages; could not keep {lost} '
-                f'messages (damaged or cut short at byte {at})'
+                f'{self.name}: rewritten, {counted(self.message_count, "message")}; could not '
+                f'keep {lost} (damaged or cut short at byte {at})'
             )
         tail = (
             f'{self.dropped_bytes} bytes after it dropped: {self.reason}'
@@ -83,8 +87,8 @@ class FileReport:
             else 'it had no summary and footer'
         )
         return (
-            f'{self.name}: rewritten, {self.message_count} messages up to its last complete '
-            f'chunk ({tail})'
+            f'{self.name}: rewritten, {counted(self.message_count, "message")} up to its last '
+            f'complete chunk ({tail})'
         )
 
 
