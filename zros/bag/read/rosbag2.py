@@ -10,6 +10,7 @@ import heapq
 import importlib
 import itertools
 import logging
+import os
 import re
 import sys
 from collections.abc import Callable, Iterable, Iterator
@@ -269,7 +270,8 @@ class Rosbag2Source(Source):
             if self.storage_id == 'sqlite3':
                 yield from _sqlite_blocks(stream, set(channels), start, end)
                 continue
-            for found in read_blocks(Path(stream.reader.path), channels, start, end, mapped=True):
+            path = Path(stream.reader.path)
+            for found in read_blocks(path, channels, start, end, mapped=mapping_chunks()):
                 blocks = [
                     Block(b.connection, b.times, base + b.keys, b.data)
                     for b in found
@@ -308,6 +310,13 @@ def _sqlite_blocks(
             Block(stream.mapping[topic], np.asarray(t, np.int64), np.asarray(k, np.int64), d)
             for topic, (t, k, d) in grouped.items()
         ]
+
+
+def mapping_chunks() -> bool:
+    """Whether ``Bag.columns`` maps MCAP chunks (the default) rather than reading them into
+    memory: ``ZROS_BAG_MMAP=0`` (or false/no/off) reads them, so a file cut short while it is
+    read raises an error instead of ending the process with SIGBUS."""
+    return os.environ.get('ZROS_BAG_MMAP', '').strip().lower() not in ('0', 'false', 'no', 'off')
 
 
 def _timestamp(message: RawMessage) -> int:
