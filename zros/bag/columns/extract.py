@@ -32,7 +32,7 @@ from zros.cdr.message import Message
 TIME = 'time'
 #: messages read per batch (bounds the chunk buffers held at once)
 BATCH = 65536
-#: payload bytes read per batch (the same bound for large messages)
+#: chunk bytes held per batch (the same bound for large messages, or chunks of many topics)
 BATCH_BYTES = 64 << 20
 #: beyond this many distinct layouts in a batch, decoding one by one is faster
 MAX_PARTS = 64
@@ -422,9 +422,10 @@ class _Extraction:
 
 
 def _size(block: Block) -> int:
-    """Bytes of a block's payloads."""
+    """Bytes a block holds: its chunk's (decompressed or mapped), where its payloads lie in one,
+    since the other channels' messages in it stay alive as long as the block."""
     data = block.data
-    return int(data.lengths().sum()) if isinstance(data, Payloads) else sum(map(len, data))
+    return len(data.buffer) if isinstance(data, Payloads) else sum(map(len, data))
 
 
 def _capacity(
