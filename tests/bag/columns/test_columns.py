@@ -12,7 +12,7 @@ import pytest
 
 from tests.bag.makebags import make_db3, make_points_mcap, make_sensor_bag
 from tests.bag.reference import RECORDINGS, rosbags_messages
-from zros.bag import Bag, BagError, Connection
+from zros.bag import Bag, BagError, Connection, RawMessage
 from zros.bag.columns import extract
 from zros.cdr import encode, new_message
 
@@ -369,3 +369,12 @@ def test_chunks_read_into_memory_without_maps(
     monkeypatch.setenv('ZROS_BAG_MMAP', '1')
     with Bag(path) as bag, pytest.raises(AssertionError, match='mapped'):
         bag.columns('/point')
+
+
+def test_messages_read_one_by_one_are_batched_by_count_and_bytes(tmp_path: Path) -> None:
+    connection = Connection(1, '/point', 'geometry_msgs/msg/Point', '', '', 'cdr', 9, '')
+    messages = iter([RawMessage(connection, stamp, bytes(10)) for stamp in range(9)])
+    sizes = [len(extract._take(messages, 4, 25)) for _ in range(4)]
+    assert sizes == [3, 3, 3, 0]  # 30 bytes reach 25 before 4 messages
+    messages = iter([RawMessage(connection, stamp, bytes(10)) for stamp in range(9)])
+    assert [len(extract._take(messages, 2, 1 << 20)) for _ in range(5)] == [2, 2, 2, 2, 1]

@@ -304,11 +304,14 @@ def _leaves(path: Path, topic: str, cls: type[Message], fields: list[str] | None
         raise BagError(path, f'topic {topic}: {exc}') from None
 
 
-def _take(messages: Iterator[RawMessage], count: int) -> list[RawMessage]:
+def _take(messages: Iterator[RawMessage], count: int, size: int) -> list[RawMessage]:
+    """The next ``count`` messages, or fewer holding ``size`` bytes."""
     batch = []
+    held = 0
     for raw in messages:
         batch.append(raw)
-        if len(batch) == count:
+        held += len(raw.data)
+        if len(batch) == count or held >= size:
             break
     return batch
 
@@ -319,7 +322,7 @@ def _message_blocks(
     """Blocks made from the message stream, for storages that cannot be read in chunks."""
     messages = source.messages(connections, start, end)
     counter = 0
-    while batch := _take(messages, BATCH):
+    while batch := _take(messages, BATCH, BATCH_BYTES):
         grouped: dict[int, tuple[Connection, list[int], list[int], list[bytes]]] = {}
         for key, raw in enumerate(batch, counter):
             entry = grouped.get(raw.connection.id)
