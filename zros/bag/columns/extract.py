@@ -273,13 +273,19 @@ class _Column:
         if other is None:
             return
         # rows of another shape (sequences whose length changed): a column of 1-D arrays
-        ragged = np.empty(max(self.capacity, self.size + count), object)
-        if self.array is not None:
-            for index in range(self.size):
-                ragged[index] = self.array[index]
+        array = self.array
+        if array is None or array.dtype != object:
+            ragged = np.empty(max(self.capacity, self.size + count), object)
+            if array is not None:
+                for index in range(self.size):
+                    ragged[index] = array[index]
+            array = self.array = ragged
+        elif self.size + count > len(array):
+            grown = np.empty(max(len(array) * 3 // 2, self.size + count), object)
+            grown[: self.size] = array[: self.size]
+            array = self.array = grown
         for row in range(count):
-            ragged[self.size + row] = other[row]
-        self.array = ragged
+            array[self.size + row] = other[row]
         self.size += count
 
     def result(self, order: np.ndarray | None) -> np.ndarray:
