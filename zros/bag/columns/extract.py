@@ -440,8 +440,9 @@ def _size(block: Block) -> int:
 def _capacity(
     source: Source, connections: list[Connection], start: int | None, end: int | None
 ) -> int:
-    """How many messages a topic's columns are allocated for: its count, or the share of it
-    in the time window (columns grow past it where the window holds more)."""
+    """How many messages a topic's columns are allocated for: its count, or twice its share
+    of the time window (rows never written are never faulted in; columns grow past it, a
+    copy, where the window holds more)."""
     count = sum(c.count for c in connections)
     if start is None and end is None:
         return count
@@ -450,7 +451,7 @@ def _capacity(
     span = source.end_ns + 1 - source.start_ns
     if last <= first or span <= 0:
         return 0
-    return min(count, int(count * (last - first) / span) + 1024)
+    return min(count, 2 * int(count * (last - first) / span) + BATCH)
 
 
 def extract(
