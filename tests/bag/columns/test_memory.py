@@ -34,6 +34,9 @@ with Bag(sys.argv[1]) as bag:
     if sys.argv[2] == 'columns':
         found = bag.columns('/scan', ['ranges', 'angle_max'])
         output = sum(column.nbytes for column in found.values())
+    elif sys.argv[2] == 'frame':
+        found = bag.to_dataframe('/scan', ['ranges', 'angle_max'])
+        output = int(found.memory_usage().sum())
     elif sys.argv[2] == 'point':
         # 65,536 points a batch, as in any recording, and 4 MiB of chunks for 64
         extract.BATCH, extract.BATCH_BYTES = 65536, 4 << 20
@@ -101,6 +104,19 @@ def test_columns_cost_their_output_not_the_recording(bags: tuple[Path, Path]) ->
     large_peak, large_output = _read(large, 'columns')
     assert large_output > 64_000_000  # the ranges (and angle_max, time) of 8,000 scans
     # joined per-batch arrays, then reordered, held the ranges three times: +96 MB here
+    assert (large_peak - large_output) - (small_peak - small_output) < SLACK, (
+        small_peak // MB,
+        large_peak // MB,
+    )
+
+
+def test_a_dataframe_costs_its_output(bags: tuple[Path, Path]) -> None:
+    pytest.importorskip('pandas')
+    small, large = bags
+    small_peak, small_output = _read(small, 'frame')
+    large_peak, large_output = _read(large, 'frame')
+    assert large_output > 64_000_000
+    # pandas' default copy of the columns held them twice: +48 MB here
     assert (large_peak - large_output) - (small_peak - small_output) < SLACK, (
         small_peak // MB,
         large_peak // MB,

@@ -504,7 +504,8 @@ def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
 
 
 def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
-    """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns."""
+    """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns, views of
+    the arrays (a copy, as pandas makes by default, would double the peak memory)."""
     try:
         import pandas as pd  # type: ignore[import-untyped,unused-ignore]  # noqa: PLC0415 (optional: pandas, for to_pandas only)
     except ImportError:
@@ -519,7 +520,7 @@ def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
                 data[f'{name}[{index}]'] = column[:, index]
         else:
             data[name] = list(column) if column.dtype == object else column
-    return pd.DataFrame(data)
+    return pd.DataFrame(data, copy=False)
 
 
 __all__ = ['TIME', 'dataframe', 'extract', 'structured']
