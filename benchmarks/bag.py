@@ -11,16 +11,23 @@ each) with rosbags' writer into a temporary folder, then
 - puts /odom's and /scan's fields on /imu's clock two ways, ``Bag.align`` against a rosbags
   loop into pandas DataFrames and ``merge_asof`` (goal: zros >= 5x faster; needs pandas),
 
-and prints the seconds (the median of ``--repeat`` runs) and the ratios.
+and prints the seconds (the median of ``--repeat`` runs), the ratios and, each reader running
+in a process of its own, its peak anonymous and file-mapped memory (``/proc/PID/status``
+sampled every millisecond; goal for ``Bag.columns``: its arrays plus 256 MB at most).
 
     python benchmarks/bag.py                  # 100,000 messages, mcap
+    python benchmarks/bag.py --count 1000000  # 1.38 GB
     python benchmarks/bag.py --count 20000 --storage sqlite3
+    python benchmarks/bag.py --scale          # a 10 GB bag, zros alone (needs 10 GB of disk)
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import statistics
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -30,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from zros.bag import Bag
+from zros.testing import peak_memory
 
 FIELDS = {
     '/imu': [
@@ -58,6 +66,11 @@ TYPES = {
     '/odom': 'nav_msgs/msg/Odometry',
 }
 SCAN_SIZE = 360
+#: the size of the ``--scale`` bag, and how many bytes a message of this bag takes on average
+SCALE_BYTES = 10_000_000_000
+MESSAGE_BYTES = 1377
+#: peak anonymous memory allowed beyond the arrays ``Bag.columns`` returns
+BOUND_MB = 256
 
 
 def write_bag(path: Path, count: int, storage: str) -> None:
@@ -261,14 +274,61 @@ def align_report(path: Path, repeat: int) -> list[str]:
 
 
 def median(function: Callable[[Path], Any], path: Path, repeat: int) -> tuple[float, Any]:
-    """The median seconds of ``repeat`` runs, and the last result."""
+    """The median seconds of ``repeat`` runs, and the last result (the one before dropped
+    before each run, so the peak memory is that of one run)."""
     times = []
     result = None
     for _ in range(repeat):
+        result = None
         begin = time.perf_counter()
         result = function(path)
         times.append(time.perf_counter() - begin)
     return statistics.median(times), result
+
+
+#: name -> (function, what the table calls it); the names say columns or loop
+READERS: dict[str, tuple[Callable[[Path], Any], str]] = {
+    'columns_rosbags': (with_rosbags, 'columns: rosbags AnyReader + deserialize_cdr, fields into lists'),
+    'columns_zros': (with_zros, 'columns: zros Bag.columns'),
+    'loop_rosbags': (loop_rosbags, 'typed loop: rosbags AnyReader + deserialize_cdr'),
+    'loop_zros': (loop_zros, 'typed loop: zros for msg in bag'),
+}  # fmt: skip
+
+
+def _digest(result: Any) -> Any:
+    """What two readers' results must agree on: the count, or a hash of every column."""
+    if isinstance(result, int):
+        return result
+    digests = {}
+    for topic, columns in result.items():
+        for name, column in columns.items():
+            values = np.asarray(column)
+            kind = np.int64 if values.dtype.kind in 'iub' else np.float64
+            digest = hashlib.sha256(repr(values.shape).encode())
+            for at in range(0, len(values), 4096):  # a slice at a time: no copy of the column
+                digest.update(np.ascontiguousarray(values[at : at + 4096], kind).data)
+            digests[f'{topic} {name}'] = digest.hexdigest()
+    return digests
+
+
+def worker(name: str, path: Path, repeat: int) -> None:
+    """Run one reader (in a process of its own) and print its seconds and result as JSON."""
+    seconds, result = median(READERS[name][0], path, repeat)
+    output = 0
+    if not isinstance(result, int):
+        output = sum(c.nbytes for columns in result.values() for c in columns.values())
+    print(json.dumps({'seconds': seconds, 'check': _digest(result), 'output': output}))
+
+
+def measure(name: str, path: Path, repeat: int) -> dict[str, Any]:
+    """One reader in a process of its own: its seconds, result digest and memory peaks."""
+    argv = [sys.executable, __file__, '--worker', name, str(path), '--repeat', str(repeat)]
+    peak = peak_memory(argv, timeout=24 * 3600)
+    if peak.returncode:
+        raise SystemExit(f'{name} failed:\n{peak.stderr}')
+    found: dict[str, Any] = json.loads(peak.stdout.splitlines()[-1])
+    found.update(anonymous=peak.anonymous / 1e6, file=peak.file / 1e6)
+    return found
 
 
 def main() -> None:
@@ -276,7 +336,20 @@ def main() -> None:
     parser.add_argument('--count', type=int, default=100_000, help='messages in the bag')
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
     parser.add_argument('--repeat', type=int, default=3, help='runs of each; the median counts')
+    parser.add_argument(
+        '--scale',
+        action='store_true',
+        help=f'write and read a {SCALE_BYTES / 1e9:.0f} GB bag with zros alone, once',
+    )
+    parser.add_argument('--worker', nargs=2, metavar=('READER', 'PATH'), help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.worker:
+        worker(args.worker[0], Path(args.worker[1]), args.repeat)
+        return
+    names = list(READERS)
+    if args.scale:
+        args.count, args.repeat = SCALE_BYTES // MESSAGE_BYTES, 1
+        names = ['columns_zros', 'loop_zros']
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / 'sensors'
         begin = time.perf_counter()
@@ -286,29 +359,34 @@ def main() -> None:
             f'bag: {args.count} messages ({args.storage}, {size:.1f} MB), '
             f'written in {time.perf_counter() - begin:.1f} s'
         )
-        theirs_time, theirs = median(with_rosbags, path, args.repeat)
-        mine_time, mine = median(with_zros, path, args.repeat)
-        their_loop, their_count = median(loop_rosbags, path, args.repeat)
-        my_loop, my_count = median(loop_zros, path, args.repeat)
-        aligned = align_report(path, args.repeat)
-    for topic, columns in theirs.items():
-        for name, column in columns.items():
-            assert np.array_equal(mine[topic][name], column), (topic, name)
-    assert my_count == their_count == args.count, (my_count, their_count)
+        found = {name: measure(name, path, args.repeat) for name in names}
+        aligned = [] if args.scale else align_report(path, args.repeat)
+    for kind, want in (('columns', None), ('loop', args.count)):
+        checks = [found[n]['check'] for n in names if n.startswith(kind)]
+        assert all(c == checks[0] for c in checks), f'{kind}: the readers disagree'
+        assert want is None or checks[0] == want, (checks[0], want)
     print()
-    print('| reader | seconds | µs per message |')
-    print('|---|---|---|')
-    for name, seconds in (
-        ('columns: rosbags AnyReader + deserialize_cdr, fields into lists', theirs_time),
-        ('columns: zros Bag.columns', mine_time),
-        ('typed loop: rosbags AnyReader + deserialize_cdr', their_loop),
-        ('typed loop: zros for msg in bag', my_loop),
-    ):
-        print(f'| {name} | {seconds:.3f} | {seconds / args.count * 1e6:.2f} |')
+    print('| reader | seconds | µs per message | peak anonymous MB | peak file-mapped MB |')
+    print('|---|---|---|---|---|')
+    for name in names:
+        got = found[name]
+        print(
+            f'| {READERS[name][1]} | {got["seconds"]:.3f} | '
+            f'{got["seconds"] / args.count * 1e6:.2f} | {got["anonymous"]:.0f} | {got["file"]:.0f} |'
+        )
+    output = found['columns_zros']['output'] / 1e6
+    anonymous = found['columns_zros']['anonymous']
+    verdict = 'met' if anonymous <= output + BOUND_MB else 'NOT met'
+    print(
+        f'zros columns: {output:.0f} MB of arrays, peak anonymous {anonymous:.0f} MB '
+        f'(goal <= arrays + {BOUND_MB} MB: {verdict})'
+    )
+    if args.scale:
+        return
     goal = 8 if args.storage == 'mcap' else 3
     for what, ratio, want in (
-        ('columns', theirs_time / mine_time, goal),
-        ('typed loop', their_loop / my_loop, 2),
+        ('columns', found['columns_rosbags']['seconds'] / found['columns_zros']['seconds'], goal),
+        ('typed loop', found['loop_rosbags']['seconds'] / found['loop_zros']['seconds'], 2),
     ):
         verdict = 'met' if ratio >= want else 'NOT met'
         print(f'{what}: zros is {ratio:.1f}x faster than rosbags (goal >= {want}x: {verdict})')

@@ -15,7 +15,8 @@
           return request.param
 
 Everything is closed at teardown. ``with spinning(node):`` spins a node (say, a service server)
-on a background thread. Wait for conditions with :func:`wait_for`, never with sleeps::
+on a background thread; :func:`peak_memory` runs a command and samples its memory (Linux).
+Wait for conditions with :func:`wait_for`, never with sleeps::
 
     def test_chatter(zros_node):
         talker, listener = zros_node('talker'), zros_node('listener')
@@ -29,10 +30,13 @@ on a background thread. Wait for conditions with :func:`wait_for`, never with sl
 from __future__ import annotations
 
 import contextlib
+import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, TYPE_CHECKING
 
 import pytest
 
@@ -58,6 +62,76 @@ def wait_for(condition: Callable[[], object], timeout: float = 5.0) -> bool:
             return bool(condition())
         time.sleep(delay)
         delay = min(delay * 2, 0.01)
+
+
+@dataclass(frozen=True)
+class PeakMemory:
+    """What :func:`peak_memory` saw of a process: the largest resident anonymous memory and
+    file-mapped memory (bytes, each at its own peak), its exit code and output."""
+
+    anonymous: int
+    file: int
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def _resident(pid: int) -> tuple[int, int]:
+    """RssAnon and RssFile of a process, in bytes."""
+    found = {}
+    for line in Path(f'/proc/{pid}/status').read_text().splitlines():
+        name, _, value = line.partition(':')
+        if name in ('RssAnon', 'RssFile'):
+            found[name] = int(value.split()[0]) * 1024
+    return found.get('RssAnon', 0), found.get('RssFile', 0)
+
+
+def peak_memory(
+    argv: Sequence[str],
+    *,
+    env: Mapping[str, str] | None = None,
+    timeout: float = 600.0,
+    interval: float = 0.001,
+) -> PeakMemory:
+    """Run ``argv`` and sample its ``/proc/PID/status`` every ``interval`` seconds until it
+    ends (Linux only): a peak shorter than an interval can be missed. Raises
+    ``subprocess.TimeoutExpired`` (the process killed) after ``timeout`` seconds."""
+    anonymous = file = 0
+    deadline = time.monotonic() + timeout
+    output = {'stdout': '', 'stderr': ''}
+    with subprocess.Popen(
+        list(argv),
+        env=None if env is None else dict(env),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    ) as process:
+
+        def drain(name: str, stream: IO[str]) -> None:  # a full pipe would block the process
+            output[name] = stream.read()
+
+        assert process.stdout is not None and process.stderr is not None  # both piped
+        readers = [
+            threading.Thread(target=drain, args=('stdout', process.stdout), daemon=True),
+            threading.Thread(target=drain, args=('stderr', process.stderr), daemon=True),
+        ]
+        for reader in readers:
+            reader.start()
+        while process.poll() is None:
+            try:
+                anon, mapped = _resident(process.pid)
+            except (OSError, ValueError):  # ended between poll and read
+                break
+            anonymous, file = max(anonymous, anon), max(file, mapped)
+            if time.monotonic() > deadline:
+                process.kill()
+                process.wait()
+                raise subprocess.TimeoutExpired(list(argv), timeout)
+            time.sleep(interval)
+        process.wait()
+        for reader in readers:
+            reader.join()
+    return PeakMemory(anonymous, file, process.returncode, output['stdout'], output['stderr'])
 
 
 @contextlib.contextmanager

@@ -12,7 +12,7 @@ import pytest
 
 from tests.bag.makebags import make_db3, make_points_mcap, make_sensor_bag
 from tests.bag.reference import RECORDINGS, rosbags_messages
-from zros.bag import Bag, BagError, Connection
+from zros.bag import Bag, BagError, Connection, RawMessage
 from zros.bag.columns import extract
 from zros.cdr import encode, new_message
 
@@ -313,3 +313,72 @@ def test_a_damaged_chunk_in_a_mapped_file_is_refused(tmp_path: Path) -> None:
     header = bytes([0x06]) + bytes(8) + bytes(24) + bytes(4) + bytes(4) + (99).to_bytes(8, 'little')
     with pytest.raises(mcap_chunks.Unsupported, match='beyond the end'):
         mcap_chunks._mapped_chunk(memoryview(header + bytes(10)), 0)
+
+
+def _scans(path: Path, lengths: list[int]) -> Path:
+    """A bag of LaserScans on /scan whose ``ranges`` have the given lengths, 1 ms apart."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conn = writer.add_connection('/scan', 'sensor_msgs/msg/LaserScan', typestore=store)
+        for index, size in enumerate(lengths):
+            scan = new_message(
+                'sensor_msgs/msg/LaserScan', angle_max=float(index), ranges=[index] * size
+            )
+            writer.write(conn, 1_000_000 * (index + 1), encode(scan))
+    return path
+
+
+def test_columns_grow_past_their_count_and_turn_ragged_midway(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # batches of 7 arrays of 4 values, then of 5: the column becomes one of 1-D arrays
+    path = _scans(tmp_path / 'scans', [4] * 21 + [5] * 9)
+    monkeypatch.setattr(extract, 'BATCH', 7)
+    monkeypatch.setattr(extract, '_capacity', lambda *args: 2)  # counts that fall short
+    with Bag(path) as bag:
+        scan = bag.columns('/scan', ['ranges', 'angle_max'])
+        uniform = bag.columns('/scan', ['ranges'], end=22_000_000)
+    assert scan['angle_max'].tolist() == list(range(30))
+    assert scan['ranges'].dtype == object
+    assert [row.tolist() for row in scan['ranges']] == [
+        [i] * (4 if i < 21 else 5) for i in range(30)
+    ]
+    assert uniform['ranges'].shape == (21, 4)
+    assert uniform['ranges'][:, 0].tolist() == list(range(21))
+    assert_columns_match(path, '/scan', scan)
+
+
+def test_chunks_read_into_memory_without_maps(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.bag.read import mcap_chunks
+
+    path = make_points_mcap(tmp_path / 'points.mcap', 300, 'none', True, shuffle=True)
+    with Bag(path) as bag:
+        mapped = bag.columns('/point')
+
+    def no_map(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError('mapped')
+
+    monkeypatch.setattr(mcap_chunks.mmap, 'mmap', no_map)
+    monkeypatch.setenv('ZROS_BAG_MMAP', '0')
+    with Bag(path) as bag:
+        read = bag.columns('/point')
+    assert read.keys() == mapped.keys()
+    for name, column in read.items():
+        assert np.array_equal(column, mapped[name]), name
+    monkeypatch.setenv('ZROS_BAG_MMAP', '1')
+    with Bag(path) as bag, pytest.raises(AssertionError, match='mapped'):
+        bag.columns('/point')
+
+
+def test_messages_read_one_by_one_are_batched_by_count_and_bytes(tmp_path: Path) -> None:
+    connection = Connection(1, '/point', 'geometry_msgs/msg/Point', '', '', 'cdr', 9, '')
+    messages = iter([RawMessage(connection, stamp, bytes(10)) for stamp in range(9)])
+    sizes = [len(extract._take(messages, 4, 25)) for _ in range(4)]
+    assert sizes == [3, 3, 3, 0]  # 30 bytes reach 25 before 4 messages
+    messages = iter([RawMessage(connection, stamp, bytes(10)) for stamp in range(9)])
+    assert [len(extract._take(messages, 2, 1 << 20)) for _ in range(5)] == [2, 2, 2, 2, 1]

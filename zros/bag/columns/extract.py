@@ -32,6 +32,8 @@ from zros.cdr.message import Message
 TIME = 'time'
 #: messages read per batch (bounds the chunk buffers held at once)
 BATCH = 65536
+#: chunk bytes held per batch (the same bound for large messages, or chunks of many topics)
+BATCH_BYTES = 64 << 20
 #: beyond this many distinct layouts in a batch, decoding one by one is faster
 MAX_PARTS = 64
 
@@ -219,17 +221,23 @@ def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> np.ndarray:
     return np.asarray(values, dtype=leaf.value)
 
 
-def _assemble(leaf: Leaf, pieces: list[tuple[np.ndarray, Values]], size: int) -> np.ndarray:
-    """One column of a block from pieces of rows."""
+def _assemble(
+    leaf: Leaf, pieces: list[tuple[np.ndarray, Values]], size: int, out: _Column | None = None
+) -> np.ndarray | None:
+    """One column of a block from pieces of rows: written into ``out`` where its rows have
+    the shape of the column's (then None), else returned."""
     shapes = {values.shape[1:] for _, values in pieces}
     if len(shapes) <= 1:
         shape = shapes.pop() if shapes else ((0,) if leaf.sequence else ())
         if leaf.length:
             shape = (leaf.length,)
-        out = np.empty((size, *shape), leaf.value)
+        target = None if out is None else out.rows(size, shape, leaf.value)
+        written = target is not None
+        if target is None:
+            target = np.empty((size, *shape), leaf.value)
         for where, values in pieces:
-            out[where] = values
-        return out
+            target[where] = values
+        return None if written else target
     ragged = np.empty(size, object)
     for where, values in pieces:
         converted = np.asarray(values).astype(leaf.value)
@@ -238,18 +246,66 @@ def _assemble(leaf: Leaf, pieces: list[tuple[np.ndarray, Values]], size: int) ->
     return ragged
 
 
-def _concatenate(chunks: list[np.ndarray]) -> np.ndarray:
-    if len(chunks) == 1:
-        return chunks[0]
-    if all(c.dtype != object for c in chunks) and len({c.shape[1:] for c in chunks}) == 1:
-        return np.concatenate(chunks)
-    ragged = np.empty(sum(len(c) for c in chunks), object)
-    at = 0
-    for chunk in chunks:
-        for row in chunk:
-            ragged[at] = row
-            at += 1
-    return ragged
+class _Column:
+    """One column of a topic, filled batch by batch into one array allocated for the whole
+    topic: its rows are never held twice (per-batch arrays joined at the end were)."""
+
+    def __init__(self, leaf: Leaf, capacity: int) -> None:
+        self.leaf = leaf
+        self.capacity = capacity
+        self.array: np.ndarray | None = None
+        self.size = 0
+
+    def rows(self, count: int, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray | None:
+        """The next ``count`` rows to write into (a view), if they have ``shape``."""
+        array = self.array
+        if array is None:
+            array = self.array = np.empty((max(self.capacity, count), *shape), dtype)
+        elif array.dtype == object or array.shape[1:] != shape:
+            return None
+        elif self.size + count > len(array):  # more messages than counted: grow
+            grown = np.empty((max(len(array) * 3 // 2, self.size + count), *shape), dtype)
+            grown[: self.size] = array[: self.size]
+            array = self.array = grown
+        self.size += count
+        return array[self.size - count : self.size]
+
+    def add(self, pieces: list[tuple[np.ndarray, Values]], count: int) -> None:
+        """The rows of a batch (``pieces`` as :func:`_assemble` takes them)."""
+        if not count:
+            return
+        other = _assemble(self.leaf, pieces, count, self)
+        if other is None:
+            return
+        # rows of another shape (sequences whose length changed): a column of 1-D arrays
+        array = self.array
+        if array is None or array.dtype != object:
+            ragged = np.empty(max(self.capacity, self.size + count), object)
+            if array is not None:
+                for index in range(self.size):
+                    ragged[index] = array[index]
+            array = self.array = ragged
+        elif self.size + count > len(array):
+            grown = np.empty(max(len(array) * 3 // 2, self.size + count), object)
+            grown[: self.size] = array[: self.size]
+            array = self.array = grown
+        for row in range(count):
+            array[self.size + row] = other[row]
+        self.size += count
+
+    def result(self, order: np.ndarray | None) -> np.ndarray:
+        """The column in time order (``order``: the rows' order where arrival is not)."""
+        if self.array is None:
+            empty = _assemble(self.leaf, [], 0)
+            assert empty is not None  # nothing to write into
+            return empty
+        column = self.array[: self.size]
+        if order is not None:
+            # only the rows out of place move: a copy of those, not of the column
+            moved = np.flatnonzero(order != np.arange(len(order)))
+            first, last = int(moved[0]), int(moved[-1]) + 1
+            column[first:last] = column[order[first:last]]
+        return column
 
 
 def _leaves(path: Path, topic: str, cls: type[Message], fields: list[str] | None) -> list[Leaf]:
@@ -259,11 +315,14 @@ def _leaves(path: Path, topic: str, cls: type[Message], fields: list[str] | None
         raise BagError(path, f'topic {topic}: {exc}') from None
 
 
-def _take(messages: Iterator[RawMessage], count: int) -> list[RawMessage]:
+def _take(messages: Iterator[RawMessage], count: int, size: int) -> list[RawMessage]:
+    """The next ``count`` messages, or fewer holding ``size`` bytes."""
     batch = []
+    held = 0
     for raw in messages:
         batch.append(raw)
-        if len(batch) == count:
+        held += len(raw.data)
+        if len(batch) == count or held >= size:
             break
     return batch
 
@@ -274,7 +333,7 @@ def _message_blocks(
     """Blocks made from the message stream, for storages that cannot be read in chunks."""
     messages = source.messages(connections, start, end)
     counter = 0
-    while batch := _take(messages, BATCH):
+    while batch := _take(messages, BATCH, BATCH_BYTES):
         grouped: dict[int, tuple[Connection, list[int], list[int], list[bytes]]] = {}
         for key, raw in enumerate(batch, counter):
             entry = grouped.get(raw.connection.id)
@@ -293,24 +352,31 @@ def _message_blocks(
 class _Extraction:
     """Columns of one topic built block by block, then put in time order."""
 
-    def __init__(self, types: BagTypes, topic: str, fields: list[str] | None) -> None:
+    def __init__(
+        self, types: BagTypes, topic: str, fields: list[str] | None, capacity: int
+    ) -> None:
         self.types = types
         self.path = types.path
         self.topic = topic
         self.fields = fields
+        self.capacity = capacity
         self.plans: dict[int, tuple[Plan, list[Leaf]]] = {}
         self.leaves: list[Leaf] | None = None
         self.times: list[np.ndarray] = []
         self.keys: list[np.ndarray] = []
-        self.chunks: dict[str, list[np.ndarray]] = {}
+        self.columns: dict[str, _Column] = {}
         self.pending: dict[int, list[Block]] = {}
+        self.queued: dict[int, tuple[int, int]] = {}  #: messages and bytes pending
 
     def add(self, blocks: list[Block]) -> None:
         for block in blocks:
-            queue = self.pending.setdefault(block.connection.id, [])
+            cid = block.connection.id
+            queue = self.pending.setdefault(cid, [])
             queue.append(block)
-            if sum(len(b.times) for b in queue) >= BATCH:
-                self._flush(block.connection.id)
+            count, size = self.queued.get(cid, (0, 0))
+            self.queued[cid] = count, size = count + len(block.times), size + _size(block)
+            if count >= BATCH or size >= BATCH_BYTES:
+                self._flush(cid)
 
     def finish(self, connections: list[Connection]) -> dict[str, np.ndarray]:
         for cid in list(self.pending):
@@ -320,14 +386,16 @@ class _Extraction:
             cls = self.types.message_class(connections[0])
             self.leaves = _leaves(self.path, self.topic, cls, self.fields)
         times = np.concatenate(self.times) if self.times else np.empty(0, np.int64)
+        keys = np.concatenate(self.keys) if self.keys else np.empty(0, np.int64)
         order = None
-        if len(self.times) > 1 or (len(times) > 1 and (np.diff(times) < 0).any()):
-            order = np.lexsort((np.concatenate(self.keys), times))
+        if len(times) > 1:
+            later = np.diff(times)
+            if (later < 0).any() or ((later == 0) & (np.diff(keys) < 0)).any():
+                order = np.lexsort((keys, times))
         result = {TIME: times if order is None else times[order]}
         for leaf in self.leaves:
-            parts = self.chunks.get(leaf.path)
-            column = _concatenate(parts) if parts else _assemble(leaf, [], 0)
-            result[leaf.path] = column if order is None else column[order]
+            column = self.columns.get(leaf.path) or _Column(leaf, 0)
+            result[leaf.path] = column.result(order)
         return result
 
     def _settle(self, queue: list[Block]) -> tuple[Plan, list[Leaf]] | None:
@@ -351,6 +419,7 @@ class _Extraction:
 
     def _flush(self, cid: int) -> None:
         queue = self.pending.pop(cid, [])
+        self.queued.pop(cid, None)
         if not queue:
             return
         batch = [_payloads(b.data) for b in queue]
@@ -371,10 +440,36 @@ class _Extraction:
             if len(kept) < len(times):
                 times, keys = times[kept], keys[kept]
         for leaf in own:
-            column = _assemble(leaf, found[leaf.path], len(times))
-            self.chunks.setdefault(leaf.path, []).append(column)
+            column = self.columns.get(leaf.path)
+            if column is None:
+                column = self.columns[leaf.path] = _Column(leaf, self.capacity)
+            column.add(found[leaf.path], len(times))
         self.times.append(times)
         self.keys.append(keys)
+
+
+def _size(block: Block) -> int:
+    """Bytes a block holds: its chunk's (decompressed or mapped), where its payloads lie in one,
+    since the other channels' messages in it stay alive as long as the block."""
+    data = block.data
+    return len(data.buffer) if isinstance(data, Payloads) else sum(map(len, data))
+
+
+def _capacity(
+    source: Source, connections: list[Connection], start: int | None, end: int | None
+) -> int:
+    """How many messages a topic's columns are allocated for: its count, or twice its share
+    of the time window (rows never written are never faulted in; columns grow past it, a
+    copy, where the window holds more)."""
+    count = sum(c.count for c in connections)
+    if start is None and end is None:
+        return count
+    first = max(source.start_ns, start if start is not None else source.start_ns)
+    last = min(source.end_ns + 1, end if end is not None else source.end_ns + 1)
+    span = source.end_ns + 1 - source.start_ns
+    if last <= first or span <= 0:
+        return 0
+    return min(count, 2 * int(count * (last - first) / span) + BATCH)
 
 
 def extract(
@@ -396,12 +491,13 @@ def extract(
             source.path, f'topic {topic} holds several types: {", ".join(sorted(names))}'
         )
     types.message_class(connections[0])  # a type with no definition has no columns
-    extraction = _Extraction(types, topic, requested)
+    capacity = _capacity(source, connections, start, end)
+    extraction = _Extraction(types, topic, requested, capacity)
     try:
         for blocks in source.blocks(connections, start, end):
             extraction.add(blocks)
     except Unsupported:
-        extraction = _Extraction(types, topic, requested)
+        extraction = _Extraction(types, topic, requested, capacity)
         for blocks in _message_blocks(source, connections, start, end):
             extraction.add(blocks)
     return extraction.finish(connections)
@@ -426,7 +522,8 @@ def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
 
 
 def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
-    """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns."""
+    """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns, views of
+    the arrays (a copy, as pandas makes by default, would double the peak memory)."""
     try:
         import pandas as pd  # type: ignore[import-untyped,unused-ignore]  # noqa: PLC0415 (optional: pandas, for to_pandas only)
     except ImportError:
@@ -441,7 +538,7 @@ def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
                 data[f'{name}[{index}]'] = column[:, index]
         else:
             data[name] = list(column) if column.dtype == object else column
-    return pd.DataFrame(data)
+    return pd.DataFrame(data, copy=False)
 
 
 __all__ = ['TIME', 'dataframe', 'extract', 'structured']

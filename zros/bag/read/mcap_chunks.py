@@ -147,9 +147,10 @@ def read_blocks(
     its blocks carry) with ``start <= log time < end``, in file order (chunks may overlap in
     time: the caller sorts); a block's ``keys`` rank its messages in their chunk. ``ordered``
     refuses (before the first block) files whose chunks of those messages overlap in time.
-    ``mapped``: the file is memory-mapped and the payloads of uncompressed chunks stay in the
-    map (no copy: for readers that copy out a few fields of each message). ``damaged``: a chunk
-    that does not read or decompress is skipped and reported to it (else it raises)."""
+    ``mapped``: each chunk is memory-mapped and the payloads of uncompressed chunks stay in its
+    map (no copy: for readers that copy out a few fields of each message); else chunks are
+    read into memory. ``damaged``: a chunk that does not read or decompress is skipped and
+    reported to it (else it raises)."""
     from mcap.data_stream import ReadDataStream  # noqa: PLC0415 (lazy: mcap, import time)
     from mcap.reader import make_reader  # noqa: PLC0415 (lazy: mcap, import time)
     from mcap.records import Chunk  # noqa: PLC0415 (lazy: mcap, import time)
@@ -175,18 +176,27 @@ def read_blocks(
             for earlier, later in itertools.pairwise(indexes)
         ):
             raise Unsupported('chunks overlap in time')
-        # the map closes when the last payload in it is gone
-        view = (
-            memoryview(mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ)) if mapped else None
-        )
         for index in indexes:
             wanted = sorted(wanted_ids & set(index.message_index_offsets))
             limit = index.chunk_start_offset + index.chunk_length + index.message_index_length
             if limit > size:
                 raise Unsupported('chunk beyond the end of the file')
+            window = None
+            at = index.chunk_start_offset
+            if mapped:
+                # a map of this chunk alone, closed when the last payload in it is gone: the
+                # process maps the chunks it holds, never the whole file (a failing map is the
+                # system's error, not the file's damage)
+                base = at - at % mmap.ALLOCATIONGRANULARITY
+                window = mmap.mmap(
+                    stream.fileno(),
+                    at + index.chunk_length - base,
+                    access=mmap.ACCESS_READ,
+                    offset=base,
+                )
             try:
-                if view is not None:
-                    chunk = _mapped_chunk(view, index.chunk_start_offset)
+                if window is not None:
+                    chunk = _mapped_chunk(memoryview(window), at - base)
                 else:
                     stream.seek(index.chunk_start_offset + 1 + 8)
                     chunk = Chunk.read(ReadDataStream(stream))

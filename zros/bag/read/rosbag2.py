@@ -10,6 +10,7 @@ import heapq
 import importlib
 import itertools
 import logging
+import os
 import re
 import sys
 from collections.abc import Callable, Iterable, Iterator
@@ -328,7 +329,9 @@ class Rosbag2Source(Source):
                 continue
             path = Path(stream.reader.path)
             damaged = self._damaged(path, stream.mapping)
-            for found in read_blocks(path, channels, start, end, mapped=True, damaged=damaged):
+            for found in read_blocks(
+                path, channels, start, end, mapped=mapping_chunks(), damaged=damaged
+            ):
                 blocks = [
                     Block(b.connection, b.times, base + b.keys, b.data)
                     for b in found
@@ -367,6 +370,13 @@ def _sqlite_blocks(
             Block(stream.mapping[topic], np.asarray(t, np.int64), np.asarray(k, np.int64), d)
             for topic, (t, k, d) in grouped.items()
         ]
+
+
+def mapping_chunks() -> bool:
+    """Whether ``Bag.columns`` maps MCAP chunks (the default) rather than reading them into
+    memory: ``ZROS_BAG_MMAP=0`` (or false/no/off) reads them, so a file cut short while it is
+    read raises an error instead of ending the process with SIGBUS."""
+    return os.environ.get('ZROS_BAG_MMAP', '').strip().lower() not in ('0', 'false', 'no', 'off')
 
 
 def _timestamp(message: RawMessage) -> int:
