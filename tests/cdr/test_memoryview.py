@@ -14,6 +14,8 @@ import pytest
 
 from zros import cdr
 from zros.cdr import CdrError, Message
+from zros.cdr.classes import compiled_decoder
+from zros.cdr.codegen import replace_reference
 from zros.cdr.codegen.decoder import COPY_TEXT_BELOW
 
 BENCHMARK = Path(__file__).resolve().parents[2] / 'benchmarks' / 'codec.py'
@@ -126,3 +128,11 @@ def test_big_endian_data_decodes_from_a_memoryview() -> None:
     for label, view in slices(twist):
         decoded = cdr.decode(Twist, view)
         assert (decoded.linear.x, decoded.angular.z) == (1.0, 6.0), label
+
+
+def test_replacing_a_reference_a_compiled_function_does_not_hold_fails() -> None:
+    # the entry decoder's first memoryview swaps the compiling stub for the view decoder so
+    String = MESSAGES['String'].__class__
+    entry = compiled_decoder(String)
+    with pytest.raises(ValueError, match='decode does not refer to'):
+        replace_reference(entry, object(), object())
