@@ -429,7 +429,8 @@ def generate_decoder(
         if indexes and not views:
             to = src.ref(memory_decoder, 'mem')
             with src.block('if type(buf) is memoryview:'):
-                src.add(f'if buf.nbytes > {COPY_TEXT_BELOW}: return {to}(buf, strict)')
+                # len counts items, not bytes, for other formats: a bound, not the size
+                src.add(f'if len(buf) > {COPY_TEXT_BELOW}: return {to}(buf, strict)')
                 src.add('buf = buf.tobytes()')
         else:  # the memoryview decoder inline: a call costs 120 ns
             with src.block('if type(buf) is memoryview:'):
