@@ -88,6 +88,16 @@ def test_a_goal_runs_with_feedback_and_status(pair: tuple[Node, Node]) -> None:
     assert feedback[0] == [0, 1, 1] and feedback[-1] == list(result.sequence)
 
 
+def test_feedback_and_status_are_urgent_but_batched(pair: tuple[Node, Node]) -> None:
+    # an express message takes a transmission batch of its own and a link queues 2 per
+    # priority: under DROP (reliable keep-last), a burst the link's thread had not sent yet lost
+    # all but 2 (7 of 9 feedback messages on a loaded machine); batched, the burst shares a batch
+    server_node, _ = pair
+    server = server_node.create_action_server(FIB, 'fibonacci', fibonacci)
+    for publisher in (server._feedback, server._status):
+        assert (publisher.priority, publisher.express) == (zros.Priority.INTERACTIVE_HIGH, False)
+
+
 def test_polling_the_status_of_a_goal(pair: tuple[Node, Node], gate: threading.Event) -> None:
     server_node, client_node = pair
     server = server_node.create_action_server(FIB, 'fib', lambda g: fibonacci(g, gate))

@@ -413,6 +413,23 @@ def test_undeclaring_waits_for_a_call_in_another_thread(
     assert gone.calls == 1
 
 
+def test_urgent_topics_are_express_unless_they_come_in_bursts() -> None:
+    # express skips batching, so each message of a burst needs a transmission batch of its own:
+    # topics that burst (a goal's feedback, log lines, parameter events) stay batched
+    urgent = zros.Priority.INTERACTIVE_HIGH
+    for topic, express in (
+        ('/cmd_vel', True),
+        ('/robot1/tf', True),
+        ('/rosout', False),
+        ('/robot1/parameter_events', False),
+        ('/fibonacci/_action/feedback', False),
+        ('/fibonacci/_action/status', False),
+    ):
+        assert QoS(10).priority_for(topic, 'std_msgs/msg/String') == (urgent, express), topic
+    assert QoS(10, express=True).priority_for('/rosout', 'rcl_interfaces/msg/Log') == (urgent, True)
+    assert QoS(10).priority_for('/chatter', 'std_msgs/msg/String') == (zros.Priority.DATA, False)
+
+
 def test_qos_extensions_take_names_numbers_or_members_and_refuse_others() -> None:
     qos = QoS(1, congestion='block_first', priority='data_low', express=True, lifespan=0.5)
     assert qos.congestion is zros.Congestion.BLOCK_FIRST and qos.priority is zros.Priority.DATA_LOW

@@ -84,8 +84,8 @@ class _Codecs:
         variants: dict[str, Decoder] = {}
 
         def other(view: Buffer, strict: bool) -> Message:
-            # big-endian data, or text read from a memoryview: compile on demand
-            if type(view) is memoryview and (view.ndim != 1 or view.itemsize != 1):
+            # big-endian data, or a memoryview of another format: compile on demand
+            if type(view) is memoryview and (view.format != 'B' or view.ndim != 1):
                 view = view.cast('B')
             if len(view) < 4 or view[0] or view[1] > 1:
                 raise Bad
@@ -95,8 +95,21 @@ class _Codecs:
                     variants[key] = self.decoder(key[1], key[0] == 'm')
             return variants[key](view, strict)
 
+        def memory_first(view: Buffer, strict: bool) -> Message:
+            # the entry's decoder of memoryviews, compiled on the first one: the entry then
+            # calls it directly
+            with self.source.lock:
+                if 'view' not in variants:
+                    variants['view'] = codegen.generate_decoder(
+                        self, definition, '<', True, False, fallback=other
+                    )
+                    codegen.replace_reference(entry, memory_first, variants['view'])
+            return variants['view'](view, strict)
+
         definition = cls._definition
-        entry = codegen.generate_decoder(self, definition, '<', False, False, fallback=other)
+        entry = codegen.generate_decoder(
+            self, definition, '<', False, False, fallback=other, memory_decoder=memory_first
+        )
         entry.__zros_entry__ = True  # type: ignore[attr-defined]
         cls._cdr_decode = entry  # type: ignore[method-assign,assignment]
         return entry

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import nullcontext
 from typing import TYPE_CHECKING
 
@@ -45,19 +45,22 @@ def _dynamic_align(align: int) -> str:
 
 
 class _DecoderBuilder:
-    def __init__(self, ctx: Context, endian: str, text_from_memoryview: bool, trace: bool) -> None:
+    def __init__(
+        self, ctx: Context, endian: str, memory: bool, trace: bool, src: Program | None = None
+    ) -> None:
         self.ctx = ctx
         self.endian = endian
-        self.mv = text_from_memoryview
+        self.memory = memory
         self.trace = trace
-        self.src = Program()
+        self.src = src or Program()
         self.bad = self.src.ref(convert.Bad, 'Bad')
         self.frombuffer = self.src.ref(np.frombuffer, 'fb')
         #: the read offset while known when generating (the fast decoder reads the fixed fields
         #: before the first variable-size one at constant offsets); None once ``pos`` holds it
         self.static: int | None = None if trace else 4
-        #: the buffer's size: the traced decoder keeps it in ``end`` for its messages
-        self.end = 'end' if trace else 'len(buf)'
+        #: the buffer's size in bytes: the traced decoder keeps it in ``end`` for its messages;
+        #: a memoryview's ``len`` counts items, which need not be bytes
+        self.end = 'end' if trace else 'buf.nbytes' if memory else 'len(buf)'
         #: the fallback of a decoder that checks the header itself, while its first run of
         #: fixed fields (which then reads the header too) is still to come
         self.header_fallback: str | None = None
@@ -223,8 +226,10 @@ class _DecoderBuilder:
                     '({end} bytes)',
                 )
             self.fail('buf[e]', 'string does not end with a NUL byte')
-            if self.mv or self.trace:
+            if self.trace:
                 src.add(f"{op.ref} = str(buf[{at}:e], 'utf-8')")
+            elif self.memory:  # 40 ns faster than str(view, 'utf-8')
+                src.add(f'{op.ref} = buf[{at}:e].tobytes().decode()')
             else:
                 src.add(f'{op.ref} = buf[{at}:e].decode()')
             if op.bound:
@@ -356,53 +361,104 @@ class _DecoderBuilder:
         src.add(f'{op.ref} = {items}')
 
 
+#: a memoryview of a message without arrays is copied to ``bytes`` up to this size: the copy
+#: costs less than decoding text from memoryview slices (no array of the result views the copy)
+COPY_TEXT_BELOW = 4096
+
+
+def _all_ops(ops: list[Op]) -> Iterator[Op]:
+    for op in ops:
+        yield op
+        if isinstance(op, Loop):
+            yield from _all_ops(op.body)
+
+
 def generate_decoder(
     ctx: Context,
     msg: MessageDef,
     endian: str,
-    text_from_memoryview: bool,
+    memory: bool,
     trace: bool,
     *,
     fallback: Callable[[Buffer, bool], Message] | None = None,
+    memory_decoder: Callable[[Buffer, bool], Message] | None = None,
 ) -> Callable[[Buffer, bool], Message]:
     """The function ``decode(buf, strict) -> message`` for the body after a valid header.
 
     It reads from offset 4 and ignores bytes left at the end, as DDS readers do (rclpy leaves
     up to 4 stray bytes per empty 8-byte sequence and per wstring). ``strict`` allows at most 3
     (any number with a wstring): bag readers check an embedded definition against its data so.
+    A ``memory`` decoder reads a memoryview of bytes (format ``B``, one dimension).
 
-    With a ``fallback`` it checks the header itself: it decodes ``bytes`` or ``bytearray`` with
-    the little-endian header ``00 01``, hands the rest to ``fallback(buf, strict)``; data shorter
-    than the header raises IndexError.
+    With a ``fallback`` it checks the header itself: it decodes the little-endian header
+    ``00 01`` and hands the rest to ``fallback(buf, strict)``; data shorter than the header
+    raises IndexError. A ``memory`` one takes memoryviews of any format then (the fallback gets
+    those it cannot read). The other decodes ``bytes`` and ``bytearray``, and with a
+    ``memory_decoder`` memoryviews too: inline, or for a type without arrays copied to bytes
+    when small and handed to ``memory_decoder`` when not; without one, it hands them to the
+    fallback.
     """
-    builder = _DecoderBuilder(ctx, endian, text_from_memoryview, trace)
+    builder = _DecoderBuilder(ctx, endian, memory, trace)
     src = builder.src
     blank = src.blank(ctx.cls(msg.name))
     ops: list[Op] = []
     DecodeOps(ctx, src).struct_ops(msg, 'o', '', ops)
-    if fallback is not None:
-        other = src.ref(fallback, 'other')
-        first = next((op for op in ops if not isinstance(op, Pre)), None)
-        if isinstance(first, (Fix, FixArr)):  # the first run of fixed fields checks the header
+    wstring = ctx.info(msg.name).has_wstring
+    if fallback is None:
+        _emit_body(builder, ops, blank, wstring, msg.name)
+        return src.compile('buf, strict=False', 'decode', msg.name)
+    other = src.ref(fallback, 'other')
+    flat = list(_all_ops(ops))
+    first = next((op for op in flat if not isinstance(op, Pre)), None)
+    # the first run of fixed fields reads the header too (struct reads bytes whatever the view's
+    # format); else the code reads it by index, as it reads the NUL after a string
+    by_run = isinstance(first, (Fix, FixArr))
+    indexes = not by_run or any(isinstance(op, Str) and not op.wide for op in flat)
+    views = any(isinstance(op, (FixArr, Seq)) for op in flat)
+
+    def checked_body(builder: _DecoderBuilder) -> None:
+        if builder.memory and indexes:  # items must be bytes
+            src.add(f"if buf.format != 'B' or buf.ndim != 1: return {other}(buf, strict)")
+        if by_run:
             builder.header_fallback = other
-            src.add(f'if type(buf) is memoryview: return {other}(buf, strict)')
         else:
-            src.add(
-                f'if type(buf) is memoryview or buf[1] != 1 or buf[0]: return {other}(buf, strict)'
-            )
+            src.add(f'if buf[1] != 1 or buf[0]: return {other}(buf, strict)')
+        _emit_body(builder, ops, blank, wstring, msg.name)
+
+    if not memory and memory_decoder is not None:
+        if indexes and not views:
+            to = src.ref(memory_decoder, 'mem')
+            with src.block('if type(buf) is memoryview:'):
+                # len counts items, not bytes, for other formats: a bound, not the size
+                src.add(f'if len(buf) > {COPY_TEXT_BELOW}: return {to}(buf, strict)')
+                src.add('buf = buf.tobytes()')
+        else:  # the memoryview decoder inline: a call costs 120 ns
+            with src.block('if type(buf) is memoryview:'):
+                checked_body(_DecoderBuilder(ctx, endian, True, False, src))
+    elif not memory:
+        src.add(f'if type(buf) is memoryview: return {other}(buf, strict)')
+    checked_body(builder)
+    return src.compile('buf, strict=False', 'decode', msg.name)
+
+
+def _emit_body(
+    builder: _DecoderBuilder, ops: list[Op], blank: str, wstring: bool, type_name: str
+) -> None:
+    """The message's fields from ``ops``, the strict check of what is left, ``return o``."""
+    src, trace = builder.src, builder.trace
     if trace:
         src.add('end = len(buf)')
         src.add('pos = 4')
         src.add("_f = '(header)'; _p = 0")
-    explained = src.guarded(decode_failure, f'{msg.name!r}, _f, _p, exc, end')
+    explained = src.guarded(decode_failure, f'{type_name!r}, _f, _p, exc, end')
     with explained if trace else nullcontext():
         src.add(f'o = {blank}()')
         builder.emit(ops, START)
-        if not ctx.info(msg.name).has_wstring:
+        if not wstring:
             if trace:
                 src.add("_f = ''; _p = pos")
             left = (
-                f'len(buf) > {builder.static + 3}'
+                f'{builder.end} > {builder.static + 3}'
                 if builder.static is not None
                 else f'{builder.end} - pos > 3'
             )
@@ -412,4 +468,3 @@ def generate_decoder(
                 'are allowed); the data may be of another type or version',
             )
         src.add('return o')
-    return src.compile('buf, strict=False', 'decode', msg.name)

@@ -1,0 +1,138 @@
+"""Decoding a memoryview (a zero-copy slice of a chunk or a receive buffer) gives the message
+decoding the same bytes gives, whatever the view's offset, format or writability."""
+
+from __future__ import annotations
+
+import importlib.util
+import struct
+from collections.abc import Iterator
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+
+from zros import cdr
+from zros.cdr import CdrError, Message
+from zros.cdr.classes import compiled_decoder
+from zros.cdr.codegen import replace_reference
+from zros.cdr.codegen.decoder import COPY_TEXT_BELOW
+
+BENCHMARK = Path(__file__).resolve().parents[2] / 'benchmarks' / 'codec.py'
+
+
+def _codec_benchmark() -> ModuleType:
+    spec = importlib.util.spec_from_file_location('zros_codec_benchmark', BENCHMARK)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+#: the messages benchmarks/codec.py times (its memoryview column times the same ones)
+MESSAGES: dict[str, Message] = _codec_benchmark().build_messages()
+
+
+def slices(data: bytes, tail: int = 0) -> Iterator[tuple[str, memoryview]]:
+    """``data`` and ``tail`` bytes after it as memoryviews: whole, and sliced from bigger
+    buffers at aligned and odd offsets, read-only and writable."""
+    yield 'whole', memoryview(data + b'\xee' * tail)
+    for offset in (8, 13):
+        padded = b'\xee' * offset + data + b'\xee' * 9
+        yield f'read-only at {offset}', memoryview(padded)[offset : offset + len(data) + tail]
+    writable = bytearray(3) + bytearray(data) + bytearray(9)
+    yield 'writable at 3', memoryview(writable)[3 : 3 + len(data) + tail]
+
+
+@pytest.mark.parametrize('name', list(MESSAGES))
+def test_a_memoryview_decodes_as_its_bytes(name: str) -> None:
+    message = MESSAGES[name]
+    cls = type(message)
+    data = cdr.encode(message)
+    expected = cdr.decode(cls, data)
+    for label, view in slices(data):
+        for _ in range(2):  # the first view compiles the view decoder, later ones run it
+            assert cdr.decode(cls, view) == expected, label
+            assert cls.deserialize(view, strict=True) == expected, label
+    for label, view in slices(data, tail=4):
+        assert cdr.decode(cls, view) == expected, label
+        with pytest.raises(CdrError, match='4 bytes left after the end of the message'):
+            cdr.decode(cls, view, strict=True)
+
+
+@pytest.mark.parametrize('name', ['LaserScan(720)', 'Image 640x480', 'PoseArray(1000)'])
+def test_arrays_decoded_from_a_memoryview_view_its_buffer(name: str) -> None:
+    message = MESSAGES[name]
+    raw = bytearray(5) + bytearray(cdr.encode(message))
+    decoded = cdr.decode(type(message), memoryview(raw)[5:])
+    arrays = [
+        value
+        for value in (getattr(decoded, field) for field in decoded._fields)
+        if isinstance(value, np.ndarray)
+    ] or [decoded.poses.array]
+    buffer = np.frombuffer(raw, np.uint8)
+    for array in arrays:
+        assert np.shares_memory(array, buffer)
+        assert array.flags.writeable  # as the buffer is
+
+
+def _formats(data: bytes) -> Iterator[tuple[str, memoryview]]:
+    """``data`` (padded to 8 bytes) as memoryviews of other formats and shapes."""
+    padded = data + bytes(-len(data) % 8)
+    view = memoryview(padded)
+    yield 'char', view.cast('c')
+    yield 'signed', view.cast('b')
+    yield 'uint16', view.cast('H')
+    yield 'float64', view.cast('d')
+    yield '2-D', view.cast('B', shape=[len(padded) // 8, 8])
+
+
+LONG_TEXT = 'x' * (2 * COPY_TEXT_BELOW)
+
+
+@pytest.mark.parametrize(
+    'message',
+    [
+        MESSAGES['String'],
+        MESSAGES['Twist'],
+        MESSAGES['Imu'],
+        MESSAGES['TFMessage(10)'],
+        MESSAGES['String'].__class__(data=LONG_TEXT),
+    ],
+    ids=['String', 'Twist', 'Imu', 'TFMessage', 'long String'],
+)
+def test_a_memoryview_of_any_format_decodes_its_bytes(message: Message) -> None:
+    data = cdr.encode(message)
+    for label, view in _formats(data):
+        for _ in range(2):
+            assert cdr.decode(type(message), view) == message, label
+
+
+def test_a_text_message_above_the_copy_limit_decodes_from_a_view() -> None:
+    # above COPY_TEXT_BELOW the text is read from the view, not from a copy of all of it
+    String = MESSAGES['String'].__class__
+    data = cdr.encode(String(data=LONG_TEXT))
+    for label, view in slices(data):
+        assert cdr.decode(String, view).data == LONG_TEXT, label
+    with pytest.raises(CdrError, match='does not end with a NUL byte'):
+        cdr.decode(String, memoryview(data[:-1] + b'y'))
+
+
+def test_big_endian_data_decodes_from_a_memoryview() -> None:
+    String = MESSAGES['String'].__class__
+    Twist = MESSAGES['Twist'].__class__
+    text = b'\x00\x00\x00\x00' + struct.pack('>I', 3) + b'ab\x00'
+    twist = b'\x00\x00\x00\x00' + struct.pack('>6d', 1, 2, 3, 4, 5, 6)
+    for label, view in slices(text):
+        assert cdr.decode(String, view).data == 'ab', label
+    for label, view in slices(twist):
+        decoded = cdr.decode(Twist, view)
+        assert (decoded.linear.x, decoded.angular.z) == (1.0, 6.0), label
+
+
+def test_replacing_a_reference_a_compiled_function_does_not_hold_fails() -> None:
+    # the entry decoder's first memoryview swaps the compiling stub for the view decoder so
+    String = MESSAGES['String'].__class__
+    entry = compiled_decoder(String)
+    with pytest.raises(ValueError, match='decode does not refer to'):
+        replace_reference(entry, object(), object())
