@@ -18,9 +18,13 @@ from zros.cdr.model import Buffer, FieldValue, MessageDef
 from zros.cdr.naming import attribute_name
 
 if TYPE_CHECKING:
+    import typing_extensions
     from typing_extensions import Self
 
-M = TypeVar('M', bound='Message')
+    #: a message class; a ``Publisher`` written without one is a ``Publisher[Message]``
+    M = typing_extensions.TypeVar('M', bound='Message', default='Message')
+else:  # TypeVar's default= is Python 3.13's
+    M = TypeVar('M', bound='Message')
 
 
 class TracedCodecs(Protocol):

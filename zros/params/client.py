@@ -209,7 +209,7 @@ class ParameterEvent:
 
 def subscribe_parameter_events(
     node: NodeLike, callback: Callable[[ParameterEvent], object], node_name: str | None = None
-) -> Subscriber:
+) -> Subscriber[Message]:
     """Call ``callback(event)`` (while ``node`` spins) for each parameter change on the network,
     or only those of ``node_name``."""
 

@@ -97,7 +97,7 @@ class LivePlot(Closing):
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.start_ns = node.now().nanoseconds
-        self._subscriptions: list[Subscriber] = []
+        self._subscriptions: list[Subscriber[Message]] = []
         try:
             for topic in topics:
                 numbers = [n for n, s in enumerate(self.series) if s.topic == topic]
@@ -135,7 +135,7 @@ class LivePlot(Closing):
             series += found
         return series
 
-    def _subscribe(self, topic: str, numbers: list[int]) -> Subscriber:
+    def _subscribe(self, topic: str, numbers: list[int]) -> Subscriber[Message]:
         node = self.node
         publishers = node.graph.publishers(node.scheme.key(node.resolve_name(topic)))
         reliable = all(p.qos is None or p.qos.reliable for p in publishers)

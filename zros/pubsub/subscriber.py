@@ -12,13 +12,13 @@ import logging
 import threading
 import time
 from collections.abc import AsyncIterator, Callable
-from typing import Any
+from typing import TYPE_CHECKING, Generic, Literal, NoReturn, TypeVar, cast, overload
 
 from zenoh import Sample
 
 from zros.cdr import CdrError
-from zros.cdr.classes import Decoder, compiled_decoder
-from zros.cdr.message import Message, decode
+from zros.cdr.classes import compiled_decoder
+from zros.cdr.message import M, Message, decode
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.senders import describe_sender
@@ -38,12 +38,17 @@ from zros.runtime.signal import (
 
 _log = logging.getLogger('zros')
 
-#: what a subscriber hands over (boundary): a message of its type (chosen at run time), or its
-#: CDR bytes when ``raw``; None where a reader got nothing
-Received = Any
+if TYPE_CHECKING:
+    import typing_extensions
+
+    #: what a subscriber hands over: a message of its class, or its CDR bytes when ``raw``; a
+    #: ``Subscriber`` written without one is a ``Subscriber[Message]``
+    T = typing_extensions.TypeVar('T', bound=Message | bytes, default=Message)
+else:  # TypeVar's default= is Python 3.13's
+    T = TypeVar('T', bound=Message | bytes)
 
 
-class Subscriber(Entity):
+class Subscriber(Entity, Generic[T]):
     """Receives messages of one type on one topic (rosR: ``ros.Subscriber``).
 
     Poll it (``has_new_message``, ``read_message``, ``take``), give it a ``callback`` that runs
@@ -65,15 +70,79 @@ class Subscriber(Entity):
     The module-level way: ``(topic, type)`` is rosR's order, ``node`` None the default node of
     ``zros.init``. ``node.create_subscription(type, topic)`` takes rclpy's order; both are on
     purpose.
+
+    Generic in what it hands over: ``Subscriber(topic, String)`` is a ``Subscriber[String]``
+    (its callback takes a ``String``, ``read_message`` returns one); given a type name it is a
+    ``Subscriber[Message]``, and with ``raw=True`` a ``Subscriber[bytes]``.
     """
 
     gid: bytes | None  #: rmw_zenoh: the GID in its token's hash
+
+    @overload
+    def __init__(
+        self: Subscriber[Message],
+        topic: str,
+        msg_type: str,
+        callback: Callable[[Message], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        node: NodeLike | None = None,
+        raw: Literal[False] = False,
+        max_queue: int | None = None,
+        max_queue_bytes: int = KEEP_ALL_BYTES,
+        announce: bool = True,
+    ) -> None: ...
+
+    @overload
+    def __init__(
+        self: Subscriber[M],
+        topic: str,
+        msg_type: type[M],
+        callback: Callable[[M], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        node: NodeLike | None = None,
+        raw: Literal[False] = False,
+        max_queue: int | None = None,
+        max_queue_bytes: int = KEEP_ALL_BYTES,
+        announce: bool = True,
+    ) -> None: ...
+
+    @overload
+    def __init__(
+        self: Subscriber[bytes],
+        topic: str,
+        msg_type: str | type[Message],
+        callback: Callable[[bytes], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        node: NodeLike | None = None,
+        raw: Literal[True],
+        max_queue: int | None = None,
+        max_queue_bytes: int = KEEP_ALL_BYTES,
+        announce: bool = True,
+    ) -> None: ...
+
+    @overload
+    def __init__(
+        self: Subscriber[Message | bytes],
+        topic: str,
+        msg_type: str | type[Message],
+        callback: Callable[[Message | bytes], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        node: NodeLike | None = None,
+        raw: bool,
+        max_queue: int | None = None,
+        max_queue_bytes: int = KEEP_ALL_BYTES,
+        announce: bool = True,
+    ) -> None: ...
 
     def __init__(
         self,
         topic: str,
         msg_type: str | type[Message],
-        callback: Callable[[Received], object] | None = None,
+        callback: Callable[[NoReturn], object] | None = None,  # T: see the overloads
         qos: QoSLike | None = None,
         *,
         node: NodeLike | None = None,
@@ -92,15 +161,17 @@ class Subscriber(Entity):
             EntityKind.SUBSCRIBER, self.topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce, own=True,
         )  # fmt: skip
-        self._callback = callback
+        # takes T (the overloads of __init__)
+        self._callback = cast('Callable[[T], object] | None', callback)
         self.raw = raw
         self._queue = SampleQueue(
             None if self.qos.keep_all else self.qos.depth, max_queue, max_queue_bytes
         )
         self._reading = threading.Lock()  #: one reader at a time
         self._checked: Sample | None = None  #: the sample has_new_message decoded, and its message
-        self._checked_message: Received = None
-        self._decoder: Decoder | None = None  #: the type's compiled decoder, once a batch came
+        self._checked_message: T | None = None
+        #: the type's compiled decoder, once a batch came
+        self._decoder: Callable[[bytes, bool], T] | None = None
         self._work = Work(self._deliver)
         self._executor = context.executor
         self._schedule = context.executor.schedule
@@ -108,7 +179,7 @@ class Subscriber(Entity):
         self._now = callback is not None and context.executor.immediate
         self._arrived = Signal()  #: threads waiting for a message
         self._async_wakers: list[Callable[[], None]] = []
-        self._last: Received = None
+        self._last: T | None = None
         self.undecodable = 0  #: samples that did not decode as the type
         self._drops = DropCounter(self.topic)
         self._overflows = DropCounter(self.topic)
@@ -195,34 +266,39 @@ class Subscriber(Entity):
 
     # --- reading ---------------------------------------------------------------------------
 
-    def _convert(self, sample: Sample) -> Received:
+    def _convert(self, sample: Sample) -> T | None:
         if sample is self._checked:
             message = self._checked_message
             self._checked = self._checked_message = None
             return message
         data = sample.payload.to_bytes()
+        # T is bytes when raw, else msg_type's instances (the overloads of __init__)
         if self.raw:
-            return data
+            return data  # type: ignore[return-value]
         try:
-            return decode(self.msg_type, data)
+            return decode(self.msg_type, data)  # type: ignore[return-value]
         except CdrError as exc:
             self.undecodable += 1  # under self._reading
             self._drop(sample, f'it does not decode as {self.type_name}: {exc}')
             return None
 
-    def _convert_all(self, samples: list[Sample]) -> list[Received]:
+    def _convert_all(self, samples: list[Sample]) -> list[T]:
         """The messages of ``samples`` (under ``self._reading``), dropping the undecodable."""
         if self.raw:
             return [m for m in map(self._convert, samples) if m is not None]
         fast = self._decoder
         if fast is None:
-            fast = self._decoder = compiled_decoder(self.msg_type)
+            fast = self._decoder = cast(
+                'Callable[[bytes, bool], T]', compiled_decoder(self.msg_type)
+            )
         checked = self._checked  # decoded already by has_new_message
-        messages: list[Received] = []
+        messages: list[T] = []
         append = messages.append
         for sample in samples:
             if sample is checked:
-                append(self._checked_message)
+                message = self._checked_message
+                assert message is not None  # set with self._checked
+                append(message)
                 self._checked = self._checked_message = checked = None
                 continue
             try:
@@ -254,7 +330,7 @@ class Subscriber(Entity):
                 queue.discard(sample)
             return False
 
-    def read_message(self) -> Received:
+    def read_message(self) -> T | None:
         """The newest message (rosR: ``ros.ReadMessage``); unread older ones are discarded.
 
         Returns the last message read again when nothing new came, and None before the first.
@@ -270,9 +346,9 @@ class Subscriber(Entity):
             self._checked = self._checked_message = None
         return self._last
 
-    def take(self, max_messages: int | None = None) -> list[Received]:
+    def take(self, max_messages: int | None = None) -> list[T]:
         """Every unread message, oldest first (up to ``max_messages``): the stream read."""
-        messages: list[Received] = []
+        messages: list[T] = []
         with self._reading:
             while max_messages is None or len(messages) < max_messages:
                 samples = self._queue.pop(
@@ -290,7 +366,7 @@ class Subscriber(Entity):
     def _has_message(self) -> bool:
         return self._queue.unread() > 0 or self._closed
 
-    def wait_for_message(self, timeout: float | None = None) -> Received:
+    def wait_for_message(self, timeout: float | None = None) -> T | None:
         """Block until a message is unread, then return the oldest one (None on timeout, once
         the subscriber is closed, and after Ctrl-C).
 
@@ -337,7 +413,7 @@ class Subscriber(Entity):
             done += 1
         return done
 
-    async def __aiter__(self) -> AsyncIterator[Received]:
+    async def __aiter__(self) -> AsyncIterator[T]:
         """Messages as they arrive: ``async for message in subscriber`` (ends on close and
         on Ctrl-C)."""
         loop = asyncio.get_running_loop()
