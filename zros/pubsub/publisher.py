@@ -6,9 +6,9 @@ import functools
 import sys
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Generic, cast, overload
+from typing import TYPE_CHECKING, Generic, Protocol, cast, overload
 
-from zenoh import Reliability, ZError, ext
+from zenoh import CongestionControl, Priority, Reliability, ZError, ext
 
 from zros.cdr import definition_of, encode
 from zros.cdr.encode_buffer import EncodeBuffer
@@ -26,6 +26,21 @@ if TYPE_CHECKING:
     from zenoh import Publisher as ZenohPublisher
 
     from zros.wire import WireEntity
+
+
+class _DeclarePublisher(Protocol):
+    """``session.declare_publisher``, or zenoh-ext's advanced one bound to the session."""
+
+    def __call__(
+        self,
+        key_expr: str,
+        /,
+        *,
+        congestion_control: CongestionControl,
+        reliability: Reliability,
+        priority: Priority,
+        express: bool,
+    ) -> ZenohPublisher | ext.AdvancedPublisher: ...
 
 
 class Publisher(Entity, Generic[M]):
@@ -113,7 +128,7 @@ class Publisher(Entity, Generic[M]):
         #: the Zenoh priority and express flag its messages carry
         self.priority, self.express = priority, express
         session = self.context.transport.session
-        declare: Callable[..., ZenohPublisher | ext.AdvancedPublisher] = session.declare_publisher
+        declare: _DeclarePublisher = session.declare_publisher
         if qos.transient_local:  # zenoh-ext's, which keeps the last messages for late joiners
             declare = functools.partial(
                 ext.declare_advanced_publisher, session,
