@@ -17,17 +17,19 @@ import threading
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from types import FrameType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, scheme_settings
 
 # commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
 # `zros --help` loads none of them
 if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
     from zros.cdr import FieldValue
     from zros.cdr.message import Message
     from zros.node import Node
-    from zros.node.settings import NodeSetting
+    from zros.node.settings import NodeKeywords, NodeOptions
 
 
 DISCOVERY = 2.0  #: seconds a one-shot command gives the graph to show itself
@@ -121,13 +123,14 @@ def node_name(args: argparse.Namespace) -> str:
     return '_'.join(['zros', *(str(p).replace('-', '_') for p in parts if p)])
 
 
-def open_node(args: argparse.Namespace, **options: NodeSetting) -> Node:
+def open_node(args: argparse.Namespace, **options: Unpack[NodeOptions]) -> Node:
     """The command's node (:func:`node_name`): no /rosout, no parameter services, its own
     session (unless ``transport=`` is given); its publishers and subscriptions show on the
     graph as any node's."""
     import zros
 
-    settings: dict[str, NodeSetting] = dict(wire_settings(args))
+    # the wire's keywords (bridge_namespace, domain_id), checked by scheme_settings
+    settings = cast('NodeKeywords', wire_settings(args))
     if getattr(args, 'wire', None):
         settings['wire'] = args.wire
     if 'transport' not in options:  # else the session is made already
@@ -136,7 +139,8 @@ def open_node(args: argparse.Namespace, **options: NodeSetting) -> Node:
             settings['mode'] = args.mode
     options.setdefault('enable_rosout', False)
     options.setdefault('start_parameter_services', False)
-    return zros.Node(node_name(args), **settings, **options)
+    keywords: NodeKeywords = {**settings, **options}
+    return zros.Node(node_name(args), **keywords)
 
 
 def names_on_graph(node: Node, kind: str) -> dict[str, list[str]]:
