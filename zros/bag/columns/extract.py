@@ -22,7 +22,9 @@ import numpy as np
 from zros.bag.columns.plan import Leaf, Plan, Step, plan, select
 
 if TYPE_CHECKING:
-    from zros.cdr import FieldValue, Untyped
+    import pandas as pd
+
+    from zros.cdr import FieldValue
 from zros.bag.errors import BagError, Unsupported
 from zros.bag.read.payloads import Payloads, Rows, gather
 from zros.bag.read.source import Block, Connection, RawMessage, Source
@@ -407,7 +409,7 @@ def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
     return out
 
 
-def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
+def dataframe(columns: dict[str, np.ndarray]) -> pd.DataFrame:
     """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns."""
     try:
         import pandas as pd  # type: ignore[import-untyped,unused-ignore]  # noqa: PLC0415 (optional: pandas, for to_pandas only)
