@@ -66,8 +66,8 @@ if TYPE_CHECKING:
     class Int32(cdr.Message):
         data: int
 else:
-    String = zros.get_class('std_msgs/msg/String')
-    Int32 = zros.get_class('std_msgs/msg/Int32')
+    String = cdr.get_class('std_msgs/msg/String')
+    Int32 = cdr.get_class('std_msgs/msg/Int32')
 
 def chatter(node: zros.Node) -> None:
     pub = node.create_publisher(String, '/chatter', 10)
@@ -134,3 +134,13 @@ def test_publishers_and_subscribers_carry_their_message_class(tmp_path: Path) ->
     assert said.keys() == expected.keys(), report
     for number, text in expected.items():
         assert said[number].startswith(text), (number, text, report)
+
+
+def test_the_typed_program_runs_with_the_generated_classes() -> None:
+    namespace: dict[str, object] = {'__name__': 'user_program'}
+    exec(compile(TYPED_CODE, 'user_program.py', 'exec'), namespace)
+    string = namespace['String']
+    assert isinstance(string, type)
+    assert issubclass(string, zros.cdr.Message)
+    assert string(data='hi').data == 'hi'
+    assert string.__msgtype__ == 'std_msgs/msg/String'
