@@ -124,7 +124,6 @@ if TYPE_CHECKING:
         type_hash,
     )
     from zros.cdr.message import Message as _MessageBase
-    from zros.cdr.model import FieldValue
     from zros.errors import ZrosError
     from zros.keyexpr.names import InvalidNameError
     from zros.node import Node
@@ -153,7 +152,7 @@ if TYPE_CHECKING:
     from zros.transport import TransportConfig, TransportError, start_router
 
 
-def Message(type_name: str | type[_MessageBase], **fields: FieldValue) -> _MessageBase:  # noqa: N802
+def Message(type_name: str | type[_MessageBase], **fields: object) -> _MessageBase:  # noqa: N802
     """A new message of a ROS type with its default values (rosR: ``ros.Message``).
 
     A factory, named as rosR named it; what it returns is an instance of a generated class

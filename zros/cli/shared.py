@@ -26,7 +26,6 @@ from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, scheme_settings
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
-    from zros.cdr import FieldValue
     from zros.cdr.message import Message
     from zros.node import Node
     from zros.node.settings import NodeKeywords, NodeOptions
@@ -180,7 +179,7 @@ def find_names(args: argparse.Namespace, kind: str, type_name: str) -> int:
     return 0
 
 
-def parse_values(text: str | None) -> dict[str, FieldValue]:
+def parse_values(text: str | None) -> dict[str, object]:
     """Message fields from YAML text, as ``ros2 topic pub`` takes them: ``"{data: hi}"``."""
     if not text:
         return {}
@@ -308,7 +307,7 @@ def subscription_type(node: Node, topic: str, type_name: str | None, wait: float
     return type_name
 
 
-def build_message(cls: type[Message], values: dict[str, FieldValue]) -> Message:
+def build_message(cls: type[Message], values: dict[str, object]) -> Message:
     """A message of ``cls`` with ``values`` (nested dicts for nested fields), checked before
     anything is sent: a wrong field name or value is a usage error naming the field."""
     from zros.cdr.errors import CdrError, FieldError
