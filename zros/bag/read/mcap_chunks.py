@@ -26,6 +26,7 @@ from zros.bag.read.payloads import Payloads
 from zros.bag.read.source_base import Block, Connection
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
     from mcap.records import Chunk
 
 #: opcodes of the MCAP records this module reads
@@ -43,8 +44,8 @@ _INDEX = np.dtype([('time', '<u8'), ('offset', '<u8')])
 class _Run:
     """Messages of one channel in one chunk, in the chunk's order."""
 
-    times: np.ndarray  #: int64 log times
-    offsets: np.ndarray  #: int64 record offsets in the chunk (ascending)
+    times: npt.NDArray[np.int64]  #: log times
+    offsets: npt.NDArray[np.int64]  #: record offsets in the chunk (ascending)
     data: Payloads
 
 
@@ -96,7 +97,7 @@ def _decompress(chunk: Chunk) -> bytes | memoryview:
     return data
 
 
-def _index(stream: io.BufferedReader, at: int, limit: int) -> np.ndarray:
+def _index(stream: io.BufferedReader, at: int, limit: int) -> npt.NDArray[np.void]:
     """The (time, offset) entries of the MessageIndex record at ``at``."""
     stream.seek(at)
     head = stream.read(1 + 8 + 2 + 4)
@@ -219,7 +220,7 @@ def _window(run: _Run, start: int | None, end: int | None) -> _Run:
     return _Run(run.times[keep], run.offsets[keep], run.data.select(keep))
 
 
-def _block(data: bytes | memoryview, channel: int, entries: np.ndarray) -> _Run:
+def _block(data: bytes | memoryview, channel: int, entries: npt.NDArray[np.void]) -> _Run:
     times = entries['time'].astype(np.int64)
     offsets = entries['offset'].astype(np.int64)
     order = np.argsort(offsets, kind='stable')
