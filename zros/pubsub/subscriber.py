@@ -12,7 +12,7 @@ import logging
 import threading
 import time
 from collections.abc import AsyncIterator, Callable
-from typing import TYPE_CHECKING, Generic, Literal, NoReturn, TypeVar, cast, overload
+from typing import TYPE_CHECKING, Generic, Literal, NoReturn, TypedDict, TypeVar, cast, overload
 
 from zenoh import Sample
 
@@ -40,12 +40,22 @@ _log = logging.getLogger('zros')
 
 if TYPE_CHECKING:
     import typing_extensions
+    from typing_extensions import Unpack
 
     #: what a subscriber hands over: a message of its class, or its CDR bytes when ``raw``; a
     #: ``Subscriber`` written without one is a ``Subscriber[Message]``
     T = typing_extensions.TypeVar('T', bound=Message | bytes, default=Message)
 else:  # TypeVar's default= is Python 3.13's
     T = TypeVar('T', bound=Message | bytes)
+
+
+class SubscriberOptions(TypedDict, total=False):
+    """The keyword-only settings of :class:`Subscriber` besides ``raw``."""
+
+    node: NodeLike | None
+    max_queue: int | None
+    max_queue_bytes: int
+    announce: bool
 
 
 class Subscriber(Entity, Generic[T]):
@@ -86,11 +96,8 @@ class Subscriber(Entity, Generic[T]):
         callback: Callable[[Message], object] | None = None,
         qos: QoSLike | None = None,
         *,
-        node: NodeLike | None = None,
         raw: Literal[False] = False,
-        max_queue: int | None = None,
-        max_queue_bytes: int = KEEP_ALL_BYTES,
-        announce: bool = True,
+        **options: Unpack[SubscriberOptions],
     ) -> None: ...
 
     @overload
@@ -101,11 +108,8 @@ class Subscriber(Entity, Generic[T]):
         callback: Callable[[M], object] | None = None,
         qos: QoSLike | None = None,
         *,
-        node: NodeLike | None = None,
         raw: Literal[False] = False,
-        max_queue: int | None = None,
-        max_queue_bytes: int = KEEP_ALL_BYTES,
-        announce: bool = True,
+        **options: Unpack[SubscriberOptions],
     ) -> None: ...
 
     @overload
@@ -116,11 +120,8 @@ class Subscriber(Entity, Generic[T]):
         callback: Callable[[bytes], object] | None = None,
         qos: QoSLike | None = None,
         *,
-        node: NodeLike | None = None,
         raw: Literal[True],
-        max_queue: int | None = None,
-        max_queue_bytes: int = KEEP_ALL_BYTES,
-        announce: bool = True,
+        **options: Unpack[SubscriberOptions],
     ) -> None: ...
 
     @overload
@@ -131,11 +132,8 @@ class Subscriber(Entity, Generic[T]):
         callback: Callable[[Message | bytes], object] | None = None,
         qos: QoSLike | None = None,
         *,
-        node: NodeLike | None = None,
         raw: bool,
-        max_queue: int | None = None,
-        max_queue_bytes: int = KEEP_ALL_BYTES,
-        announce: bool = True,
+        **options: Unpack[SubscriberOptions],
     ) -> None: ...
 
     def __init__(
