@@ -42,20 +42,18 @@ if TYPE_CHECKING:
     import typing_extensions
     from typing_extensions import Unpack
 
-    #: what a subscriber hands over: a message of its class, or its CDR bytes when ``raw``; a
-    #: ``Subscriber`` written without one is a ``Subscriber[Message]``
+    #: a message of its class, or CDR bytes when ``raw`` (a bare ``Subscriber`` is of Message)
     T = typing_extensions.TypeVar('T', bound=Message | bytes, default=Message)
+
+    class SubscriberOptions(TypedDict, total=False):
+        """The keyword-only settings of :class:`Subscriber` besides ``raw``."""
+
+        node: NodeLike | None
+        max_queue: int | None
+        max_queue_bytes: int
+        announce: bool
 else:  # TypeVar's default= is Python 3.13's
     T = TypeVar('T', bound=Message | bytes)
-
-
-class SubscriberOptions(TypedDict, total=False):
-    """The keyword-only settings of :class:`Subscriber` besides ``raw``."""
-
-    node: NodeLike | None
-    max_queue: int | None
-    max_queue_bytes: int
-    announce: bool
 
 
 class Subscriber(Entity, Generic[T]):
@@ -81,9 +79,8 @@ class Subscriber(Entity, Generic[T]):
     ``zros.init``. ``node.create_subscription(type, topic)`` takes rclpy's order; both are on
     purpose.
 
-    Generic in what it hands over: ``Subscriber(topic, String)`` is a ``Subscriber[String]``
-    (its callback takes a ``String``, ``read_message`` returns one); given a type name it is a
-    ``Subscriber[Message]``, and with ``raw=True`` a ``Subscriber[bytes]``.
+    Generic: ``Subscriber(topic, String)`` is a ``Subscriber[String]`` (callback, reads and
+    ``async for`` give ``String``); a type name gives ``Subscriber[Message]``, ``raw=True`` bytes.
     """
 
     gid: bytes | None  #: rmw_zenoh: the GID in its token's hash
@@ -159,8 +156,7 @@ class Subscriber(Entity, Generic[T]):
             EntityKind.SUBSCRIBER, self.topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce, own=True,
         )  # fmt: skip
-        # takes T (the overloads of __init__)
-        self._callback = cast('Callable[[T], object] | None', callback)
+        self._callback = cast('Callable[[T], object] | None', callback)  # see the overloads
         self.raw = raw
         self._queue = SampleQueue(
             None if self.qos.keep_all else self.qos.depth, max_queue, max_queue_bytes
