@@ -73,6 +73,8 @@ def chatter(node: zros.Node) -> None:
     pub = node.create_publisher(String, '/chatter', 10)
     reveal_type(pub)  # mypy: zros.pubsub.publisher.Publisher[user_program.String]
     pub.write(String(data='hello'))
+    reveal_type(zros.Message(String, data='hello'))  # mypy: user_program.String
+    reveal_type(zros.Message('std_msgs/msg/String'))  # mypy: zros.cdr.message.Message
     def on_message(msg: String) -> None:
         reveal_type(msg.data)  # mypy: str
     sub = node.create_subscription(String, '/chatter', on_message)

@@ -84,6 +84,8 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:
+    from typing import overload
+
     from zros.actions import (
         ActionClient,
         ActionError,
@@ -123,6 +125,7 @@ if TYPE_CHECKING:
         register_type,
         type_hash,
     )
+    from zros.cdr.message import M
     from zros.cdr.message import Message as _MessageBase
     from zros.errors import ZrosError
     from zros.keyexpr.names import InvalidNameError
@@ -150,6 +153,15 @@ if TYPE_CHECKING:
         ServiceUnavailableError,
     )
     from zros.transport import TransportConfig, TransportError, start_router
+
+
+if TYPE_CHECKING:  # a class gives its own instances, a type name a Message
+
+    @overload
+    def Message(type_name: type[M], **fields: object) -> M: ...
+
+    @overload
+    def Message(type_name: str, **fields: object) -> _MessageBase: ...
 
 
 def Message(type_name: str | type[_MessageBase], **fields: object) -> _MessageBase:  # noqa: N802
