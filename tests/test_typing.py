@@ -110,7 +110,11 @@ def _mypy(tmp_path: Path, code: str) -> subprocess.CompletedProcess[str]:
         text=True,
         timeout=300,
         cwd=tmp_path,
-        env={**os.environ, 'MYPYPATH': str(package_root)},
+        # without PYTHONPATH: mypy then checks zros as the user's own code, errors inside too
+        env={
+            **{k: v for k, v in os.environ.items() if k != 'PYTHONPATH'},
+            'MYPYPATH': str(package_root),
+        },
         check=False,
     )
 

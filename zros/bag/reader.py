@@ -15,8 +15,8 @@ from zros.closing import Closing
 
 if TYPE_CHECKING:
     import numpy as np
-    import pandas as pd
 
+    from zros.bag.columns.extract import DataFrame
     from zros.cdr import Message, TypeRegistry
 
 
@@ -210,7 +210,7 @@ class Bag(Closing):
         fields: Iterable[str] | None = None,
         start: TimeLike = None,
         end: TimeLike = None,
-    ) -> pd.DataFrame:
+    ) -> DataFrame:
         """The :meth:`columns` of a topic as a pandas DataFrame (pandas must be installed).
 
         2-D columns are spread over ``name[0]``, ``name[1]``...; ``time`` is a column of int64 ns.

@@ -22,7 +22,11 @@ import numpy as np
 from zros.bag.columns.plan import Leaf, Plan, Step, plan, select
 
 if TYPE_CHECKING:
-    import pandas as pd
+    from typing import TypeAlias
+
+    import pandas as pd  # type: ignore[import-untyped,unused-ignore]  # optional, not installed
+
+    DataFrame: TypeAlias = pd.DataFrame  #: pandas' DataFrame (typed where pandas-stubs is)
 
     from zros.cdr import FieldValue
 from zros.bag.errors import BagError, Unsupported
@@ -409,7 +413,7 @@ def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
     return out
 
 
-def dataframe(columns: dict[str, np.ndarray]) -> pd.DataFrame:
+def dataframe(columns: dict[str, np.ndarray]) -> DataFrame:
     """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns."""
     try:
         import pandas as pd  # type: ignore[import-untyped,unused-ignore]  # noqa: PLC0415 (optional: pandas, for to_pandas only)
