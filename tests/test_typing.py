@@ -94,6 +94,10 @@ def chatter(node: zros.Node) -> None:
     count: int = sub.take()[0].data  # mypy: Incompatible types in assignment (expression has type "str"
     bare: zros.Subscriber = untyped
     zros.QoS().with_(deph=1)  # mypy: Unexpected keyword argument "deph"
+
+async def stream(sub: zros.Subscriber[String]) -> None:
+    async for msg in sub:
+        reveal_type(msg)  # mypy: user_program.String
 """
 
 
