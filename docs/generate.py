@@ -27,6 +27,7 @@ import importlib
 import inspect
 import re
 import sys
+import typing
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -158,6 +159,18 @@ class _Raw:
 def _signature(
     name: str, obj: Callable[..., Any], drop_self: bool = False, returns: bool = True
 ) -> str | None:
+    """The signature of ``obj`` in a code block: its overloads' when it has some (what a type
+    checker sees), else its own."""
+    overloads = typing.get_overloads(obj) if sys.version_info >= (3, 11) else []
+    texts = [_signature_text(name, f, drop_self, returns) for f in overloads or [obj]]
+    if None in texts:
+        return None
+    return '```python\n' + '\n\n'.join(t for t in texts if t) + '\n```'
+
+
+def _signature_text(
+    name: str, obj: Callable[..., Any], drop_self: bool, returns: bool
+) -> str | None:
     try:
         signature = inspect.signature(obj)
     except (TypeError, ValueError):
@@ -175,7 +188,7 @@ def _signature(
         inner = str(signature)[1:].rsplit(')', 1)
         items = _split_parameters(inner[0])
         text = f'{name}(\n' + ''.join(f'    {item},\n' for item in items) + ')' + inner[1]
-    return f'```python\n{text}\n```'
+    return text
 
 
 def _shown(parameter: inspect.Parameter, names: dict[str, Any]) -> inspect.Parameter:

@@ -84,6 +84,8 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:
+    from typing import overload
+
     from zros.actions import (
         ActionClient,
         ActionError,
@@ -123,8 +125,8 @@ if TYPE_CHECKING:
         register_type,
         type_hash,
     )
+    from zros.cdr.message import M
     from zros.cdr.message import Message as _MessageBase
-    from zros.cdr.model import FieldValue
     from zros.errors import ZrosError
     from zros.keyexpr.names import InvalidNameError
     from zros.node import Node
@@ -153,7 +155,16 @@ if TYPE_CHECKING:
     from zros.transport import TransportConfig, TransportError, start_router
 
 
-def Message(type_name: str | type[_MessageBase], **fields: FieldValue) -> _MessageBase:  # noqa: N802
+if TYPE_CHECKING:  # a class gives its own instances, a type name a Message
+
+    @overload
+    def Message(type_name: type[M], **fields: object) -> M: ...
+
+    @overload
+    def Message(type_name: str, **fields: object) -> _MessageBase: ...
+
+
+def Message(type_name: str | type[_MessageBase], **fields: object) -> _MessageBase:  # noqa: N802
     """A new message of a ROS type with its default values (rosR: ``ros.Message``).
 
     A factory, named as rosR named it; what it returns is an instance of a generated class

@@ -49,7 +49,7 @@ from zros.transport import TransportConfig, close_default_transport, default_tra
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
-    from zros.node.settings import NodeOptions
+    from zros.node.settings import NodeKeywords, NodeOptions
 
 _default: Node | None = None
 #: makes the default node after ``zros.init()`` without a name, when first needed
@@ -129,12 +129,13 @@ def init(
             config = config or TransportConfig.create(connect=connect)
             default_transport(config)
             connect = None
-        settings = dict(
-            connect=connect, config=config, args=args, bridge_namespace=bridge_namespace
-        )
+        keywords: NodeKeywords = {
+            'connect': connect, 'config': config, 'args': args,
+            'bridge_namespace': bridge_namespace, **options,
+        }  # fmt: skip
 
         def make(node_name: str) -> Node:
-            return Node(node_name, namespace, **settings, **options)  # type: ignore[arg-type]
+            return Node(node_name, namespace, **keywords)
 
         made = make(name) if name is not None else None  # a failure leaves nothing behind
         _pending = make

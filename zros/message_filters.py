@@ -28,7 +28,6 @@ from zros.timesync import ApproximatePolicy, ExactPolicy, header_stamp
 if TYPE_CHECKING:
     from zros.cdr import Message
     from zros.node import Node
-    from zros.pubsub.subscriber import Received
     from zros.pubsub.subscriber import Subscriber as NodeSubscriber
     from zros.qos import QoSLike
 
@@ -95,7 +94,7 @@ class Subscriber(SimpleFilter):
             msg_type, topic, self.callback, qos=qos_profile
         )
 
-    def callback(self, msg: Received) -> None:
+    def callback(self, msg: Message) -> None:
         """The subscription's callback: hands ``msg`` on."""
         self.signalMessage(msg)
 

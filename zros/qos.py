@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, replace
-from typing import TypeVar, Union
+from typing import TYPE_CHECKING, TypedDict, TypeVar, Union
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 
 class Reliability(enum.IntEnum):
@@ -55,6 +58,19 @@ class Priority(enum.IntEnum):
     DATA = 5
     DATA_LOW = 6
     BACKGROUND = 7
+
+
+class QoSChanges(TypedDict, total=False):
+    """The policies :meth:`QoS.with_` may change (each a field of :class:`QoS`)."""
+
+    depth: int
+    reliability: Reliability
+    durability: Durability
+    history: History
+    lifespan: float | None
+    congestion: Congestion | None
+    priority: Priority | None
+    express: bool | None
 
 
 @dataclass(frozen=True)
@@ -123,9 +139,9 @@ class QoS:
         """Whether the history keeps every message."""
         return self.history is History.KEEP_ALL
 
-    def with_(self, **changes: object) -> QoS:
+    def with_(self, **changes: Unpack[QoSChanges]) -> QoS:
         """A copy with some policies changed."""
-        return replace(self, **changes)  # type: ignore[arg-type]
+        return replace(self, **changes)
 
     def __str__(self) -> str:
         history = 'keep all' if self.keep_all else f'keep last {self.depth}'

@@ -36,7 +36,7 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, TYPE_CHECKING
+from typing import IO, TYPE_CHECKING, Protocol
 
 import pytest
 
@@ -169,8 +169,22 @@ def zros_router() -> Iterator[Router]:
         router.close()
 
 
+class MakeTransport(Protocol):
+    """The ``zros_transport`` fixture: ``make(**settings)``."""
+
+    def __call__(self, **settings: Unpack[TransportOptions]) -> Transport: ...
+
+
+class MakeNode(Protocol):
+    """The ``zros_node`` fixture: ``make(name, namespace='/', **options)``."""
+
+    def __call__(
+        self, name: str = 'test_node', namespace: str = '/', **options: Unpack[NodeOptions]
+    ) -> Node: ...
+
+
 @pytest.fixture
-def zros_transport(zros_router: Router) -> Iterator[Callable[..., Transport]]:
+def zros_transport(zros_router: Router) -> Iterator[MakeTransport]:
     """``make(**settings)`` opens a client session to ``zros_router``."""
     opened: list[Transport] = []
 
@@ -194,9 +208,7 @@ def zros_wire() -> str:
 
 
 @pytest.fixture
-def zros_node(
-    zros_transport: Callable[..., Transport], zros_wire: str
-) -> Iterator[Callable[..., Node]]:
+def zros_node(zros_transport: MakeTransport, zros_wire: str) -> Iterator[MakeNode]:
     """``make(name, namespace='/', **options)``: a node on a session of its own."""
     made: list[Node] = []
 

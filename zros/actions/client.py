@@ -26,7 +26,7 @@ from zros.actions.common import (
     goal_id_of,
     new_goal_id,
 )
-from zros.cdr import CdrError, FieldValue
+from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode
 from zros.cdr.registry import registry_of
@@ -241,7 +241,7 @@ class ActionClient(Entity):
 
     # --- goals ---------------------------------------------------------------------------------
 
-    def _goal(self, goal: Message | None, fields: dict[str, FieldValue]) -> Message:
+    def _goal(self, goal: Message | None, fields: dict[str, object]) -> Message:
         goal_class = self.action_type.Goal
         if goal is None:
             return goal_class(**fields)
@@ -257,7 +257,7 @@ class ActionClient(Entity):
         goal: Message | None = None,
         feedback_callback: Callable[[Message], object] | None = None,
         timeout: float | None = None,
-        **fields: FieldValue,
+        **fields: object,
     ) -> ServiceFuture[ClientGoalHandle]:
         """Send a goal; a future of its :class:`ClientGoalHandle` once the server answered."""
         if self._closed:
@@ -302,7 +302,7 @@ class ActionClient(Entity):
         goal: Message | None = None,
         feedback_callback: Callable[[Message], object] | None = None,
         timeout: float | None = None,
-        **fields: FieldValue,
+        **fields: object,
     ) -> ClientGoalHandle:
         """Send a goal and return its handle once the server accepted or rejected it (check
         ``handle.accepted``); raises ServiceError subclasses when no server answers, and

@@ -22,7 +22,7 @@ from zenoh import Query, ZError
 from zros.actions.common import CancelReturn, GoalStatus, accepted, action_type, goal_id_of
 from zros.actions.goals import cancel_candidates, run_goal
 from zros.actions.server_goal import GoalRecord, ServerGoalHandle
-from zros.cdr import CdrError, FieldValue
+from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode, encode
 from zros.cdr.registry import registry_of
@@ -296,7 +296,7 @@ class ActionServer(Entity):
         self._start_expiry()
 
     def _publish_feedback(
-        self, handle: ServerGoalHandle, feedback: Message | None, fields: dict[str, FieldValue]
+        self, handle: ServerGoalHandle, feedback: Message | None, fields: dict[str, object]
     ) -> None:
         feedback_class = self.action_type.Feedback
         if feedback is None:

@@ -20,7 +20,6 @@ from zenoh import Query
 from zros.actions.common import ActionError, GoalHandle, GoalStatus
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message
-from zros.cdr.model import FieldValue
 from zros.runtime.clock import Time
 
 
@@ -49,7 +48,7 @@ class GoalServer(Protocol):
 
 
 #: how a handle sends feedback: ``send(handle, feedback message or None, fields)``
-SendFeedback = Callable[['ServerGoalHandle', Message | None, dict[str, FieldValue]], None]
+SendFeedback = Callable[['ServerGoalHandle', Message | None, dict[str, object]], None]
 
 
 class GoalRecord:
@@ -78,7 +77,7 @@ class GoalRecord:
         self._waiters: list[Query] = []  #: get_result queries held until the result is known
         self.handle = ServerGoalHandle(server, goal_id, request, stamp, self)
 
-    def send_feedback(self, feedback: Message | None, fields: dict[str, FieldValue]) -> None:
+    def send_feedback(self, feedback: Message | None, fields: dict[str, object]) -> None:
         """Send the handle's feedback through the server."""
         self._send_feedback(self.handle, feedback, fields)
 
@@ -177,7 +176,7 @@ class ServerGoalHandle(GoalHandle):
         """Whether a client asked to cancel (and the cancel callback agreed)."""
         return self._record.status is GoalStatus.CANCELING
 
-    def publish_feedback(self, feedback: Message | None = None, **fields: FieldValue) -> None:
+    def publish_feedback(self, feedback: Message | None = None, **fields: object) -> None:
         """Send feedback to the clients (a Feedback message, or its fields)."""
         self._record.send_feedback(feedback, fields)
 

@@ -20,7 +20,8 @@ from zros.timesync import ApproximatePolicy, header_stamp
 if TYPE_CHECKING:
     import numpy as np
 
-    from zros.cdr import Message, TypeRegistry, Untyped
+    from zros.bag.columns.extract import DataFrame
+    from zros.cdr import Message, TypeRegistry
 
 
 class HasNanoseconds(Protocol):
@@ -233,7 +234,7 @@ class Bag(Closing):
         fields: Iterable[str] | None = None,
         start: TimeLike = None,
         end: TimeLike = None,
-    ) -> Untyped:
+    ) -> DataFrame:
         """The :meth:`columns` of a topic as a pandas DataFrame (pandas must be installed).
 
         2-D columns are spread over ``name[0]``, ``name[1]``...; ``time`` is a column of int64 ns.
@@ -251,7 +252,7 @@ class Bag(Closing):
         tolerance: float | None = None,
         stamp: str = 'header',
         as_dataframe: bool = False,
-    ) -> np.ndarray | Untyped:
+    ) -> np.ndarray | DataFrame:
         """Fields of several topics in one table, a row per instant of ``on``.
 
         ``columns`` names topics and fields as ``'/imu'`` (every numeric field) or

@@ -30,7 +30,8 @@ class BagRead:
     def __getitem__(self, column: str) -> list[str] | list[int] | list[Message]:
         if column not in ('topic', 'data_type', 'time_stamp', 'message'):
             raise KeyError(f'{column!r}; the columns are topic, data_type, time_stamp, message')
-        return getattr(self, column)  # type: ignore[no-any-return]
+        values: list[str] | list[int] | list[Message] = getattr(self, column)
+        return values
 
     def __iter__(self) -> Iterator[tuple[str, str, int, Message]]:
         """Rows: ``(topic, data_type, time_stamp, message)``."""

@@ -54,7 +54,7 @@ def get_type(type_name: TypeLike) -> type[Message] | ServiceType | ActionType:
     return default_registry().get_type(type_name)
 
 
-def new_message(type_name: TypeLike, **fields: FieldValue) -> Message:
+def new_message(type_name: TypeLike, **fields: object) -> Message:
     """A message of the given type with ROS default values, updated with ``fields``."""
     return get_class(type_name)(**fields)
 

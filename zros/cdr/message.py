@@ -18,9 +18,13 @@ from zros.cdr.model import Buffer, FieldValue, MessageDef
 from zros.cdr.naming import attribute_name
 
 if TYPE_CHECKING:
+    import typing_extensions
     from typing_extensions import Self
 
-M = TypeVar('M', bound='Message')
+    #: a message class; a ``Publisher`` written without one is a ``Publisher[Message]``
+    M = typing_extensions.TypeVar('M', bound='Message', default='Message')
+else:  # TypeVar's default= is Python 3.13's
+    M = TypeVar('M', bound='Message')
 
 
 class TracedCodecs(Protocol):
@@ -60,10 +64,10 @@ class Message:
         # fields are generated at run time: to type checkers every field is a FieldValue
         def __getattr__(self, name: str) -> FieldValue: ...
 
-        def __setattr__(self, name: str, value: FieldValue) -> None: ...
+        def __setattr__(self, name: str, value: object) -> None: ...
 
     # generated per class
-    def __init__(self, *args: FieldValue, **kwargs: FieldValue) -> None:
+    def __init__(self, *args: object, **kwargs: object) -> None:
         raise TypeError('Message is abstract; use zros.Message(type) or a generated class')
 
     def copy(self) -> Self:
@@ -85,7 +89,7 @@ class Message:
     # common API
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, FieldValue]) -> Self:
+    def from_dict(cls, data: Mapping[str, object]) -> Self:
         """Build a message from nested dicts, as ``to_dict`` returns them.
 
         Missing fields keep their defaults. Keys may be ROS names or attribute names (``from`` or

@@ -20,7 +20,11 @@ if TYPE_CHECKING:
     import re
     from typing import TypeAlias
 
-    from zros.cdr import FieldValue, Message, Untyped
+    from ruamel.yaml import YAML
+    from ruamel.yaml.nodes import Node
+    from ruamel.yaml.representer import SafeRepresenter
+
+    from zros.cdr import FieldValue, Message
 
 #: a message as plain data (``to_plain``): what the YAML and CSV writers take
 PlainValue: TypeAlias = (
@@ -177,7 +181,7 @@ def _resolver() -> type:
     return PyYamlResolver
 
 
-def _dumper(flow_style: bool) -> Untyped:  # a ruamel.yaml YAML
+def _dumper(flow_style: bool) -> YAML:
     from ruamel.yaml import YAML
 
     yaml = YAML(typ='safe', pure=True)
@@ -186,7 +190,7 @@ def _dumper(flow_style: bool) -> Untyped:  # a ruamel.yaml YAML
     yaml.width = sys.maxsize
     yaml.allow_unicode = True
 
-    def represent_float(representer: Untyped, value: float) -> Untyped:
+    def represent_float(representer: SafeRepresenter, value: float) -> Node:
         if math.isnan(value):
             text = '.nan'
         elif math.isinf(value):
@@ -197,18 +201,21 @@ def _dumper(flow_style: bool) -> Untyped:  # a ruamel.yaml YAML
                 text = text.replace('e', '.0e', 1)
         return representer.represent_scalar('tag:yaml.org,2002:float', text)
 
-    def represent_dict(representer: Untyped, value: dict[str, PlainValue]) -> Untyped:  # in order
+    def represent_dict(
+        representer: SafeRepresenter, value: dict[str, PlainValue]
+    ) -> Node:  # in order
         return representer.represent_mapping('tag:yaml.org,2002:map', list(value.items()))
 
-    def represent_list(representer: Untyped, value: list[PlainValue]) -> Untyped:
+    def represent_list(representer: SafeRepresenter, value: list[PlainValue]) -> Node:
         # ros2's --flow-style makes sequences flow and leaves messages in block style
         return representer.represent_sequence('tag:yaml.org,2002:seq', value, flow_style=flow_style)
 
-    def represent_str(representer: Untyped, value: str) -> Untyped:
+    def represent_str(representer: SafeRepresenter, value: str) -> Node:
         if '\n' in value and all(c == '\n' or c.isprintable() for c in value):
             # PyYAML single-quotes multi-line text where ruamel would double-quote it
             return representer.represent_scalar('tag:yaml.org,2002:str', value, style="'")
-        return representer.represent_str(value)
+        node: Node = representer.represent_str(value)  # annotated Any in ruamel.yaml
+        return node
 
     yaml.representer.add_representer(str, represent_str)
     yaml.representer.add_representer(float, represent_float)

@@ -17,7 +17,7 @@ import threading
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from types import FrameType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from zros.version import counted as counted  # noqa: PLC0414 (the commands' import of it)
 from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, check_wire, scheme_settings
@@ -25,10 +25,11 @@ from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, check_wire, sch
 # commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
 # `zros --help` loads none of them
 if TYPE_CHECKING:
-    from zros.cdr import FieldValue
+    from typing_extensions import Unpack
+
     from zros.cdr.message import Message
     from zros.node import Node
-    from zros.node.settings import NodeSetting
+    from zros.node.settings import NodeKeywords, NodeOptions
 
 
 DISCOVERY = 2.0  #: seconds a one-shot command gives the graph to show itself
@@ -131,13 +132,14 @@ def node_name(args: argparse.Namespace) -> str:
     return '_'.join(['zros', *(str(p).replace('-', '_') for p in parts if p)])
 
 
-def open_node(args: argparse.Namespace, **options: NodeSetting) -> Node:
+def open_node(args: argparse.Namespace, **options: Unpack[NodeOptions]) -> Node:
     """The command's node (:func:`node_name`): no /rosout, no parameter services, its own
     session (unless ``transport=`` is given); its publishers and subscriptions show on the
     graph as any node's."""
     import zros
 
-    settings: dict[str, NodeSetting] = dict(wire_settings(args))
+    # the wire's keywords (bridge_namespace, domain_id), checked by scheme_settings
+    settings = cast('NodeKeywords', wire_settings(args))
     if getattr(args, 'wire', None):
         settings['wire'] = args.wire
     if 'transport' not in options:  # else the session is made already
@@ -146,7 +148,8 @@ def open_node(args: argparse.Namespace, **options: NodeSetting) -> Node:
             settings['mode'] = args.mode
     options.setdefault('enable_rosout', False)
     options.setdefault('start_parameter_services', False)
-    return zros.Node(node_name(args), **settings, **options)
+    keywords: NodeKeywords = {**settings, **options}
+    return zros.Node(node_name(args), **keywords)
 
 
 def names_on_graph(node: Node, kind: str) -> dict[str, list[str]]:
@@ -186,7 +189,7 @@ def find_names(args: argparse.Namespace, kind: str, type_name: str) -> int:
     return 0
 
 
-def parse_values(text: str | None) -> dict[str, FieldValue]:
+def parse_values(text: str | None) -> dict[str, object]:
     """Message fields from YAML text, as ``ros2 topic pub`` takes them: ``"{data: hi}"``."""
     if not text:
         return {}
@@ -314,7 +317,7 @@ def subscription_type(node: Node, topic: str, type_name: str | None, wait: float
     return type_name
 
 
-def build_message(cls: type[Message], values: dict[str, FieldValue]) -> Message:
+def build_message(cls: type[Message], values: dict[str, object]) -> Message:
     """A message of ``cls`` with ``values`` (nested dicts for nested fields), checked before
     anything is sent: a wrong field name or value is a usage error naming the field."""
     from zros.cdr.errors import CdrError, FieldError

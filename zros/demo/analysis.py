@@ -33,6 +33,7 @@ from zros.demo.sensor import (
 )
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
     from numpy.polynomial import Polynomial
 
 DEGREE = 8  # R: poly(volt, 8)
@@ -40,7 +41,9 @@ WINDOW = 5  # readings in the moving average
 INFRARED = 1  # sensor_msgs/msg/Range.INFRARED
 
 
-def moving_average(values: np.ndarray, window: int = WINDOW) -> np.ndarray:
+def moving_average(
+    values: npt.NDArray[np.float64], window: int = WINDOW
+) -> npt.NDArray[np.float64]:
     """The mean of each value and the ``window - 1`` before it (fewer at the start)."""
     values = np.asarray(values, dtype=float)
     sums = np.cumsum(np.insert(values, 0, 0.0))
@@ -53,12 +56,12 @@ def moving_average(values: np.ndarray, window: int = WINDOW) -> np.ndarray:
 class Calibration:
     """The calibration pairs of a bag and the curve fitted to them."""
 
-    volt: np.ndarray  #: volts, one per pair
-    dist: np.ndarray  #: metres, one per pair
+    volt: npt.NDArray[np.float64]  #: volts, one per pair
+    dist: npt.NDArray[np.float64]  #: metres, one per pair
     curve: Polynomial  #: distance in metres as a polynomial of the voltage
 
     @property
-    def residuals(self) -> np.ndarray:
+    def residuals(self) -> npt.NDArray[np.float64]:
         """Measured minus fitted distance of each pair, in metres."""
         return np.asarray(self.dist - self.curve(self.volt))
 
@@ -78,7 +81,9 @@ class Calibration:
         return min(max(float(self.curve(volt)), MIN_RANGE), MAX_RANGE)
 
 
-def fit_curve(volt: np.ndarray, dist: np.ndarray, degree: int = DEGREE) -> Polynomial:
+def fit_curve(
+    volt: npt.NDArray[np.float64], dist: npt.NDArray[np.float64], degree: int = DEGREE
+) -> Polynomial:
     """``dist ~ poly(volt, degree)`` by least squares (as R's ``lm``), as a numpy Polynomial."""
     from numpy.polynomial import Polynomial  # noqa: PLC0415 (lazy: numpy, import time)
 

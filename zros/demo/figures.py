@@ -19,6 +19,7 @@ from zros.demo.analysis import WINDOW, Calibration, moving_average
 from zros.demo.sensor import DISTANCE_TOPIC, MAX_RANGE, MIN_RANGE, PAPER_FIT, VOLTAGE_TOPIC
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
     from matplotlib.figure import Figure
 
 DPI = 100
@@ -46,8 +47,8 @@ def new_figure(
 
 
 def voltage_figure(
-    times: Sequence[float] | np.ndarray = (),
-    volts: Sequence[float] | np.ndarray = (),
+    times: Sequence[float] | npt.NDArray[np.float64] = (),
+    volts: Sequence[float] | npt.NDArray[np.float64] = (),
     *,
     window: int = WINDOW,
     gui: bool = False,
@@ -67,8 +68,8 @@ def voltage_figure(
 
 def update_voltage_figure(
     figure: Figure,
-    times: Sequence[float] | np.ndarray,
-    volts: Sequence[float] | np.ndarray,
+    times: Sequence[float] | npt.NDArray[np.float64],
+    volts: Sequence[float] | npt.NDArray[np.float64],
     *,
     window: int = WINDOW,
 ) -> None:
@@ -116,9 +117,9 @@ def fit_figure(calibration: Calibration, *, gui: bool = False) -> Figure:
 
 
 def distance_figure(
-    times: Sequence[float] | np.ndarray,
-    distances: Sequence[float] | np.ndarray,
-    truth: Sequence[float] | np.ndarray | None = None,
+    times: Sequence[float] | npt.NDArray[np.float64],
+    distances: Sequence[float] | npt.NDArray[np.float64],
+    truth: Sequence[float] | npt.NDArray[np.float64] | None = None,
     *,
     window: int = WINDOW,
     gui: bool = False,

@@ -7,12 +7,14 @@ order), and the default node when ``node`` is not given: both ways are deliberat
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import cast, overload
 
 from zros.actions import ActionClient, ActionServer, ServerGoalHandle
 from zros.cdr import Message
 from zros.cdr.interfaces import ActionType, ServiceType
+from zros.cdr.message import M
 from zros.pubsub import Publisher, Subscriber
-from zros.pubsub.subscriber import Received
+from zros.pubsub.subscriber import T
 from zros.qos import QoSLike
 from zros.runtime.clock import Clock
 from zros.runtime.context import NodeContext
@@ -29,22 +31,57 @@ class EntityFactories:
     clock: Clock
     spin_until_clock: Callable[[int], None]
 
+    @overload
     def create_publisher(
-        self, msg_type: str | type[Message], topic: str, qos: QoSLike | None = None
-    ) -> Publisher:
-        """A publisher on ``topic`` (rclpy's order; ``zros.Publisher(topic, type)`` is rosR's)."""
+        self, msg_type: str, topic: str, qos: QoSLike | None = None
+    ) -> Publisher[Message]: ...
+
+    @overload
+    def create_publisher(
+        self, msg_type: type[M], topic: str, qos: QoSLike | None = None
+    ) -> Publisher[M]: ...
+
+    def create_publisher(
+        self, msg_type: str | type[M], topic: str, qos: QoSLike | None = None
+    ) -> Publisher[M] | Publisher[Message]:
+        """A publisher on ``topic`` (rclpy's order; ``zros.Publisher(topic, type)`` is rosR's).
+        A ``Publisher[String]`` for the class ``String``, a ``Publisher[Message]`` for a name."""
+        if isinstance(msg_type, str):
+            return Publisher(topic, msg_type, qos, node=self)
         return Publisher(topic, msg_type, qos, node=self)
+
+    @overload
+    def create_subscription(
+        self,
+        msg_type: str,
+        topic: str,
+        callback: Callable[[Message], object] | None = None,
+        qos: QoSLike | None = None,
+    ) -> Subscriber[Message]: ...
+
+    @overload
+    def create_subscription(
+        self,
+        msg_type: type[M],
+        topic: str,
+        callback: Callable[[M], object] | None = None,
+        qos: QoSLike | None = None,
+    ) -> Subscriber[M]: ...
 
     def create_subscription(
         self,
-        msg_type: str | type[Message],
+        msg_type: str | type[M],
         topic: str,
-        callback: Callable[[Received], object] | None = None,
+        callback: Callable[[M], object] | Callable[[Message], object] | None = None,
         qos: QoSLike | None = None,
-    ) -> Subscriber:
+    ) -> Subscriber[M] | Subscriber[Message]:
         """A subscriber on ``topic``; ``callback(message)`` runs when the node spins (rclpy's
-        order; ``zros.Subscriber(topic, type)`` is rosR's)."""
-        return Subscriber(topic, msg_type, callback, qos, node=self)
+        order; ``zros.Subscriber(topic, type)`` is rosR's). A ``Subscriber[String]`` for the
+        class ``String`` (its callback takes a ``String``), a ``Subscriber[Message]`` for a name."""
+        # the overloads tie callback to msg_type
+        handler = cast('Callable[[Message], object] | None', callback)
+        cls: str | type[Message] = msg_type
+        return Subscriber(topic, cls, handler, qos, node=self)
 
     def create_service(
         self,
@@ -102,11 +139,11 @@ class EntityFactories:
         entity.close()
         return True
 
-    def destroy_publisher(self, publisher: Publisher) -> bool:
+    def destroy_publisher(self, publisher: Publisher[M]) -> bool:
         """Close a publisher of this node (rclpy's name); False if it was not one, or closed."""
         return self._destroy(publisher, Publisher)
 
-    def destroy_subscription(self, subscription: Subscriber) -> bool:
+    def destroy_subscription(self, subscription: Subscriber[T]) -> bool:
         """Close a subscriber of this node (rclpy's name); False if it was not one, or closed."""
         return self._destroy(subscription, Subscriber)
 

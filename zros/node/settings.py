@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from zros.keyexpr.names import (
     Remapping,
@@ -27,8 +27,6 @@ if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
 
 PathLike = str | os.PathLike[str]
-#: a setting handed on to :class:`zros.Node` by the CLI and the gateways, checked by Node
-NodeSetting = Any
 
 
 class NodeOptions(SessionOptions, total=False):
@@ -47,6 +45,16 @@ class NodeOptions(SessionOptions, total=False):
     wire: str | None
     domain_id: int | None
     immediate_callbacks: bool
+
+
+class NodeKeywords(NodeOptions, total=False):
+    """Every keyword argument of ``Node(name, namespace, ...)``: what the CLI and the gateways
+    hand on to the node they make."""
+
+    connect: str | Sequence[str] | None
+    config: TransportConfig | None
+    args: Sequence[str] | None
+    bridge_namespace: str | None
 
 
 def parameter_overrides(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterable, Mapping
 
-from zros.cdr import FieldValue, Message
+from zros.cdr import Message
 from zros.deprecation import deprecated
 from zros.keyexpr.names import validate_full_name
 from zros.params.descriptor import Descriptor, Parameter, SetResult
@@ -70,11 +70,11 @@ class ParameterClient:
         self._Value = registry.get_class('rcl_interfaces/msg/ParameterValue')
         self._Parameter = registry.get_class('rcl_interfaces/msg/Parameter')
 
-    def _call(self, service: str, timeout: float | None, **fields: FieldValue) -> Message:
+    def _call(self, service: str, timeout: float | None, **fields: object) -> Message:
         client = self._clients[service]
         wait = self.timeout if timeout is None else timeout
         try:
-            response: Message = client.call(timeout=wait, **fields)
+            response: Message = client.call(None, wait, **fields)
             return response
         except ServiceUnavailableError:
             raise NodeNotFoundError(
@@ -209,7 +209,7 @@ class ParameterEvent:
 
 def subscribe_parameter_events(
     node: NodeLike, callback: Callable[[ParameterEvent], object], node_name: str | None = None
-) -> Subscriber:
+) -> Subscriber[Message]:
     """Call ``callback(event)`` (while ``node`` spins) for each parameter change on the network,
     or only those of ``node_name``."""
 

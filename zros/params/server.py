@@ -57,7 +57,7 @@ class ParameterServer:
         self._Parameter = registry.get_class('rcl_interfaces/msg/Parameter')
         self._Result = registry.get_class('rcl_interfaces/msg/SetParametersResult')
         self._Event = registry.get_class('rcl_interfaces/msg/ParameterEvent')
-        self._events: Publisher = Publisher(EVENTS_TOPIC, self._Event, PARAMETER_EVENTS, node=node)
+        self._events = Publisher(EVENTS_TOPIC, self._Event, PARAMETER_EVENTS, node=node)
         handlers = {
             'list_parameters': self._list,
             'get_parameters': self._get,

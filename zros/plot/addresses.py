@@ -19,6 +19,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
+
     from zros.cdr import FieldValue, Message
 
 from zros.errors import ZrosError
@@ -64,7 +66,9 @@ class Series:
             value = value[self.index]
         return float(value)
 
-    def column(self, columns: Mapping[str, np.ndarray]) -> np.ndarray:
+    def column(
+        self, columns: Mapping[str, npt.NDArray[np.generic[object]]]
+    ) -> npt.NDArray[np.float64]:
         """This field's values as float64, from the columns ``Bag.columns`` returns."""
         column = columns[self.field]
         if self.index is None:
@@ -215,7 +219,7 @@ def resolve(
     raise first_error
 
 
-def moving_average(values: np.ndarray, length: int) -> np.ndarray:
+def moving_average(values: npt.NDArray[np.float64], length: int) -> npt.NDArray[np.float64]:
     """The mean of each value and the ``length - 1`` before it (fewer at the start).
 
     The filter of the rosR tutorial: causal, so a live line never changes behind its head.

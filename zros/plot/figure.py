@@ -15,6 +15,7 @@ import numpy as np
 from zros.plot.addresses import Series, moving_average
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
@@ -42,7 +43,7 @@ def new_figure(show: bool, size: tuple[float, float]) -> Figure:
     return Figure(figsize=size, layout='constrained')
 
 
-def _limits(arrays: Sequence[np.ndarray]) -> tuple[float, float] | None:
+def _limits(arrays: Sequence[npt.NDArray[np.float64]]) -> tuple[float, float] | None:
     finite = [a[np.isfinite(a)] for a in arrays]
     finite = [a for a in finite if a.size]
     if not finite:
@@ -99,7 +100,9 @@ class SeriesFigure:
         # line of a counter that started high (a topic's stamp, a sequence number)
         self.axes.legend(loc='best', fontsize='small')
 
-    def set_data(self, number: int, times: np.ndarray, values: np.ndarray) -> None:
+    def set_data(
+        self, number: int, times: npt.NDArray[np.float64], values: npt.NDArray[np.float64]
+    ) -> None:
         """The points of series ``number`` (its moving average follows)."""
         self.lines[number].set_data(times, values)
         if self.filter is not None:

@@ -27,6 +27,7 @@ from zros.qos import QoS, Reliability
 
 # matplotlib loads when a figure is made, the runtime (Zenoh) when a plot makes its own node
 if TYPE_CHECKING:
+    import numpy.typing as npt
     from matplotlib.figure import Figure
 
     from zros.cdr import Message
@@ -97,7 +98,7 @@ class LivePlot(Closing):
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.start_ns = node.now().nanoseconds
-        self._subscriptions: list[Subscriber] = []
+        self._subscriptions: list[Subscriber[Message]] = []
         try:
             for topic in topics:
                 numbers = [n for n, s in enumerate(self.series) if s.topic == topic]
@@ -135,7 +136,7 @@ class LivePlot(Closing):
             series += found
         return series
 
-    def _subscribe(self, topic: str, numbers: list[int]) -> Subscriber:
+    def _subscribe(self, topic: str, numbers: list[int]) -> Subscriber[Message]:
         node = self.node
         publishers = node.graph.publishers(node.scheme.key(node.resolve_name(topic)))
         reliable = all(p.qos is None or p.qos.reliable for p in publishers)
@@ -206,7 +207,7 @@ class LivePlot(Closing):
             self._reached.clear()
         return self._reached.wait(timeout)
 
-    def data(self, number: int) -> tuple[np.ndarray, np.ndarray]:
+    def data(self, number: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """The times and values series ``number`` holds now (the window's and a few before)."""
         with self._lock:
             return np.array(self._times[number]), np.array(self._values[number])

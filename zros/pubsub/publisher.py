@@ -6,13 +6,13 @@ import functools
 import sys
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Generic, Protocol, cast, overload
 
-from zenoh import Reliability, ZError, ext
+from zenoh import CongestionControl, Priority, Reliability, ZError, ext
 
 from zros.cdr import definition_of, encode
 from zros.cdr.encode_buffer import EncodeBuffer
-from zros.cdr.message import Message
+from zros.cdr.message import M, Message
 from zros.cdr.model import Kind
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
@@ -29,7 +29,22 @@ if TYPE_CHECKING:
     from zros.wire import WireEntity
 
 
-class Publisher(Entity):
+class _DeclarePublisher(Protocol):
+    """``session.declare_publisher``, or zenoh-ext's advanced one bound to the session."""
+
+    def __call__(
+        self,
+        key_expr: str,
+        /,
+        *,
+        congestion_control: CongestionControl,
+        reliability: Reliability,
+        priority: Priority,
+        express: bool,
+    ) -> ZenohPublisher | ext.AdvancedPublisher: ...
+
+
+class Publisher(Entity, Generic[M]):
     """Publishes messages of one type on one topic (rosR: ``ros.Publisher``).
 
     ``qos`` is a :class:`zros.QoS`, a depth or a preset name (``'sensor_data'``). When the
@@ -39,14 +54,40 @@ class Publisher(Entity):
 
     The module-level way: ``(topic, type)`` is rosR's order, ``node`` None the default node of
     ``zros.init``. ``node.create_publisher(type, topic)`` takes rclpy's order; both are on purpose.
+
+    Generic in its message class: ``Publisher(topic, String)`` is a ``Publisher[String]``, whose
+    ``write`` takes a ``String``; given a type name it is a ``Publisher[Message]``.
     """
 
     gid: bytes | None  #: rmw_zenoh: the GID in its attachments (and its token's hash)
+    msg_type: type[M]  #: its message class
+
+    @overload
+    def __init__(
+        self: Publisher[Message],
+        topic: str,
+        msg_type: str,
+        qos: QoSLike | None = None,
+        *,
+        node: NodeLike | None = None,
+        announce: bool = True,
+    ) -> None: ...
+
+    @overload
+    def __init__(
+        self,
+        topic: str,
+        msg_type: type[M],
+        qos: QoSLike | None = None,
+        *,
+        node: NodeLike | None = None,
+        announce: bool = True,
+    ) -> None: ...
 
     def __init__(
         self,
         topic: str,
-        msg_type: str | type[Message],
+        msg_type: str | type[M],
         qos: QoSLike | None = None,
         *,
         node: NodeLike | None = None,
@@ -54,7 +95,8 @@ class Publisher(Entity):
     ) -> None:
         super().__init__(node)
         context = self.context
-        self.msg_type = message_class(context.registry, msg_type)
+        # a type name's class is a Message (the first overload), a class is itself
+        self.msg_type = cast('type[M]', message_class(context.registry, msg_type))
         self.type_name = self.msg_type.__msgtype__
         self.qos: QoS = as_qos(qos)
         self.topic = self._resolve(EntityKind.PUBLISHER, topic)
@@ -91,7 +133,7 @@ class Publisher(Entity):
         #: the Zenoh priority and express flag its messages carry
         self.priority, self.express = priority, express
         session = self.context.transport.session
-        declare: Callable[..., ZenohPublisher | ext.AdvancedPublisher] = session.declare_publisher
+        declare: _DeclarePublisher = session.declare_publisher
         if qos.transient_local:  # zenoh-ext's, which keeps the last messages for late joiners
             declare = functools.partial(
                 ext.declare_advanced_publisher, session,
@@ -103,7 +145,7 @@ class Publisher(Entity):
             priority=PRIORITY[priority], express=express,
         )  # fmt: skip
 
-    def write(self, message: Message) -> None:
+    def write(self, message: M) -> None:
         """Publish a message (rosR: ``ros.WriteMessage``)."""
         if type(message) is not self.msg_type:
             self._check_type(message)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import threading
 
+from zros.cdr.message import Message
 from zros.pubsub.publisher import Publisher
 from zros.qos import ROSOUT
 from zros.runtime.defaults import NodeLike
@@ -22,7 +23,7 @@ class RosoutSink:
         self._context = node.context
         self._level = level
         self.enabled = enabled
-        self._publisher: Publisher | None = None
+        self._publisher: Publisher[Message] | None = None
         self._lock = threading.Lock()
 
     @property

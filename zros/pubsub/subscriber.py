@@ -12,13 +12,13 @@ import logging
 import threading
 import time
 from collections.abc import AsyncIterator, Callable
-from typing import Any
+from typing import TYPE_CHECKING, Generic, Literal, NoReturn, TypedDict, TypeVar, cast, overload
 
 from zenoh import Sample
 
 from zros.cdr import CdrError
-from zros.cdr.classes import Decoder, compiled_decoder
-from zros.cdr.message import Message, decode
+from zros.cdr.classes import compiled_decoder
+from zros.cdr.message import M, Message, decode
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.senders import describe_sender
@@ -39,12 +39,25 @@ from zros.runtime.signal import (
 
 _log = logging.getLogger('zros')
 
-#: what a subscriber hands over (boundary): a message of its type (chosen at run time), or its
-#: CDR bytes when ``raw``; None where a reader got nothing
-Received = Any
+if TYPE_CHECKING:
+    import typing_extensions
+    from typing_extensions import Unpack
+
+    #: a message of its class, or CDR bytes when ``raw`` (a bare ``Subscriber`` is of Message)
+    T = typing_extensions.TypeVar('T', bound=Message | bytes, default=Message)
+
+    class SubscriberOptions(TypedDict, total=False):
+        """The keyword-only settings of :class:`Subscriber` besides ``raw``."""
+
+        node: NodeLike | None
+        max_queue: int | None
+        max_queue_bytes: int
+        announce: bool
+else:  # TypeVar's default= is Python 3.13's
+    T = TypeVar('T', bound=Message | bytes)
 
 
-class Subscriber(Entity):
+class Subscriber(Entity, Generic[T]):
     """Receives messages of one type on one topic (rosR: ``ros.Subscriber``).
 
     Poll it (``has_new_message``, ``read_message``, ``take``), give it a ``callback`` that runs
@@ -66,15 +79,66 @@ class Subscriber(Entity):
     The module-level way: ``(topic, type)`` is rosR's order, ``node`` None the default node of
     ``zros.init``. ``node.create_subscription(type, topic)`` takes rclpy's order; both are on
     purpose.
+
+    Generic: ``Subscriber(topic, String)`` is a ``Subscriber[String]`` (callback, reads and
+    ``async for`` give ``String``); a type name gives ``Subscriber[Message]``, ``raw=True`` bytes.
     """
 
     gid: bytes | None  #: rmw_zenoh: the GID in its token's hash
+
+    @overload
+    def __init__(
+        self: Subscriber[Message],
+        topic: str,
+        msg_type: str,
+        callback: Callable[[Message], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        raw: Literal[False] = False,
+        **options: Unpack[SubscriberOptions],
+    ) -> None: ...
+
+    @overload
+    def __init__(
+        self: Subscriber[M],
+        topic: str,
+        msg_type: type[M],
+        callback: Callable[[M], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        raw: Literal[False] = False,
+        **options: Unpack[SubscriberOptions],
+    ) -> None: ...
+
+    @overload
+    def __init__(
+        self: Subscriber[bytes],
+        topic: str,
+        msg_type: str | type[Message],
+        callback: Callable[[bytes], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        raw: Literal[True],
+        **options: Unpack[SubscriberOptions],
+    ) -> None: ...
+
+    @overload
+    def __init__(
+        self: Subscriber[Message | bytes],
+        topic: str,
+        msg_type: str | type[Message],
+        callback: Callable[[Message | bytes], object] | None = None,
+        qos: QoSLike | None = None,
+        *,
+        raw: bool,
+        **options: Unpack[SubscriberOptions],
+    ) -> None: ...
 
     def __init__(
         self,
         topic: str,
         msg_type: str | type[Message],
-        callback: Callable[[Received], object] | None = None,
+        callback: Callable[[NoReturn], object] | None = None,  # T: see the overloads
         qos: QoSLike | None = None,
         *,
         node: NodeLike | None = None,
@@ -93,15 +157,16 @@ class Subscriber(Entity):
             EntityKind.SUBSCRIBER, self.topic, self.type_name, registry_of(self.msg_type),
             qos=self.qos, announce=announce, own=True,
         )  # fmt: skip
-        self._callback = callback
+        self._callback = cast('Callable[[T], object] | None', callback)  # see the overloads
         self.raw = raw
         self._queue = SampleQueue(
             None if self.qos.keep_all else self.qos.depth, max_queue, max_queue_bytes
         )
         self._reading = threading.Lock()  #: one reader at a time
         self._checked: Sample | None = None  #: the sample has_new_message decoded, and its message
-        self._checked_message: Received = None
-        self._decoder: Decoder | None = None  #: the type's compiled decoder, once a batch came
+        self._checked_message: T | None = None
+        #: the type's compiled decoder, once a batch came
+        self._decoder: Callable[[bytes, bool], T] | None = None
         self._work = Work(self._deliver)
         self._executor = context.executor
         self._schedule = context.executor.schedule
@@ -109,7 +174,7 @@ class Subscriber(Entity):
         self._now = callback is not None and context.executor.immediate
         self._arrived = Signal()  #: threads waiting for a message
         self._async_wakers: list[Callable[[], None]] = []
-        self._last: Received = None
+        self._last: T | None = None
         self.undecodable = 0  #: samples that did not decode as the type
         self._drops = DropCounter(self.topic)
         self._overflows = DropCounter(self.topic)
@@ -200,34 +265,39 @@ class Subscriber(Entity):
 
     # --- reading ---------------------------------------------------------------------------
 
-    def _convert(self, sample: Sample) -> Received:
+    def _convert(self, sample: Sample) -> T | None:
         if sample is self._checked:
             message = self._checked_message
             self._checked = self._checked_message = None
             return message
         data = sample.payload.to_bytes()
+        # T is bytes when raw, else msg_type's instances (the overloads of __init__)
         if self.raw:
-            return data
+            return data  # type: ignore[return-value]
         try:
-            return decode(self.msg_type, data)
+            return decode(self.msg_type, data)  # type: ignore[return-value]
         except CdrError as exc:
             self.undecodable += 1  # under self._reading
             self._drop(sample, f'it does not decode as {self.type_name}: {exc}')
             return None
 
-    def _convert_all(self, samples: list[Sample]) -> list[Received]:
+    def _convert_all(self, samples: list[Sample]) -> list[T]:
         """The messages of ``samples`` (under ``self._reading``), dropping the undecodable."""
         if self.raw:
             return [m for m in map(self._convert, samples) if m is not None]
         fast = self._decoder
         if fast is None:
-            fast = self._decoder = compiled_decoder(self.msg_type)
+            fast = self._decoder = cast(
+                'Callable[[bytes, bool], T]', compiled_decoder(self.msg_type)
+            )
         checked = self._checked  # decoded already by has_new_message
-        messages: list[Received] = []
+        messages: list[T] = []
         append = messages.append
         for sample in samples:
             if sample is checked:
-                append(self._checked_message)
+                message = self._checked_message
+                assert message is not None  # set with self._checked
+                append(message)
                 self._checked = self._checked_message = checked = None
                 continue
             try:
@@ -259,7 +329,7 @@ class Subscriber(Entity):
                 queue.discard(sample)
             return False
 
-    def read_message(self) -> Received:
+    def read_message(self) -> T | None:
         """The newest message (rosR: ``ros.ReadMessage``); unread older ones are discarded.
 
         Returns the last message read again when nothing new came, and None before the first.
@@ -275,9 +345,9 @@ class Subscriber(Entity):
             self._checked = self._checked_message = None
         return self._last
 
-    def take(self, max_messages: int | None = None) -> list[Received]:
+    def take(self, max_messages: int | None = None) -> list[T]:
         """Every unread message, oldest first (up to ``max_messages``): the stream read."""
-        messages: list[Received] = []
+        messages: list[T] = []
         with self._reading:
             while max_messages is None or len(messages) < max_messages:
                 samples = self._queue.pop(
@@ -295,7 +365,7 @@ class Subscriber(Entity):
     def _has_message(self) -> bool:
         return self._queue.unread() > 0 or self._closed
 
-    def wait_for_message(self, timeout: float | None = None) -> Received:
+    def wait_for_message(self, timeout: float | None = None) -> T | None:
         """Block until a message is unread, then return the oldest one (None on timeout, once
         the subscriber is closed, and after Ctrl-C).
 
@@ -342,7 +412,7 @@ class Subscriber(Entity):
             done += 1
         return done
 
-    async def __aiter__(self) -> AsyncIterator[Received]:
+    async def __aiter__(self) -> AsyncIterator[T]:
         """Messages as they arrive: ``async for message in subscriber`` (ends on close and
         on Ctrl-C)."""
         loop = asyncio.get_running_loop()

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from zenoh import Reply
 from zenoh.handlers import Callback, Handler
 
-from zros.cdr import CdrError, FieldValue
+from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
 from zros.cdr.registry import registry_of
@@ -100,7 +100,7 @@ class Client(Entity):
         self._matching.wait_for(lambda: self._closed or self.service_is_ready(), timeout)
         return not self._closed and self.service_is_ready()
 
-    def _request(self, request: Message | None, fields: dict[str, FieldValue]) -> bytes:
+    def _request(self, request: Message | None, fields: dict[str, object]) -> bytes:
         if self._closed:
             raise ServiceError(f'the client of {self.name} was closed')
         if request is None:
@@ -155,7 +155,7 @@ class Client(Entity):
         )
 
     def call(
-        self, request: Message | None = None, timeout: float | None = None, **fields: FieldValue
+        self, request: Message | None = None, timeout: float | None = None, **fields: object
     ) -> Message:
         """Call the service and return its response (see the class docstring for errors);
         Ctrl-C raises KeyboardInterrupt."""
@@ -203,7 +203,7 @@ class Client(Entity):
         request: Message | None = None,
         timeout: float | None = None,
         callback: Callable[[ServiceFuture[Message]], object] | None = None,
-        **fields: FieldValue,
+        **fields: object,
     ) -> ServiceFuture[Message]:
         """Send a request and return at once: a future to ``await`` or ``.result()``.
 

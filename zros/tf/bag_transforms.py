@@ -8,11 +8,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from zros.bag import Bag, BagError
 from zros.tf import checks
+
+if TYPE_CHECKING:
+    from zros.tf.quaternions import Floats, Stamps
 
 _NS = 1_000_000_000
 
@@ -26,8 +30,8 @@ class EdgeBatch:
     child: str
     static: bool
     authority: str
-    stamps: np.ndarray
-    rows: np.ndarray
+    stamps: Stamps
+    rows: Floats
 
 
 def _is_static(topic: str) -> bool:

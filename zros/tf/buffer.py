@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from zros.bag import Bag
+    from zros.tf.quaternions import Floats, Stamps
 
 _NS = 1_000_000_000
 
@@ -248,10 +249,10 @@ class Buffer:
         self,
         target_frame: str,
         source_frame: str,
-        times: np.ndarray | Sequence[int],
+        times: Stamps | Sequence[int],
         *,
         strict: bool = False,
-    ) -> tuple[np.ndarray, np.ndarray]:
+    ) -> tuple[Floats, Floats]:
         """T_target_source at each of ``times`` (int64 nanoseconds), computed with numpy over
         the whole array: ``(translations (N, 3), rotations (N, 4) as x y z w)``.
 
@@ -296,7 +297,7 @@ class Buffer:
             q[~valid] = np.nan
         return t, q
 
-    def stamps(self, target_frame: str, source_frame: str) -> np.ndarray:
+    def stamps(self, target_frame: str, source_frame: str) -> Stamps:
         """Every stamp (int64 ns) at which a moving edge of the chain has a transform and the
         whole chain is covered, sorted: where the chain's transform changes."""
         target = clean_frame(target_frame, 'target_frame')
@@ -330,12 +331,12 @@ class Buffer:
 
     def transform_points(
         self,
-        points: np.ndarray,
+        points: Floats,
         target_frame: str,
         source_frame: str,
         time: TimeLike,
         timeout: TimeoutLike = None,
-    ) -> np.ndarray:
+    ) -> Floats:
         """Points ``(N, 3)`` given in ``source_frame`` at ``time``, in ``target_frame``."""
         array = np.asarray(points, dtype=np.float64)
         if array.ndim != 2 or array.shape[1] != 3:
@@ -346,7 +347,7 @@ class Buffer:
         self._wait(lambda: self._pose(target, source, stamp), timeout)
         with self._lock:
             pose, _ = self._pose(target, source, stamp)
-        moved: np.ndarray = np.asarray(pose[:3]) + rotate(np.asarray(pose[3:])[None, :], array)
+        moved: Floats = np.asarray(pose[:3]) + rotate(np.asarray(pose[3:])[None, :], array)
         return moved
 
     # --- what it holds ---------------------------------------------------------------------
@@ -411,8 +412,8 @@ class Buffer:
         self,
         parent: str,
         child: str,
-        stamps: np.ndarray,
-        rows: np.ndarray,
+        stamps: Stamps,
+        rows: Floats,
         *,
         authority: Authority,
         static: bool,

@@ -9,10 +9,15 @@ transform, valid at every time.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from zros.tf.checks import Authority
 from zros.tf.quaternions import Pose7, interpolate
+
+if TYPE_CHECKING:
+    from zros.tf.quaternions import Floats, Stamps
 
 #: insert outcomes other than success, with tf2's names
 OLD_DATA = 'TF_OLD_DATA'
@@ -73,12 +78,12 @@ class EdgeCache:
         return self._end - self._start
 
     @property
-    def stamps(self) -> np.ndarray:
+    def stamps(self) -> Stamps:
         """The stamps held, oldest first (a view)."""
         return self._stamps[self._start : self._end]
 
     @property
-    def rows(self) -> np.ndarray:
+    def rows(self) -> Floats:
         """The transforms held as ``(N, 7)`` rows (a view)."""
         return self._data[self._start : self._end]
 
@@ -130,7 +135,7 @@ class EdgeCache:
         self._prune()
         return None
 
-    def extend(self, stamps: np.ndarray, rows: np.ndarray) -> int:
+    def extend(self, stamps: Stamps, rows: Floats) -> int:
         """Add many transforms at once (a recording); returns how many repeated a stamp held
         (those are dropped, the first of each stamp kept)."""
         if self.static:
@@ -205,6 +210,6 @@ class EdgeCache:
         return int(self._stamps[self._start]) <= stamp <= int(self._stamps[self._end - 1])
 
 
-def stamps_of(cache: EdgeCache | None) -> np.ndarray:
+def stamps_of(cache: EdgeCache | None) -> Stamps:
     """The stamps a cache holds (none for None)."""
     return _EMPTY_STAMPS if cache is None else cache.stamps

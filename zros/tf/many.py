@@ -9,17 +9,20 @@ segment between two samples (angle and its sine), so each stamp costs two sines.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from zros.tf.quaternions import Pose7, compose, invert, multiply, rotate, rotation_matrix
 
-Arrays = tuple[np.ndarray, np.ndarray]
+if TYPE_CHECKING:
+    from zros.tf.quaternions import Floats, Mask, Stamps
+
+Arrays = tuple['Floats', 'Floats']
 Many = Pose7 | Arrays
 
 
-def sample(
-    static: bool, stamps: np.ndarray, rows: np.ndarray, times: np.ndarray
-) -> tuple[Many, np.ndarray | None]:
+def sample(static: bool, stamps: Stamps, rows: Floats, times: Stamps) -> tuple[Many, Mask | None]:
     """One edge at every stamp of ``times``, and which stamps its data covers (None: all)."""
     if static:
         return _pose(rows[0]), None
@@ -58,7 +61,7 @@ def sample(
     return (translations, rotations), covered
 
 
-def _pose(row: np.ndarray) -> Pose7:
+def _pose(row: Floats) -> Pose7:
     x, y, z, qx, qy, qz, qw = row.tolist()
     return (x, y, z, qx, qy, qz, qw)
 
@@ -88,13 +91,13 @@ def invert_many(a: Many) -> Many:
     return -rotate(conjugate, t), conjugate
 
 
-def _left(p: tuple[float, float, float, float]) -> np.ndarray:
+def _left(p: tuple[float, float, float, float]) -> Floats:
     """The matrix of ``q -> p * q`` on ``(x, y, z, w)`` vectors."""
     x, y, z, w = p
     return np.array([[w, -z, y, x], [z, w, -x, y], [-y, x, w, z], [-x, -y, -z, w]])
 
 
-def _right(p: tuple[float, float, float, float]) -> np.ndarray:
+def _right(p: tuple[float, float, float, float]) -> Floats:
     """The matrix of ``q -> q * p`` on ``(x, y, z, w)`` vectors."""
     x, y, z, w = p
     return np.array([[w, z, -y, x], [-z, w, x, y], [y, -x, w, z], [-x, -y, -z, w]])

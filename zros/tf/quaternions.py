@@ -8,8 +8,18 @@ Translations interpolate linearly, rotations by slerp along the shorter arc, as 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from typing import TypeAlias
+
+    import numpy.typing as npt
+
+    Floats: TypeAlias = npt.NDArray[np.float64]  #: translations, rotations, rows of poses
+    Stamps: TypeAlias = npt.NDArray[np.int64]  #: instants in nanoseconds
+    Mask: TypeAlias = npt.NDArray[np.bool_]  #: which stamps something covers
 
 #: a transform as ``(tx, ty, tz, qx, qy, qz, qw)``
 Pose7 = tuple[float, float, float, float, float, float, float]
@@ -82,9 +92,9 @@ def interpolate(a: Pose7, b: Pose7, ratio: float) -> Pose7:
     )
 
 
-def rotation_matrix(q: tuple[float, float, float, float]) -> np.ndarray:
+def rotation_matrix(q: tuple[float, float, float, float]) -> Floats:
     """The 3x3 rotation matrix of a unit quaternion ``(x, y, z, w)``."""
-    matrix: np.ndarray = rotation_matrices(np.asarray(q, dtype=np.float64)[None, :])[0]
+    matrix: Floats = rotation_matrices(np.asarray(q, dtype=np.float64)[None, :])[0]
     return matrix
 
 
@@ -100,7 +110,7 @@ def euler_from_quaternion(q: tuple[float, float, float, float]) -> tuple[float, 
 # --- many transforms (numpy) -------------------------------------------------------------------
 
 
-def multiply(q: np.ndarray, r: np.ndarray) -> np.ndarray:
+def multiply(q: Floats, r: Floats) -> Floats:
     """Hamilton products ``q * r`` of quaternion arrays ``(..., 4)`` (broadcasting)."""
     qx, qy, qz, qw = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     rx, ry, rz, rw = r[..., 0], r[..., 1], r[..., 2], r[..., 3]
@@ -115,21 +125,19 @@ def multiply(q: np.ndarray, r: np.ndarray) -> np.ndarray:
     )
 
 
-def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+def rotate(q: Floats, v: Floats) -> Floats:
     """Vectors ``v (..., 3)`` rotated by unit quaternions ``q (..., 4)`` (broadcasting)."""
     u = q[..., :3]
     c = np.cross(u, v)
     return v + 2.0 * (q[..., 3:4] * c + np.cross(u, c))
 
 
-def compose_arrays(
-    t1: np.ndarray, q1: np.ndarray, t2: np.ndarray, q2: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+def compose_arrays(t1: Floats, q1: Floats, t2: Floats, q2: Floats) -> tuple[Floats, Floats]:
     """``(t1, q1) * (t2, q2)`` for arrays of transforms (broadcasting)."""
     return t1 + rotate(q1, t2), multiply(q1, q2)
 
 
-def slerp(q0: np.ndarray, q1: np.ndarray, ratio: np.ndarray) -> np.ndarray:
+def slerp(q0: Floats, q1: Floats, ratio: Floats) -> Floats:
     """Unit quaternions ``ratio`` of the way from ``q0`` to ``q1`` along the shorter arc
     (``(N, 4)``, ``(N, 4)``, ``(N,)``)."""
     sign = np.where(np.einsum('ij,ij->i', q0, q1) < 0.0, -1.0, 1.0)[:, None]
@@ -142,14 +150,14 @@ def slerp(q0: np.ndarray, q1: np.ndarray, ratio: np.ndarray) -> np.ndarray:
     w1 = np.where(small, ratio, np.sin(ratio * angle) / safe)
     out = q0 * w0[:, None] + q1 * w1[:, None]
     out /= np.linalg.norm(out, axis=1)[:, None]
-    result: np.ndarray = out
+    result: Floats = out
     return result
 
 
-def rotation_matrices(q: np.ndarray) -> np.ndarray:
+def rotation_matrices(q: Floats) -> Floats:
     """Rotation matrices ``(N, 3, 3)`` of unit quaternions ``(N, 4)`` as ``(x, y, z, w)``."""
     x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    matrices: np.ndarray = np.stack(
+    matrices: Floats = np.stack(
         (
             np.stack((1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)), -1),
             np.stack((2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)), -1),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -15,13 +16,16 @@ from zros.bag import Bag
 from zros.tf.buffer import Buffer
 from zros.tf.tree import clean_frame
 
+if TYPE_CHECKING:
+    from zros.tf.quaternions import Floats, Stamps
+
 
 def trajectory(
     bag: Bag | str | Path | Buffer,
     target_frame: str,
     source_frame: str,
-    times: np.ndarray | Sequence[int] | None = None,
-) -> dict[str, np.ndarray]:
+    times: Stamps | Sequence[int] | None = None,
+) -> dict[str, Floats | Stamps]:
     """The pose of ``source_frame`` in ``target_frame`` over a recording, as columns ``t``
     (int64 ns), ``x``, ``y``, ``z``, ``qx``, ``qy``, ``qz``, ``qw``.
 

@@ -3,6 +3,8 @@ instant a chain covers, and the error when a stamp lies outside it."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from zros.tf.cache import EdgeCache, OutOfRange
@@ -11,6 +13,9 @@ from zros.tf.many import Many, compose_many, invert_many, sample
 from zros.tf.quaternions import IDENTITY, Pose7, compose
 from zros.tf.times import format_time
 from zros.tf.tree import Chain
+
+if TYPE_CHECKING:
+    from zros.tf.quaternions import Floats, Mask, Stamps
 
 
 def through(steps: tuple[EdgeCache | Pose7, ...], stamp: int) -> Pose7:
@@ -64,10 +69,10 @@ def extrapolation(chain: Chain, stamp: int, exc: OutOfRange) -> ExtrapolationExc
     return ExtrapolationException(f'{head}; {covered}')
 
 
-def edge_data(edge: EdgeCache, copy: bool) -> tuple[np.ndarray, np.ndarray]:
+def edge_data(edge: EdgeCache, copy: bool) -> tuple[Stamps, Floats]:
     """An edge's stamps and rows, copied when the edge may change under a reader."""
-    stamps: np.ndarray = edge.stamps
-    rows: np.ndarray = edge.rows
+    stamps = edge.stamps
+    rows = edge.rows
     if copy:
         return stamps.copy(), rows.copy()
     return stamps, rows
@@ -75,9 +80,9 @@ def edge_data(edge: EdgeCache, copy: bool) -> tuple[np.ndarray, np.ndarray]:
 
 def sample_chain(
     chain: Chain,
-    data: dict[EdgeCache, tuple[np.ndarray, np.ndarray]],
-    stamps: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    data: dict[EdgeCache, tuple[Stamps, Floats]],
+    stamps: Stamps,
+) -> tuple[Floats, Floats, Mask]:
     """T_target_source of ``chain`` at every stamp, from each edge's ``data`` (stamps, rows):
     ``(translations (N, 3), rotations (N, 4), which stamps every edge covers)``."""
     count = len(stamps)

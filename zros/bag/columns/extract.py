@@ -22,7 +22,13 @@ import numpy as np
 from zros.bag.columns.plan import Leaf, Plan, Step, plan, select
 
 if TYPE_CHECKING:
-    from zros.cdr import FieldValue, Untyped
+    from typing import TypeAlias
+
+    import pandas as pd  # type: ignore[import-untyped,unused-ignore]  # optional, not installed
+
+    DataFrame: TypeAlias = pd.DataFrame  #: pandas' DataFrame (typed where pandas-stubs is)
+
+    from zros.cdr import FieldValue
 from zros.bag.errors import BagError, Unsupported
 from zros.bag.read.payloads import Payloads, Rows, gather
 from zros.bag.read.source import Block, Connection, RawMessage, Source
@@ -521,7 +527,7 @@ def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
     return out
 
 
-def dataframe(columns: dict[str, np.ndarray]) -> Untyped:
+def dataframe(columns: dict[str, np.ndarray]) -> DataFrame:
     """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns, views of
     the arrays (a copy, as pandas makes by default, would double the peak memory)."""
     try:

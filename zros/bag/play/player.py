@@ -23,6 +23,7 @@ from zros.bag.play.play_clock import PlayClock
 from zros.bag.play.play_topics import message_class, parse_remap, playback_qos
 from zros.bag.read.rosbag2_yaml import parse_qos_profiles
 from zros.bag.read.source import open_source
+from zros.cdr.message import Message
 from zros.cdr.registry import registry_of
 from zros.closing import Closing
 from zros.errors import ZrosError
@@ -123,8 +124,8 @@ class Player(Closing):
             connections = [c for c in connections if name(c.topic) in wanted]
         self.start_ns = source.start_ns + round(start_offset * _NS)
         self.end_ns = source.end_ns
-        self._publishers: dict[int, Publisher] = {}
-        by_topic: dict[tuple[str, str], Publisher] = {}
+        self._publishers: dict[int, Publisher[Message]] = {}
+        by_topic: dict[tuple[str, str], Publisher[Message]] = {}
 
         playable: list[Connection] = []
         unplayable: list[PlayerError] = []
@@ -155,7 +156,7 @@ class Player(Closing):
         self.connections = playable
         self.topics = {p.topic: p.type_name for p in by_topic.values()}
         self._describe_bag_types(list(by_topic.values()))
-        self._clock_publisher: Publisher | None = None
+        self._clock_publisher: Publisher[Message] | None = None
         if self._clock_hz is not None:
             self._clock_publisher = Publisher(
                 '/clock', 'rosgraph_msgs/msg/Clock', QoS(1, Reliability.BEST_EFFORT),
@@ -165,7 +166,7 @@ class Player(Closing):
         self.clock = PlayClock(self.start_ns, self.rate)
         self.clock.pause()
 
-    def _describe_bag_types(self, publishers: list[Publisher]) -> None:
+    def _describe_bag_types(self, publishers: list[Publisher[Message]]) -> None:
         """Serve ``~/get_type_description`` for the types only the bag defines, as ROS 2 nodes
         serve their types: ``zros topic echo`` (and ROS tools) learn them from the player."""
         self._types: TypeDescriptionService | None = None

@@ -27,6 +27,7 @@ from zros.bag.read.payloads import Payloads
 from zros.bag.read.source_base import Block, Connection, describe_error
 
 if TYPE_CHECKING:
+    import numpy.typing as npt
     from mcap.records import Chunk
 
 #: opcodes of the MCAP records this module reads
@@ -68,8 +69,8 @@ def _damaged_chunk(exc: Exception, chunk: Chunk | None) -> bool:
 class _Run:
     """Messages of one channel in one chunk, in the chunk's order."""
 
-    times: np.ndarray  #: int64 log times
-    offsets: np.ndarray  #: int64 record offsets in the chunk (ascending)
+    times: npt.NDArray[np.int64]  #: log times
+    offsets: npt.NDArray[np.int64]  #: record offsets in the chunk (ascending)
     data: Payloads
 
 
@@ -121,7 +122,7 @@ def _decompress(chunk: Chunk) -> bytes | memoryview:
     return data
 
 
-def _index(stream: io.BufferedReader, at: int, limit: int) -> np.ndarray:
+def _index(stream: io.BufferedReader, at: int, limit: int) -> npt.NDArray[np.void]:
     """The (time, offset) entries of the MessageIndex record at ``at``."""
     stream.seek(at)
     head = stream.read(1 + 8 + 2 + 4)
@@ -265,7 +266,9 @@ def ordered_messages(
             yield connection_of[at], stamps[at], payloads[at]
 
 
-def _in_window(times: np.ndarray, start: int | None, end: int | None) -> np.ndarray:
+def _in_window(
+    times: npt.NDArray[np.int64], start: int | None, end: int | None
+) -> npt.NDArray[np.bool_]:
     keep = np.ones(len(times), bool)
     if start is not None:
         keep &= times >= start
@@ -281,7 +284,7 @@ def _window(run: _Run, start: int | None, end: int | None) -> _Run:
     return _Run(run.times[keep], run.offsets[keep], run.data.select(keep))
 
 
-def _block(data: bytes | memoryview, channel: int, entries: np.ndarray) -> _Run:
+def _block(data: bytes | memoryview, channel: int, entries: npt.NDArray[np.void]) -> _Run:
     times = entries['time'].astype(np.int64)
     offsets = entries['offset'].astype(np.int64)
     order = np.argsort(offsets, kind='stable')

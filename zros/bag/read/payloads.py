@@ -12,9 +12,15 @@ its time there.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Sequence
-from typing import overload
+from typing import TYPE_CHECKING, overload
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    #: which payloads or rows to keep: a boolean mask, or indices
+    Keep = npt.NDArray[np.bool_] | npt.NDArray[np.int64]
 
 
 class Payloads(Sequence[bytes]):
@@ -22,7 +28,9 @@ class Payloads(Sequence[bytes]):
 
     buffer: bytes | memoryview  #: the buffer the payloads lie in (a file's map, say)
 
-    def __init__(self, buffer: bytes | memoryview, begins: np.ndarray, ends: np.ndarray) -> None:
+    def __init__(
+        self, buffer: bytes | memoryview, begins: npt.NDArray[np.int64], ends: npt.NDArray[np.int64]
+    ) -> None:
         if len(begins) != len(ends):
             raise ValueError('as many begins as ends are needed')
         if len(begins) and (begins.min() < 0 or ends.max() > len(buffer) or (ends < begins).any()):
@@ -46,9 +54,9 @@ class Payloads(Sequence[bytes]):
     def __getitem__(self, index: int) -> bytes: ...
 
     @overload
-    def __getitem__(self, index: slice) -> Payloads: ...
+    def __getitem__(self, index: slice[object, object, object]) -> Payloads: ...
 
-    def __getitem__(self, index: int | slice) -> bytes | Payloads:
+    def __getitem__(self, index: int | slice[object, object, object]) -> bytes | Payloads:
         if isinstance(index, slice):
             return Payloads(self.buffer, self.begins[index], self.ends[index])
         return bytes(self.buffer[int(self.begins[index]) : int(self.ends[index])])
@@ -62,12 +70,12 @@ class Payloads(Sequence[bytes]):
     def __repr__(self) -> str:
         return f'<Payloads of {len(self)} messages>'
 
-    def lengths(self) -> np.ndarray:
+    def lengths(self) -> npt.NDArray[np.int64]:
         """The length of each payload (int64)."""
-        lengths: np.ndarray = self.ends - self.begins
+        lengths: npt.NDArray[np.int64] = self.ends - self.begins
         return lengths
 
-    def select(self, keep: np.ndarray) -> Payloads:
+    def select(self, keep: Keep) -> Payloads:
         """The payloads where ``keep`` (a boolean mask or indices) says."""
         return Payloads(self.buffer, self.begins[keep], self.ends[keep])
 
@@ -77,14 +85,16 @@ class Rows:
     a uint8 buffer and the int64 starts of its rows). :meth:`take` copies out a range of
     columns of every row, so only the bytes of the fields read are ever copied."""
 
-    def __init__(self, segments: list[tuple[np.ndarray, np.ndarray]], length: int) -> None:
+    def __init__(
+        self, segments: list[tuple[npt.NDArray[np.uint8], npt.NDArray[np.int64]]], length: int
+    ) -> None:
         self._segments = [(raw, begins) for raw, begins in segments if len(begins)]
         self.length = length
 
     def __len__(self) -> int:
         return sum(len(begins) for _, begins in self._segments)
 
-    def take(self, start: int, stop: int) -> np.ndarray:
+    def take(self, start: int, stop: int) -> npt.NDArray[np.uint8]:
         """Bytes ``start:stop`` of every row, as a C-contiguous (rows, stop - start) array."""
         if not 0 <= start <= stop <= self.length:
             raise ValueError(f'columns {start}:{stop} of rows of {self.length} bytes')
@@ -102,7 +112,7 @@ class Rows:
         """The rows of each buffer, in order."""
         return [Rows([segment], self.length) for segment in self._segments]
 
-    def subset(self, keep: np.ndarray) -> Rows:
+    def subset(self, keep: npt.NDArray[np.bool_]) -> Rows:
         """The rows where the boolean mask ``keep`` is true."""
         segments, at = [], 0
         for raw, begins in self._segments:
@@ -111,7 +121,7 @@ class Rows:
         return Rows(segments, self.length)
 
 
-def gather(batch: Sequence[Payloads], length: int) -> tuple[Rows, np.ndarray]:
+def gather(batch: Sequence[Payloads], length: int) -> tuple[Rows, npt.NDArray[np.int64]]:
     """The messages of ``length`` bytes of a batch, as :class:`Rows`, and their positions in
     the batch (int64, counted across its payloads in order)."""
     segments, where = [], []

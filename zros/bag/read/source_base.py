@@ -18,6 +18,7 @@ from zros.closing import Closing
 
 if TYPE_CHECKING:
     import numpy as np
+    import numpy.typing as npt
 
 
 @dataclass(frozen=True)
@@ -54,8 +55,8 @@ class Block:
     """Messages of one connection read in bulk: receive times, file-order keys, CDR bytes."""
 
     connection: Connection
-    times: np.ndarray  #: int64
-    keys: np.ndarray  #: int64, ascending in file order
+    times: npt.NDArray[np.int64]  #: receive times
+    keys: npt.NDArray[np.int64]  #: ascending in file order
     data: Sequence[bytes]  #: (a Payloads where the storage gives whole chunks)
 
 

@@ -14,18 +14,42 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
     from mcap.writer import CompressionType
-
-    from zros.cdr import Untyped
 
 #: bytes a Message record adds to its data (opcode, length, channel, sequence, two times)
 MESSAGE_OVERHEAD = 1 + 8 + 2 + 4 + 8 + 8
 #: chunk size of rosbag2_storage_mcap (the mcap C++ library's default)
 DEFAULT_CHUNK_SIZE = 768 * 1024
 COMPRESSIONS = ('zstd', 'lz4', 'none')
+
+
+class McapWriter(Protocol):
+    """What zros calls of mcap's ``Writer`` (typed here: ``flush`` and ``finish`` are not)."""
+
+    def start(self, profile: str, library: str) -> None: ...
+
+    def register_schema(self, name: str, encoding: str, data: bytes) -> int: ...
+
+    def register_channel(
+        self, topic: str, message_encoding: str, schema_id: int, metadata: dict[str, str]
+    ) -> int: ...
+
+    def add_message(
+        self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int = 0
+    ) -> None: ...
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None: ...
+
+    def add_attachment(
+        self, create_time: int, log_time: int, name: str, media_type: str, data: bytes
+    ) -> None: ...
+
+    def flush(self) -> None: ...
+
+    def finish(self) -> None: ...
 
 
 def compression_type(name: str | None) -> CompressionType:
@@ -74,8 +98,7 @@ class McapFile:
         self.path = os.fspath(path)
         self._stream = open(self.path, 'xb')  # noqa: SIM115 (closed in close())
         # the library never closes a chunk by itself: this class decides (size or flush)
-        # untyped: ``flush`` and ``finish`` have no annotations
-        self._writer: Untyped = Writer(
+        self._writer: McapWriter = Writer(
             self._stream, chunk_size=2**62, compression=kind, enable_crcs=True
         )
         self._writer.start(profile='ros2', library=library)

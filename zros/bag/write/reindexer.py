@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
 from zros.bag.read.mcap_recover import LinearScan, is_mcap
-from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, compression_type
+from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, McapWriter, compression_type
 from zros.bag.write.replace import replacing, temporary_of
 from zros.version import counted
 
@@ -35,7 +35,6 @@ if TYPE_CHECKING:
     from mcap.records import Channel, Message, Schema
 
     from zros.bag.boundary import YamlValue
-    from zros.cdr import Untyped
 from zros.bag.read.rosbag2 import storage_files
 from zros.bag.read.rosbag2_yaml import (
     FileEntry,
@@ -376,7 +375,7 @@ def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
     schemas: dict[int, int] = {0: 0}
     channels: dict[int, int] = {}
     with replacing(file) as temporary, temporary.open('xb') as stream:
-        writer: Untyped = None  # mcap's Writer: ``finish`` has no annotations
+        writer: McapWriter | None = None
         for record in records:
             if writer is None:
                 kind = compression_type(scan.compression or 'none')

@@ -14,7 +14,7 @@ from zros.qos import Durability, QoS
 
 if TYPE_CHECKING:
     from zros.node import Node
-    from zros.node.settings import NodeSetting
+    from zros.node.settings import NodeKeywords
 
 
 class Closable(Protocol):
@@ -57,7 +57,7 @@ class ClientCache(Generic[C]):
             client.close()
 
 
-def gateway_node(name: str, settings: dict[str, NodeSetting]) -> Node:
+def gateway_node(name: str, settings: NodeKeywords) -> Node:
     """A node of its own for a gateway, from the connection ``settings`` of :class:`zros.Node`
     (no /rosout and no parameter services unless asked)."""
     settings.setdefault('enable_rosout', False)

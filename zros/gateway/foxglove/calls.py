@@ -47,7 +47,7 @@ class _Advertised:
     topic: str
     encoding: str
     cls: type[Message]
-    publisher: Publisher
+    publisher: Publisher[Message]
     bad: int = 0  #: messages refused
 
 

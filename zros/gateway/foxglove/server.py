@@ -51,10 +51,11 @@ from zros.qos import QoS
 if TYPE_CHECKING:
     import foxglove
     from foxglove.websocket import ClientChannel, Parameter
+    from typing_extensions import Unpack
 
     from zros.gateway.foxglove.bag_server import BagGateway
     from zros.node import Node
-    from zros.node.settings import NodeSetting
+    from zros.node.settings import NodeKeywords
 
 _log = logging.getLogger('zros.gateway')
 
@@ -372,7 +373,7 @@ def serve(
     node: Node | None = None,
     name: str = 'zros_foxglove',
     throttle: Iterable[str] = (),
-    **settings: NodeSetting,
+    **settings: Unpack[NodeKeywords],
 ) -> FoxgloveGateway | BagGateway:
     """Serve the robot (or, with ``bag``, a recording) to Foxglove at
     ``ws://address:port``; returns the running server (``close()`` it, or use ``with``).

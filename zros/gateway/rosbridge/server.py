@@ -49,11 +49,12 @@ from zros.version import install_hint
 if TYPE_CHECKING:
     from types import ModuleType
 
+    from typing_extensions import Unpack
     from websockets.http11 import Request, Response
     from websockets.sync.server import ServerConnection
 
     from zros.node import Node
-    from zros.node.settings import NodeSetting
+    from zros.node.settings import NodeKeywords
 
 _log = logging.getLogger('zros.gateway')
 
@@ -281,7 +282,7 @@ def serve(
     node: Node | None = None,
     name: str = 'zros_rosbridge',
     throttle: Iterable[str] = (),
-    **settings: NodeSetting,
+    **settings: Unpack[NodeKeywords],
 ) -> RosbridgeGateway:
     """Serve the robot to rosbridge clients at ``ws://address:port``; returns the running
     server (``close()`` it, or use ``with``).

@@ -399,5 +399,5 @@ class Topics:
 
 @dataclass
 class _Published:
-    publisher: Publisher
+    publisher: Publisher[Message]
     peers: set[int]
