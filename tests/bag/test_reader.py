@@ -323,3 +323,14 @@ def test_ros1_bags_with_compressed_chunks(tmp_path: Path, compression: str | Non
         assert_same(message, other, topic)
     assert columns['angular_velocity.x'].tolist() == list(range(40))
     assert columns['orientation_covariance'][3].tolist() == [3.0 * i for i in range(9)]
+
+
+def test_a_bag_counts_its_topics_and_messages_in_words(tmp_path: Path) -> None:
+    from tests.bag.makebags import make_points_mcap
+    from zros.bag.read.source import open_source
+
+    path = make_points_mcap(tmp_path / 'one.mcap', 1)
+    with Bag(path) as bag:
+        assert repr(bag) == f'<Bag {bag.path}: 1 topic, 1 message>'
+    with open_source(path) as source:
+        assert repr(source).endswith(': 1 connection, 1 message>')

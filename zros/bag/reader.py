@@ -16,6 +16,7 @@ from zros.bag.read.source import Connection, RawMessage, Source, open_source
 from zros.bag.read.types import BagTypes
 from zros.closing import Closing
 from zros.timesync import ApproximatePolicy, header_stamp
+from zros.version import counted
 
 if TYPE_CHECKING:
     import numpy as np
@@ -318,4 +319,8 @@ class Bag(Closing):
         self.source.close()
 
     def __repr__(self) -> str:
-        return f'<Bag {self.path}: {len(self.topics)} topics, {self.message_count} messages>'
+        topics, messages = (
+            counted(len(self.topics), 'topic'),
+            counted(self.message_count, 'message'),
+        )
+        return f'<Bag {self.path}: {topics}, {messages}>'

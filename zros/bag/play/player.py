@@ -31,6 +31,7 @@ from zros.pubsub import Publisher
 from zros.qos import QoS, Reliability
 from zros.runtime.signal import add_interrupt_listener, remove_interrupt_listener
 from zros.services.typeinfo import TypeDescriptionService
+from zros.version import counted
 
 if TYPE_CHECKING:
     from zros.bag.read.source import Connection, RawMessage, Source
@@ -414,4 +415,5 @@ class Player(Closing):
         self.source.close()
 
     def __repr__(self) -> str:
-        return f'<zros Player {self.source.path} ({len(self.topics)} topics, rate {self.rate})>'
+        topics = counted(len(self.topics), 'topic')
+        return f'<zros Player {self.source.path} ({topics}, rate {self.rate})>'

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from zros.bag.errors import BagError, Unsupported
 from zros.bag.read.damage import Damage
 from zros.closing import Closing
+from zros.version import counted
 
 if TYPE_CHECKING:
     import numpy as np
@@ -159,7 +160,8 @@ class Source(Closing):
     def __repr__(self) -> str:
         return (
             f'<{type(self).__name__} {self.path} {self.storage_id}: '
-            f'{len(self.connections)} connections, {self.message_count} messages>'
+            f'{counted(len(self.connections), "connection")}, '
+            f'{counted(self.message_count, "message")}>'
         )
 
 

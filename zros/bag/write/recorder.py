@@ -29,6 +29,7 @@ from zros.pubsub.taps import RawTap, graph_topics, is_hidden, matched_qos, publi
 from zros.qos import QoS
 from zros.runtime.drops import DropCounter
 from zros.runtime.signal import Signal
+from zros.version import counted
 
 #: the recording QoS is the one matched to the publishers (kept under its old name)
 recording_qos = matched_qos
@@ -337,4 +338,8 @@ class Recorder(Closing):
     stop = close
 
     def __repr__(self) -> str:
-        return f'<zros Recorder {self.path} ({len(self._types)} topics, {self.message_count} msgs)>'
+        topics, messages = (
+            counted(len(self._types), 'topic'),
+            counted(self.message_count, 'message'),
+        )
+        return f'<zros Recorder {self.path} ({topics}, {messages})>'
