@@ -118,3 +118,16 @@ def test_half_a_client_certificate_in_the_environment_names_both_variables(
     with pytest.raises(ValueError) as info:
         TransportConfig.create()
     assert str(info.value) == 'set ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY together, or neither'
+
+
+@pytest.mark.parametrize('variable', ['ZROS_TLS_CERTIFICATE', 'ZROS_TLS_KEY'])
+def test_a_client_certificate_without_a_ca_in_the_environment_names_the_ca(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, variable: str
+) -> None:
+    monkeypatch.delenv('ZROS_TLS_CA', raising=False)
+    monkeypatch.setenv(variable, str(tmp_path / 'client.pem'))
+    with pytest.raises(ValueError, match='need ZROS_TLS_CA') as info:
+        TransportConfig.create()
+    assert 'Tls(' not in str(info.value)  # a command-line setting, named as such
+    (tmp_path / 'ca.pem').write_text('x')
+    TransportConfig.create(tls=Tls(tmp_path / 'ca.pem'))  # arguments win: nothing to say

@@ -235,6 +235,13 @@ class TransportConfig:
             if (certificate is None) != (key is None):
                 raise SettingError('set ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY together, or neither')
             options['tls'] = Tls(env['ZROS_TLS_CA'], certificate, key)
+        elif 'tls' not in options and (env.get('ZROS_TLS_CERTIFICATE') or env.get('ZROS_TLS_KEY')):
+            # a client certificate without the CA that checks the router would be ignored, and
+            # the session would try plain TCP: say what is missing instead
+            raise SettingError(
+                'ZROS_TLS_CERTIFICATE and ZROS_TLS_KEY need ZROS_TLS_CA (the CA certificate '
+                "that signed the router's): set it too"
+            )
         if 'user' not in options and env.get('ZROS_USER'):
             if 'password' not in options and env.get('ZROS_PASSWORD') is None:
                 raise SettingError('ZROS_USER needs ZROS_PASSWORD: set it too')
