@@ -593,3 +593,39 @@ def test_a_real_db3_with_a_zeroed_page(testdata: Path, tmp_path: Path) -> None:
         lost = sum(s.lost for s in bag.skipped)
     assert got <= whole
     assert lost > 0 and len(got) + lost == len(whole)
+
+
+def _overlapping_mcap(path: Path, count: int) -> Path:
+    """Two topics written one after the other (as a merge of two recordings): every chunk of
+    /b overlaps chunks of /a in time."""
+    from mcap.writer import CompressionType, Writer
+
+    with path.open('wb') as stream:
+        writer = Writer(stream, chunk_size=1 << 12, compression=CompressionType.ZSTD)
+        writer.start(profile='ros2', library='zros tests')
+        schema = writer.register_schema(
+            'geometry_msgs/msg/Point', 'ros2msg', b'float64 x\nfloat64 y\nfloat64 z\n'
+        )
+        for topic, shift in (('/a', 0), ('/b', 5)):
+            channel = writer.register_channel(topic, 'cdr', schema)
+            for index in range(count):
+                data = encode(new_message('geometry_msgs/msg/Point', x=index, y=shift, z=0.5))
+                stamp = 1000 + index * 10 + shift
+                writer.add_message(channel, log_time=stamp, data=data, publish_time=stamp)
+        writer.finish()
+    return path
+
+
+def test_a_damaged_chunk_among_chunks_that_overlap_in_time(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    file = _overlapping_mcap(tmp_path / 'merged.mcap', 3000)
+    whole = sorted((t, s, d) for t, _, s, d in raw_messages(file))
+    with Bag(file) as bag:  # intact: one time order across both topics' chunks
+        stamps = [stamp for _, stamp, _ in bag.messages()]
+    assert stamps == sorted(stamps) and len(stamps) == 6000
+    offset, lost = zero_a_chunk(file)
+    _check_mcap(file, file, offset=offset, whole=whole, lost=lost, caplog=caplog)
+    with Bag(file) as bag:
+        stamps = [stamp for _, stamp, _ in bag.messages()]
+    assert stamps == sorted(stamps) and len(stamps) == 6000 - len(lost)

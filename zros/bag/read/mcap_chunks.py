@@ -11,7 +11,6 @@ without a summary or message indexes, or whose indexes do not add up, are refuse
 from __future__ import annotations
 
 import io
-import itertools
 import mmap
 import struct
 import zlib
@@ -28,7 +27,7 @@ from zros.bag.read.source_base import Block, Connection, describe_error
 
 if TYPE_CHECKING:
     import numpy.typing as npt
-    from mcap.records import Chunk
+    from mcap.records import Chunk, ChunkIndex
 
 #: opcodes of the MCAP records this module reads
 _CHUNK = 0x06
@@ -140,14 +139,34 @@ def read_blocks(
     start: int | None,
     end: int | None,
     *,
-    ordered: bool = False,
     mapped: bool = False,
     damaged: Damaged | None = None,
 ) -> Iterator[list[Block]]:
     """The blocks of each chunk holding messages of ``channels`` (channel id -> the connection
     its blocks carry) with ``start <= log time < end``, in file order (chunks may overlap in
-    time: the caller sorts); a block's ``keys`` rank its messages in their chunk. ``ordered``
-    refuses (before the first block) files whose chunks of those messages overlap in time.
+    time: the caller sorts); a block's ``keys`` rank its messages in their chunk.
+    ``mapped``: each chunk is memory-mapped and the payloads of uncompressed chunks stay in its
+    map (no copy: for readers that copy out a few fields of each message); else chunks are
+    read into memory. ``damaged``: a chunk that does not read or decompress is skipped and
+    reported to it (else it raises)."""
+    for _, blocks in _chunk_blocks(
+        path, channels, start, end, by_start=False, mapped=mapped, damaged=damaged
+    ):
+        yield blocks
+
+
+def _chunk_blocks(
+    path: Path,
+    channels: Mapping[int, Connection],
+    start: int | None,
+    end: int | None,
+    *,
+    by_start: bool,
+    mapped: bool,
+    damaged: Damaged | None,
+) -> Iterator[tuple[int, list[Block]]]:
+    """:func:`read_blocks`, each chunk's blocks with the chunk's first log time (of any
+    channel); ``by_start``: chunks in the order of their first log times, not in file order.
     ``mapped``: each chunk is memory-mapped and the payloads of uncompressed chunks stay in its
     map (no copy: for readers that copy out a few fields of each message); else chunks are
     read into memory. ``damaged``: a chunk that does not read or decompress is skipped and
@@ -167,16 +186,11 @@ def read_blocks(
         wanted_ids = set(channels)
         indexes = [
             index
-            for index in sorted(summary.chunk_indexes, key=lambda index: index.chunk_start_offset)
+            for index in sorted(summary.chunk_indexes, key=_by_start if by_start else _by_offset)
             if wanted_ids & set(index.message_index_offsets)
             and (start is None or index.message_end_time >= start)
             and (end is None or index.message_start_time < end)
         ]
-        if ordered and any(
-            later.message_start_time < earlier.message_end_time
-            for earlier, later in itertools.pairwise(indexes)
-        ):
-            raise Unsupported('chunks overlap in time')
         for index in indexes:
             wanted = sorted(wanted_ids & set(index.message_index_offsets))
             limit = index.chunk_start_offset + index.chunk_length + index.message_index_length
@@ -236,7 +250,7 @@ def read_blocks(
                 keys = ranks[at : at + len(run.offsets)]
                 blocks.append(Block(channels[channel], run.times, keys, run.data))
                 at += len(run.offsets)
-            yield blocks
+            yield index.message_start_time, blocks
 
 
 def ordered_messages(
@@ -249,21 +263,65 @@ def ordered_messages(
     """``(connection, log time, payload)`` of the messages of ``channels`` with ``start <= log time
     < end``, in time order (file order among equal times), chunk by chunk.
 
-    Raises :class:`Unsupported` before the first message where chunks overlap in time (or
-    :func:`read_blocks` refuses the file), and possibly later where a chunk's index does not
-    match it.
+    Chunks are read in the order of their first log times; a message is handed on once no
+    chunk still to be read can hold an earlier one, so chunks that overlap in time are merged
+    and only the overlap is held. Raises :class:`Unsupported` where :func:`read_blocks` refuses
+    the file, possibly after some messages where a chunk's index does not match it.
     """
-    for blocks in read_blocks(path, channels, start, end, ordered=True, damaged=damaged):
-        times = np.concatenate([block.times for block in blocks])
-        ranks = np.concatenate([block.keys for block in blocks])
-        connection_of = list(
-            itertools.chain.from_iterable([block.connection] * len(block.data) for block in blocks)
-        )
-        payloads = list(itertools.chain.from_iterable(block.data for block in blocks))
-        order = np.lexsort((ranks, times)).tolist()
-        stamps = times.tolist()
-        for at in order:
-            yield connection_of[at], stamps[at], payloads[at]
+    pending = _Pending()
+    for first, blocks in _chunk_blocks(
+        path, channels, start, end, by_start=True, mapped=False, damaged=damaged
+    ):
+        yield from pending.before(first)
+        pending.add(blocks)
+    yield from pending.before(None)
+
+
+class _Pending:
+    """Messages read and not yet handed on: log times, file positions (chunk, rank), payloads."""
+
+    def __init__(self) -> None:
+        self.times = np.empty(0, np.int64)
+        self.keys = np.empty(0, np.int64)
+        self.connections: list[Connection] = []
+        self.payloads: list[bytes] = []
+        self.chunks = 0
+
+    def add(self, blocks: list[Block]) -> None:
+        """The blocks of the next chunk read."""
+        self.chunks += 1
+        self.times = np.concatenate([self.times, *(block.times for block in blocks)])
+        keys = [(self.chunks << 40) + block.keys for block in blocks]  # chunk, then rank
+        self.keys = np.concatenate([self.keys, *keys])
+        for block in blocks:
+            self.connections.extend([block.connection] * len(block.data))
+            self.payloads.extend(block.data)
+
+    def before(self, time: int | None) -> Iterator[tuple[Connection, int, bytes]]:
+        """The messages earlier than ``time`` (all with None), in time and file order."""
+        order = np.lexsort((self.keys, self.times))
+        if time is not None:
+            order = order[self.times[order] < time]
+        if not len(order):
+            return
+        stamps = self.times.tolist()
+        connections, payloads = self.connections, self.payloads
+        keep = np.ones(len(self.times), bool)
+        keep[order] = False
+        rest = np.flatnonzero(keep).tolist()
+        self.times, self.keys = self.times[keep], self.keys[keep]
+        self.connections = [connections[at] for at in rest]
+        self.payloads = [payloads[at] for at in rest]
+        for at in order.tolist():
+            yield connections[at], stamps[at], payloads[at]
+
+
+def _by_offset(index: ChunkIndex) -> int:
+    return int(index.chunk_start_offset)
+
+
+def _by_start(index: ChunkIndex) -> tuple[int, int]:
+    return int(index.message_start_time), int(index.chunk_start_offset)
 
 
 def _in_window(
