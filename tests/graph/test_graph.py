@@ -214,6 +214,22 @@ def test_zros_nodes_by_name_and_what_they_own(zros_node: Callable[..., Node]) ->
     assert graph.wait_until(lambda: viewer.count_publishers('/robot/chatter') == 0, timeout=5)
 
 
+@pytest.mark.parametrize('zros_wire', ['bridge', 'rmw_zenoh'])
+def test_a_nodes_own_entities_are_in_its_graph_at_once(zros_node: Callable[..., Node]) -> None:
+    # as in rclpy: no wait between making a publisher and seeing it in the node's own graph
+    node = zros_node('seer')
+    for _ in range(20):
+        publisher = node.create_publisher('std_msgs/msg/String', 'mine')
+        subscriber = node.create_subscription('std_msgs/msg/String', 'theirs')
+        assert node.count_publishers('/mine') == 1
+        assert node.count_subscribers('/theirs') == 1
+        assert '/mine' in dict(node.get_topic_names_and_types())
+        node.destroy_publisher(publisher)
+        node.destroy_subscription(subscriber)
+        assert node.count_publishers('/mine') == 0  # and gone at once
+        assert node.count_subscribers('/theirs') == 0
+
+
 def test_waiting_for_publishers_and_subscribers(zros_node: Callable[..., Node]) -> None:
     viewer = zros_node('viewer')
     assert not viewer.wait_for_publishers('late', timeout=0.1)

@@ -10,10 +10,13 @@ Zenoh lease); an endpoint's ``wire`` says which scheme announced it.
 
 from __future__ import annotations
 
+import functools
 import logging
+import threading
+import time
 from collections.abc import Callable
 
-from zenoh import ZError
+from zenoh import KeyExpr, SampleKind, ZError
 from zenoh.handlers import FifoChannel
 
 from zros.keyexpr.kinds import EntityKind
@@ -22,6 +25,7 @@ from zros.runtime.signal import Signal
 from zros.transport import Transport
 from zros.transport.per_session import PerSession
 from zros.wire import SCHEMES, BridgeInfo, Endpoint, TokenView, wire_class
+from zros.wire.tokens import LocalToken, TokenHandler, TokenSample
 
 _log = logging.getLogger('zros.graph')
 
@@ -30,8 +34,12 @@ REFRESH_CAPACITY = 1_000_000
 #: seconds a refresh's asks may wait for the network's answer: an answer ends an ask at once, so
 #: this only bounds a router slow to answer (a loaded machine took over 2 s)
 ANSWER_WITHIN = 15.0
+#: seconds after which Zenoh's echo of a token this session undeclared is no longer expected
+ECHOES_WITHIN = 30.0
+#: own tokens remembered before those gone for ECHOES_WITHIN are forgotten
+_OWN_KEPT = 256
 
-__all__ = ['ANSWER_WITHIN', 'REFRESH_CAPACITY', 'Endpoint', 'Graph', 'graph_of']
+__all__ = ['ANSWER_WITHIN', 'ECHOES_WITHIN', 'REFRESH_CAPACITY', 'Endpoint', 'Graph', 'graph_of']
 
 
 class Graph:
@@ -46,13 +54,52 @@ class Graph:
         self._views: dict[str, TokenView] = {
             name: wire_class(name).token_view(session, self._bump) for name in SCHEMES
         }
+        #: this session's own tokens, heard from the session itself (:meth:`_own_token`): None
+        #: while declared, else when it was undeclared (Zenoh's echoes of them are ignored)
+        self._ours: dict[str, float | None] = {}
+        self._own_lock = threading.Lock()
         liveliness = session.liveliness()
         self._subscribers: list[Undeclarable] = [
-            liveliness.declare_subscriber(selector, handler, history=True)
+            liveliness.declare_subscriber(selector, self._heard(handler), history=True)
             for view in self._views.values()
             for selector, handler in view.selectors()
         ]
+        self._matchers = [
+            (KeyExpr(selector), handler)
+            for view in self._views.values()
+            for selector, handler in view.selectors()
+        ]
+        self._transport = transport
+        transport.on_token(self._own_token)  # the tokens it holds now too
         transport.on_close(self.close)
+
+    def _heard(self, handler: TokenHandler) -> TokenHandler:
+        """``handler``, deaf to Zenoh's echo of this session's own tokens: a late echo of a
+        token already undeclared would bring it back until the echo of its undeclaration."""
+        return functools.partial(self._unless_ours, handler)
+
+    def _unless_ours(self, handler: TokenHandler, sample: TokenSample) -> None:
+        with self._own_lock:
+            if str(sample.key_expr) in self._ours:
+                return  # an echo (one from the session, one through the router for a client)
+        handler(sample)
+
+    def _own_token(self, key: str, alive: bool) -> None:
+        """A token of this session, known at once, as rclpy knows its node's own entities (Zenoh
+        hands it back a moment later: :meth:`_heard` ignores that echo)."""
+        if self._closed:
+            return
+        now = time.monotonic()
+        with self._own_lock:
+            self._ours[key] = None if alive else now
+            if len(self._ours) > _OWN_KEPT:  # forget tokens gone long enough for every echo
+                for gone in [k for k, at in self._ours.items() if at and now - at > ECHOES_WITHIN]:
+                    del self._ours[gone]
+        sample = LocalToken(key, SampleKind.PUT if alive else SampleKind.DELETE)
+        expression = KeyExpr(key)
+        for selector, handler in self._matchers:
+            if selector.intersects(expression):
+                handler(sample)
 
     def _bump(self) -> None:
         self.version += 1
@@ -81,7 +128,7 @@ class Graph:
             )
             for reply in replies:
                 if reply.ok is not None:
-                    handler(reply.ok)
+                    self._heard(handler)(reply.ok)
         self.wait_until(lambda: all(view.settled() for view in self._views.values()), timeout)
 
     # --- queries ------------------------------------------------------------------------------
@@ -175,6 +222,7 @@ class Graph:
         if self._closed:
             return
         self._closed = True
+        self._transport.remove_on_token(self._own_token)
         for view in self._views.values():
             view.close()
         for subscriber in self._subscribers:

@@ -144,6 +144,8 @@ class Transport(Closing):
         self.zid = str(self.session.zid())  #: the session's Zenoh id (hex)
         self._tokens: dict[str, tuple[zenoh.LivelinessToken, int]] = {}
         self._token_lock = threading.Lock()
+        #: told of each token this session declares or undeclares, as it happens
+        self._token_listeners: list[Callable[[str, bool], object]] = []
         self._closed = False
         self._close_callbacks: list[Callable[[], object]] = []
         self.links_lost = 0  #: how often a link to a router or peer went down
@@ -211,10 +213,12 @@ class Transport(Closing):
         A bridge keys its routes by (session, key): two tokens for the same key from one
         session would collapse into one route, and retiring either would retire it.
         """
-        with self._token_lock:
+        with self._token_lock:  # listeners hear in the order tokens come and go
             token, users = self._tokens.get(key, (None, 0))
             if token is None:
                 token = self.session.liveliness().declare_token(key)
+                for listener in self._token_listeners:
+                    listener(key, True)
             self._tokens[key] = (token, users + 1)
 
     def release_token(self, key: str) -> None:
@@ -227,8 +231,25 @@ class Transport(Closing):
                 self._tokens[key] = (token, users - 1)
                 return
             del self._tokens[key]
+            for listener in self._token_listeners:
+                listener(key, False)
         if not self._closed:
             token.undeclare()  # type: ignore[no-untyped-call]  # untyped in zenoh's stub
+
+    def on_token(self, listener: Callable[[str, bool], object]) -> None:
+        """Call ``listener(key, alive)`` for each token this session holds now, then as it
+        declares or undeclares one (under the session's token lock: a listener must not declare
+        tokens): its own graph knows its own entities at once, as rclpy's does, not a moment
+        later when Zenoh hands the tokens back."""
+        with self._token_lock:
+            self._token_listeners.append(listener)
+            for key in self._tokens:
+                listener(key, True)
+
+    def remove_on_token(self, listener: Callable[[str, bool], object]) -> None:
+        """Forget a listener given to :meth:`on_token`."""
+        with self._token_lock, contextlib.suppress(ValueError):
+            self._token_listeners.remove(listener)
 
     def on_close(self, callback: Callable[[], object]) -> None:
         """Call ``callback()`` before the session closes (entities undeclare themselves)."""

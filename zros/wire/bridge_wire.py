@@ -41,10 +41,18 @@ from zros.transport import Transport
 from zros.transport.per_session import PerSession
 from zros.wire.base import Wire, WireEntity
 from zros.wire.schemes import WireOption
-from zros.wire.tokens import BridgeInfo, Endpoint, TokenHandler, TokenView, graph_log, keep_token
+from zros.wire.tokens import (
+    BridgeInfo,
+    Endpoint,
+    TokenHandler,
+    TokenSample,
+    TokenView,
+    graph_log,
+    keep_token,
+)
 
 if TYPE_CHECKING:
-    from zenoh import Sample, Session
+    from zenoh import Session
 
     from zros.cdr import JsonValue, TypeRegistry
 
@@ -104,7 +112,7 @@ class BridgeTokens(TokenView):
             (ZROS_TOKENS, self._on_zros),
         ]
 
-    def _on_entity(self, sample: Sample) -> None:
+    def _on_entity(self, sample: TokenSample) -> None:
         key = str(sample.key_expr)
         alive = sample.kind == SampleKind.PUT
         zid = bridge_zid(key)
@@ -129,7 +137,7 @@ class BridgeTokens(TokenView):
             keep_token(self._entities, key, token, alive)
         self.changed()
 
-    def _on_zros(self, sample: Sample) -> None:
+    def _on_zros(self, sample: TokenSample) -> None:
         key = str(sample.key_expr)
         alive = sample.kind == SampleKind.PUT
         token = parse_owner_token(key)

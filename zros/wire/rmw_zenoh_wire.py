@@ -51,7 +51,14 @@ from zros.wire.base import (
 )
 from zros.wire.requests import Requests
 from zros.wire.schemes import WireOption
-from zros.wire.tokens import Endpoint, TokenHandler, TokenView, graph_log, keep_token
+from zros.wire.tokens import (
+    Endpoint,
+    TokenHandler,
+    TokenSample,
+    TokenView,
+    graph_log,
+    keep_token,
+)
 
 if TYPE_CHECKING:
     from zenoh import Session
@@ -286,7 +293,7 @@ class RmwZenohTokens(TokenView):
         """Every domain's tokens."""
         return [(ALL_TOKENS, self._on_token)]
 
-    def _on_token(self, sample: Sample) -> None:
+    def _on_token(self, sample: TokenSample) -> None:
         key = str(sample.key_expr)
         alive = sample.kind == SampleKind.PUT
         try:

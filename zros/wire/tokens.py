@@ -13,20 +13,40 @@ import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
 
 if TYPE_CHECKING:
-    from zenoh import Sample, Session
+    from zenoh import SampleKind, Session
 
     from zros.cdr import JsonValue
 
 _T = TypeVar('_T')
 #: the graph's logger (what the views ignore, and why)
 graph_log = logging.getLogger('zros.graph')
-TokenHandler = Callable[['Sample'], None]
+
+
+class TokenSample(Protocol):
+    """What a view reads of a liveliness sample: a Zenoh ``Sample``, or a :class:`LocalToken`."""
+
+    @property
+    def key_expr(self) -> object: ...  # read as str(key_expr)
+
+    @property
+    def kind(self) -> SampleKind: ...
+
+
+@dataclass(frozen=True)
+class LocalToken:
+    """A token this session declared (or undeclared), handed to its own graph at once."""
+
+    key_expr: str
+    kind: SampleKind
+
+
+TokenHandler = Callable[[TokenSample], None]
 
 
 def keep_token(table: dict[str, _T], key: str, token: _T, alive: bool) -> None:
