@@ -58,16 +58,13 @@ class Graph:
         #: while declared, else when it was undeclared (Zenoh's echoes of them are ignored)
         self._ours: dict[str, float | None] = {}
         self._own_lock = threading.Lock()
+        #: what the views follow: a key expression each, and the view's handler of its tokens
+        self._selectors = [pair for view in self._views.values() for pair in view.selectors()]
+        self._matchers = [(KeyExpr(selector), handler) for selector, handler in self._selectors]
         liveliness = session.liveliness()
         self._subscribers: list[Undeclarable] = [
             liveliness.declare_subscriber(selector, self._heard(handler), history=True)
-            for view in self._views.values()
-            for selector, handler in view.selectors()
-        ]
-        self._matchers = [
-            (KeyExpr(selector), handler)
-            for view in self._views.values()
-            for selector, handler in view.selectors()
+            for selector, handler in self._selectors
         ]
         self._transport = transport
         transport.on_token(self._own_token)  # the tokens it holds now too
@@ -119,8 +116,8 @@ class Graph:
         # answer on a loaded machine left the last ones 50 ms; asked all at once, some answers
         # came back short under load (2 of 12 `zros action info` missed the node's name)
         within = max(timeout, ANSWER_WITHIN)
-        asks = [pair for view in self._views.values() for pair in view.selectors()]
-        for selector, handler in asks:
+        for selector, handler in self._selectors:
+            heard = self._heard(handler)
             # a FIFO of Zenoh's default size (256) that fills while this thread takes the GIL
             # back from the graph's callbacks stalls the session: give it room for any graph
             replies = liveliness.get(
@@ -128,7 +125,7 @@ class Graph:
             )
             for reply in replies:
                 if reply.ok is not None:
-                    self._heard(handler)(reply.ok)
+                    heard(reply.ok)
         self.wait_until(lambda: all(view.settled() for view in self._views.values()), timeout)
 
     # --- queries ------------------------------------------------------------------------------
