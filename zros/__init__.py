@@ -128,7 +128,7 @@ if TYPE_CHECKING:
     from zros.cdr.message import M
     from zros.cdr.message import Message as _MessageBase
     from zros.errors import ZrosError
-    from zros.keyexpr.names import InvalidNameError
+    from zros.keyexpr.errors import InvalidNameError
     from zros.node import Node
     from zros.params import (
         Descriptor,

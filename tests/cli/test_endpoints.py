@@ -9,7 +9,8 @@ import zros
 from tests.cli.conftest import Cli
 from zros.errors import ZrosError
 from zros.transport import Router, TransportConfig, start_router
-from zros.transport.endpoints import FORMS, EndpointError
+from zros.transport.endpoints import FORMS
+from zros.transport.errors import EndpointError
 
 #: endpoint -> what the error says is wrong with it
 MALFORMED = {

@@ -16,8 +16,8 @@ from zros.keyexpr.bridge import (
     topic_key,
     unescape,
 )
-from zros.keyexpr.kinds import EntityKind, TokenError
-from zros.keyexpr.names import InvalidNameError
+from zros.keyexpr.errors import InvalidNameError, TokenError
+from zros.keyexpr.kinds import EntityKind
 from zros.qos import LATCHED, ROSOUT, SENSOR_DATA, Durability, History, QoS, Reliability
 
 ZID = '8f01344ee82211abd23a4b0ad673d0db'

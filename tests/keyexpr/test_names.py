@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from zros.keyexpr.errors import InvalidNameError
 from zros.keyexpr.names import (
-    InvalidNameError,
     Remapping,
     expand,
     parse_ros_args,

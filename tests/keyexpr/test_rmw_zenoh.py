@@ -8,10 +8,10 @@ import pytest
 
 from zros.cdr import default_registry
 from zros.cdr.hashing import type_hash
-from zros.keyexpr.attachment import Attachment, AttachmentError
+from zros.keyexpr.attachment import Attachment
 from zros.keyexpr.bridge import BridgeScheme
-from zros.keyexpr.kinds import EntityKind, TokenError
-from zros.keyexpr.names import InvalidNameError
+from zros.keyexpr.errors import AttachmentError, InvalidNameError, TokenError
+from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.rmw_zenoh import (
     ALL_TOKENS,
     HASH_NOT_SUPPORTED,

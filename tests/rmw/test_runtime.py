@@ -451,7 +451,7 @@ def test_the_graph_ignores_malformed_tokens(
 
 
 def test_attachment_helpers() -> None:
-    from zros.keyexpr.attachment import AttachmentError
+    from zros.keyexpr.errors import AttachmentError
     from zros.wire.rmw_zenoh_wire import SequenceNumbers, has_attachment, read_attachment
 
     class Carrier:
@@ -479,7 +479,7 @@ def test_attachment_helpers() -> None:
 
 
 def test_an_unannounced_entity_has_no_gid_to_send_with(zros_node: Callable[..., Node]) -> None:
-    from zros.keyexpr.attachment import AttachmentError
+    from zros.keyexpr.errors import AttachmentError
 
     wire = zros_node('tap').context.wire
     place = wire.unannounced(wire.any_type_key(wire.key('/x')))

@@ -19,7 +19,8 @@ from zros.cli.main import main as zros_command
 from zros.testing import wait_for
 from zros.transport import Router, Tls, Transport, TransportConfig, TransportError, start_router
 from zros.transport.diagnose import explain_unreachable
-from zros.transport.pki import CertificateError, Certificates, make_certificates
+from zros.transport.errors import CertificateError
+from zros.transport.pki import Certificates, make_certificates
 
 
 @pytest.fixture(scope='module')

@@ -17,15 +17,14 @@ from collections.abc import Callable
 from zenoh import Sample
 
 from zros.actions.common import (
-    ActionError,
     CancelReturn,
     GoalHandle,
-    GoalRejectedError,
     GoalStatus,
     action_type,
     goal_id_of,
     new_goal_id,
 )
+from zros.actions.errors import ActionError, GoalRejectedError
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message, decode

@@ -13,7 +13,6 @@ import uuid
 
 from zros.cdr import Message, TypeRegistry
 from zros.cdr.interfaces import ActionType
-from zros.errors import ZrosError
 from zros.runtime.clock import Time
 
 PARTS = ('send_goal', 'cancel_goal', 'get_result', 'feedback', 'status')
@@ -62,14 +61,6 @@ class CancelResponse(enum.Enum):
 
     REJECT = 0
     ACCEPT = 1
-
-
-class ActionError(ZrosError):
-    """An action goal could not be sent, was rejected, or ended without a result."""
-
-
-class GoalRejectedError(ActionError):
-    """The server rejected the goal."""
 
 
 def action_type(registry: TypeRegistry, name: str | ActionType) -> ActionType:

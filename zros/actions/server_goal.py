@@ -17,7 +17,8 @@ from typing import Protocol
 
 from zenoh import Query
 
-from zros.actions.common import ActionError, GoalHandle, GoalStatus
+from zros.actions.common import GoalHandle, GoalStatus
+from zros.actions.errors import ActionError
 from zros.cdr.interfaces import ActionType
 from zros.cdr.message import Message
 from zros.runtime.clock import Time

@@ -12,7 +12,7 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass
 
-from zros.errors import ZrosError
+from zros.keyexpr.errors import AttachmentError
 
 SIZE = 33
 GID_SIZE = 16
@@ -20,10 +20,6 @@ _HEAD = struct.Struct('<qqB')
 _INT64 = struct.Struct('<q')
 _LEGACY_NAMES = (b'sequence_number', b'source_timestamp', b'source_gid')
 LEGACY_SIZE = 77
-
-
-class AttachmentError(ZrosError, ValueError):
-    """Bytes that are not an rmw_zenoh attachment."""
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from zros.keyexpr.kinds import EntityKind, TokenError
+from zros.keyexpr.errors import TokenError
+from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.names import validate_full_name, validate_namespace
 from zros.qos import Durability, History, QoS, Reliability
 

@@ -1,14 +1,8 @@
-"""What both wire schemes share: the kinds of entities they announce, and the token error."""
+"""What both wire schemes share: the kinds of entities they announce."""
 
 from __future__ import annotations
 
 import enum
-
-from zros.errors import ZrosError
-
-
-class TokenError(ZrosError, ValueError):
-    """A liveliness token is not in the bridge's format (or zros refuses to write it)."""
 
 
 class EntityKind(str, enum.Enum):

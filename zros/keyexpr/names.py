@@ -9,22 +9,11 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
-from zros.errors import ZrosError
+from zros.keyexpr.errors import InvalidNameError
 
 #: rmw's limit for fully qualified topic names (leaves room for the DDS prefixes)
 MAX_NAME_LENGTH = 247
 MAX_NODE_NAME_LENGTH = 255
-
-
-class InvalidNameError(ZrosError, ValueError):
-    """A topic, service, node name or namespace breaks a ROS 2 naming rule."""
-
-    def __init__(self, kind: str, name: str, index: int, rule: str) -> None:
-        pointer = f'\n    {name!r}\n     {" " * index}^' if name else ''
-        super().__init__(f'invalid {kind} {name!r}: {rule}{pointer}')
-        self.name = name
-        self.index = index
-        self.rule = rule
 
 
 def _isalnum(char: str) -> bool:

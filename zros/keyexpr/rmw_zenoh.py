@@ -14,7 +14,8 @@ import re
 import threading
 from dataclasses import dataclass, field
 
-from zros.keyexpr.kinds import EntityKind, TokenError
+from zros.keyexpr.errors import TokenError
+from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.names import validate_full_name, validate_namespace, validate_node_name
 from zros.keyexpr.xxh3 import xxh3_128
 from zros.qos import Durability, History, QoS, Reliability

@@ -9,28 +9,14 @@ from zros.cdr import Message
 from zros.deprecation import deprecated
 from zros.keyexpr.names import validate_full_name
 from zros.params.descriptor import Descriptor, Parameter, SetResult
+from zros.params.errors import NodeNotFoundError, ParameterError, ParameterTimeoutError
 from zros.params.server import SERVICE_TYPES
-from zros.params.values import (
-    ParameterError,
-    ParameterType,
-    ParamValue,
-    from_message,
-    infer_type,
-    to_message,
-)
+from zros.params.values import ParameterType, ParamValue, from_message, infer_type, to_message
 from zros.pubsub import Subscriber
 from zros.qos import PARAMETER_EVENTS
 from zros.runtime.clock import Time
 from zros.runtime.defaults import NodeLike, default_node
 from zros.services import Client, ServiceTimeoutError, ServiceUnavailableError
-
-
-class ParameterTimeoutError(ParameterError, TimeoutError):
-    """The node did not answer in time."""
-
-
-class NodeNotFoundError(ParameterError, LookupError):
-    """No node of that name serves parameters."""
 
 
 class ParameterClient:

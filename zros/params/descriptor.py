@@ -10,14 +10,7 @@ from typing import TYPE_CHECKING, TypedDict
 if TYPE_CHECKING:
     from zros.cdr import Message, TypeRegistry
 
-from zros.params.values import ParameterError, ParameterType, ParamValue
-
-
-class ParameterNotDeclaredError(ParameterError, KeyError):
-    """The parameter is not declared (and the node does not allow undeclared ones)."""
-
-    def __str__(self) -> str:  # KeyError would repr the message
-        return str(self.args[0])
+from zros.params.values import ParameterType, ParamValue
 
 
 class DescriptorFields(TypedDict, total=False):

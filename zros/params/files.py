@@ -26,7 +26,8 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.params.values import ParameterError, ParameterType, ParamValue, infer_type, normalize
+from zros.params.errors import ParameterError
+from zros.params.values import ParameterType, ParamValue, infer_type, normalize
 
 if TYPE_CHECKING:
     from ruamel.yaml import YAML

@@ -17,8 +17,9 @@ if TYPE_CHECKING:
 from zenoh import ZError
 
 from zros.params.descriptor import Parameter
+from zros.params.errors import ParameterError
 from zros.params.store import ParameterStore
-from zros.params.values import ParameterError, ParameterType, from_message, to_message
+from zros.params.values import ParameterType, from_message, to_message
 from zros.pubsub import Publisher
 from zros.qos import PARAMETER_EVENTS
 from zros.runtime.defaults import NodeLike

@@ -18,20 +18,13 @@ from zros.params.descriptor import (
     Descriptor,
     DescriptorFields,
     Parameter,
-    ParameterNotDeclaredError,
     SetResult,
     in_float_range,
     in_integer_range,
 )
+from zros.params.errors import ParameterError, ParameterNotDeclaredError
 from zros.params.files import dump as dump_file
-from zros.params.values import (
-    ParameterError,
-    ParameterType,
-    ParamValue,
-    infer_type,
-    normalize,
-    same,
-)
+from zros.params.values import ParameterType, ParamValue, infer_type, normalize, same
 
 
 def _items(values: Mapping[str, ParamValue] | Iterable[Parameter]) -> list[Parameter]:

@@ -7,7 +7,7 @@ import math
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, SupportsFloat, SupportsInt, TypeGuard
 
-from zros.errors import ZrosError
+from zros.params.errors import ParameterError
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -17,10 +17,6 @@ if TYPE_CHECKING:
 ParamValue = (
     bool | int | float | str | bytes | list[bool] | list[int] | list[float] | list[str] | None
 )
-
-
-class ParameterError(ZrosError):
-    """A parameter operation failed (the message says why)."""
 
 
 class ParameterType(enum.IntEnum):

@@ -13,7 +13,8 @@ import ssl
 from dataclasses import dataclass, field
 
 from zros.transport.config import DEFAULT_ENDPOINT, TransportConfig
-from zros.transport.endpoints import EndpointError, parse_endpoint
+from zros.transport.endpoints import parse_endpoint
+from zros.transport.errors import EndpointError
 from zros.transport.tlsfiles import check_tls_files
 
 PROBE_TIMEOUT = 2.0

@@ -12,7 +12,7 @@ import ipaddress
 import re
 from dataclasses import dataclass
 
-from zros.errors import SettingError
+from zros.transport.errors import EndpointError
 
 #: protocols whose address is ``host:port``
 IP_PROTOCOLS = ('tcp', 'tls', 'udp', 'quic', 'ws')
@@ -25,10 +25,6 @@ FORMS = (
     'write tcp/HOST:PORT, tls/HOST:PORT or HOST:PORT (tcp), e.g. tcp/192.168.1.5:7447 or [::1]:7447'
 )
 _HOST_NAME = re.compile(r'[A-Za-z0-9_]([A-Za-z0-9_.-]*[A-Za-z0-9_])?')
-
-
-class EndpointError(SettingError):
-    """An endpoint zros cannot make sense of (a usage error: ``zros`` exits with 2)."""
 
 
 @dataclass(frozen=True)

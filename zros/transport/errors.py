@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
-from zros.errors import ZrosError
+from zros.errors import SettingError, ZrosError
 from zros.transport.credentials import HIDDEN, scrub
 
 _LOCATION = re.compile(r'\s*\bat /\S+?\.rs:\d+\.?')
@@ -44,3 +44,11 @@ def zenoh_reason(error: BaseException, secrets: Iterable[str | None] = ()) -> st
     text = ' '.join(line.strip() for line in lines if line.strip() and not _EXCERPT.match(line))
     text = _FOUND.sub(rf'\1 {HIDDEN}', text)
     return scrub(_SERDE.sub(_serde, text), secrets)
+
+
+class EndpointError(SettingError):
+    """An endpoint zros cannot make sense of (a usage error: ``zros`` exits with 2)."""
+
+
+class CertificateError(ZrosError):
+    """Certificates cannot be made here (missing package, files in the way, bad host name)."""

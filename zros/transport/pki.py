@@ -20,8 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.errors import ZrosError
 from zros.transport.config import Tls
+from zros.transport.errors import CertificateError
 from zros.version import install_hint
 
 if TYPE_CHECKING:
@@ -33,10 +33,6 @@ if TYPE_CHECKING:
 ROUTER = 'router'
 #: the names a client's certificate carries for peers on its own machine
 PEER_HOSTS = ('localhost', '127.0.0.1', '::1')
-
-
-class CertificateError(ZrosError):
-    """Certificates cannot be made here (missing package, files in the way, bad host name)."""
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,8 @@ from zros.keyexpr.bridge import (
     bridge_zid,
     ros_name,
 )
-from zros.keyexpr.kinds import EntityKind, TokenError
+from zros.keyexpr.errors import TokenError
+from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.owners import (
     ZROS_TOKENS,
     OwnedEntity,

@@ -24,8 +24,9 @@ from typing import TYPE_CHECKING, ClassVar, Protocol
 from zenoh import ConsolidationMode, Query, QueryTarget, Sample, SampleKind, ZBytes, ext
 
 from zros.cdr.hashing import type_hash
-from zros.keyexpr.attachment import GID_SIZE, SIZE, Attachment, AttachmentError
-from zros.keyexpr.kinds import EntityKind, TokenError
+from zros.keyexpr.attachment import GID_SIZE, SIZE, Attachment
+from zros.keyexpr.errors import AttachmentError, TokenError
+from zros.keyexpr.kinds import EntityKind
 from zros.keyexpr.rmw_zenoh import (
     ALL_TOKENS,
     EndpointToken,

@@ -112,8 +112,8 @@ def get(args: argparse.Namespace) -> int:
 
 
 def set_parameter(args: argparse.Namespace) -> int:
+    from zros.params.errors import ParameterError
     from zros.params.files import parse_override
-    from zros.params.values import ParameterError
 
     try:
         _, value = parse_override(f'{args.name}:={args.value}')
@@ -189,8 +189,8 @@ def dump(args: argparse.Namespace) -> int:
 
 
 def load(args: argparse.Namespace) -> int:
+    from zros.params.errors import ParameterError
     from zros.params.files import load_file, values_for
-    from zros.params.values import ParameterError
 
     try:
         entries = load_file(args.file)

@@ -21,13 +21,8 @@ from zros.errors import ZrosError
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.filters import NameFilter
 from zros.params.descriptor import Parameter
-from zros.params.values import (
-    ParameterError,
-    ParameterType,
-    describe_value,
-    from_message,
-    is_param_value,
-)
+from zros.params.errors import ParameterError
+from zros.params.values import ParameterType, describe_value, from_message, is_param_value
 from zros.pubsub.taps import RawTap
 from zros.qos import PARAMETER_EVENTS
 
