@@ -394,4 +394,7 @@ def main() -> None:
 
 
 if __name__ == '__main__':
-    main()
+    from readme import recording
+
+    with recording(__file__):
+        main()

@@ -530,4 +530,7 @@ def print_goals(results: dict[str, dict[str, float | None]]) -> None:
 
 
 if __name__ == '__main__':
-    main()
+    from readme import recording
+
+    with recording(__file__):
+        main()

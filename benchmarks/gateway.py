@@ -405,5 +405,8 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
 
 
 if __name__ == '__main__':
+    from readme import recording
+
     threading.current_thread().name = 'bench'
-    main()
+    with recording(__file__):
+        main()

@@ -223,4 +223,7 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
 
 
 if __name__ == '__main__':
-    main()
+    from readme import recording
+
+    with recording(__file__):
+        main()

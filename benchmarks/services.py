@@ -334,4 +334,7 @@ def rclpy_row(count: int) -> dict[str, Any] | None:
 
 
 if __name__ == '__main__':
-    main()
+    from readme import recording
+
+    with recording(__file__):
+        main()

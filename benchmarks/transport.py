@@ -312,4 +312,7 @@ def _median_run(found: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 if __name__ == '__main__':
-    main()
+    from readme import recording
+
+    with recording(__file__):
+        main()

@@ -211,4 +211,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == '__main__':
-    sys.exit(main())
+    from readme import recording
+
+    with recording(__file__):
+        sys.exit(main())

@@ -231,3 +231,46 @@ def test_a_verb_module_is_named_by_its_verb() -> None:
     modules = {path.stem for path in VERBS.glob('*.py')} - {'__init__'}
     assert modules == set(COMMANDS)
     assert not [path for path in VERBS.iterdir() if path.is_dir() and path.name != '__pycache__']
+
+
+#: folders of tests/ that are not one package's tests: suites across the packages, helpers,
+#: and the tests of benchmarks/
+SUITES = {'support', 'faults', 'interop', 'rmw', 'benchmarks'}
+#: top-level test modules that check the repository as a whole rather than one module
+REPOSITORY_CHECKS = {
+    'architecture', 'docs_pages', 'docstrings', 'examples', 'lint', 'packaging', 'readme', 'typing',
+}  # fmt: skip
+
+
+def misplaced_tests(tests: Path, package: Path) -> list[str]:
+    """Test folders that name no package of ``package`` and top-level test modules that name
+    no module of it, apart from the suites and the repository's checks."""
+    found = [
+        str(folder.relative_to(tests))
+        for folder in sorted(tests.rglob('*'))
+        if (folder / '__init__.py').is_file()
+        and folder != tests
+        and folder.relative_to(tests).parts[0] not in SUITES
+        and not (package / folder.relative_to(tests) / '__init__.py').is_file()
+    ]
+    for path in sorted(tests.glob('test_*.py')):
+        name = path.stem.removeprefix('test_')
+        if name not in REPOSITORY_CHECKS and not (package / f'{name}.py').is_file():
+            found.append(path.name)
+    return found
+
+
+def test_tests_mirror_the_package() -> None:
+    """DESIGN.md's rule: the tests of ``zros/<package>`` are in ``tests/<package>/``, those of
+    a top-level module in ``tests/test_<module>.py``."""
+    assert misplaced_tests(ROOT / 'tests', PACKAGE) == []
+
+
+def test_a_misplaced_test_is_found(tmp_path: Path) -> None:
+    tests = tmp_path / 'tests'
+    for folder in ('graph', 'support', 'demo', 'bag/read', 'bag/reading'):
+        (tests / folder).mkdir(parents=True)
+        (tests / folder / '__init__.py').write_text('')
+    for name in ('test_api.py', 'test_lint.py', 'test_demo.py'):
+        (tests / name).write_text('')
+    assert misplaced_tests(tests, PACKAGE) == ['bag/reading', 'test_demo.py']

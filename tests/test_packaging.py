@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_demo import check_report
+from tests.demo.test_demo import check_report
 
 ROOT = Path(__file__).resolve().parent.parent
 DISTRIBUTION = 'zros-client'  # `zros` on PyPI is another project

@@ -30,7 +30,7 @@ from zros.demo.sensor import (
 from zros.demo.tutorial_bag import BAG_NAME, bag_problem, ensure_bag, write_bag
 from zros.testing import wait_for
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 ZROS = shutil.which('zros', path=str(Path(sys.executable).parent))
 PAPER = {'0.8': 0.164, '2.0': 0.061}
 

@@ -19,7 +19,7 @@ def run(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_demo_runs_the_tutorial_on_an_embedded_router(tmp_path: Path) -> None:
-    # the README's first command, as typed: everything lands in ./zros-demo (tests/test_demo.py
+    # the README's first command, as typed: everything lands in ./zros-demo (tests/demo/test_demo.py
     # checks the report and the figures)
     if ZROS is None:
         pytest.skip('the zros console script is not installed in this environment')
