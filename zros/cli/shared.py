@@ -73,6 +73,14 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
             )  # fmt: skip
 
 
+def add_verbs(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], name: str, help_line: str
+) -> argparse._SubParsersAction[argparse.ArgumentParser]:
+    """Command ``name``, made of verbs (``zros topic``): where to add them (:func:`add_verb`)."""
+    parser = commands.add_parser(name, help=help_line)
+    return parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+
+
 def add_verb(
     verbs: argparse._SubParsersAction[argparse.ArgumentParser],
     name: str,
