@@ -106,23 +106,49 @@ def test_the_gateway_commands_share_their_listen_and_safety_options() -> None:
 
     from zros.cli.main import build_parser
 
-    def options(command: str) -> dict[str, tuple[str | None, object]]:
+    def parser_of(command: str) -> argparse.ArgumentParser:
         parser = build_parser([command])
         (commands,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        found: argparse.ArgumentParser = commands.choices[command]
+        return found
+
+    def options(command: str) -> dict[str, tuple[object, ...]]:
         return {
-            flag: (action.help, action.type)
-            for action in commands.choices[command]._actions
-            for flag in action.option_strings
-        }
+            action.option_strings[-1]: (
+                action.help, action.type, action.default, action.metavar, action.nargs,
+                type(action),
+            )
+            for action in parser_of(command)._actions
+        }  # fmt: skip
 
     foxglove, rosbridge = options('foxglove'), options('rosbridge')
     shared = ['--address', '--tls-cert', '--tls-key', '--read-only', '--throttle']
     for flag in [*shared, '--client-buffer']:
         assert foxglove[flag] == rosbridge[flag], flag
+    # in the same order: where they listen first, what clients may do after their own options
+    assert [f for f in foxglove if f in rosbridge] == [f for f in rosbridge if f in foxglove]
     # the port and the origins differ only in their defaults
     assert foxglove['--port'][0] == 'TCP port (default 8765; 0: any)'
     assert rosbridge['--port'][0] == 'TCP port (default 9090; 0: any)'
+    assert foxglove['--port'][2:] == (8765, *rosbridge['--port'][3:])
+    assert foxglove['--port'][1] is rosbridge['--port'][1]
     origins = str(foxglove['--allow-origin'][0])
     assert origins.replace(' and https://app.foxglove.dev (the Foxglove web app)', '') == str(
         rosbridge['--allow-origin'][0]
     )
+    assert foxglove['--allow-origin'][1:] == rosbridge['--allow-origin'][1:]
+    # the name filters: each server's own flags and syntax, read alike (one or more, repeatable)
+    filters = {'--topics': '--topics-glob', '--services': '--services-glob',
+               '--params': '--params-glob'}  # fmt: skip
+    for regex, glob in filters.items():
+        assert foxglove[regex][4:] == rosbridge[glob][4:] == ('+', argparse._ExtendAction)
+        assert foxglove[regex][2] is rosbridge[glob][2] is None  # no filter: everything
+    # the same words give the same settings
+    words = ['--port', '0', '--address', '0.0.0.0', '--tls-cert', 'c.pem', '--tls-key',
+             'k.pem', '--read-only', '--throttle', '/a=2', '--allow-origin', 'https://x.example',
+             '--client-buffer', '1MiB']  # fmt: skip
+    keys = ['port', 'address', 'tls_cert', 'tls_key', 'read_only', 'throttle', 'allow_origin',
+            'client_buffer']  # fmt: skip
+    read = [vars(parser_of(c).parse_args(words)) for c in ('foxglove', 'rosbridge')]
+    assert {k: read[0][k] for k in keys} == {k: read[1][k] for k in keys}
+    assert read[0]['client_buffer'] == 1024**2 and read[0]['throttle'] == ['/a=2']

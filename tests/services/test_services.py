@@ -409,6 +409,9 @@ def test_mistakes_are_named(zros_node: Callable[..., Node]) -> None:
     node = zros_node('node')
     with pytest.raises(TypeError, match='std_msgs/msg/String is not a service type'):
         node.create_service('std_msgs/msg/String', 'x', add)
+    fibonacci = node.registry.get_type('example_interfaces/action/Fibonacci')
+    with pytest.raises(TypeError, match='action/Fibonacci> is not a service type'):
+        node.create_client(fibonacci, 'x')  # type: ignore[arg-type]  # a type, of another kind
     with pytest.raises(zros.InvalidNameError):
         node.create_client(ADD, 'bad name')
     client = node.create_client(ADD, 'add')

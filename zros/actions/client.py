@@ -16,11 +16,11 @@ from collections.abc import Callable
 
 from zenoh import Sample
 
+from zros.actions.action_entity import ActionEntity
 from zros.actions.common import (
     CancelReturn,
     GoalHandle,
     GoalStatus,
-    action_type,
     goal_id_of,
     new_goal_id,
 )
@@ -33,7 +33,6 @@ from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
 from zros.runtime.clock import Time
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity
 from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal
 from zros.services import Client, ServiceError
@@ -120,7 +119,7 @@ class ClientGoalHandle(GoalHandle):
         return f'<zros goal {self.goal_uuid} of {self.client.name}: {self._status.name}>'
 
 
-class ActionClient(Entity):
+class ActionClient(ActionEntity):
     """An action client (rclpy: ``ActionClient``).
 
     ``send_goal(goal)`` (or ``send_goal(order=10)``) returns a :class:`ClientGoalHandle` once the
@@ -141,17 +140,10 @@ class ActionClient(Entity):
         announce: bool = True,
     ) -> None:
         super().__init__(node)
+        self._name_action(EntityKind.ACTION_CLIENT, name, action)
         context = self.context
-        self.action_type = action_type(context.registry, action)
-        self.type_name = self.action_type.__actiontype__
-        self.name = self._resolve(EntityKind.ACTION_CLIENT, name)
         wire = context.wire
-        self.key = wire.key(self.name)
         registry = context.registry
-        self.Goal = self.action_type.Goal
-        self.Result = self.action_type.Result
-        self.Feedback = self.action_type.Feedback
-        self._StatusArray = registry.get_class('action_msgs/msg/GoalStatusArray')
         self._FeedbackMessage = self.action_type.FeedbackMessage
         self._handles: weakref.WeakValueDictionary[bytes, ClientGoalHandle] = (
             weakref.WeakValueDictionary()

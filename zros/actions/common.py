@@ -14,6 +14,7 @@ import uuid
 from zros.cdr import Message, TypeRegistry
 from zros.cdr.interfaces import ActionType
 from zros.runtime.clock import Time
+from zros.services.errors import interface_type
 
 PARTS = ('send_goal', 'cancel_goal', 'get_result', 'feedback', 'status')
 
@@ -65,12 +66,7 @@ class CancelResponse(enum.Enum):
 
 def action_type(registry: TypeRegistry, name: str | ActionType) -> ActionType:
     """The action type of a name (``pkg/action/Name`` or ``pkg/Name``) or an ActionType."""
-    if isinstance(name, ActionType):
-        return name
-    found = registry.get_type(name)
-    if not isinstance(found, ActionType):
-        raise TypeError(f'{name} is not an action type')
-    return found
+    return interface_type(registry, name, ActionType, 'an action type')
 
 
 def new_goal_id() -> bytes:

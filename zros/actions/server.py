@@ -19,7 +19,8 @@ from collections.abc import Callable
 
 from zenoh import Query, ZError
 
-from zros.actions.common import CancelReturn, GoalStatus, accepted, action_type, goal_id_of
+from zros.actions.action_entity import ActionEntity
+from zros.actions.common import CancelReturn, GoalStatus, accepted, goal_id_of
 from zros.actions.goals import cancel_candidates, run_goal
 from zros.actions.server_goal import GoalRecord, ServerGoalHandle
 from zros.cdr import CdrError
@@ -30,7 +31,6 @@ from zros.keyexpr.kinds import EntityKind
 from zros.pubsub import Publisher
 from zros.qos import Durability, QoS
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity
 from zros.runtime.signal import Signal
 from zros.services import ERROR_PREFIX
 
@@ -42,7 +42,7 @@ _log = logging.getLogger('zros')
 MAX_FINISHED = 1000
 
 
-class ActionServer(Entity):
+class ActionServer(ActionEntity):
     """An action server (rclpy: ``ActionServer``).
 
     ``execute_callback(goal_handle)`` runs each accepted goal and returns its Result.
@@ -69,26 +69,19 @@ class ActionServer(Entity):
         announce: bool = True,
     ) -> None:
         super().__init__(node)
+        self._name_action(EntityKind.ACTION_SERVER, name, action)
         context = self.context
         wire = context.wire
-        self.action_type = action_type(context.registry, action)
-        self.type_name = self.action_type.__actiontype__
-        self.name = self._resolve(EntityKind.ACTION_SERVER, name)
-        self.key = wire.key(self.name)
         #: through a bridge one AS token announces the action; under rmw_zenoh its parts do
         parts_announced = announce and wire.announces_action_parts()
         self.execute_callback = execute_callback
         self.goal_callback = goal_callback
         self.cancel_callback = cancel_callback
         self.result_timeout = result_timeout
-        self.Goal = self.action_type.Goal
-        self.Result = self.action_type.Result
-        self.Feedback = self.action_type.Feedback
         registry = context.registry
         self._SendGoal = self.action_type.SendGoal
         self._GetResult = self.action_type.GetResult
         self._CancelGoal = registry.get_service('action_msgs/srv/CancelGoal')
-        self._StatusArray = registry.get_class('action_msgs/msg/GoalStatusArray')
         self._GoalStatus = registry.get_class('action_msgs/msg/GoalStatus')
         self._GoalInfo = registry.get_class('action_msgs/msg/GoalInfo')
         self._lock = threading.RLock()

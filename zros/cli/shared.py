@@ -73,6 +73,14 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
             )  # fmt: skip
 
 
+def add_verbs(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], name: str, help_line: str
+) -> argparse._SubParsersAction[argparse.ArgumentParser]:
+    """Command ``name``, made of verbs (``zros topic``): where to add them (:func:`add_verb`)."""
+    parser = commands.add_parser(name, help=help_line)
+    return parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+
+
 def add_verb(
     verbs: argparse._SubParsersAction[argparse.ArgumentParser],
     name: str,
@@ -402,41 +410,6 @@ def byte_count(text: str) -> int:
             f'a size in bytes, as 33554432, 32MiB or 500kB, of at least 1 byte, not {text}'
         )
     return size
-
-
-#: 32 MiB: what one client of a gateway may hold queued before its oldest messages drop
-CLIENT_BUFFER = 32 * 1024**2
-
-
-def add_gateway_listen_options(parser: argparse.ArgumentParser, port: int) -> None:
-    """Where a gateway command listens (the same options in both): ``port`` (its default), the
-    address, and the TLS certificate and key that make it ``wss://``."""
-    parser.add_argument('--port', type=port_number, default=port,
-                        help=f'TCP port (default {port}; 0: any)')  # fmt: skip
-    parser.add_argument('--address', default='127.0.0.1',
-                        help='address to listen on (default 127.0.0.1; others warn)')  # fmt: skip
-    parser.add_argument('--tls-cert', metavar='PEM', help='certificate: serve wss://')
-    parser.add_argument('--tls-key', metavar='PEM', help='its private key')
-
-
-def add_gateway_safety_options(parser: argparse.ArgumentParser, default_origins: str) -> None:
-    """The options both gateway commands share: which browsers may connect, whether clients
-    may act on the robot, the rate of topics and the bytes queued per client.
-    ``default_origins`` says in the help which origins the command allows besides this
-    machine's pages."""
-    parser.add_argument('--allow-origin', action='append', default=[], metavar='ORIGIN',
-                        help='also accept browsers on pages of ORIGIN (https://host[:port]; '
-                        f"repeatable; '*': any page). Default: pages of this machine"
-                        f'{default_origins}; programs (no Origin header) are always accepted'
-                        )  # fmt: skip
-    parser.add_argument('--read-only', action='store_true',
-                        help='clients may only watch: no publishing, service calls, parameter '
-                        'sets or action goals')  # fmt: skip
-    parser.add_argument('--throttle', action='append', default=[], metavar='REGEX=HZ',
-                        help="at most HZ messages a second of these ('/camera/.*=2')")  # fmt: skip
-    parser.add_argument('--client-buffer', type=byte_count, default=CLIENT_BUFFER,
-                        metavar='BYTES', help='bytes queued per client before its oldest '
-                        'messages are dropped (default 32MiB)')  # fmt: skip
 
 
 def out(text: str = '') -> None:

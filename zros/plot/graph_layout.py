@@ -61,18 +61,14 @@ def _acyclic_order(count: int, succ: list[set[int]], pred: list[set[int]]) -> li
         progress = True
         while progress:
             progress = False
-            for v in range(count):
-                if alive[v] and out_degree[v] == 0:
-                    right.append(v)
-                    remove(v)
-                    remaining -= 1
-                    progress = True
-            for v in range(count):
-                if alive[v] and in_degree[v] == 0:
-                    left.append(v)
-                    remove(v)
-                    remaining -= 1
-                    progress = True
+            # sinks to the right, then sources to the left
+            for degree, side in ((out_degree, right), (in_degree, left)):
+                for v in range(count):
+                    if alive[v] and degree[v] == 0:
+                        side.append(v)
+                        remove(v)
+                        remaining -= 1
+                        progress = True
         if remaining:
             # ties go to the vertex that feeds the most overall (a driver publishing sensors)
             chosen = max(

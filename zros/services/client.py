@@ -16,11 +16,9 @@ from zenoh.handlers import Callback, Handler
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
-from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import SERVICE_PRIORITY
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity
 from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal, raises_on_interrupt
 from zros.services.errors import (
@@ -29,8 +27,8 @@ from zros.services.errors import (
     ServiceError,
     ServiceTimeoutError,
     ServiceUnavailableError,
-    service_type,
 )
+from zros.services.service_entity import ServiceEntity
 from zros.transport.zenoh_qos import PRIORITY
 
 #: seconds a call may still wait for its answer once no server matches any more (the answer
@@ -38,7 +36,7 @@ from zros.transport.zenoh_qos import PRIORITY
 GONE_GRACE = 2.0
 
 
-class Client(Entity):
+class Client(ServiceEntity):
     """A service client (rclpy: ``node.create_client``).
 
     ``call(request)`` (or ``call(a=1, b=2)``) returns the response or raises
@@ -62,18 +60,9 @@ class Client(Entity):
         announce: bool = True,
     ) -> None:
         super().__init__(node)
-        context = self.context
-        self.srv_type = service_type(context.registry, srv_type)
-        self.type_name = self.srv_type.__srvtype__
-        self.Request = self.srv_type.Request
-        self.Response = self.srv_type.Response
-        self.name = self._resolve(EntityKind.SERVICE_CLIENT, name)
-        self._wire = self._place(
-            EntityKind.SERVICE_CLIENT, self.name, self.type_name, registry_of(self.Request),
-            announce=announce, own=True,
-        )  # fmt: skip
+        self._wire = self._place_service(EntityKind.SERVICE_CLIENT, name, srv_type, announce)
         self.timeout = timeout
-        session = context.transport.session
+        session = self.context.transport.session
         self._get = session.get
         self._matching = Signal()
         #: calls in flight that Zenoh may never end: what ends each as unavailable

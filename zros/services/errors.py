@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 from zros.cdr import TypeRegistry
-from zros.cdr.interfaces import ServiceType
+from zros.cdr.interfaces import ActionType, ServiceType
 from zros.errors import ZrosError
 
 #: what a zenoh-bridge-ros2dds waits for a reply by default (``queries_timeout.default``)
@@ -31,11 +33,22 @@ class ServiceCallError(ServiceError):
     or its reply does not decode."""
 
 
+Interface = TypeVar('Interface', ServiceType, ActionType)
+
+
+def interface_type(
+    registry: TypeRegistry, name: str | Interface, kind: type[Interface], what: str
+) -> Interface:
+    """The service or action type (``kind``, ``what`` in the error) of a name
+    (``pkg/srv/Name``, ``pkg/action/Name`` or ``pkg/Name``), or ``name`` when it is one."""
+    if isinstance(name, kind):
+        return name
+    found = registry.get_type(name) if isinstance(name, str) else name
+    if not isinstance(found, kind):
+        raise TypeError(f'{name} is not {what}')
+    return found
+
+
 def service_type(registry: TypeRegistry, srv_type: str | ServiceType) -> ServiceType:
     """The service type of a name (``pkg/srv/Name`` or ``pkg/Name``) or a ServiceType."""
-    if isinstance(srv_type, ServiceType):
-        return srv_type
-    found = registry.get_type(srv_type)
-    if not isinstance(found, ServiceType):
-        raise TypeError(f'{srv_type} is not a service type')
-    return found
+    return interface_type(registry, srv_type, ServiceType, 'a service type')

@@ -21,10 +21,8 @@ from zenoh import Query
 from zros.cdr import CdrError
 from zros.cdr.interfaces import ServiceType
 from zros.cdr.message import Message, decode, encode
-from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.runtime.defaults import NodeLike
-from zros.runtime.entity import Entity
 from zros.runtime.executor import Work
 from zros.runtime.signal import Signal, interrupted
 from zros.services.errors import (
@@ -32,8 +30,8 @@ from zros.services.errors import (
     ERROR_PREFIX,
     MAX_PENDING,
     ServiceError,
-    service_type,
 )
+from zros.services.service_entity import ServiceEntity
 
 _log = logging.getLogger('zros')
 
@@ -56,7 +54,7 @@ def _takes_response(handler: ServiceHandler) -> bool:
     return len(positional) >= 2 or any(p.kind is p.VAR_POSITIONAL for p in parameters)
 
 
-class Service(Entity):
+class Service(ServiceEntity):
     """A service server (rosR had none; rclpy: ``node.create_service``).
 
     With a ``handler`` each request is answered by ``handler(request)`` (or rclpy's
@@ -87,16 +85,7 @@ class Service(Entity):
         inline: Callable[[], bool] | None = None,
     ) -> None:
         super().__init__(node)
-        context = self.context
-        self.srv_type = service_type(context.registry, srv_type)
-        self.type_name = self.srv_type.__srvtype__
-        self.Request = self.srv_type.Request
-        self.Response = self.srv_type.Response
-        self.name = self._resolve(EntityKind.SERVICE_SERVER, name)
-        wire = self._place(
-            EntityKind.SERVICE_SERVER, self.name, self.type_name, registry_of(self.Request),
-            announce=announce, own=True,
-        )  # fmt: skip
+        wire = self._place_service(EntityKind.SERVICE_SERVER, name, srv_type, announce)
         self._handler: Callable[[Message], object] | None = None
         if handler is not None and _takes_response(handler):
             with_response = cast('Callable[[Message, Message], object]', handler)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Iterable, Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -47,6 +47,7 @@ if TYPE_CHECKING:
     from zros.tf.quaternions import Floats, Stamps
 
 _NS = 1_000_000_000
+T = TypeVar('T')
 
 
 class Buffer:
@@ -170,9 +171,7 @@ class Buffer:
         target = clean_frame(target_frame, 'target_frame')
         source = clean_frame(source_frame, 'source_frame')
         stamp = nanoseconds(time)
-        self._wait(lambda: self._pose(target, source, stamp), timeout)
-        with self._lock:
-            pose, used = self._pose(target, source, stamp)
+        pose, used = self._attempt(lambda: self._pose(target, source, stamp), timeout)
         return transform_message(target, source, used, pose)
 
     def lookup_transform_full(  # noqa: PLR0917 (tf2_ros's signature)
@@ -198,9 +197,7 @@ class Buffer:
             target_fixed, used = self._pose(target, fixed, target_stamp)
             return compose(target_fixed, fixed_source), used
 
-        self._wait(full, timeout)
-        with self._lock:
-            pose, used = full()
+        pose, used = self._attempt(full, timeout)
         return transform_message(target, source, used, pose)
 
     def can_transform(
@@ -229,19 +226,19 @@ class Buffer:
             )
         )
 
-    def _wait(self, attempt: Callable[[], object], timeout: TimeoutLike) -> None:
-        """Wait until ``attempt()`` stops raising TransformException, or ``timeout`` runs out
-        (then return: the caller's own attempt raises). KeyboardInterrupt on Ctrl-C."""
+    def _attempt(self, attempt: Callable[[], T], timeout: TimeoutLike) -> T:
+        """``attempt()`` under the lock, once it stops raising TransformException or
+        ``timeout`` runs out (then it raises). KeyboardInterrupt on Ctrl-C."""
         wait = seconds(timeout)
-        if not wait or wait <= 0:
-            return
 
         def ready() -> bool:
             with self._lock:
                 return _succeeds(attempt)
 
-        if not self._arrived.wait_for(ready, wait) and interrupted():
+        if wait and wait > 0 and not self._arrived.wait_for(ready, wait) and interrupted():
             raise KeyboardInterrupt
+        with self._lock:
+            return attempt()
 
     # --- many stamps at once -----------------------------------------------------------------
 
@@ -344,9 +341,7 @@ class Buffer:
         target = clean_frame(target_frame, 'target_frame')
         source = clean_frame(source_frame, 'source_frame')
         stamp = nanoseconds(time)
-        self._wait(lambda: self._pose(target, source, stamp), timeout)
-        with self._lock:
-            pose, _ = self._pose(target, source, stamp)
+        pose, _ = self._attempt(lambda: self._pose(target, source, stamp), timeout)
         moved: Floats = np.asarray(pose[:3]) + rotate(np.asarray(pose[3:])[None, :], array)
         return moved
 

@@ -9,6 +9,7 @@ from zros.cli.shared import (
     WAIT,
     CommandError,
     add_verb,
+    add_verbs,
     add_wait_option,
     build_message,
     list_names,
@@ -121,8 +122,7 @@ def send_goal(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = commands.add_parser('action', help=help_line)
-    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'action', help_line)
 
     listing = add_verb(verbs, 'list', 'list the actions on the network', list_actions)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 from zros.cli.shared import (
     CommandError,
     add_connection_options,
+    add_verbs,
     counted,
     open_node,
     out,
@@ -194,8 +195,7 @@ def _positive(text: str) -> float:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    bag = commands.add_parser('bag', help=help_line)
-    verbs = bag.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'bag', help_line)
 
     show = verbs.add_parser(
         'info',

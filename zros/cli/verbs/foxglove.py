@@ -9,50 +9,36 @@ from __future__ import annotations
 import argparse
 import os
 from collections.abc import Iterable
-from typing import TypedDict
 
-from zros.cli.shared import (
-    CommandError,
-    add_connection_options,
-    add_gateway_listen_options,
+from zros.cli.gateway_options import (
+    ListenSettings,
     add_gateway_safety_options,
-    at_least_one,
-    open_node,
-    out,
-    serve_until_interrupted,
+    add_name_filters,
+    gateway_parser,
+    listen_settings,
+    serve_gateway,
 )
-from zros.version import install_hint
+from zros.cli.shared import CommandError, add_connection_options, at_least_one, open_node
 
 
-class _Settings(TypedDict):
+class _Settings(ListenSettings):
     """The options of ``zros.foxglove.serve`` the command line gives in both modes."""
 
-    port: int
-    address: str
     topics: Iterable[str] | None
     exclude: Iterable[str] | None
     asset_paths: Iterable[str | os.PathLike[str]]
-    tls_cert: str | None
-    tls_key: str | None
     message_backlog: int
-    client_buffer: int
-    allow_origins: Iterable[str]
 
 
 def _settings(args: argparse.Namespace) -> _Settings:
     from zros.gateway.common.origins import FOXGLOVE_APP
 
     return {
-        'port': args.port,
-        'address': args.address,
+        **listen_settings(args, [FOXGLOVE_APP]),
         'topics': args.topics,
         'exclude': args.exclude,
         'asset_paths': args.asset_path or (),
-        'tls_cert': args.tls_cert,
-        'tls_key': args.tls_key,
         'message_backlog': args.message_backlog,
-        'client_buffer': args.client_buffer,
-        'allow_origins': [FOXGLOVE_APP, *args.allow_origin],
     }
 
 
@@ -64,9 +50,10 @@ def run(args: argparse.Namespace) -> int:
     if args.bag is not None:
         if args.throttle:
             raise CommandError('--throttle applies to live topics, not to a bag')
-        with serve(bag=args.bag, **_settings(args)) as server:
-            out(f'Foxglove: {server.url} serves {args.bag} (paused; play it from Foxglove)')
-            return serve_until_interrupted()
+        server = serve(bag=args.bag, **_settings(args))
+        return serve_gateway(
+            server, f'Foxglove: {server.url} serves {args.bag} (paused; play it from Foxglove)'
+        )
     with open_node(args) as node:
         gateway = serve(
             node=node,
@@ -79,31 +66,21 @@ def run(args: argparse.Namespace) -> int:
             **_settings(args),
         )
         assert isinstance(gateway, FoxgloveGateway)  # not a bag: a live gateway
-        with gateway:
-            sim = ', sim time from /clock' if gateway.sim_time else ''
-            read_only = ', read-only' if gateway.read_only else ''
-            out(f'Foxglove: {gateway.url} ({node.wire} wire{sim}{read_only})')
-            return serve_until_interrupted()
+        sim = ', sim time from /clock' if gateway.sim_time else ''
+        read_only = ', read-only' if gateway.read_only else ''
+        return serve_gateway(gateway, f'Foxglove: {gateway.url} ({node.wire} wire{sim}{read_only})')
 
 
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = commands.add_parser(
-        'foxglove',
-        help=help_line,
-        description=f'{help_line}. Needs the foxglove extra: {install_hint("foxglove")}.',
-    )
-    parser.set_defaults(run=run)
-    add_gateway_listen_options(parser, 8765)
-    parser.add_argument('--topics', nargs='+', action='extend', metavar='REGEX',
-                        help='offer only topics matching one of these (whole names)')  # fmt: skip
-    parser.add_argument('--exclude', nargs='+', action='extend', metavar='REGEX',
-                        help='never offer topics matching one of these')  # fmt: skip
-    parser.add_argument('--services', nargs='+', action='extend', metavar='REGEX',
-                        help='offer only services matching one of these')  # fmt: skip
-    parser.add_argument('--params', nargs='+', action='extend', metavar='REGEX',
-                        help='offer only parameters (/node.name) matching these')  # fmt: skip
+    parser = gateway_parser(commands, 'foxglove', help_line, run, 8765)
+    add_name_filters(parser, 'REGEX', {
+        '--topics': 'offer only topics matching one of these (whole names)',
+        '--exclude': 'never offer topics matching one of these',
+        '--services': 'offer only services matching one of these',
+        '--params': 'offer only parameters (/node.name) matching these',
+    })  # fmt: skip
     parser.add_argument('--include-hidden', action='store_true',
                         help='also topics and services with a part starting with _')  # fmt: skip
     parser.add_argument('--asset-path', action='append', metavar='DIR',

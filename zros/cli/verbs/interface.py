@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import CommandError, UsageError, out
+from zros.cli.shared import CommandError, UsageError, add_verbs, out
 
 _NO_SOURCES = '(no comments: no .msg sources found; set ZROS_INTERFACE_PATH)'
 
@@ -90,8 +90,7 @@ def package(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    interface = commands.add_parser('interface', help=help_line)
-    verbs = interface.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'interface', help_line)
     show_parser = verbs.add_parser(
         'show', help='print the definition of a type, nested types expanded (as ros2)'
     )

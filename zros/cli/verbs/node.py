@@ -9,7 +9,14 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import DISCOVERY, add_connection_options, open_node, out, unknown_name
+from zros.cli.shared import (
+    DISCOVERY,
+    add_connection_options,
+    add_verbs,
+    open_node,
+    out,
+    unknown_name,
+)
 
 if TYPE_CHECKING:
     from zros.graph import Endpoint
@@ -71,8 +78,7 @@ def info(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = commands.add_parser('node', help=help_line)
-    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'node', help_line)
     listing = verbs.add_parser('list', help='list the nodes on the network')
     listing.add_argument('-c', '--count-nodes', action='store_true', help='only their number')
     listing.set_defaults(run=list_nodes)

@@ -15,6 +15,7 @@ from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     add_connection_options,
+    add_verbs,
     counted,
     open_node,
     out,
@@ -221,8 +222,7 @@ def load(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = commands.add_parser('param', help=help_line)
-    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'param', help_line)
 
     def verb(
         name: str,

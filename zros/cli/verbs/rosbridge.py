@@ -8,16 +8,14 @@ from __future__ import annotations
 
 import argparse
 
-from zros.cli.shared import (
-    add_connection_options,
-    add_gateway_listen_options,
+from zros.cli.gateway_options import (
     add_gateway_safety_options,
-    at_least_one,
-    open_node,
-    out,
-    serve_until_interrupted,
+    add_name_filters,
+    gateway_parser,
+    listen_settings,
+    serve_gateway,
 )
-from zros.version import install_hint
+from zros.cli.shared import add_connection_options, at_least_one, open_node
 
 
 def globs(values: list[str] | None) -> list[str]:
@@ -37,42 +35,29 @@ def run(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         gateway = serve(
             node=node,
-            port=args.port,
-            address=args.address,
             topics_glob=globs(args.topics_glob),
             services_glob=globs(args.services_glob),
             params_glob=globs(args.params_glob),
-            tls_cert=args.tls_cert,
-            tls_key=args.tls_key,
             max_message_size=args.max_message_size,
             queue_items=args.client_queue,
-            client_buffer=args.client_buffer,
-            allow_origins=args.allow_origin,
             read_only=args.read_only,
             allow_service_override=args.allow_service_override,
             throttle=args.throttle,
+            **listen_settings(args),
         )
-        with gateway:
-            out(f'rosbridge: {gateway.url} ({node.wire} wire{", read-only" * args.read_only})')
-            return serve_until_interrupted()
+        read_only = ', read-only' * args.read_only
+        return serve_gateway(gateway, f'rosbridge: {gateway.url} ({node.wire} wire{read_only})')
 
 
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = commands.add_parser(
-        'rosbridge',
-        help=help_line,
-        description=f'{help_line}. Needs the rosbridge extra: {install_hint("rosbridge")}.',
-    )
-    parser.set_defaults(run=run)
-    add_gateway_listen_options(parser, 9090)
-    parser.add_argument('--topics-glob', nargs='+', action='extend', metavar='GLOB',
-                        help='allow only topics matching one of these ("/camera/*")')  # fmt: skip
-    parser.add_argument('--services-glob', nargs='+', action='extend', metavar='GLOB',
-                        help='allow only services and actions matching these')  # fmt: skip
-    parser.add_argument('--params-glob', nargs='+', action='extend', metavar='GLOB',
-                        help='allow only parameters (/node:name) matching these')  # fmt: skip
+    parser = gateway_parser(commands, 'rosbridge', help_line, run, 9090)
+    add_name_filters(parser, 'GLOB', {
+        '--topics-glob': 'allow only topics matching one of these ("/camera/*")',
+        '--services-glob': 'allow only services and actions matching these',
+        '--params-glob': 'allow only parameters (/node:name) matching these',
+    })  # fmt: skip
     parser.add_argument('--max-message-size', type=at_least_one, default=10_000_000,
                         metavar='BYTES', help='largest message a client may send; longer JSON '
                         'to clients goes as fragments (default 10000000)')  # fmt: skip

@@ -10,6 +10,7 @@ from zros.cli.shared import (
     WAIT,
     CommandError,
     add_verb,
+    add_verbs,
     add_wait_option,
     build_message,
     find_names,
@@ -91,8 +92,7 @@ def call(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = commands.add_parser('service', help=help_line)
-    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'service', help_line)
 
     listing = add_verb(verbs, 'list', 'list the services on the network', list_services)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')

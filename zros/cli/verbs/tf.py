@@ -8,7 +8,7 @@ import sys
 import time
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import CommandError, add_connection_options, open_node, out
+from zros.cli.shared import CommandError, add_connection_options, add_verbs, open_node, out
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -21,8 +21,7 @@ _NS = 1_000_000_000
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = commands.add_parser('tf', help=help_line)
-    verbs = parser.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'tf', help_line)
 
     echo_parser = verbs.add_parser(
         'echo',

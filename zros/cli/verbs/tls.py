@@ -6,6 +6,8 @@ import argparse
 import os
 from pathlib import Path
 
+from zros.cli.shared import add_verbs
+
 
 def init(args: argparse.Namespace) -> int:
     from zros.transport.pki import PEER_HOSTS, make_certificates
@@ -49,8 +51,7 @@ def init(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    tls = commands.add_parser('tls', help=help_line)
-    verbs = tls.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'tls', help_line)
     make = verbs.add_parser(
         'init',
         help='a CA, a router certificate and client certificates, and the router config',

@@ -10,6 +10,7 @@ from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     add_verb,
+    add_verbs,
     add_wait_option,
     build_message,
     find_names,
@@ -193,8 +194,7 @@ def pub(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    topic = commands.add_parser('topic', help=help_line)
-    verbs = topic.add_subparsers(dest='verb', metavar='VERB', required=True)
+    verbs = add_verbs(commands, 'topic', help_line)
 
     listing = add_verb(verbs, 'list', 'list the topics on the network', list_topics)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')

@@ -1,6 +1,6 @@
 """The gateway's own node and what it makes on its clients' behalf: the service and parameter
 clients (:class:`ClientCache`, closed together) and the QoS of the publishers clients ask for
-(:func:`publisher_qos`)."""
+(:func:`publisher_qos`), and starting a gateway on its node (:func:`start_gateway`)."""
 
 from __future__ import annotations
 
@@ -63,6 +63,25 @@ def gateway_node(name: str, settings: NodeKeywords) -> Node:
     settings.setdefault('enable_rosout', False)
     settings.setdefault('start_parameter_services', False)
     return zros.Node(name, **settings)
+
+
+G = TypeVar('G')
+
+
+def start_gateway(
+    node: Node | None, name: str, settings: NodeKeywords, start: Callable[[Node, bool], G]
+) -> G:
+    """``start(node, own)``: on ``node``, or without one on a node of its own (``own``; see
+    :func:`gateway_node`), which is destroyed again if the gateway does not start."""
+    own = node is None
+    if node is None:
+        node = gateway_node(name, settings)
+    try:
+        return start(node, own)
+    except BaseException:
+        if own:
+            node.destroy()
+        raise
 
 
 def publisher_qos(offered: Iterable[QoS], latched: bool = False) -> QoS:

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 from zros.closing import Closing
 from zros.errors import ZrosError
-from zros.gateway.common.entities import gateway_node
+from zros.gateway.common.entities import start_gateway
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.graph_watcher import GraphWatcher
@@ -401,25 +401,17 @@ def serve(
         from zros.gateway.foxglove.bag_server import BagGateway  # noqa: PLC0415 (loaded only to play a bag)
 
         return BagGateway(bag, options, topics=topics, exclude=exclude, asset_paths=asset_paths)
-    own = node is None
-    if node is None:
-        node = gateway_node(name, settings)
-    try:
-        return FoxgloveGateway(
-            node,
-            options,
-            topics=topics,
-            exclude=exclude,
-            services=services,
-            params=params,
-            include_hidden=include_hidden,
-            asset_paths=asset_paths,
-            sim_time=sim_time,
-            read_only=read_only,
-            own_node=own,
-            throttle=throttle,
-        )
-    except BaseException:
-        if own:
-            node.destroy()
-        raise
+    return start_gateway(node, name, settings, lambda node, own: FoxgloveGateway(
+        node,
+        options,
+        topics=topics,
+        exclude=exclude,
+        services=services,
+        params=params,
+        include_hidden=include_hidden,
+        asset_paths=asset_paths,
+        sim_time=sim_time,
+        read_only=read_only,
+        own_node=own,
+        throttle=throttle,
+    ))  # fmt: skip

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from zros.closing import Closing
-from zros.gateway.common.entities import gateway_node
+from zros.gateway.common.entities import start_gateway
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.listen import Listen
@@ -297,25 +297,17 @@ def serve(
     ``throttle`` holds ``REGEX=HZ`` rate limits of topics (:mod:`zros.gateway.common.throttle`).
     """
     listen = Listen(port, address, tls_cert, tls_key, 'the rosbridge server')
-    own = node is None
-    if node is None:
-        node = gateway_node(name, settings)
-    try:
-        return RosbridgeGateway(
-            node,
-            listen,
-            topics_glob=topics_glob,
-            services_glob=services_glob,
-            params_glob=params_glob,
-            max_message_size=max_message_size,
-            queue_items=queue_items,
-            client_buffer=client_buffer,
-            allow_origins=allow_origins,
-            limits=Limits(read_only, allow_service_override),
-            own_node=own,
-            throttle=throttle,
-        )
-    except BaseException:
-        if own:
-            node.destroy()
-        raise
+    return start_gateway(node, name, settings, lambda node, own: RosbridgeGateway(
+        node,
+        listen,
+        topics_glob=topics_glob,
+        services_glob=services_glob,
+        params_glob=params_glob,
+        max_message_size=max_message_size,
+        queue_items=queue_items,
+        client_buffer=client_buffer,
+        allow_origins=allow_origins,
+        limits=Limits(read_only, allow_service_override),
+        own_node=own,
+        throttle=throttle,
+    ))  # fmt: skip

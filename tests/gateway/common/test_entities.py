@@ -1,0 +1,45 @@
+"""Starting a gateway on its node: a node of its own is destroyed again when the start fails."""
+
+from __future__ import annotations
+
+import pytest
+
+from zros.gateway.common import entities
+from zros.gateway.common.errors import GatewayError
+
+
+class _Node:
+    def __init__(self) -> None:
+        self.destroyed = False
+
+    def destroy(self) -> None:
+        self.destroyed = True
+
+
+def _fails(node: object, own: bool) -> object:
+    raise GatewayError('cannot start')
+
+
+def test_a_node_of_its_own_goes_when_the_gateway_does_not_start(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    made: list[_Node] = []
+
+    def gateway_node(name: str, settings: object) -> _Node:
+        made.append(_Node())
+        return made[-1]
+
+    monkeypatch.setattr(entities, 'gateway_node', gateway_node)
+    with pytest.raises(GatewayError, match='cannot start'):
+        entities.start_gateway(None, 'g', {}, _fails)
+    assert [n.destroyed for n in made] == [True]
+    started: tuple[object, bool] = entities.start_gateway(None, 'g', {}, lambda n, own: (n, own))
+    assert started == (made[1], True) and not made[1].destroyed
+
+
+def test_a_node_given_stays_when_the_gateway_does_not_start() -> None:
+    given = _Node()
+    with pytest.raises(GatewayError):
+        entities.start_gateway(given, 'g', {}, _fails)  # type: ignore[arg-type]
+    assert not given.destroyed
+    assert entities.start_gateway(given, 'g', {}, lambda node, own: own) is False  # type: ignore[arg-type]
