@@ -1,0 +1,73 @@
+"""The Foxglove bag server's memory against the bag's size (``zros foxglove --bag``).
+
+Writes the bag ``benchmarks/bag.py`` writes (Imu, LaserScan and Odometry, a third each, with
+rosbags' writer) at each ``--count``, serves it with ``BagGateway`` in a process of its own,
+and has a real Foxglove client (``@foxglove/ws-protocol`` under tests/gateway/node) subscribe
+to every channel and play the whole bag as fast as the server sends. Prints the server
+process's memory once listening (idle) and its peaks while playing (``/proc/PID/status``
+sampled every millisecond), beside the bag's size. Goal: peak anonymous memory at most 256 MB
+above idle, whatever the bag's size.
+
+    python benchmarks/bag_server.py                          # 100,000 and 1,000,000 messages
+    python benchmarks/bag_server.py --count 100000 --count 1000000 --count 3000000
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE), str(HERE.parent)]
+
+from bag import BOUND_MB, TYPES, write_bag  # noqa: E402
+
+from tests.gateway.foxglove.bag_memory import play_through  # noqa: E402
+from tests.gateway.node_process import install  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--count', type=int, action='append', help='messages in a bag (repeatable)')
+    args = parser.parse_args()
+    counts = args.count or [100_000, 1_000_000]
+    reason = install()
+    if reason is not None:
+        raise SystemExit(reason)
+    rows = []
+    for count in counts:
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / 'sensors'
+            begin = time.perf_counter()
+            write_bag(path, count, 'mcap')
+            size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
+            print(
+                f'bag: {count} messages ({size:.0f} MB), written in {time.perf_counter() - begin:.0f} s'
+            )
+            played = play_through(path, list(TYPES), timeout=3600)
+        assert played.published == count, (played.published, count)
+        rows.append((count, size, played))
+    print()
+    print(
+        '| messages | bag MB | idle anonymous MB | peak anonymous MB | above idle MB '
+        '| peak file-mapped MB | seconds | messages/s | received by the client |'
+    )
+    print('|---|---|---|---|---|---|---|---|---|')
+    worst = 0.0
+    for count, size, played in rows:
+        idle, peak = played.idle_anonymous / 1e6, played.peak.anonymous / 1e6
+        worst = max(worst, peak - idle)
+        print(
+            f'| {count} | {size:.0f} | {idle:.0f} | {peak:.0f} | {peak - idle:.0f} '
+            f'| {played.peak.file / 1e6:.0f} | {played.seconds:.1f} '
+            f'| {count / played.seconds:.0f} | {played.received} |'
+        )
+    verdict = 'met' if worst <= BOUND_MB else 'NOT met'
+    print(f'peak anonymous above idle: {worst:.0f} MB at most (goal <= {BOUND_MB} MB: {verdict})')
+
+
+if __name__ == '__main__':
+    main()
