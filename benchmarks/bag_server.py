@@ -10,6 +10,7 @@ above idle, whatever the bag's size.
 
     python benchmarks/bag_server.py                          # 100,000 and 1,000,000 messages
     python benchmarks/bag_server.py --count 100000 --count 1000000 --count 3000000
+    python benchmarks/bag_server.py --storage sqlite3
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from tests.gateway.node_process import install  # noqa: E402
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--count', type=int, action='append', help='messages in a bag (repeatable)')
+    parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
     args = parser.parse_args()
     counts = args.count or [100_000, 1_000_000]
     reason = install()
@@ -42,7 +44,7 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as folder:
             path = Path(folder) / 'sensors'
             begin = time.perf_counter()
-            write_bag(path, count, 'mcap')
+            write_bag(path, count, args.storage)
             size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
             print(
                 f'bag: {count} messages ({size:.0f} MB), written in {time.perf_counter() - begin:.0f} s'
