@@ -22,8 +22,9 @@ from zros.bag.read.source_base import describe_error
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
-    from rosbags.rosbag1 import Reader
     from rosbags.rosbag1.reader import Header
+
+    from zros.bag.read.rosbag1_index import IndexedBag1
 
 #: a damaged unit: its byte offset, the messages lost per (native) connection id (-1 for an
 #: unknown count of unknown connections: key -1), why
@@ -36,7 +37,7 @@ _BEFORE_OP = 64
 
 
 def indexed_messages(
-    reader: Reader,
+    reader: IndexedBag1,
     wanted: Collection[Connection],
     start: int | None,
     stop: int | None,
@@ -49,13 +50,9 @@ def indexed_messages(
     assert reader.bio is not None, 'the reader is not open'
     bio = reader.bio
     connmap = {c.id: c for c in reader.connections}
-    entries = [
-        ((entry.time, entry.chunk_pos, entry.offset, c.id) for entry in reader.indexes[c.id])
-        for c in wanted
-    ]
     bad: set[int] = set()
     current, chunk = -1, io.BytesIO()
-    for time, position, offset, cid in heapq.merge(*entries):
+    for time, position, offset, cid in _entries(reader, {c.id for c in wanted}, start, stop):
         if start is not None and time < start:
             continue
         if stop is not None and time >= stop:
@@ -90,22 +87,52 @@ def indexed_messages(
         yield connection, time, data
 
 
+def _entries(
+    reader: IndexedBag1, ids: set[int], start: int | None, stop: int | None
+) -> Iterator[tuple[int, int, int, int]]:
+    """``(time, chunk position, offset in the chunk, connection id)`` of the messages of
+    connections ``ids``, in time order, reading each chunk's index as the read reaches it.
+    Chunks are taken in the order of their first times; an entry is handed on once no chunk
+    still to read can hold an earlier one, so only where chunks overlap in time are entries
+    of several chunks held."""
+    infos = sorted(
+        (
+            info
+            for info in reader.chunk_infos
+            if ids & info.connection_counts.keys()
+            and (start is None or info.end_time > start)
+            and (stop is None or info.start_time < stop)
+        ),
+        key=lambda info: (info.start_time, info.pos),
+    )
+    pending: list[tuple[int, int, int, int]] = []
+    for info in infos:
+        while pending and pending[0][0] < info.start_time:
+            yield heapq.heappop(pending)
+        for cid, entries in reader.chunk_index(info.pos).items():
+            if cid in ids:
+                for entry in entries:
+                    heapq.heappush(pending, (entry.time, entry.chunk_pos, entry.offset, cid))
+    while pending:
+        yield heapq.heappop(pending)
+
+
 def _in_chunk(
-    reader: Reader,
+    reader: IndexedBag1,
     wanted: Collection[Connection],
     position: int,
     start: int | None,
     stop: int | None,
 ) -> dict[int, int]:
-    counts = {}
-    for connection in wanted:
-        counts[connection.id] = sum(
+    index = reader.chunk_index(position)
+    counts = {
+        connection.id: sum(
             1
-            for entry in reader.indexes[connection.id]
-            if entry.chunk_pos == position
-            and (start is None or entry.time >= start)
-            and (stop is None or entry.time < stop)
+            for entry in index.get(connection.id, ())
+            if (start is None or entry.time >= start) and (stop is None or entry.time < stop)
         )
+        for connection in wanted
+    }
     return {cid: count for cid, count in counts.items() if count}
 
 
