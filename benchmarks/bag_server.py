@@ -11,6 +11,7 @@ above idle, whatever the bag's size.
     python benchmarks/bag_server.py                          # 100,000 and 1,000,000 messages
     python benchmarks/bag_server.py --count 100000 --count 1000000 --count 3000000
     python benchmarks/bag_server.py --storage sqlite3
+    python benchmarks/bag_server.py --storage ros1            # Imu messages only
 """
 
 from __future__ import annotations
@@ -30,10 +31,37 @@ from tests.gateway.foxglove.bag_memory import play_through  # noqa: E402
 from tests.gateway.node_process import install  # noqa: E402
 
 
+def write_ros1(path: Path, count: int) -> Path:
+    """A ROS 1 bag of ``count`` Imu messages on /imu, 1 ms apart, written by rosbags."""
+    import numpy as np
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    T = store.types
+    imu = 'sensor_msgs/msg/Imu'
+    vector = T['geometry_msgs/msg/Vector3'](1.0, 2.0, 3.0)
+    with Writer(path) as writer:
+        connection = writer.add_connection('/imu', imu, typestore=store)
+        for index in range(count):
+            stamp = T['builtin_interfaces/msg/Time'](sec=index // 1000, nanosec=index % 1000)
+            message = T[imu](
+                T['std_msgs/msg/Header'](seq=index, stamp=stamp, frame_id='imu'),
+                T['geometry_msgs/msg/Quaternion'](0.0, 0.0, 0.0, 1.0),
+                np.zeros(9),
+                vector,
+                np.zeros(9),
+                vector,
+                np.zeros(9),
+            )
+            writer.write(connection, 10**9 + index * 10**6, store.serialize_ros1(message, imu))
+    return path
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--count', type=int, action='append', help='messages in a bag (repeatable)')
-    parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap')
+    parser.add_argument('--storage', choices=('mcap', 'sqlite3', 'ros1'), default='mcap')
     args = parser.parse_args()
     counts = args.count or [100_000, 1_000_000]
     reason = install()
@@ -42,14 +70,20 @@ def main() -> None:
     rows = []
     for count in counts:
         with tempfile.TemporaryDirectory() as folder:
-            path = Path(folder) / 'sensors'
             begin = time.perf_counter()
-            write_bag(path, count, args.storage)
-            size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
+            if args.storage == 'ros1':
+                path = write_ros1(Path(folder) / 'sensors.bag', count)
+                size = path.stat().st_size / 1e6
+            else:
+                path = Path(folder) / 'sensors'
+                write_bag(path, count, args.storage)
+                size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
+            seconds = time.perf_counter() - begin
             print(
-                f'bag: {count} messages ({size:.0f} MB), written in {time.perf_counter() - begin:.0f} s'
+                f'bag: {count} messages ({args.storage}, {size:.0f} MB), written in {seconds:.0f} s'
             )
-            played = play_through(path, list(TYPES), timeout=3600)
+            topics = ['/imu'] if args.storage == 'ros1' else list(TYPES)
+            played = play_through(path, topics, timeout=3600)
         assert played.published == count, (played.published, count)
         rows.append((count, size, played))
     print()
