@@ -189,3 +189,43 @@ def test_latched_messages_beyond_the_bound_are_not_kept(
     monkeypatch.setattr(foxglove_bag, 'LATCHED_BYTES', 8)
     bag_server(recording[0])
     assert 'latched topics hold more than 8 bytes: not all kept' in caplog.text
+
+
+def test_a_seek_sends_the_newest_latched_message_of_a_long_recording(
+    tmp_path: Path,
+    bag_server: Make,
+    foxglove_client: Make,
+    monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    from zros.gateway.foxglove import bag_server as foxglove_bag
+
+    registry = default_registry()
+    statics = [
+        zros.Message(
+            'tf2_msgs/msg/TFMessage',
+            transforms=[{'header': {'frame_id': 'map'}, 'child_frame_id': f'odom{i}'}],
+        ).serialize()
+        for i in range(50)
+    ]
+    with BagWriter(tmp_path / 'bag') as bag:
+        tf = bag.add_topic(
+            BagTopic.from_registry(registry, '/tf_static', 'tf2_msgs/msg/TFMessage', [LATCHED])
+        )
+        talk = bag.add_topic(
+            BagTopic.from_registry(registry, '/chatter', 'std_msgs/msg/String', [QoS()])
+        )
+        for i, data in enumerate(statics):
+            bag.write(tf, START + i * STEP, data)
+        end = START + len(statics) * STEP
+        bag.write(talk, end, zros.Message('std_msgs/msg/String', data='end').serialize())
+    # the bound holds a few messages: the depth (1) keeps one, so reading on costs nothing
+    monkeypatch.setattr(foxglove_bag, 'LATCHED_BYTES', 4 * len(statics[0]))
+    server = bag_server(tmp_path / 'bag')
+    client: FoxgloveClient = foxglove_client(server.url)
+    subscription = client.subscribe('/tf_static')
+    _request(client, PAUSE, 1.0, end)
+    # every latched message read counted against the bound, kept or not: the read stopped at
+    # the 5th and a seek sent that one
+    assert client.wait_messages(subscription, 1) == [statics[-1]]
+    assert 'not all kept' not in caplog.text

@@ -28,8 +28,9 @@ _log = logging.getLogger('zros.bag')
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection as NativeConnection
     from rosbags.interfaces.typing import Typesdict
-    from rosbags.rosbag1 import Reader
     from rosbags.typesys.store import Typestore
+
+    from zros.bag.read.rosbag1_index import IndexedBag1
 
 
 class Rosbag1Source(Source):
@@ -37,16 +38,17 @@ class Rosbag1Source(Source):
 
     def __init__(self, path: Path) -> None:
         super().__init__(path)
-        self._reader: Reader | ScannedBag1 | None = None
+        self._reader: IndexedBag1 | ScannedBag1 | None = None
         self._broken: dict[int, str] = {}  #: native connection id -> why it cannot be read
         self._store: Typestore | None = None
         self._native: dict[int, NativeConnection] = {}
 
     def open(self) -> None:
-        from rosbags.rosbag1 import Reader  # noqa: PLC0415 (lazy: rosbags, import time)
         from rosbags.typesys import Stores, get_types_from_msg, get_typestore  # noqa: PLC0415 (lazy: rosbags, import time)
 
-        reader: Reader | ScannedBag1 = Reader(self.path)
+        from zros.bag.read.rosbag1_index import IndexedBag1  # noqa: PLC0415 (lazy: rosbags, import time)
+
+        reader: IndexedBag1 | ScannedBag1 = IndexedBag1(self.path)
         try:
             reader.open()
         except Exception as exc:  # a bag cut short or with a damaged index: read its records

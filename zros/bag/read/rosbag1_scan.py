@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import heapq
 import io
+import mmap
 import os
 import struct
 from collections.abc import Callable, Collection, Iterator
@@ -22,8 +23,9 @@ from zros.bag.read.source_base import describe_error
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
-    from rosbags.rosbag1 import Reader
     from rosbags.rosbag1.reader import Header
+
+    from zros.bag.read.rosbag1_index import IndexedBag1
 
 #: a damaged unit: its byte offset, the messages lost per (native) connection id (-1 for an
 #: unknown count of unknown connections: key -1), why
@@ -36,7 +38,7 @@ _BEFORE_OP = 64
 
 
 def indexed_messages(
-    reader: Reader,
+    reader: IndexedBag1,
     wanted: Collection[Connection],
     start: int | None,
     stop: int | None,
@@ -49,13 +51,9 @@ def indexed_messages(
     assert reader.bio is not None, 'the reader is not open'
     bio = reader.bio
     connmap = {c.id: c for c in reader.connections}
-    entries = [
-        ((entry.time, entry.chunk_pos, entry.offset, c.id) for entry in reader.indexes[c.id])
-        for c in wanted
-    ]
     bad: set[int] = set()
     current, chunk = -1, io.BytesIO()
-    for time, position, offset, cid in heapq.merge(*entries):
+    for time, position, offset, cid in _entries(reader, {c.id for c in wanted}, start, stop):
         if start is not None and time < start:
             continue
         if stop is not None and time >= stop:
@@ -90,22 +88,52 @@ def indexed_messages(
         yield connection, time, data
 
 
+def _entries(
+    reader: IndexedBag1, ids: set[int], start: int | None, stop: int | None
+) -> Iterator[tuple[int, int, int, int]]:
+    """``(time, chunk position, offset in the chunk, connection id)`` of the messages of
+    connections ``ids``, in time order, reading each chunk's index as the read reaches it.
+    Chunks are taken in the order of their first times; an entry is handed on once no chunk
+    still to read can hold an earlier one, so only where chunks overlap in time are entries
+    of several chunks held."""
+    infos = sorted(
+        (
+            info
+            for info in reader.chunk_infos
+            if ids & info.connection_counts.keys()
+            and (start is None or info.end_time > start)
+            and (stop is None or info.start_time < stop)
+        ),
+        key=lambda info: (info.start_time, info.pos),
+    )
+    pending: list[tuple[int, int, int, int]] = []
+    for info in infos:
+        while pending and pending[0][0] < info.start_time:
+            yield heapq.heappop(pending)
+        for cid, entries in reader.chunk_index(info.pos).items():
+            if cid in ids:
+                for entry in entries:
+                    heapq.heappush(pending, (entry.time, entry.chunk_pos, entry.offset, cid))
+    while pending:
+        yield heapq.heappop(pending)
+
+
 def _in_chunk(
-    reader: Reader,
+    reader: IndexedBag1,
     wanted: Collection[Connection],
     position: int,
     start: int | None,
     stop: int | None,
 ) -> dict[int, int]:
-    counts = {}
-    for connection in wanted:
-        counts[connection.id] = sum(
+    index = reader.chunk_index(position)
+    counts = {
+        connection.id: sum(
             1
-            for entry in reader.indexes[connection.id]
-            if entry.chunk_pos == position
-            and (start is None or entry.time >= start)
-            and (stop is None or entry.time < stop)
+            for entry in index.get(connection.id, ())
+            if (start is None or entry.time >= start) and (stop is None or entry.time < stop)
         )
+        for connection in wanted
+    }
     return {cid: count for cid, count in counts.items() if count}
 
 
@@ -142,7 +170,8 @@ class ScannedBag1(Recovered):
         self.end_time = 0
         self.compression = 'none'  #: the first chunk's
         self._chunked = False
-        self._found: list[tuple[int, int, bytes]] = []  #: (time, connection id, data)
+        #: the chunks with messages: (first time, last time, byte offset), read again by a read
+        self._chunks: list[tuple[int, int, int]] = []
 
     def open(self) -> None:
         """Read every record that can be read."""
@@ -178,7 +207,11 @@ class ScannedBag1(Recovered):
                     loss[1][-1] = -1  # no index after the damaged chunk: count unknown
                 try:
                     if op == _CHUNK:
-                        chunk_read, problem = self._chunk(header, data, headers)
+                        messages, problem = self._chunk(header, data, headers)
+                        chunk_read = {}
+                        for _, cid, _ in messages:
+                            chunk_read[cid] = chunk_read.get(cid, 0) + 1
+                        self._add(at, messages, counts)
                         loss = (at, {}, problem) if problem else None
                         if loss is not None:
                             self.losses.append(loss)
@@ -193,26 +226,32 @@ class ScannedBag1(Recovered):
             else:
                 if loss is not None and not loss[1]:
                     loss[1][-1] = -1
-        for _, cid, _ in self._found:
-            counts[cid] = counts.get(cid, 0) + 1
         for cid, pair in headers.items():
             try:
                 self.connections.append(_connection(self, cid, *pair, counts.get(cid, 0)))
             except Exception as exc:  # a damaged connection record: its messages are lost
                 reason = f'the record of connection {cid}: {why(exc)}'
                 self.losses.append((0, {-1: counts.get(cid, 0)}, reason))
-        self._found.sort(key=lambda item: item[0])
-        if self._found:
-            self.start_time = self._found[0][0]
-            self.end_time = self._found[-1][0] + 1
+
+    def _add(self, at: int, messages: list[tuple[int, int, bytes]], counts: dict[int, int]) -> None:
+        """Count the messages read from the chunk at byte ``at``; remember where it lies."""
+        if not messages:
+            return
+        times = [time for time, _, _ in messages]
+        first, last = min(times), max(times)
+        self._chunks.append((first, last, at))
+        self.start_time, self.end_time = min(self.start_time, first), max(self.end_time, last + 1)
+        for _, cid, _ in messages:
+            counts[cid] = counts.get(cid, 0) + 1
 
     def _chunk(
         self, header: Header, data: bytes, headers: dict[int, tuple[Header, Header]]
-    ) -> tuple[dict[int, int], str]:
-        """Read a chunk's records: messages read per connection, and what went wrong ('')."""
+    ) -> tuple[list[tuple[int, int, bytes]], str]:
+        """Read a chunk's records: its messages (time, connection id, data) up to the first
+        record that does not parse, and what went wrong ('')."""
         from rosbags.rosbag1.reader import decompressors  # noqa: PLC0415 (lazy: rosbags, import time)
 
-        read: dict[int, int] = {}
+        read: list[tuple[int, int, bytes]] = []
         try:
             compression = header.get_string('compression')
             if not self._chunked:
@@ -231,9 +270,7 @@ class ScannedBag1(Recovered):
                 if op == _CONNECTION:
                     headers.setdefault(record.get_uint32('conn'), (record, _fields(payload)))
                 elif op == _MSGDATA:
-                    cid = record.get_uint32('conn')
-                    self._found.append((record.get_time('time'), cid, payload))
-                    read[cid] = read.get(cid, 0) + 1
+                    read.append((record.get_time('time'), record.get_uint32('conn'), payload))
         except Exception as exc:  # flipped bytes: anything from struct or rosbags
             return read, f'a record in the chunk: {why(exc)}'
         return read, ''
@@ -244,9 +281,30 @@ class ScannedBag1(Recovered):
     def _select(
         self, by_id: dict[int, Connection], start: int | None, stop: int | None
     ) -> Iterator[tuple[Connection, int, bytes]]:
-        for time, cid, data in self._found:
-            if cid in by_id and within(time, start, stop):
-                yield by_id[cid], time, data
+        """The messages, a chunk at a time: chunks in the order of their first times, a
+        message handed on once no chunk still to read can hold an earlier one (in file order
+        among equal times)."""
+        chunks = sorted(
+            chunk
+            for chunk in self._chunks
+            if (start is None or chunk[1] >= start) and (stop is None or chunk[0] < stop)
+        )
+        pending: list[tuple[int, int, int, int, bytes]] = []  # time, chunk, rank, id, data
+        with self.path.open('rb') as stream:
+            size = os.fstat(stream.fileno()).st_size
+            for first, _, at in chunks:
+                while pending and pending[0][0] < first:
+                    time, _, _, cid, data = heapq.heappop(pending)
+                    yield by_id[cid], time, data
+                stream.seek(at)
+                header, data = _record(stream, size)
+                messages, _ = self._chunk(header, data, {})  # its damage was counted at open
+                for rank, (time, cid, payload) in enumerate(messages):
+                    if cid in by_id and within(time, start, stop):
+                        heapq.heappush(pending, (time, at, rank, cid, payload))
+        while pending:
+            time, _, _, cid, data = heapq.heappop(pending)
+            yield by_id[cid], time, data
 
 
 def _record(stream: BinaryIO, size: int) -> tuple[Header, bytes]:
@@ -270,23 +328,23 @@ def _record(stream: BinaryIO, size: int) -> tuple[Header, bytes]:
 
 
 def _next_chunk(stream: BinaryIO, start: int, size: int) -> int | None:
-    """The offset of the first readable chunk record at or after ``start`` (None: none)."""
-    stream.seek(start)
-    data = stream.read()
-    at = 0
-    while (found := data.find(_CHUNK_OP, at)) >= 0:
-        at = found + 1
-        for begin in range(max(0, found - _BEFORE_OP), found):
-            (length,) = struct.unpack_from('<L', data, begin)
-            if not begin + 4 <= found < begin + 4 + length <= len(data):
-                continue
-            stream.seek(start + begin)
-            try:
-                header, _ = _record(stream, size)
-                if header.get_uint8('op') == _CHUNK:
-                    return start + begin
-            except Exception:
-                continue
+    """The offset of the first readable chunk record at or after ``start`` (None: none); the
+    file is searched through a map, not read into memory."""
+    with mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        at = start
+        while (found := data.find(_CHUNK_OP, at)) >= 0:
+            at = found + 1
+            for begin in range(max(start, found - _BEFORE_OP), found):
+                (length,) = struct.unpack_from('<L', data, begin)
+                if not begin + 4 <= found < begin + 4 + length <= len(data):
+                    continue
+                stream.seek(begin)
+                try:
+                    header, _ = _record(stream, size)
+                    if header.get_uint8('op') == _CHUNK:
+                        return begin
+                except Exception:
+                    continue
     return None
 
 

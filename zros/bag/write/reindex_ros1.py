@@ -25,15 +25,17 @@ if TYPE_CHECKING:
     from rosbags.interfaces import Connection
     from rosbags.rosbag1 import Reader
 
+    from zros.bag.read.rosbag1_index import IndexedBag1
+
 
 class _Readable:
     """A ROS 1 bag opened for reindexing: by rosbags where its index reads, else scanned."""
 
     def __init__(self, path: Path) -> None:
-        from rosbags.rosbag1 import Reader  # noqa: PLC0415 (lazy: rosbags, import time)
+        from zros.bag.read.rosbag1_index import IndexedBag1  # noqa: PLC0415 (lazy: rosbags, import time)
 
         self.losses: list[tuple[int, dict[int, int], str]] = []
-        self.indexed: Reader | None = Reader(path)
+        self.indexed: IndexedBag1 | None = IndexedBag1(path)
         self.scanned: ScannedBag1 | None = None
         self.compression = 'none'
         try:

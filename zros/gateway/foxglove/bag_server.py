@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 from zros.bag.play.play_clock import PlayClock
 from zros.bag.read.rosbag2_yaml import parse_qos_profiles
-from zros.bag.read.source import open_source
+from zros.bag.read.source import RawMessage, open_source
 from zros.bag.read.types import BagTypes
 from zros.cdr import default_registry
 from zros.closing import Closing
@@ -43,7 +43,7 @@ if TYPE_CHECKING:
         PlaybackStatus,
     )
 
-    from zros.bag.read.source import Connection, RawMessage
+    from zros.bag.read.source import Connection
 
 _log = logging.getLogger('zros.gateway')
 
@@ -154,24 +154,30 @@ class BagGateway(Closing):
         return ros2msg_schema(default_registry(), connection.type_name)
 
     def _read_latched(self, connections: list[Connection]) -> list[RawMessage]:
-        """The messages of latched topics, kept to send again after a seek (up to
-        LATCHED_BYTES; a latched topic keeps as many as its publishers' depth)."""
+        """The messages of latched topics, kept to send again after a seek: the last ones of
+        each, as many as its publishers' depth, up to LATCHED_BYTES (then the latched topics
+        are read no further). Streamed: what the depth drops is freed as the read goes."""
         if not connections:
             return []
         depth = {c.id: matched_qos(parse_qos_profiles(c.qos)).depth for c in connections}
         kept: dict[int, collections.deque[RawMessage]] = {
-            c.id: collections.deque(maxlen=depth[c.id]) for c in connections
+            c.id: collections.deque() for c in connections
         }
-        found: list[RawMessage] = []
         size = 0
         for message in self.source.messages(connections):
-            size += len(message.data)
-            if size > LATCHED_BYTES:
+            queue = kept[message.connection.id]
+            full = len(queue) == depth[message.connection.id]
+            grown = size + len(message.data) - (len(queue[0].data) if full else 0)
+            if grown > LATCHED_BYTES:
                 _log.warning('latched topics hold more than %d bytes: not all kept', LATCHED_BYTES)
                 break
-            found.append(message)
-        for message in found:
-            kept[message.connection.id].append(message)
+            size = grown
+            if full:
+                queue.popleft()
+            if isinstance(message.data, bytes):
+                queue.append(message)
+            else:  # a view would keep its whole chunk alive
+                queue.append(RawMessage(message.connection, message.timestamp, bytes(message.data)))
         return sorted((m for q in kept.values() for m in q), key=lambda m: m.timestamp)
 
     # --- playing -----------------------------------------------------------------------------
