@@ -109,4 +109,7 @@ def main() -> None:
 
 
 if __name__ == '__main__':
-    main()
+    from readme import recording
+
+    with recording(__file__):
+        main()
