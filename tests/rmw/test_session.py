@@ -17,6 +17,7 @@ from zros.transport.config import SessionDefaults, parse_override
 from zros.wire import RmwZenohWire, session_config
 
 String = 'std_msgs/msg/String'
+OVERRIDE = 'ZENOH_CONFIG_OVERRIDE'
 
 
 def setting(config: TransportConfig, key: str) -> object:
@@ -75,16 +76,16 @@ def test_environment_selects_and_overrides(monkeypatch: pytest.MonkeyPatch, tmp_
 
 
 def test_override_syntax() -> None:
-    assert parse_override('') == []
-    assert parse_override(' a=1 ; b="x;y" ;c={d: [1;2]};') == [
+    assert parse_override('', OVERRIDE) == []
+    assert parse_override(' a=1 ; b="x;y" ;c={d: [1;2]};', OVERRIDE) == [
         ('a', '1'),
         ('b', '"x;y"'),
         ('c', '{d: [1;2]}'),
     ]
+    with pytest.raises(ValueError, match=r"^ZENOH_CONFIG_OVERRIDE item 'mode' is not path=json5"):
+        parse_override('mode', OVERRIDE)
     with pytest.raises(ValueError, match='not path=json5'):
-        parse_override('mode')
-    with pytest.raises(ValueError, match='not path=json5'):
-        parse_override('=1')
+        parse_override('=1', OVERRIDE)
 
 
 @pytest.fixture

@@ -60,7 +60,7 @@ class SessionDefaults:
     override_variable: str | None = None
 
 
-def parse_override(text: str, variable: str = 'ZENOH_CONFIG_OVERRIDE') -> list[tuple[str, str]]:
+def parse_override(text: str, variable: str) -> list[tuple[str, str]]:
     """Overrides of single settings from the variable ``variable``: ``path=json5`` items
     separated by ``;`` (outside brackets and quotes)."""
     items: list[str] = []
