@@ -15,6 +15,7 @@ import zenoh
 from zros.errors import SettingError
 from zros.transport import TransportConfig
 from zros.transport.config import SessionDefaults
+from zros.transport.diagnose import explain_unreachable
 from zros.transport.pki import Certificates, make_certificates
 from zros.wire import session_config, session_defaults, wire_class
 
@@ -220,3 +221,11 @@ def test_the_transport_knows_no_scheme_by_name(monkeypatch: pytest.MonkeyPatch) 
     assert TransportConfig.create() == TransportConfig.create(defaults=SessionDefaults())
     with pytest.raises(TypeError, match=r'zros\.wire\.session_config\(wire='):
         TransportConfig.create(wire=R)  # type: ignore[call-arg]
+
+
+def test_a_failed_session_is_explained_at_the_router_its_defaults_dial() -> None:
+    elsewhere = SessionDefaults(mode='peer', connect='tcp/robot.invalid:7447', peer_connects=True)
+    config = TransportConfig.create(defaults=elsewhere)
+    assert config.describe() == 'tcp/robot.invalid:7447'
+    why = explain_unreachable(config).api
+    assert why == "cannot resolve the host 'robot.invalid' of tcp/robot.invalid:7447"
