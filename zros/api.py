@@ -45,6 +45,7 @@ from zros.runtime.signal import (
     start_listener_thread,
 )
 from zros.transport import TransportConfig, close_default_transport, default_transport
+from zros.wire import session_config
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -126,7 +127,7 @@ def init(
         clear_interrupt()
         if name is None and (connect is not None or config is not None):
             # open the process's session now: the user's own Nodes use it too
-            config = config or TransportConfig.create(connect=connect)
+            config = config or session_config(connect)
             default_transport(config)
             connect = None
         keywords: NodeKeywords = {

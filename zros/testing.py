@@ -41,14 +41,14 @@ from typing import IO, TYPE_CHECKING, Protocol
 import pytest
 
 from zros.node import Node
-from zros.transport import Router, Transport, TransportConfig, start_router
-from zros.wire import DEFAULT_WIRE
+from zros.transport import Router, Transport, start_router
+from zros.wire import DEFAULT_WIRE, session_config
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
     from zros.node.settings import NodeOptions
-    from zros.transport.config import TransportOptions
+    from zros.transport.config import SessionOptions
 
 
 def wait_for(condition: Callable[[], object], timeout: float = 5.0) -> bool:
@@ -172,7 +172,7 @@ def zros_router() -> Iterator[Router]:
 class MakeTransport(Protocol):
     """The ``zros_transport`` fixture: ``make(**settings)``."""
 
-    def __call__(self, **settings: Unpack[TransportOptions]) -> Transport: ...
+    def __call__(self, **settings: Unpack[SessionOptions]) -> Transport: ...
 
 
 class MakeNode(Protocol):
@@ -188,9 +188,9 @@ def zros_transport(zros_router: Router) -> Iterator[MakeTransport]:
     """``make(**settings)`` opens a client session to ``zros_router``."""
     opened: list[Transport] = []
 
-    def make(**settings: Unpack[TransportOptions]) -> Transport:
+    def make(**settings: Unpack[SessionOptions]) -> Transport:
         settings.setdefault('shared_memory', False)
-        transport = Transport(TransportConfig.create(connect=zros_router.endpoint, **settings))
+        transport = Transport(session_config(zros_router.endpoint, **settings))
         opened.append(transport)
         return transport
 

@@ -29,6 +29,7 @@ from tests.faults.listening import is_loopback, listening
 from zros.testing import wait_for
 from zros.transport import Router, Tls, Transport, TransportConfig, TransportError, start_router
 from zros.transport.pki import Certificates, make_certificates
+from zros.wire import session_config
 
 REFUSED_WITHIN = 5.0  #: seconds; a refusal takes milliseconds on loopback
 
@@ -127,7 +128,7 @@ def tls_client(pki: Certificates, client: Certificates, name: str) -> dict[str, 
 def test_a_default_peer_listens_on_loopback_only(
     zros_router: Router, opened: Callable[[TransportConfig], Transport], wire: str
 ) -> None:
-    config = TransportConfig.create(connect=zros_router.endpoint, mode='peer', wire=wire)
+    config = session_config(connect=zros_router.endpoint, mode='peer', wire=wire)
     listeners = new_listeners(lambda: opened(config))
     assert listeners, 'a peer listens, so that its peers can link to it'
     assert all(is_loopback(address) for address in listeners), listeners
@@ -154,9 +155,7 @@ def test_mutual_tls_peers_refuse_what_their_router_refuses(
     wire: str,
 ) -> None:
     connect = by_name(mtls_router)
-    config = TransportConfig.create(
-        connect=connect, mode='peer', wire=wire, tls=pki.client_tls('laptop')
-    )
+    config = session_config(connect=connect, mode='peer', wire=wire, tls=pki.client_tls('laptop'))
     listeners = new_listeners(lambda: opened(config))
     assert all(is_loopback(address) for address in listeners), listeners
     port = port_of(listeners)
@@ -179,7 +178,7 @@ def test_mutual_tls_peers_refuse_what_their_router_refuses(
 def test_password_peers_refuse_what_their_router_refuses(
     password_router: Router, opened: Callable[[TransportConfig], Transport], wire: str
 ) -> None:
-    config = TransportConfig.create(
+    config = session_config(
         connect=password_router.endpoint, mode='peer', wire=wire, user='laptop', password='s3cret'
     )
     listeners = new_listeners(lambda: opened(config))
@@ -245,9 +244,7 @@ def test_tls_peers_link_to_each_other_over_tls(
     def pair() -> tuple[Transport, Transport]:
         first, second = (
             opened(
-                TransportConfig.create(
-                    connect=connect, mode='peer', wire=wire, tls=pki.client_tls(name)
-                )
+                session_config(connect=connect, mode='peer', wire=wire, tls=pki.client_tls(name))
             )
             for name in ('laptop', 'tablet')
         )
@@ -264,7 +261,7 @@ def test_password_peers_link_to_each_other(
     def pair() -> tuple[Transport, Transport]:
         first, second = (
             opened(
-                TransportConfig.create(
+                session_config(
                     connect=password_router.endpoint,
                     mode='peer',
                     wire=wire,

@@ -13,9 +13,11 @@ import zros
 from zros.node import Node
 from zros.testing import wait_for
 from zros.transport import Router, Transport, TransportConfig, start_router
-from zros.transport.config import parse_override
+from zros.transport.config import SessionDefaults, parse_override
+from zros.wire import RmwZenohWire, session_config
 
 String = 'std_msgs/msg/String'
+OVERRIDE = 'ZENOH_CONFIG_OVERRIDE'
 
 
 def setting(config: TransportConfig, key: str) -> object:
@@ -30,30 +32,30 @@ def clean_environment(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_rmw_zenoh_session_defaults() -> None:
-    config = TransportConfig.create(wire='rmw_zenoh')
-    assert config.wire == 'rmw_zenoh'
+    config = session_config(wire='rmw_zenoh')
+    assert config.defaults == RmwZenohWire.session
     assert setting(config, 'mode') == 'peer'
     assert setting(config, 'connect/endpoints') == ['tcp/localhost:7447']
     assert setting(config, 'listen/endpoints') == ['tcp/localhost:0']
     assert setting(config, 'scouting/multicast/enabled') is False
     assert setting(config, 'timestamping/enabled') is True
     assert config.describe() == 'tcp/localhost:7447'
-    client = TransportConfig.create(wire='rmw_zenoh', mode='client')
+    client = session_config(wire='rmw_zenoh', mode='client')
     assert setting(client, 'connect/endpoints') == ['tcp/localhost:7447']
-    bridge = TransportConfig.create()
-    assert bridge.wire is None and setting(bridge, 'mode') == 'client'
-    assert TransportConfig.create(wire='bridge') == bridge
+    bridge = session_config()
+    assert bridge.defaults == SessionDefaults() and setting(bridge, 'mode') == 'client'
+    assert session_config(wire='bridge') == bridge
     with pytest.raises(ValueError, match=r'^wire must be'):
-        TransportConfig.create(wire='dds')
+        session_config(wire='dds')
 
 
 def test_environment_selects_and_overrides(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setenv('ZROS_WIRE', 'rmw_zenoh')
-    assert TransportConfig.create().wire == 'rmw_zenoh'
+    assert session_config().defaults == RmwZenohWire.session
     file = tmp_path / 'session.json5'
     file.write_text('{mode: "client", connect: {endpoints: ["tcp/127.0.0.1:7500"]}}')
     monkeypatch.setenv('ZENOH_SESSION_CONFIG_URI', str(file))
-    config = TransportConfig.create()
+    config = session_config()
     assert config.config_file == str(file)
     assert setting(config, 'mode') == 'client'
     assert setting(config, 'connect/endpoints') == ['tcp/127.0.0.1:7500']
@@ -65,25 +67,25 @@ def test_environment_selects_and_overrides(monkeypatch: pytest.MonkeyPatch, tmp_
     assert setting(config, 'connect/endpoints') == ['tcp/127.0.0.1:7600', 'tcp/127.0.0.1:7601']
     assert setting(config, 'transport/shared_memory/enabled') is False
     monkeypatch.setenv('ZROS_WIRE', 'bridge')  # rmw_zenoh's variables are for that wire only
-    bridge = TransportConfig.create()
+    bridge = session_config()
     assert bridge.config_file is None
     assert setting(bridge, 'connect/endpoints') == ['tcp/127.0.0.1:7447']
     monkeypatch.setenv('ZROS_WIRE', 'dds')  # the error names where the bad value is
     with pytest.raises(ValueError, match=r'^ZROS_WIRE must be "bridge" or "rmw_zenoh", got'):
-        TransportConfig.create()
+        session_config()
 
 
 def test_override_syntax() -> None:
-    assert parse_override('') == []
-    assert parse_override(' a=1 ; b="x;y" ;c={d: [1;2]};') == [
+    assert parse_override('', OVERRIDE) == []
+    assert parse_override(' a=1 ; b="x;y" ;c={d: [1;2]};', OVERRIDE) == [
         ('a', '1'),
         ('b', '"x;y"'),
         ('c', '{d: [1;2]}'),
     ]
+    with pytest.raises(ValueError, match=r"^ZENOH_CONFIG_OVERRIDE item 'mode' is not path=json5"):
+        parse_override('mode', OVERRIDE)
     with pytest.raises(ValueError, match='not path=json5'):
-        parse_override('mode')
-    with pytest.raises(ValueError, match='not path=json5'):
-        parse_override('=1')
+        parse_override('=1', OVERRIDE)
 
 
 @pytest.fixture
@@ -102,7 +104,7 @@ def test_peers_meet_through_an_rmw_zenohd_like_router(
     port = rmw_zenohd.endpoint.rsplit(':', 1)[1]
     monkeypatch.setenv('ZENOH_CONFIG_OVERRIDE', f'connect/endpoints=["tcp/localhost:{port}"]')
     monkeypatch.setenv('ZROS_WIRE', 'rmw_zenoh')
-    transports = [Transport(TransportConfig.create(shared_memory=False)) for _ in range(2)]
+    transports = [Transport(session_config(shared_memory=False)) for _ in range(2)]
     nodes: list[Node] = []
     try:
         assert setting(transports[0].config, 'mode') == 'peer'
@@ -128,7 +130,9 @@ def test_peers_meet_through_an_rmw_zenohd_like_router(
 def test_zros_init_selects_the_wire(zros_router: Router) -> None:
     node = zros.init('R_rmw', connect=zros_router.endpoint, handle_sigint=False, wire='rmw_zenoh')
     try:
-        assert node.wire.name == 'rmw_zenoh' and node.transport.config.wire == 'rmw_zenoh'
+        assert (
+            node.wire.name == 'rmw_zenoh' and node.transport.config.defaults == RmwZenohWire.session
+        )
         assert node._node_token.startswith('@ros2_lv/0/')
     finally:
         zros.shutdown()

@@ -20,7 +20,7 @@ from types import FrameType
 from typing import TYPE_CHECKING, cast
 
 from zros.version import counted as counted  # noqa: PLC0414 (the commands' import of it)
-from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, check_wire, scheme_settings
+from zros.wire.schemes import DEFAULT_WIRE, SCHEMES, WireOption, chosen_wire, scheme_settings
 
 # commands import zros's heavy parts (numpy, Zenoh) inside the functions that use them:
 # `zros --help` loads none of them
@@ -118,9 +118,8 @@ def wire_settings(args: argparse.Namespace) -> dict[str, WireOption]:
         for setting in scheme.settings
     }
     chosen = getattr(args, 'wire', None)
-    wire = chosen or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE
     try:
-        check_wire(wire, 'ZROS_WIRE')  # --wire's choices are checked already
+        wire = chosen_wire(chosen)  # --wire's choices are checked already: ZROS_WIRE is not
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     for scheme in SCHEMES.values():  # named as typed, not as Node's keywords

@@ -39,6 +39,7 @@ from zros.demo.sensor import (
 )
 from zros.demo.tutorial_bag import ensure_bag
 from zros.transport import Transport, TransportConfig, start_router
+from zros.wire import session_config
 
 if TYPE_CHECKING:
     from zros.bag.read.source import RawMessage
@@ -187,7 +188,7 @@ def run_demo(
         out(f'  router   in this process, at {router.endpoint} (no network beyond loopback)')
 
         def config() -> TransportConfig:
-            return TransportConfig.create(connect=router.endpoint, shared_memory=False)
+            return session_config(router.endpoint, shared_memory=False)
 
         echo_session = Transport(config())
         player_session = Transport(config())

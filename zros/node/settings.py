@@ -21,7 +21,7 @@ from zros.runtime.clock import use_sim_time_from_environment
 from zros.runtime.logger import INFO, level_from_environment, parse_level
 from zros.transport import Transport, TransportConfig, default_transport
 from zros.transport.config import SessionOptions
-from zros.wire import DEFAULT_WIRE, check_wire
+from zros.wire import chosen_wire, session_defaults
 
 if TYPE_CHECKING:
     from zros.cdr import TypeRegistry
@@ -138,10 +138,7 @@ class NodeSettings:
             if log_level is not None
             else (ros_args.log_level or level_from_environment() or INFO)
         )
-        chosen = check_wire(
-            wire or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE, 'wire' if wire else 'ZROS_WIRE'
-        )
-        return cls(name, namespace, remapping, overrides, use_sim_time, level, chosen)
+        return cls(name, namespace, remapping, overrides, use_sim_time, level, chosen_wire(wire))
 
 
 def node_transport(
@@ -154,13 +151,14 @@ def node_transport(
     settings: SessionOptions,
 ) -> Transport:
     """The session of a node: ``transport``, else the process's (opened with ``config`` or
-    the settings of ``TransportConfig.create``)."""
+    the settings of ``TransportConfig.create``, with the session defaults of ``wire``)."""
     if transport is not None:
         if settings or connect is not None or config is not None:
             raise TypeError('a node given a transport= takes no connection settings')
         return transport
     if config is None and (connect is not None or settings or wire_given):
-        config = TransportConfig.create(connect=connect, wire=wire, **settings)
+        defaults = session_defaults(wire)
+        config = TransportConfig.create(connect=connect, defaults=defaults, **settings)
     elif settings:
         raise TypeError(f'give settings {sorted(settings)} in config=, not beside it')
-    return default_transport(config)
+    return default_transport(config, defaults=session_defaults(wire))

@@ -11,11 +11,10 @@ names other endpoints. What listens is held to the node's own settings: with ``t
 ``tls/`` endpoints, with the node's certificate, clients verified against its CA; with a user,
 only connections that present the same user and password are accepted.
 
-With ``wire='rmw_zenoh'`` (or ``ZROS_WIRE=rmw_zenoh``) the defaults are rmw_zenoh's own session
-settings: a peer that connects to the ``rmw_zenohd`` router at ``tcp/localhost:7447`` and listens on
-``tcp/localhost:0`` (``tls/localhost:0`` with TLS), and rmw_zenoh's variables apply:
-``ZENOH_SESSION_CONFIG_URI`` names the file, ``ZENOH_CONFIG_OVERRIDE="path=json5;path=json5"``
-overrides single settings.
+A wire scheme may have session defaults of its own (:class:`SessionDefaults`, passed as
+``defaults``): another mode, router and listening endpoint, and variables naming the file and
+overrides of single settings. This module knows no scheme: ``zros.wire.session_config`` gives
+each scheme's defaults.
 """
 
 from __future__ import annotations
@@ -41,27 +40,29 @@ if TYPE_CHECKING:
 
 #: zenoh-bridge-ros2dds and zenohd listen here by default
 DEFAULT_ENDPOINT = 'tcp/127.0.0.1:7447'
-#: where rmw_zenoh sessions find the rmw_zenohd router, and where they listen for peers
-RMW_ZENOH_ENDPOINT = 'tcp/localhost:7447'
-RMW_ZENOH_LISTEN = 'tcp/localhost:0'
 #: where a peer listens unless told otherwise: this machine only
 PEER_LISTEN = 'tcp/127.0.0.1:0'
 MODES = ('client', 'peer')
 
 
-def _wire(value: str | None, source: str = 'wire') -> str | None:
-    """None for the bridge (the default), 'rmw_zenoh' for rmw_zenoh's session defaults;
-    ``source`` names where ``value`` came from (the argument, or ``ZROS_WIRE``)."""
-    if value in (None, '', 'bridge'):
-        return None
-    if value != 'rmw_zenoh':
-        raise SettingError(f'{source} must be "bridge" or "rmw_zenoh", got {value!r}')
-    return value
+@dataclass(frozen=True)
+class SessionDefaults:
+    """What a session does where its settings say nothing: a wire scheme's defaults (these,
+    zenoh-bridge-ros2dds's and zenohd's, unless ``zros.wire`` gives a scheme's own)."""
+
+    mode: str = 'client'
+    connect: str = DEFAULT_ENDPOINT  #: where to connect when no endpoints are given
+    peer_connects: bool = False  #: whether a peer connects there too (else only a client)
+    listen: str = PEER_LISTEN  #: where a peer listens (``tls/`` for ``tcp/`` with TLS)
+    #: the variable naming the configuration file, before ``ZENOH_CONFIG``
+    config_file_variable: str | None = None
+    #: the variable holding ``path=json5;...`` overrides of single settings
+    override_variable: str | None = None
 
 
-def parse_override(text: str) -> list[tuple[str, str]]:
-    """``ZENOH_CONFIG_OVERRIDE``: ``path=json5`` items separated by ``;`` (outside brackets
-    and quotes)."""
+def parse_override(text: str, variable: str) -> list[tuple[str, str]]:
+    """Overrides of single settings from the variable ``variable``: ``path=json5`` items
+    separated by ``;`` (outside brackets and quotes)."""
     items: list[str] = []
     depth, quote, start = 0, '', 0
     for index, char in enumerate(text):
@@ -81,7 +82,7 @@ def parse_override(text: str) -> list[tuple[str, str]]:
     for item in filter(str.strip, items):
         key, equals, value = item.partition('=')
         if not equals or not key.strip() or not value.strip():
-            raise SettingError(f'ZENOH_CONFIG_OVERRIDE item {item!r} is not path=json5')
+            raise SettingError(f'{variable} item {item!r} is not path=json5')
         pairs.append((key.strip(), value.strip()))
     return pairs
 
@@ -152,7 +153,7 @@ class SettingOptions(TypedDict, total=False):
 class ConfigOptions(SettingOptions, total=False):
     """The keywords of :meth:`TransportConfig.create` beyond its named parameters."""
 
-    wire: str | None
+    defaults: SessionDefaults
 
 
 class SessionOptions(SettingOptions, total=False):
@@ -161,12 +162,6 @@ class SessionOptions(SettingOptions, total=False):
     listen: str | Sequence[str] | None
     mode: str | None
     config_file: str | os.PathLike[str] | None
-
-
-class TransportOptions(SessionOptions, total=False):
-    """Every keyword of :meth:`TransportConfig.create` but ``connect``."""
-
-    wire: str | None
 
 
 @dataclass(frozen=True, repr=False)
@@ -187,7 +182,7 @@ class TransportConfig:
     user: str | None = None
     password: str | None = None
     zenoh: dict[str, JsonValue] = field(default_factory=dict)
-    wire: str | None = None  #: 'rmw_zenoh': rmw_zenoh's session defaults (None: the bridge's)
+    defaults: SessionDefaults = SessionDefaults()  #: what applies where nothing is set
     #: True: a peer whose ``connect`` endpoints cannot be reached fails at open, as a client
     #: does; False: it opens and Zenoh keeps trying (a warning at most every 10 s says why)
     wait_for_router: bool = True
@@ -247,10 +242,14 @@ class TransportConfig:
                 raise SettingError('ZROS_USER needs ZROS_PASSWORD: set it too')
             options['user'] = env['ZROS_USER']
             options.setdefault('password', env.get('ZROS_PASSWORD'))
-        given = options.get('wire')
-        options['wire'] = _wire(given or env.get('ZROS_WIRE'), 'wire' if given else 'ZROS_WIRE')
-        if not config_file and options['wire']:
-            config_file = env.get('ZENOH_SESSION_CONFIG_URI')
+        if 'wire' in options:
+            raise TypeError(
+                'TransportConfig.create takes the session defaults of a wire scheme, not its '
+                "name: zros.wire.session_config(wire='...') makes the settings of a scheme"
+            )
+        variable = options.get('defaults', SessionDefaults()).config_file_variable
+        if not config_file and variable:
+            config_file = env.get(variable)
         config = cls(
             connect=_endpoints(connect if connect is not None else env.get('ZROS_CONNECT')),
             listen=_endpoints(listen if listen is not None else env.get('ZROS_LISTEN')),
@@ -278,14 +277,14 @@ class TransportConfig:
                 reason = zenoh_reason(exc, self.secrets())
                 raise TransportError(f'Zenoh refuses the setting {key}: {reason}') from None
 
-        rmw = self.wire == 'rmw_zenoh'
+        defaults = self.defaults
         if self.mode is not None or unset('mode'):
-            put('mode', self.mode or ('peer' if rmw else 'client'))
+            put('mode', self.mode or defaults.mode)
         mode = json.loads(config.get_json('mode'))
         if self.connect is not None:
             put('connect/endpoints', list(self.connect))
-        elif unset('connect/endpoints') and (mode == 'client' or rmw):
-            put('connect/endpoints', [RMW_ZENOH_ENDPOINT if rmw else DEFAULT_ENDPOINT])
+        elif unset('connect/endpoints') and (mode == 'client' or defaults.peer_connects):
+            put('connect/endpoints', [defaults.connect])
         if self.connect is not None and mode == 'peer' and self.wait_for_router:
             # a peer that cannot reach the router it was told of fails at open, as a client does
             # (Zenoh's peers open regardless and keep trying in the background)
@@ -296,7 +295,7 @@ class TransportConfig:
         if self.listen is not None:
             put('listen/endpoints', list(self.listen))
         elif mode == 'peer' and _zenoh_default(config, 'listen/endpoints'):
-            loopback = RMW_ZENOH_LISTEN if rmw else PEER_LISTEN
+            loopback = defaults.listen
             put('listen/endpoints', [loopback.replace('tcp/', 'tls/') if self.tls else loopback])
         if not self.config_file or self.multicast_scouting:
             put('scouting/multicast/enabled', self.multicast_scouting)
@@ -322,8 +321,9 @@ class TransportConfig:
         if self.user is not None:
             put('transport/auth/usrpwd/user', self.user)
             put('transport/auth/usrpwd/password', self.password)
-        if rmw:
-            for key, text in parse_override(os.environ.get('ZENOH_CONFIG_OVERRIDE', '')):
+        if defaults.override_variable:
+            overrides = os.environ.get(defaults.override_variable, '')
+            for key, text in parse_override(overrides, defaults.override_variable):
                 put(key, None, text)
         for key, value in self.zenoh.items():
             put(key, value)
@@ -392,4 +392,4 @@ class TransportConfig:
             return ', '.join(self.connect)
         if self.config_file:
             return f'the endpoints of {self.config_file}'
-        return RMW_ZENOH_ENDPOINT if self.wire else DEFAULT_ENDPOINT
+        return self.defaults.connect

@@ -12,7 +12,7 @@ import socket
 import ssl
 from dataclasses import dataclass, field
 
-from zros.transport.config import DEFAULT_ENDPOINT, TransportConfig
+from zros.transport.config import TransportConfig
 from zros.transport.endpoints import parse_endpoint
 from zros.transport.errors import EndpointError
 from zros.transport.tlsfiles import check_tls_files
@@ -109,7 +109,7 @@ def _tls_problem(config: TransportConfig, host: str, port: int) -> Reason | None
 
 def explain_unreachable(config: TransportConfig) -> Diagnosis:
     """The most likely reason the configured endpoints refused the session."""
-    endpoints = list(config.connect or ([] if config.config_file else [DEFAULT_ENDPOINT]))
+    endpoints = list(config.connect or ([] if config.config_file else [config.defaults.connect]))
     reasons: list[Reason] = []
     for endpoint in endpoints:
         try:

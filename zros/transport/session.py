@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 from zros.closing import Closing
 from zros.transport import delivery
-from zros.transport.config import TransportConfig, listen_endpoints
+from zros.transport.config import SessionDefaults, TransportConfig, listen_endpoints
 from zros.transport.credentials import password_dictionary
 from zros.transport.endpoints import parse_endpoint
 from zros.transport.errors import TransportError, zenoh_reason
@@ -284,11 +284,16 @@ _default: Transport | None = None
 _default_lock = threading.Lock()
 
 
-def default_transport(config: TransportConfig | None = None) -> Transport:
-    """The process-wide session, opened on first use (with ``config`` if given then)."""
+def default_transport(
+    config: TransportConfig | None = None, *, defaults: SessionDefaults | None = None
+) -> Transport:
+    """The process-wide session, opened on first use (with ``config`` if given then, else
+    the environment's settings over ``defaults``, a wire scheme's session defaults)."""
     global _default  # noqa: PLW0603
     with _default_lock:
         if _default is None or _default.closed:
+            if config is None and defaults is not None:
+                config = TransportConfig.create(defaults=defaults)
             _default = Transport(config)
         elif config is not None and config != _default.config:
             raise TransportError(

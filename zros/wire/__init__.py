@@ -22,13 +22,19 @@ from zros.wire.schemes import (
     WireOption,
     WireSetting,
     check_wire,
+    chosen_wire,
     scheme_settings,
 )
 
 TYPE_CHECKING = False  # not typing's: `zros --help` imports this package and stays light
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from typing_extensions import Unpack
+
     from zros.cdr import TypeRegistry
-    from zros.transport import Transport
+    from zros.transport import Transport, TransportConfig
+    from zros.transport.config import SessionDefaults, SessionOptions
     from zros.wire.base import KeyScheme, Wire, WireEntity
     from zros.wire.bridge_wire import BridgeWire, ask_bridge, bridges_at_start, query_bridges
     from zros.wire.requests import Requests
@@ -85,6 +91,25 @@ def open_wire(
     return wire_class(wire)(transport, namespace, node_name, registry, given)
 
 
+def session_defaults(wire: str | None = None) -> SessionDefaults:
+    """What the sessions of the scheme ``wire`` (None: ``ZROS_WIRE``, else the default) do
+    where their settings say nothing."""
+    return wire_class(chosen_wire(wire)).session
+
+
+def session_config(
+    connect: str | Sequence[str] | None = None,
+    *,
+    wire: str | None = None,
+    **settings: Unpack[SessionOptions],
+) -> TransportConfig:
+    """The settings of a session for the scheme ``wire`` (None: ``ZROS_WIRE``, else the
+    default): ``TransportConfig.create`` with the scheme's session defaults."""
+    from zros.transport import TransportConfig  # noqa: PLC0415 (lazy: `zros --help` imports this)
+
+    return TransportConfig.create(connect, defaults=session_defaults(wire), **settings)
+
+
 def any_type_key(wire: str, key: str) -> str:
     """The key expression matching every type on ``key`` as the graph shows it for ``wire``."""
     return wire_class(wire).any_type_key(key)
@@ -110,9 +135,12 @@ __all__ = [
     'ask_bridge',
     'bridges_at_start',
     'check_wire',
+    'chosen_wire',
     'open_wire',
     'query_bridges',
     'read_attachment',
     'scheme_settings',
+    'session_config',
+    'session_defaults',
     'wire_class',
 ]

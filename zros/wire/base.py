@@ -20,6 +20,7 @@ from zenoh import ConsolidationMode, QueryTarget, Sample, ext
 
 from zros.keyexpr.kinds import EntityKind
 from zros.qos import QoS
+from zros.transport.config import SessionDefaults
 from zros.wire.requests import Requests
 from zros.wire.schemes import WireOption
 from zros.wire.tokens import TokenView
@@ -140,6 +141,9 @@ class Wire(abc.ABC):
     token_view: ClassVar[type[TokenView]]
     #: what two endpoints of one topic with different types do on this scheme (for the warning)
     type_conflict: ClassVar[str]
+    #: what the scheme's sessions do where their settings say nothing (Zenoh's mode, router,
+    #: listening endpoint, the variables naming a file and overrides)
+    session: ClassVar[SessionDefaults] = SessionDefaults()
 
     def __init__(
         self,

@@ -39,6 +39,7 @@ from zros.keyexpr.owners import (
 )
 from zros.qos import QoS
 from zros.transport import Transport
+from zros.transport.config import SessionDefaults
 from zros.transport.per_session import PerSession
 from zros.wire.base import Wire, WireEntity
 from zros.wire.schemes import WireOption
@@ -243,6 +244,8 @@ class BridgeWire(Wire):
         "a bridge's key is the topic's name alone, so each gets the other's messages and "
         'cannot read them: they fail to decode or decode as wrong values'
     )
+    #: zenoh-bridge-ros2dds's: a client of the bridge at tcp/127.0.0.1:7447 (zenohd's port)
+    session: ClassVar[SessionDefaults] = SessionDefaults()
 
     def __init__(
         self,

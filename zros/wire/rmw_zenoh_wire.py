@@ -39,6 +39,7 @@ from zros.keyexpr.rmw_zenoh import (
 )
 from zros.qos import QoS
 from zros.transport import Transport
+from zros.transport.config import SessionDefaults
 from zros.transport.per_session import PerSession
 from zros.wire.base import (
     BatchCallback,
@@ -364,6 +365,16 @@ class RmwZenohWire(Wire):
     type_conflict = (
         "rmw_zenoh puts the type and its hash in a topic's key, so the two keys never match "
         'and no message passes between them'
+    )
+    #: rmw_zenoh's own session settings: a peer that connects to the rmw_zenohd router and
+    #: listens for peers on this machine, and rmw_zenoh's variables
+    session: ClassVar[SessionDefaults] = SessionDefaults(
+        mode='peer',
+        connect='tcp/localhost:7447',
+        peer_connects=True,
+        listen='tcp/localhost:0',
+        config_file_variable='ZENOH_SESSION_CONFIG_URI',
+        override_variable='ZENOH_CONFIG_OVERRIDE',
     )
 
     def __init__(

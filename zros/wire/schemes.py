@@ -7,8 +7,11 @@ options from it without loading a scheme. A third scheme is its module and one e
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+
+from zros.errors import SettingError
 
 #: the value of a scheme's setting (``Node(bridge_namespace=...)``, ``Node(domain_id=...)``)
 WireOption = str | int | None
@@ -79,12 +82,19 @@ DEFAULT_WIRE = next(iter(SCHEMES))
 
 
 def check_wire(wire: str, source: str = 'wire') -> str:
-    """``wire`` if it names a scheme zros speaks, else ValueError naming ``source`` (where
-    ``wire`` came from: the argument, or ``ZROS_WIRE``)."""
+    """``wire`` if it names a scheme zros speaks, else SettingError (a ValueError) naming
+    ``source`` (where ``wire`` came from: the argument, or ``ZROS_WIRE``)."""
     if wire not in SCHEMES:
         names = ' or '.join(f'"{name}"' for name in SCHEMES)
-        raise ValueError(f'{source} must be {names}, got {wire!r}')
+        raise SettingError(f'{source} must be {names}, got {wire!r}')
     return wire
+
+
+def chosen_wire(wire: str | None) -> str:
+    """The scheme ``wire`` names, else ``ZROS_WIRE``, else the default (checked)."""
+    return check_wire(
+        wire or os.environ.get('ZROS_WIRE') or DEFAULT_WIRE, 'wire' if wire else 'ZROS_WIRE'
+    )
 
 
 def scheme_settings(wire: str, settings: Mapping[str, WireOption]) -> dict[str, WireOption]:

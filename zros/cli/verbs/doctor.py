@@ -143,14 +143,15 @@ def run(args: argparse.Namespace) -> int:
     import zros
     from zros.errors import SettingError, ZrosError, command_line_text
     from zros.graph import Graph
-    from zros.transport import Transport, TransportConfig
+    from zros.transport import Transport
+    from zros.wire import session_config
 
     zenoh_version = version('eclipse-zenoh')
     report = Report()
     out(f'zros {zros.__version__}, Python {sys.version.split()[0]}, eclipse-zenoh {zenoh_version}')
     out('session')
     try:
-        config = TransportConfig.create(connect=args.connect, mode=args.mode, wire=args.wire)
+        config = session_config(args.connect, mode=args.mode, wire=args.wire)
         transport = Transport(config)
     except SettingError:
         raise  # a usage error: one line, exit 2
