@@ -217,8 +217,10 @@ def test_zros_wire_chooses_the_defaults(monkeypatch: pytest.MonkeyPatch) -> None
 
 
 def test_the_transport_knows_no_scheme_by_name(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv('ZROS_WIRE', R)  # a scheme is the wire's to choose
-    assert TransportConfig.create() == TransportConfig.create(defaults=SessionDefaults())
+    monkeypatch.setenv('ZROS_WIRE', R)  # a scheme is the wire's to choose, and it says so
+    with pytest.warns(UserWarning, match=r'ZROS_WIRE is set.*zros\.wire\.session_config\(\)'):
+        bare = TransportConfig.create()
+    assert bare == TransportConfig.create(defaults=SessionDefaults())
     with pytest.raises(TypeError, match=r'zros\.wire\.session_config\(wire='):
         TransportConfig.create(wire=R)  # type: ignore[call-arg]
 

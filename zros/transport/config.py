@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -246,6 +247,13 @@ class TransportConfig:
             raise TypeError(
                 'TransportConfig.create takes the session defaults of a wire scheme, not its '
                 "name: zros.wire.session_config(wire='...') makes the settings of a scheme"
+            )
+        if 'defaults' not in options and env.get('ZROS_WIRE'):
+            # this layer knows no scheme: say so rather than give another scheme's session
+            warnings.warn(
+                'ZROS_WIRE is set, but TransportConfig.create() and Transport() take no wire '
+                'scheme: zros.wire.session_config() makes the settings of the one it names',
+                stacklevel=2,
             )
         variable = options.get('defaults', SessionDefaults()).config_file_variable
         if not config_file and variable:
