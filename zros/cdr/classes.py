@@ -11,9 +11,9 @@ from collections.abc import Callable
 from contextlib import AbstractContextManager
 from typing import Protocol
 
-import numpy as np
-
 from zros.cdr import codegen
+from zros.cdr.arrays import DType
+from zros.cdr.codegen.encoder import Encoder
 from zros.cdr.convert import Bad
 from zros.cdr.encode_buffer import Join
 from zros.cdr.layout import LayoutCache, StructInfo
@@ -23,8 +23,6 @@ from zros.cdr.naming import attribute_name
 
 #: a compiled decoder: ``decode(buf, strict) -> message``
 Decoder = Callable[[Buffer, bool], Message]
-#: a compiled encoder: ``encode(message, join) -> bytes``
-Encoder = Callable[..., bytes]
 
 
 class ClassSource(Protocol):
@@ -71,7 +69,7 @@ class _Codecs:
             return self.message_class
         return self.source.get_class(name)
 
-    def dtype(self, name: str, endian: str) -> np.dtype:
+    def dtype(self, name: str, endian: str) -> DType:
         return self.source.layout.dtype(name, endian)
 
     # the variants
@@ -147,7 +145,7 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
     def encode_first(message: Message, join: Join = b''.join) -> bytes:  # type: ignore[assignment]
         with lock:
             if cls.__dict__['_cdr_encode'] is lazy_encode:
-                cls._cdr_encode = staticmethod(codecs.encoder())  # type: ignore[method-assign]
+                cls._cdr_encode = staticmethod(codecs.encoder())  # type: ignore[method-assign,assignment]  # the stub is replaced by the compiled encoder
         return cls._cdr_encode(message, join)
 
     lazy_encode = staticmethod(encode_first)

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from zros.cdr.arrays import Array, DType
 from zros.cdr.errors import FieldError
 from zros.cdr.model import INTEGER_RANGES, Buffer, FieldValue
 
@@ -24,7 +25,7 @@ def _kind_name(kind: str) -> str:
     return {'f': 'floats', 'i': 'integers', 'u': 'integers', 'b': 'bools'}.get(kind, 'values')
 
 
-def to_array(value: FieldValue, dtype: np.dtype) -> np.ndarray:
+def to_array(value: FieldValue, dtype: DType) -> Array:
     """A contiguous 1-D array of ``dtype`` from any sequence, refusing lossy conversions."""
     if type(value) is np.ndarray and value.dtype == dtype and value.ndim == 1:
         return value if value.flags.c_contiguous else np.ascontiguousarray(value)
@@ -72,7 +73,7 @@ def to_array(value: FieldValue, dtype: np.dtype) -> np.ndarray:
     return np.ascontiguousarray(array.astype(dtype))
 
 
-def prim_array(value: FieldValue, dtype: np.dtype, bound: int) -> np.ndarray:
+def prim_array(value: FieldValue, dtype: DType, bound: int) -> Array:
     """An array for a sequence field, checked against its bound (-1: unbounded)."""
     if (
         type(value) is np.ndarray
@@ -88,7 +89,7 @@ def prim_array(value: FieldValue, dtype: np.dtype, bound: int) -> np.ndarray:
     return array
 
 
-def fixed_array(value: FieldValue, dtype: np.dtype, count: int) -> np.ndarray:
+def fixed_array(value: FieldValue, dtype: DType, count: int) -> Array:
     """An array for a fixed-size array field; its length must be exactly ``count``."""
     if (
         type(value) is np.ndarray
@@ -110,7 +111,7 @@ Where = tuple[str, str]
 Shape = tuple[int, int]
 
 
-def init_array(value: FieldValue, dtype: np.dtype, shape: Shape, where: Where) -> np.ndarray:
+def init_array(value: FieldValue, dtype: DType, shape: Shape, where: Where) -> Array:
     """Convert a constructor argument for an array field, with the field name in errors."""
     try:
         array = to_array(value, dtype)
@@ -218,7 +219,7 @@ def string_list(
     return items
 
 
-def empty_array(dtype: np.dtype) -> np.ndarray:
+def empty_array(dtype: DType) -> Array:
     """A shared, read-only empty array (decoded empty sequences all use it)."""
     array = np.zeros(0, dtype)
     array.flags.writeable = False

@@ -8,10 +8,9 @@ values, ``==``, a readable ``repr``, ``copy``, ``to_dict``/``from_dict`` and its
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, ClassVar, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, TypeVar
 
-import numpy as np
-
+from zros.cdr.arrays import DType
 from zros.cdr.encode_buffer import Join
 from zros.cdr.errors import CdrError, FieldError
 from zros.cdr.model import Buffer, FieldValue, MessageDef
@@ -55,14 +54,16 @@ class Message:
     #: type is not named here; ``zros.cdr.registry.registry_of(cls)`` returns it typed.
     _registry: ClassVar[object]
     #: numpy dtype of one element when a sequence of this type is a structured array, else None
-    _dtype: ClassVar[np.dtype | None] = None
+    _dtype: ClassVar[DType | None] = None
     _zros_codecs: ClassVar[TracedCodecs]
     #: rebuilds a message from its type name and CDR bytes when unpickling (set per class)
     _restore: ClassVar[Callable[[str, bytes], Message]]
 
     if TYPE_CHECKING:
-        # fields are generated at run time: to type checkers every field is a FieldValue
-        def __getattr__(self, name: str) -> FieldValue: ...
+        # Fields are generated at run time. A field read on this untyped base is Any on purpose,
+        # as rclpy's untyped messages: `0.2 / msg.data` type-checks in a user's program, and a
+        # program that wants checked fields declares its class (see tests/test_typing.py).
+        def __getattr__(self, name: str) -> Any: ...  # type: ignore[explicit-any,unused-ignore]  # as above
 
         def __setattr__(self, name: str, value: object) -> None: ...
 

@@ -7,15 +7,18 @@ the received bytes, turned into message objects on first indexing or iteration.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping, MutableSequence
-from typing import TypeVar, overload
+from typing import TYPE_CHECKING, TypeVar, overload
 
 import numpy as np
 
+from zros.cdr.arrays import Array
 from zros.cdr.convert import Bad, Where, message_list
 from zros.cdr.message import Message
 from zros.cdr.model import FieldValue
 
 M = TypeVar('M', bound=Message)
+if TYPE_CHECKING:  # slice is not subscriptable at run time before Python 3.14
+    Slice = slice[int | None, int | None, int | None]
 
 
 class StructSeq(MutableSequence[M]):
@@ -30,9 +33,9 @@ class StructSeq(MutableSequence[M]):
 
     __slots__ = ('_arr', '_cls', '_items')
 
-    def __init__(self, cls: type[M], data: Iterable[M] | np.ndarray | None = None) -> None:
+    def __init__(self, cls: type[M], data: Iterable[M] | Array | None = None) -> None:
         self._cls = cls
-        self._arr: np.ndarray | None = None
+        self._arr: Array | None = None
         self._items: list[M] | None = None
         if data is None:
             self._items = []
@@ -51,7 +54,7 @@ class StructSeq(MutableSequence[M]):
             self._items = items
 
     @classmethod
-    def _from_array(cls, element: type[M], array: np.ndarray) -> StructSeq[M]:
+    def _from_array(cls, element: type[M], array: Array) -> StructSeq[M]:
         seq: StructSeq[M] = object.__new__(cls)
         seq._cls = element
         seq._arr = array
@@ -72,7 +75,7 @@ class StructSeq(MutableSequence[M]):
         return self._items
 
     @property
-    def array(self) -> np.ndarray:
+    def array(self) -> Array:
         """The elements as a numpy structured array laid out as on the wire."""
         if self._arr is None:
             self._arr = pack_structs(self._cls, self._items or [])
@@ -80,7 +83,7 @@ class StructSeq(MutableSequence[M]):
         return self._arr
 
     @array.setter
-    def array(self, value: np.ndarray) -> None:
+    def array(self, value: Array) -> None:
         dtype = self._cls._dtype
         if dtype is None:
             raise TypeError(f'{self._cls.__msgtype__} has no structured array form')
@@ -103,21 +106,21 @@ class StructSeq(MutableSequence[M]):
     def __getitem__(self, index: int) -> M: ...
 
     @overload
-    def __getitem__(self, index: slice) -> list[M]: ...
+    def __getitem__(self, index: Slice) -> list[M]: ...
 
-    def __getitem__(self, index: int | slice) -> M | list[M]:
+    def __getitem__(self, index: int | Slice) -> M | list[M]:
         return self._list()[index]
 
     @overload
     def __setitem__(self, index: int, value: M) -> None: ...
 
     @overload
-    def __setitem__(self, index: slice, value: Iterable[M]) -> None: ...
+    def __setitem__(self, index: Slice, value: Iterable[M]) -> None: ...
 
-    def __setitem__(self, index: int | slice, value: M | Iterable[M]) -> None:
+    def __setitem__(self, index: int | Slice, value: M | Iterable[M]) -> None:
         self._list()[index] = value  # type: ignore[index,assignment]  # the overloads pair them
 
-    def __delitem__(self, index: int | slice) -> None:
+    def __delitem__(self, index: int | Slice) -> None:
         del self._list()[index]
 
     def insert(self, index: int, value: M) -> None:
@@ -149,9 +152,7 @@ class StructSeq(MutableSequence[M]):
         return StructSeq(self._cls, [item.copy() for item in self._items or []])
 
 
-def pack_structs(
-    cls: type[Message], items: Iterable[FieldValue], writable: bool = True
-) -> np.ndarray:
+def pack_structs(cls: type[Message], items: Iterable[FieldValue], writable: bool = True) -> Array:
     """A structured array of ``cls._dtype`` from message objects (or dicts)."""
     dtype = cls._dtype
     assert dtype is not None
@@ -171,9 +172,7 @@ def pack_structs(
     return np.array(rows, dtype=dtype)
 
 
-def struct_rows(
-    value: FieldValue, cls: type[Message], bound: int
-) -> tuple[int, bytes | np.ndarray]:
+def struct_rows(value: FieldValue, cls: type[Message], bound: int) -> tuple[int, bytes | Array]:
     """The element count and what to encode of a struct sequence field. A sequence of message
     objects is packed row by row into bytes (building an array for a few elements cost more
     than packing them); arrays, and elements the packer refuses, go through
@@ -206,11 +205,13 @@ def _fast_rows(cls: type[Message], items: list[FieldValue]) -> bytes | None:
     return data
 
 
-def struct_array(value: FieldValue, cls: type[Message], bound: int) -> np.ndarray:
+def struct_array(
+    value: StructSeq[Message] | Array | Iterable[Message], cls: type[Message], bound: int
+) -> Array:
     """The contiguous little-endian structured array to encode for a struct sequence field."""
     dtype = cls._dtype
     assert dtype is not None
-    array: np.ndarray
+    array: Array
     if type(value) is StructSeq:
         # never switch the sequence to array mode here: element objects the user holds must stay
         # part of the message

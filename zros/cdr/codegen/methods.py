@@ -4,11 +4,13 @@
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import numpy as np
+import numpy.typing as npt
 
 from zros.cdr import convert
+from zros.cdr.arrays import Array
 from zros.cdr.codegen.ops import STRUCT_CODES, Context, value_dtype
 from zros.cdr.codegen.program import Generated, Program
 from zros.cdr.errors import FieldError
@@ -22,14 +24,12 @@ def _display_name(name: str) -> str:
     return name.replace('/', '.')
 
 
-def generate_methods(
-    ctx: Context, msg: MessageDef
-) -> dict[str, Generated | staticmethod[..., Message]]:
+def generate_methods(ctx: Context, msg: MessageDef) -> dict[str, object]:
     """``__init__``, ``__eq__``, ``__repr__``, ``copy`` and ``to_dict`` of a message class.
 
     For uniform structs also ``_from_tuple`` and ``_to_tuple`` (rows of its numpy dtype).
     """
-    result: dict[str, Generated | staticmethod[..., Message]] = {
+    result: dict[str, object] = {
         '__init__': _gen_init(ctx, msg),
         '_zros_default': staticmethod(_gen_default(ctx, msg)),
         '__eq__': _gen_eq(ctx, msg),
@@ -114,7 +114,7 @@ def _gen_default(ctx: Context, msg: MessageDef) -> Callable[[], Message]:
     return src.compile('', '_zros_default')
 
 
-def _gen_init(ctx: Context, msg: MessageDef) -> Callable[..., None]:
+def _gen_init(ctx: Context, msg: MessageDef) -> Generated:
     # parameters are field names, which may shadow builtins: generated code uses only _names.
     # Each scalar argument passes one cheap test (its exact type); anything else goes to a
     # convert helper that converts it (an int for a float...) or raises a FieldError.
@@ -201,7 +201,7 @@ def _gen_eq(ctx: Context, msg: MessageDef) -> Callable[[Message, object], bool]:
     return src.compile('self, other', '__eq__')
 
 
-def _array_equal(a: FieldValue, b: FieldValue) -> bool:
+def _array_equal(a: npt.ArrayLike, b: npt.ArrayLike) -> bool:
     return bool(np.array_equal(a, b))
 
 
@@ -235,8 +235,9 @@ def _gen_copy(ctx: Context, msg: MessageDef) -> Callable[[Message], Message]:
     return src.compile('self', 'copy')
 
 
-def _to_list(value: FieldValue) -> list[FieldValue]:
-    return value.tolist() if isinstance(value, np.ndarray) else list(value)
+def _to_list(value: Array | Iterable[object]) -> list[object]:
+    items: list[object] = value.tolist() if isinstance(value, np.ndarray) else list(value)
+    return items
 
 
 def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str, FieldValue]]:
