@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol, TypeVar
 from zros.cdr.arrays import DType
 from zros.cdr.encode_buffer import Join
 from zros.cdr.errors import CdrError, FieldError
-from zros.cdr.model import Buffer, FieldValue, MessageDef
+from zros.cdr.model import Buffer, MessageDef
 from zros.cdr.naming import attribute_name
 
 if TYPE_CHECKING:
@@ -75,7 +75,7 @@ class Message:
         """A deep copy; its arrays are writable even where this message's are views."""
         raise NotImplementedError
 
-    def to_dict(self) -> dict[str, FieldValue]:
+    def to_dict(self) -> dict[str, object]:
         """Nested dicts and lists of plain Python values (YAML and JSON friendly)."""
         raise NotImplementedError
 

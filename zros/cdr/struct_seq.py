@@ -14,7 +14,6 @@ import numpy as np
 from zros.cdr.arrays import Array
 from zros.cdr.convert import Bad, Where, message_list
 from zros.cdr.message import Message
-from zros.cdr.model import FieldValue
 
 M = TypeVar('M', bound=Message)
 if TYPE_CHECKING:  # slice is not subscriptable at run time before Python 3.14
@@ -152,7 +151,7 @@ class StructSeq(MutableSequence[M]):
         return StructSeq(self._cls, [item.copy() for item in self._items or []])
 
 
-def pack_structs(cls: type[Message], items: Iterable[FieldValue], writable: bool = True) -> Array:
+def pack_structs(cls: type[Message], items: Iterable[object], writable: bool = True) -> Array:
     """A structured array of ``cls._dtype`` from message objects (or dicts)."""
     dtype = cls._dtype
     assert dtype is not None
@@ -172,7 +171,9 @@ def pack_structs(cls: type[Message], items: Iterable[FieldValue], writable: bool
     return np.array(rows, dtype=dtype)
 
 
-def struct_rows(value: FieldValue, cls: type[Message], bound: int) -> tuple[int, bytes | Array]:
+def struct_rows(
+    value: StructSeq[Message] | Array | Iterable[Message], cls: type[Message], bound: int
+) -> tuple[int, bytes | Array]:
     """The element count and what to encode of a struct sequence field. A sequence of message
     objects is packed row by row into bytes (building an array for a few elements cost more
     than packing them); arrays, and elements the packer refuses, go through
@@ -192,7 +193,7 @@ def struct_rows(value: FieldValue, cls: type[Message], bound: int) -> tuple[int,
     return len(array), array
 
 
-def _fast_rows(cls: type[Message], items: list[FieldValue]) -> bytes | None:
+def _fast_rows(cls: type[Message], items: list[object]) -> bytes | None:
     """``items`` packed row by row by the class's generated packer, or None when it has none
     or refuses an element (a wrong one, or a dict): the checked path then says which."""
     fast = getattr(cls, '_pack_rows', None)
@@ -234,7 +235,7 @@ def struct_array(
     return array
 
 
-def struct_items(cls: type[Message], value: FieldValue, bound: int, where: Where) -> FieldValue:
+def struct_items(cls: type[Message], value: object, bound: int, where: Where) -> object:
     """The constructor argument of a struct sequence field: arrays and StructSeqs as they are,
     else a checked list of messages."""
     if isinstance(value, (np.ndarray, StructSeq)):

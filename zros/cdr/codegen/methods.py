@@ -15,7 +15,7 @@ from zros.cdr.codegen.ops import STRUCT_CODES, Context, value_dtype
 from zros.cdr.codegen.program import Generated, Program
 from zros.cdr.errors import FieldError
 from zros.cdr.message import Message
-from zros.cdr.model import PRIMITIVE_SIZES, Field, FieldType, FieldValue, Kind, MessageDef
+from zros.cdr.model import PRIMITIVE_SIZES, Field, FieldType, Kind, MessageDef
 from zros.cdr.naming import attribute_name
 from zros.cdr.struct_seq import StructSeq, struct_items
 
@@ -240,7 +240,7 @@ def _to_list(value: Array | Iterable[object]) -> list[object]:
     return items
 
 
-def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str, FieldValue]]:
+def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str, object]]:
     src = Program()
     to_list = src.ref(_to_list, 'tolist')
     items = []
@@ -299,7 +299,7 @@ def _tuple_pattern(ctx: Context, msg: MessageDef, src: Program, var: str, lines:
     return '(' + ''.join(n + ', ' for n in names) + ')'
 
 
-def _gen_from_tuple(ctx: Context, msg: MessageDef) -> Callable[[tuple[FieldValue, ...]], Message]:
+def _gen_from_tuple(ctx: Context, msg: MessageDef) -> Callable[[tuple[object, ...]], Message]:
     src = Program()
     lines: list[str] = []
     pattern = _tuple_pattern(ctx, msg, src, 'o', lines)
@@ -325,7 +325,7 @@ def _tuple_expr(ctx: Context, msg: MessageDef, var: str) -> str:
     return '(' + ''.join(item + ', ' for item in items) + ')'
 
 
-def _gen_to_tuple(ctx: Context, msg: MessageDef) -> Callable[[Message], tuple[FieldValue, ...]]:
+def _gen_to_tuple(ctx: Context, msg: MessageDef) -> Callable[[Message], tuple[object, ...]]:
     src = Program()
     src.add(f'return {_tuple_expr(ctx, msg, "o")}')
     return src.compile('o', '_to_tuple')
