@@ -76,9 +76,9 @@ class _Codecs:
     def entry_decoder(self) -> Decoder:
         """The class's ``_cdr_decode``: compiled on the first call (under the registry's lock)."""
         cls = self.message_class
-        current = cls.__dict__['_cdr_decode']
+        current: Decoder = cls.__dict__['_cdr_decode']
         if getattr(current, '__zros_entry__', False):
-            return current  # type: ignore[no-any-return]
+            return current
         variants: dict[str, Decoder] = {}
 
         def other(view: Buffer, strict: bool) -> Message:
@@ -108,8 +108,8 @@ class _Codecs:
         entry = codegen.generate_decoder(
             self, definition, '<', False, False, fallback=other, memory_decoder=memory_first
         )
-        entry.__zros_entry__ = True  # type: ignore[attr-defined]
-        cls._cdr_decode = entry  # type: ignore[method-assign,assignment]
+        entry.__zros_entry__ = True  # type: ignore[attr-defined]  # a marker on the function
+        cls._cdr_decode = entry  # type: ignore[method-assign,assignment]  # the compiled decoder replaces the stub
         return entry
 
     def decoder(self, endian: str, memory: bool) -> Decoder:
@@ -142,7 +142,7 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
         compiled_decoder(cls)
         return cls._cdr_decode(buf, strict)
 
-    def encode_first(message: Message, join: Join = b''.join) -> bytes:  # type: ignore[assignment]
+    def encode_first(message: Message, join: Join = b''.join) -> bytes:  # type: ignore[assignment]  # join may be an EncodeBuffer.join
         with lock:
             if cls.__dict__['_cdr_encode'] is lazy_encode:
                 cls._cdr_encode = staticmethod(codecs.encoder())  # type: ignore[method-assign,assignment]  # the stub is replaced by the compiled encoder
@@ -151,8 +151,8 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
     lazy_encode = staticmethod(encode_first)
     # a plain function, not a staticmethod: Python specialises calls of a function found on a
     # class (``cls._cdr_decode(...)``), not of a staticmethod; it is never read from instances
-    cls._cdr_decode = decode_first  # type: ignore[method-assign]
-    cls._cdr_encode = lazy_encode  # type: ignore[method-assign,assignment]
+    cls._cdr_decode = decode_first  # type: ignore[method-assign]  # a stub, compiled on first call
+    cls._cdr_encode = lazy_encode  # type: ignore[method-assign,assignment]  # as above
 
 
 def compiled_decoder(cls: type[Message]) -> Decoder:

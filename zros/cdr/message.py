@@ -160,7 +160,7 @@ def decode(cls: type[M], buf: bytes | bytearray | memoryview, strict: bool = Fal
     (alignment padding), which tells whether the data really is of this type.
     """
     try:
-        return cls._cdr_decode(buf, strict)  # type: ignore[return-value]
+        return cls._cdr_decode(buf, strict)  # type: ignore[return-value]  # the class decodes its own type
     except Exception as exc:
         raise decode_failure(cls, buf, strict, exc) from None
 
@@ -188,7 +188,8 @@ def decode_failure(cls: type[Message], buf: Buffer, strict: bool, exc: Exception
 
 
 def _codecs(cls: type[Message]) -> TracedCodecs:
-    return cls.__dict__['_zros_codecs']  # type: ignore[no-any-return]
+    codecs: TracedCodecs = cls.__dict__['_zros_codecs']
+    return codecs
 
 
 def _explain_encode(cls: type[Message], message: Message) -> CdrError:

@@ -68,7 +68,7 @@ class StructSeq(MutableSequence[M]):
     def _list(self) -> list[M]:
         if self._items is None:
             rows = self._arr.tolist() if self._arr is not None else []
-            make = self._cls._from_tuple  # type: ignore[attr-defined]
+            make = self._cls._from_tuple  # type: ignore[attr-defined]  # generated for uniform structs
             self._items = [make(row) for row in rows]
             self._arr = None
         return self._items
@@ -99,7 +99,7 @@ class StructSeq(MutableSequence[M]):
         self._items = None
 
     def __len__(self) -> int:
-        return len(self._arr) if self._items is None else len(self._items)  # type: ignore[arg-type]
+        return len(self._arr) if self._items is None else len(self._items)  # type: ignore[arg-type]  # one of them is set
 
     @overload
     def __getitem__(self, index: int) -> M: ...
@@ -138,7 +138,7 @@ class StructSeq(MutableSequence[M]):
             return len(self) == len(other) and all(a == b for a, b in zip(self, other, strict=True))
         return NotImplemented
 
-    __hash__ = None  # type: ignore[assignment]
+    __hash__ = None  # type: ignore[assignment]  # sequences are mutable
 
     def __repr__(self) -> str:
         content = repr(self._arr) if self._arr is not None else repr(self._items)
@@ -158,7 +158,7 @@ def pack_structs(cls: type[Message], items: Iterable[object], writable: bool = T
     if isinstance(items, list) and (data := _fast_rows(cls, items)) is not None:
         return np.frombuffer(bytearray(data) if writable else data, dtype)
     rows = []
-    to_tuple = cls._to_tuple  # type: ignore[attr-defined]
+    to_tuple = cls._to_tuple  # type: ignore[attr-defined]  # generated for uniform structs
     for index, item in enumerate(items):
         element = item
         if type(item) is not cls and getattr(item, '__msgtype__', None) != cls.__msgtype__:

@@ -114,7 +114,7 @@ class Program:
             ) from None
         exec(code, scope)
         function: Generated = scope['_factory'](**self.objects)
-        function.__zros_source__ = text  # type: ignore[attr-defined]
+        function.__zros_source__ = text  # type: ignore[attr-defined]  # read by source_of
         return function
 
 
