@@ -75,6 +75,8 @@ def chatter(node: zros.Node) -> None:
     pub.write(String(data='hello'))
     reveal_type(zros.Message(String, data='hello'))  # mypy: user_program.String
     reveal_type(zros.Message('std_msgs/msg/String'))  # mypy: zros.cdr.message.Message
+    # a field of an untyped message is Any on purpose (as rclpy's): declare the class to check it
+    reveal_type(zros.Message('std_msgs/msg/String').data)  # mypy: Any
     def on_message(msg: String) -> None:
         reveal_type(msg.data)  # mypy: str
     sub = node.create_subscription(String, '/chatter', on_message)

@@ -35,7 +35,7 @@ _log = logging.getLogger('zros.message_filters')
 _NS = 1_000_000_000
 
 #: a filter's callback: the filter's output, then the arguments it was registered with
-Callback = Callable[..., object]
+Callback = Callable[..., object]  # type: ignore[explicit-any,unused-ignore]  # any signature, as in rclpy
 
 
 #: a time: integer nanoseconds or a ``zros.Time``

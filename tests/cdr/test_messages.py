@@ -348,3 +348,12 @@ def test_definition_of_a_message_class_gives_its_fields_with_their_types(
     assert not definition.fields[1].type.is_scalar and definition.fields[0].type.is_scalar
     with pytest.raises(TypeError, match='not a message class'):
         cdr.definition_of(cdr.Message)
+
+
+def test_untyped_is_a_deprecated_name_for_object() -> None:
+    with pytest.warns(DeprecationWarning, match=r'zros.cdr.Untyped is deprecated: use object'):
+        untyped = cdr.Untyped
+    assert untyped is object
+    assert 'Untyped' not in cdr.__all__
+    with pytest.raises(AttributeError, match="has no attribute 'Unknown'"):
+        _ = cdr.Unknown

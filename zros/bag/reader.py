@@ -14,13 +14,12 @@ from zros.bag.errors import BagError
 from zros.bag.read.damage import Skipped
 from zros.bag.read.source import Connection, RawMessage, Source, open_source
 from zros.bag.read.types import BagTypes
+from zros.cdr.arrays import Array
 from zros.closing import Closing
 from zros.timesync import ApproximatePolicy, header_stamp
 from zros.version import counted
 
 if TYPE_CHECKING:
-    import numpy as np
-
     from zros.bag.columns.extract import DataFrame
     from zros.cdr import Message, TypeRegistry
 
@@ -201,7 +200,7 @@ class Bag(Closing):
         fields: Iterable[str] | None = None,
         start: TimeLike = None,
         end: TimeLike = None,
-    ) -> dict[str, np.ndarray]:
+    ) -> dict[str, Array]:
         """Numeric fields of a topic's messages as numpy arrays, one per field path.
 
         ``fields`` are paths such as ``pose.pose.position.x`` (default: every numeric field).
@@ -225,7 +224,7 @@ class Bag(Closing):
         fields: Iterable[str] | None = None,
         start: TimeLike = None,
         end: TimeLike = None,
-    ) -> np.ndarray:
+    ) -> Array:
         """The :meth:`columns` of a topic as one numpy structured array (a record per message)."""
         return structured(self.columns(topic, fields, start, end), self.path)
 
@@ -253,7 +252,7 @@ class Bag(Closing):
         tolerance: float | None = None,
         stamp: str = 'header',
         as_dataframe: bool = False,
-    ) -> np.ndarray | DataFrame:
+    ) -> Array | DataFrame:
         """Fields of several topics in one table, a row per instant of ``on``.
 
         ``columns`` names topics and fields as ``'/imu'`` (every numeric field) or

@@ -28,10 +28,10 @@ from zros.cdr.model import (
     JsonValue,
     MessageDef,
     ServiceDef,
-    Untyped,
 )
 from zros.cdr.registry import TypeRegistry, default_registry, set_default_registry
 from zros.cdr.struct_seq import StructSeq
+from zros.deprecation import deprecated
 
 TypeLike = str | type[Message]
 
@@ -93,6 +93,13 @@ def _decode_first(type_name: str, buf: bytes | bytearray | memoryview, strict: b
         raise decode_failure(get_class(type_name), buf, strict, exc) from None
 
 
+def __getattr__(name: str) -> object:
+    if name == 'Untyped':  # was an alias of Any
+        deprecated('zros.cdr.Untyped', 'object, or a Protocol of what is used')
+        return object
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
 def register_type(type_name: str, text: str) -> Definition:
     """Register .msg, .srv or .action text for a type name in the default registry."""
     return default_registry().register_text(type_name, text)
@@ -121,7 +128,6 @@ __all__ = [
     'TypeNameError',
     'TypeRegistry',
     'UnknownTypeError',
-    'Untyped',
     'decode',
     'default_registry',
     'definition_of',

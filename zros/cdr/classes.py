@@ -11,9 +11,9 @@ from collections.abc import Callable
 from contextlib import AbstractContextManager
 from typing import Protocol
 
-import numpy as np
-
 from zros.cdr import codegen
+from zros.cdr.arrays import DType
+from zros.cdr.codegen.encoder import Encoder
 from zros.cdr.convert import Bad
 from zros.cdr.encode_buffer import Join
 from zros.cdr.layout import LayoutCache, StructInfo
@@ -23,8 +23,6 @@ from zros.cdr.naming import attribute_name
 
 #: a compiled decoder: ``decode(buf, strict) -> message``
 Decoder = Callable[[Buffer, bool], Message]
-#: a compiled encoder: ``encode(message, join) -> bytes``
-Encoder = Callable[..., bytes]
 
 
 class ClassSource(Protocol):
@@ -71,16 +69,16 @@ class _Codecs:
             return self.message_class
         return self.source.get_class(name)
 
-    def dtype(self, name: str, endian: str) -> np.dtype:
+    def dtype(self, name: str, endian: str) -> DType:
         return self.source.layout.dtype(name, endian)
 
     # the variants
     def entry_decoder(self) -> Decoder:
         """The class's ``_cdr_decode``: compiled on the first call (under the registry's lock)."""
         cls = self.message_class
-        current = cls.__dict__['_cdr_decode']
+        current: Decoder = cls.__dict__['_cdr_decode']
         if getattr(current, '__zros_entry__', False):
-            return current  # type: ignore[no-any-return]
+            return current
         variants: dict[str, Decoder] = {}
 
         def other(view: Buffer, strict: bool) -> Message:
@@ -110,8 +108,8 @@ class _Codecs:
         entry = codegen.generate_decoder(
             self, definition, '<', False, False, fallback=other, memory_decoder=memory_first
         )
-        entry.__zros_entry__ = True  # type: ignore[attr-defined]
-        cls._cdr_decode = entry  # type: ignore[method-assign,assignment]
+        entry.__zros_entry__ = True  # type: ignore[attr-defined]  # a marker on the function
+        cls._cdr_decode = entry  # type: ignore[method-assign,assignment]  # the compiled decoder replaces the stub
         return entry
 
     def decoder(self, endian: str, memory: bool) -> Decoder:
@@ -144,17 +142,17 @@ def _install_lazy_codecs(cls: type[Message], codecs: _Codecs) -> None:
         compiled_decoder(cls)
         return cls._cdr_decode(buf, strict)
 
-    def encode_first(message: Message, join: Join = b''.join) -> bytes:  # type: ignore[assignment]
+    def encode_first(message: Message, join: Join = b''.join) -> bytes:  # type: ignore[assignment]  # join may be an EncodeBuffer.join
         with lock:
             if cls.__dict__['_cdr_encode'] is lazy_encode:
-                cls._cdr_encode = staticmethod(codecs.encoder())  # type: ignore[method-assign]
+                cls._cdr_encode = staticmethod(codecs.encoder())  # type: ignore[method-assign,assignment]  # the stub is replaced by the compiled encoder
         return cls._cdr_encode(message, join)
 
     lazy_encode = staticmethod(encode_first)
     # a plain function, not a staticmethod: Python specialises calls of a function found on a
     # class (``cls._cdr_decode(...)``), not of a staticmethod; it is never read from instances
-    cls._cdr_decode = decode_first  # type: ignore[method-assign]
-    cls._cdr_encode = lazy_encode  # type: ignore[method-assign,assignment]
+    cls._cdr_decode = decode_first  # type: ignore[method-assign]  # a stub, compiled on first call
+    cls._cdr_encode = lazy_encode  # type: ignore[method-assign,assignment]  # as above
 
 
 def compiled_decoder(cls: type[Message]) -> Decoder:

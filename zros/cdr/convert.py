@@ -9,8 +9,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from zros.cdr.arrays import Array, DType
 from zros.cdr.errors import FieldError
-from zros.cdr.model import INTEGER_RANGES, Buffer, FieldValue
+from zros.cdr.model import INTEGER_RANGES, Buffer
 
 if TYPE_CHECKING:
     from zros.cdr.message import Message
@@ -24,7 +25,7 @@ def _kind_name(kind: str) -> str:
     return {'f': 'floats', 'i': 'integers', 'u': 'integers', 'b': 'bools'}.get(kind, 'values')
 
 
-def to_array(value: FieldValue, dtype: np.dtype) -> np.ndarray:
+def to_array(value: object, dtype: DType) -> Array:
     """A contiguous 1-D array of ``dtype`` from any sequence, refusing lossy conversions."""
     if type(value) is np.ndarray and value.dtype == dtype and value.ndim == 1:
         return value if value.flags.c_contiguous else np.ascontiguousarray(value)
@@ -72,7 +73,7 @@ def to_array(value: FieldValue, dtype: np.dtype) -> np.ndarray:
     return np.ascontiguousarray(array.astype(dtype))
 
 
-def prim_array(value: FieldValue, dtype: np.dtype, bound: int) -> np.ndarray:
+def prim_array(value: object, dtype: DType, bound: int) -> Array:
     """An array for a sequence field, checked against its bound (-1: unbounded)."""
     if (
         type(value) is np.ndarray
@@ -88,7 +89,7 @@ def prim_array(value: FieldValue, dtype: np.dtype, bound: int) -> np.ndarray:
     return array
 
 
-def fixed_array(value: FieldValue, dtype: np.dtype, count: int) -> np.ndarray:
+def fixed_array(value: object, dtype: DType, count: int) -> Array:
     """An array for a fixed-size array field; its length must be exactly ``count``."""
     if (
         type(value) is np.ndarray
@@ -110,7 +111,7 @@ Where = tuple[str, str]
 Shape = tuple[int, int]
 
 
-def init_array(value: FieldValue, dtype: np.dtype, shape: Shape, where: Where) -> np.ndarray:
+def init_array(value: object, dtype: DType, shape: Shape, where: Where) -> Array:
     """Convert a constructor argument for an array field, with the field name in errors."""
     try:
         array = to_array(value, dtype)
@@ -131,16 +132,16 @@ def _check_length(size: int, shape: Shape, where: Where) -> None:
 # --- constructor checks: called only when the generated fast check fails ------------------------
 
 
-def _shown(value: FieldValue) -> str:
+def _shown(value: object) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + '...'
 
 
-def _wrong(where: Where, expected: str, value: FieldValue) -> FieldError:
+def _wrong(where: Where, expected: str, value: object) -> FieldError:
     return FieldError(*where, f'expected {expected}, got {type(value).__name__} {_shown(value)}')
 
 
-def scalar(value: FieldValue, primitive: str, bound: int, where: Where) -> float | bool | str:
+def scalar(value: object, primitive: str, bound: int, where: Where) -> float | bool | str:
     """The value a scalar field keeps for a constructor argument, or a FieldError.
 
     Floats take any real number but bools; integers take ints, numpy integers and bools, in range
@@ -174,7 +175,7 @@ def scalar(value: FieldValue, primitive: str, bound: int, where: Where) -> float
     return int(number)
 
 
-def message(cls: type[Message], value: FieldValue, where: Where) -> FieldValue:
+def message(cls: type[Message], value: object, where: Where) -> object:
     """A nested message field from a constructor argument: a message of its type or a dict."""
     if isinstance(value, Mapping):
         try:
@@ -186,15 +187,13 @@ def message(cls: type[Message], value: FieldValue, where: Where) -> FieldValue:
     raise _wrong(where, f'a {cls.__msgtype__} or a dict', value)
 
 
-def _items(value: FieldValue, what: str, where: Where) -> list[FieldValue]:
+def _items(value: object, what: str, where: Where) -> list[object]:
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
         raise _wrong(where, f'a list of {what}', value)
     return list(value)
 
 
-def message_list(
-    cls: type[Message], value: FieldValue, shape: Shape, where: Where
-) -> list[FieldValue]:
+def message_list(cls: type[Message], value: object, shape: Shape, where: Where) -> list[object]:
     """A list of nested messages from a constructor argument (messages or dicts)."""
     items = _items(value, cls.__msgtype__, where)
     type_name, name = where
@@ -206,7 +205,7 @@ def message_list(
 
 
 def string_list(
-    value: FieldValue, primitive: str, string_bound: int, shape: Shape, where: Where
+    value: object, primitive: str, string_bound: int, shape: Shape, where: Where
 ) -> list[str]:
     """A list of strings from a constructor argument."""
     items = _items(value, 'str', where)
@@ -215,10 +214,10 @@ def string_list(
         if type(item) is not str or (string_bound and len(item) > string_bound):
             items[index] = scalar(item, primitive, string_bound, (type_name, f'{name}[{index}]'))
     _check_length(len(items), shape, where)
-    return items
+    return items  # type: ignore[return-value]  # each item is a str now (made one above)
 
 
-def empty_array(dtype: np.dtype) -> np.ndarray:
+def empty_array(dtype: DType) -> Array:
     """A shared, read-only empty array (decoded empty sequences all use it)."""
     array = np.zeros(0, dtype)
     array.flags.writeable = False
@@ -251,7 +250,7 @@ def wstring_decode(buf: Buffer, pos: int, count: int, end: int, endian: str) -> 
     return text, stop
 
 
-def check_scalar(primitive: str, value: FieldValue, low: int | None, high: int | None) -> None:
+def check_scalar(primitive: str, value: object, low: int | None, high: int | None) -> None:
     """Explain why a scalar value cannot be encoded (used by the traced encoder only)."""
     if primitive in ('float32', 'float64'):
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):

@@ -6,8 +6,10 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from zros.cdr.arrays import Array
+
 #: one piece of an encoded message: bytes-like, or a numpy array whose data is written as is
-Part = bytes | bytearray | memoryview | np.ndarray
+Part = bytes | bytearray | memoryview | Array
 #: assembles the parts of an encoded message (``b''.join``, or ``EncodeBuffer.join``)
 Join = Callable[[Sequence[Part]], bytes | bytearray]
 

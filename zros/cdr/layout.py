@@ -14,6 +14,7 @@ from functools import cache
 
 import numpy as np
 
+from zros.cdr.arrays import DType
 from zros.cdr.model import PRIMITIVE_SIZES, FieldType, Kind, MessageDef
 from zros.cdr.naming import attribute_name
 
@@ -41,7 +42,7 @@ VALUE_CODES = {**NUMPY_CODES, 'bool': '?'}
 
 
 @cache
-def numpy_dtype(primitive: str, endian: str = '<') -> np.dtype:
+def numpy_dtype(primitive: str, endian: str = '<') -> DType:
     """The wire dtype of a primitive (bool is read as uint8)."""
     code = NUMPY_CODES[primitive]
     return np.dtype(code if code.endswith('1') else endian + code)
@@ -145,7 +146,7 @@ class LayoutCache:
                     offset = self.walk_fixed(sub, offset)
         return offset
 
-    def dtype(self, name: str, endian: str = '<') -> np.dtype:
+    def dtype(self, name: str, endian: str = '<') -> DType:
         """The numpy structured dtype of a uniform struct, laid out as on the wire."""
         msg = self._resolve(name)
         info = self.info(name)

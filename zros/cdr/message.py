@@ -8,13 +8,12 @@ values, ``==``, a readable ``repr``, ``copy``, ``to_dict``/``from_dict`` and its
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, ClassVar, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, TypeVar
 
-import numpy as np
-
+from zros.cdr.arrays import DType
 from zros.cdr.encode_buffer import Join
 from zros.cdr.errors import CdrError, FieldError
-from zros.cdr.model import Buffer, FieldValue, MessageDef
+from zros.cdr.model import Buffer, MessageDef
 from zros.cdr.naming import attribute_name
 
 if TYPE_CHECKING:
@@ -55,14 +54,16 @@ class Message:
     #: type is not named here; ``zros.cdr.registry.registry_of(cls)`` returns it typed.
     _registry: ClassVar[object]
     #: numpy dtype of one element when a sequence of this type is a structured array, else None
-    _dtype: ClassVar[np.dtype | None] = None
+    _dtype: ClassVar[DType | None] = None
     _zros_codecs: ClassVar[TracedCodecs]
     #: rebuilds a message from its type name and CDR bytes when unpickling (set per class)
     _restore: ClassVar[Callable[[str, bytes], Message]]
 
     if TYPE_CHECKING:
-        # fields are generated at run time: to type checkers every field is a FieldValue
-        def __getattr__(self, name: str) -> FieldValue: ...
+        # Fields are generated at run time. A field read on this untyped base is Any on purpose,
+        # as rclpy's untyped messages: `0.2 / msg.data` type-checks in a user's program, and a
+        # program that wants checked fields declares its class (see tests/test_typing.py).
+        def __getattr__(self, name: str) -> Any: ...  # type: ignore[explicit-any,unused-ignore]  # as above
 
         def __setattr__(self, name: str, value: object) -> None: ...
 
@@ -74,7 +75,7 @@ class Message:
         """A deep copy; its arrays are writable even where this message's are views."""
         raise NotImplementedError
 
-    def to_dict(self) -> dict[str, FieldValue]:
+    def to_dict(self) -> dict[str, object]:
         """Nested dicts and lists of plain Python values (YAML and JSON friendly)."""
         raise NotImplementedError
 
@@ -159,7 +160,7 @@ def decode(cls: type[M], buf: bytes | bytearray | memoryview, strict: bool = Fal
     (alignment padding), which tells whether the data really is of this type.
     """
     try:
-        return cls._cdr_decode(buf, strict)  # type: ignore[return-value]
+        return cls._cdr_decode(buf, strict)  # type: ignore[return-value]  # the class decodes its own type
     except Exception as exc:
         raise decode_failure(cls, buf, strict, exc) from None
 
@@ -187,7 +188,8 @@ def decode_failure(cls: type[Message], buf: Buffer, strict: bool, exc: Exception
 
 
 def _codecs(cls: type[Message]) -> TracedCodecs:
-    return cls.__dict__['_zros_codecs']  # type: ignore[no-any-return]
+    codecs: TracedCodecs = cls.__dict__['_zros_codecs']
+    return codecs
 
 
 def _explain_encode(cls: type[Message], message: Message) -> CdrError:

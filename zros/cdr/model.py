@@ -14,10 +14,9 @@ from typing import Any
 
 from zros.cdr.errors import TypeNameError
 
+# Still Any (to be replaced at each use by object plus a narrowing, or a Protocol); no new uses.
 #: A message field's value (boundary): its type is the message definition's, known at run time.
-FieldValue = Any
-#: An object of an untyped library (ruamel.yaml, rosbags, pycdr2) (boundary): checked where read.
-Untyped = Any
+FieldValue = Any  # type: ignore[explicit-any,unused-ignore]  # as above
 #: The bytes a decoder reads: CDR from the network, a file or the user.
 Buffer = bytes | bytearray | memoryview
 #: A JSON value: nested dicts and lists whose shape the reader checks (isinstance) where it reads.

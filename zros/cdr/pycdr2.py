@@ -23,12 +23,14 @@ from __future__ import annotations
 
 import threading
 import weakref
+from types import ModuleType
+from typing import Protocol
 
 import numpy as np
 
 from zros.cdr.layout import VALUE_CODES
 from zros.cdr.message import Message
-from zros.cdr.model import FieldType, FieldValue, Kind, MessageDef, Untyped
+from zros.cdr.model import FieldType, Kind, MessageDef
 from zros.cdr.naming import attribute_name
 from zros.cdr.registry import TypeRegistry, default_registry, registry_of
 from zros.cdr.typestore import PLACEHOLDER_FIELD
@@ -50,7 +52,7 @@ _origins: weakref.WeakKeyDictionary[type, tuple[weakref.ref[TypeRegistry], str]]
 )
 
 
-def _pycdr2() -> Untyped:
+def _pycdr2() -> ModuleType:
     """The pycdr2 module, or ImportError with install instructions."""
     try:
         import pycdr2  # noqa: PLC0415 (optional: pycdr2)
@@ -92,7 +94,7 @@ def _build(registry: TypeRegistry, name: str) -> type:
     if cached is not None and cached[0] is definition:
         return cached[1]
     pycdr2 = _pycdr2()
-    fields: dict[str, Untyped] = {}
+    fields: dict[str, object] = {}
     for f in definition.fields:
         fields[attribute_name(f.name)] = _annotation(registry, definition.name, f.name, f.type)
     if not fields:
@@ -105,15 +107,21 @@ def _build(registry: TypeRegistry, name: str) -> type:
     return cls
 
 
-def _subscript(generic: Untyped, *args: Untyped) -> Untyped:
-    """``generic[args]`` for pycdr2's array, sequence and bounded_str (untyped for mypy)."""
+class _Generic(Protocol):
+    """pycdr2's array, sequence and bounded_str: subscripted to make annotations."""
+
+    def __getitem__(self, key: object, /) -> object: ...
+
+
+def _subscript(generic: _Generic, *args: object) -> object:
+    """``generic[args]`` for pycdr2's array, sequence and bounded_str."""
     return generic[args if len(args) > 1 else args[0]]
 
 
-def _annotation(registry: TypeRegistry, owner: str, field: str, ftype: FieldType) -> Untyped:
+def _annotation(registry: TypeRegistry, owner: str, field: str, ftype: FieldType) -> object:
     """The pycdr2 annotation of one field."""
     types = _pycdr2().types
-    element: Untyped
+    element: object
     if ftype.base == 'wstring':
         raise NotImplementedError(
             f'{owner} field {field!r}: wstring has no ROS-compatible pycdr2 type'
@@ -141,7 +149,7 @@ def _annotation(registry: TypeRegistry, owner: str, field: str, ftype: FieldType
 # --- conversions ----------------------------------------------------------------------------
 
 
-def to_pycdr2(message: Message) -> Untyped:
+def to_pycdr2(message: Message) -> object:
     """A pycdr2 instance of ``pycdr2_class(type(message))`` with equal content."""
     _pycdr2()
     cls = type(message)
@@ -149,7 +157,7 @@ def to_pycdr2(message: Message) -> Untyped:
 
 
 def from_pycdr2(
-    obj: Untyped, type_or_name: TypeLike | None = None, registry: TypeRegistry | None = None
+    obj: object, type_or_name: TypeLike | None = None, registry: TypeRegistry | None = None
 ) -> Message:
     """The zros message with the content of a pycdr2 instance.
 
@@ -191,13 +199,15 @@ class _Converter:
             self._types[name] = found
         return found
 
-    def to(self, name: str, message: Message) -> Untyped:
+    def to(self, name: str, message: Message) -> object:
         target, _, fields = self._type(name)
         if not fields:
             return target(**{PLACEHOLDER_FIELD: 0})
-        return target(**{attr: self.to_value(t, getattr(message, attr)) for attr, t in fields})
+        return target(**{attr: self.to_field(t, message, attr) for attr, t in fields})
 
-    def to_value(self, ftype: FieldType, value: FieldValue) -> Untyped:
+    def to_field(self, ftype: FieldType, message: Message, attr: str) -> object:
+        # a field of a message whose class is built at run time: its value's type is ftype's
+        value = getattr(message, attr)
         if ftype.kind is Kind.SCALAR:
             if ftype.is_nested:
                 return self.to(ftype.base, value)
@@ -213,11 +223,13 @@ class _Converter:
         # lists of messages and StructSeqs alike iterate over message objects
         return [self.to(ftype.base, item) for item in value]
 
-    def from_(self, name: str, obj: Untyped) -> Message:
+    def from_(self, name: str, obj: object) -> Message:
         _, cls, fields = self._type(name)
-        return cls(**{attr: self.from_value(t, getattr(obj, attr)) for attr, t in fields})
+        return cls(**{attr: self.from_field(t, obj, attr) for attr, t in fields})
 
-    def from_value(self, ftype: FieldType, value: Untyped) -> FieldValue:
+    def from_field(self, ftype: FieldType, obj: object, attr: str) -> object:
+        # a field of a pycdr2 object, whose class is built at run time: its type is ftype's
+        value = getattr(obj, attr)
         if ftype.kind is Kind.SCALAR:
             return self.from_(ftype.base, value) if ftype.is_nested else value
         if ftype.is_primitive:

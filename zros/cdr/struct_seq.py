@@ -7,15 +7,17 @@ the received bytes, turned into message objects on first indexing or iteration.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping, MutableSequence
-from typing import TypeVar, overload
+from typing import TYPE_CHECKING, TypeVar, overload
 
 import numpy as np
 
+from zros.cdr.arrays import Array
 from zros.cdr.convert import Bad, Where, message_list
 from zros.cdr.message import Message
-from zros.cdr.model import FieldValue
 
 M = TypeVar('M', bound=Message)
+if TYPE_CHECKING:  # slice is not subscriptable at run time before Python 3.14
+    Slice = slice[int | None, int | None, int | None]
 
 
 class StructSeq(MutableSequence[M]):
@@ -30,9 +32,9 @@ class StructSeq(MutableSequence[M]):
 
     __slots__ = ('_arr', '_cls', '_items')
 
-    def __init__(self, cls: type[M], data: Iterable[M] | np.ndarray | None = None) -> None:
+    def __init__(self, cls: type[M], data: Iterable[M] | Array | None = None) -> None:
         self._cls = cls
-        self._arr: np.ndarray | None = None
+        self._arr: Array | None = None
         self._items: list[M] | None = None
         if data is None:
             self._items = []
@@ -51,7 +53,7 @@ class StructSeq(MutableSequence[M]):
             self._items = items
 
     @classmethod
-    def _from_array(cls, element: type[M], array: np.ndarray) -> StructSeq[M]:
+    def _from_array(cls, element: type[M], array: Array) -> StructSeq[M]:
         seq: StructSeq[M] = object.__new__(cls)
         seq._cls = element
         seq._arr = array
@@ -66,13 +68,13 @@ class StructSeq(MutableSequence[M]):
     def _list(self) -> list[M]:
         if self._items is None:
             rows = self._arr.tolist() if self._arr is not None else []
-            make = self._cls._from_tuple  # type: ignore[attr-defined]
+            make = self._cls._from_tuple  # type: ignore[attr-defined]  # generated for uniform structs
             self._items = [make(row) for row in rows]
             self._arr = None
         return self._items
 
     @property
-    def array(self) -> np.ndarray:
+    def array(self) -> Array:
         """The elements as a numpy structured array laid out as on the wire."""
         if self._arr is None:
             self._arr = pack_structs(self._cls, self._items or [])
@@ -80,7 +82,7 @@ class StructSeq(MutableSequence[M]):
         return self._arr
 
     @array.setter
-    def array(self, value: np.ndarray) -> None:
+    def array(self, value: Array) -> None:
         dtype = self._cls._dtype
         if dtype is None:
             raise TypeError(f'{self._cls.__msgtype__} has no structured array form')
@@ -97,27 +99,27 @@ class StructSeq(MutableSequence[M]):
         self._items = None
 
     def __len__(self) -> int:
-        return len(self._arr) if self._items is None else len(self._items)  # type: ignore[arg-type]
+        return len(self._arr) if self._items is None else len(self._items)  # type: ignore[arg-type]  # one of them is set
 
     @overload
     def __getitem__(self, index: int) -> M: ...
 
     @overload
-    def __getitem__(self, index: slice) -> list[M]: ...
+    def __getitem__(self, index: Slice) -> list[M]: ...
 
-    def __getitem__(self, index: int | slice) -> M | list[M]:
+    def __getitem__(self, index: int | Slice) -> M | list[M]:
         return self._list()[index]
 
     @overload
     def __setitem__(self, index: int, value: M) -> None: ...
 
     @overload
-    def __setitem__(self, index: slice, value: Iterable[M]) -> None: ...
+    def __setitem__(self, index: Slice, value: Iterable[M]) -> None: ...
 
-    def __setitem__(self, index: int | slice, value: M | Iterable[M]) -> None:
+    def __setitem__(self, index: int | Slice, value: M | Iterable[M]) -> None:
         self._list()[index] = value  # type: ignore[index,assignment]  # the overloads pair them
 
-    def __delitem__(self, index: int | slice) -> None:
+    def __delitem__(self, index: int | Slice) -> None:
         del self._list()[index]
 
     def insert(self, index: int, value: M) -> None:
@@ -136,7 +138,7 @@ class StructSeq(MutableSequence[M]):
             return len(self) == len(other) and all(a == b for a, b in zip(self, other, strict=True))
         return NotImplemented
 
-    __hash__ = None  # type: ignore[assignment]
+    __hash__ = None  # type: ignore[assignment]  # sequences are mutable
 
     def __repr__(self) -> str:
         content = repr(self._arr) if self._arr is not None else repr(self._items)
@@ -149,16 +151,14 @@ class StructSeq(MutableSequence[M]):
         return StructSeq(self._cls, [item.copy() for item in self._items or []])
 
 
-def pack_structs(
-    cls: type[Message], items: Iterable[FieldValue], writable: bool = True
-) -> np.ndarray:
+def pack_structs(cls: type[Message], items: Iterable[object], writable: bool = True) -> Array:
     """A structured array of ``cls._dtype`` from message objects (or dicts)."""
     dtype = cls._dtype
     assert dtype is not None
     if isinstance(items, list) and (data := _fast_rows(cls, items)) is not None:
         return np.frombuffer(bytearray(data) if writable else data, dtype)
     rows = []
-    to_tuple = cls._to_tuple  # type: ignore[attr-defined]
+    to_tuple = cls._to_tuple  # type: ignore[attr-defined]  # generated for uniform structs
     for index, item in enumerate(items):
         element = item
         if type(item) is not cls and getattr(item, '__msgtype__', None) != cls.__msgtype__:
@@ -172,8 +172,8 @@ def pack_structs(
 
 
 def struct_rows(
-    value: FieldValue, cls: type[Message], bound: int
-) -> tuple[int, bytes | np.ndarray]:
+    value: StructSeq[Message] | Array | Iterable[Message], cls: type[Message], bound: int
+) -> tuple[int, bytes | Array]:
     """The element count and what to encode of a struct sequence field. A sequence of message
     objects is packed row by row into bytes (building an array for a few elements cost more
     than packing them); arrays, and elements the packer refuses, go through
@@ -193,7 +193,7 @@ def struct_rows(
     return len(array), array
 
 
-def _fast_rows(cls: type[Message], items: list[FieldValue]) -> bytes | None:
+def _fast_rows(cls: type[Message], items: list[object]) -> bytes | None:
     """``items`` packed row by row by the class's generated packer, or None when it has none
     or refuses an element (a wrong one, or a dict): the checked path then says which."""
     fast = getattr(cls, '_pack_rows', None)
@@ -206,11 +206,13 @@ def _fast_rows(cls: type[Message], items: list[FieldValue]) -> bytes | None:
     return data
 
 
-def struct_array(value: FieldValue, cls: type[Message], bound: int) -> np.ndarray:
+def struct_array(
+    value: StructSeq[Message] | Array | Iterable[Message], cls: type[Message], bound: int
+) -> Array:
     """The contiguous little-endian structured array to encode for a struct sequence field."""
     dtype = cls._dtype
     assert dtype is not None
-    array: np.ndarray
+    array: Array
     if type(value) is StructSeq:
         # never switch the sequence to array mode here: element objects the user holds must stay
         # part of the message
@@ -233,7 +235,7 @@ def struct_array(value: FieldValue, cls: type[Message], bound: int) -> np.ndarra
     return array
 
 
-def struct_items(cls: type[Message], value: FieldValue, bound: int, where: Where) -> FieldValue:
+def struct_items(cls: type[Message], value: object, bound: int, where: Where) -> object:
     """The constructor argument of a struct sequence field: arrays and StructSeqs as they are,
     else a checked list of messages."""
     if isinstance(value, (np.ndarray, StructSeq)):

@@ -119,7 +119,7 @@ def infer_type(value: object, expected: ParameterType = ParameterType.NOT_SET) -
         if len(kinds) != 1:
             names = sorted(kind.ros_name for kind in kinds if kind is not None)
             raise ParameterError(f'a parameter array holds one type, not {" and ".join(names)}')
-        return _ARRAY[kinds.pop()]  # type: ignore[index]
+        return _ARRAY[kinds.pop()]  # type: ignore[index]  # one kind left, not None
     raise ParameterError(f'{type(value).__name__} is not a parameter type')
 
 

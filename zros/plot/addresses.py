@@ -14,14 +14,14 @@ import keyword
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, SupportsFloat
 
 import numpy as np
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-    from zros.cdr import FieldValue, Message
+    from zros.cdr import Message
 
 from zros.errors import ZrosError
 
@@ -57,14 +57,17 @@ class Series:
 
     def value(self, message: Message) -> float:
         """The value of this field in ``message`` as a float (NaN for a missing element)."""
-        value: FieldValue = message
-        for name in self.attributes:
-            value = getattr(value, name)
-        if self.index is not None:
-            if self.index >= len(value):
-                return float('nan')
-            value = value[self.index]
-        return float(value)
+        owner = message  # the message holding the field: nested messages are Messages
+        *path, last = self.attributes
+        for name in path:
+            owner = getattr(owner, name)
+        if self.index is None:
+            number: SupportsFloat = getattr(owner, last)
+            return float(number)
+        numbers: Sequence[SupportsFloat] = getattr(owner, last)  # a list or a numpy array
+        if self.index >= len(numbers):
+            return float('nan')
+        return float(numbers[self.index])
 
     def column(
         self, columns: Mapping[str, npt.NDArray[np.generic[object]]]

@@ -104,7 +104,7 @@ def font_measure(font_size: float = FONT_SIZE) -> Measure:
     font = FontProperties(size=font_size)
 
     def measure(text: str) -> tuple[float, float]:
-        width, height, _ = renderer.get_text_width_height_descent(  # type: ignore[no-untyped-call]
+        width, height, _ = renderer.get_text_width_height_descent(  # type: ignore[no-untyped-call]  # untyped in matplotlib
             text, font, ismath=False
         )
         return float(width), float(height)
@@ -147,7 +147,7 @@ def draw_graph(
     for route in layout.routes:
         axes.add_patch(
             FancyArrowPatch(
-                path=_edge_path(route.points),  # type: ignore[arg-type]
+                path=_edge_path(route.points),  # type: ignore[arg-type]  # a matplotlib Path
                 arrowstyle='-|>,head_length=0.5,head_width=0.22',
                 mutation_scale=14,
                 color=EDGE_COLOR,

@@ -273,9 +273,9 @@ class Subscriber(Entity, Generic[T]):
         data = sample.payload.to_bytes()
         # T is bytes when raw, else msg_type's instances (the overloads of __init__)
         if self.raw:
-            return data  # type: ignore[return-value]
+            return data  # type: ignore[return-value]  # T is bytes (see above)
         try:
-            return decode(self.msg_type, data)  # type: ignore[return-value]
+            return decode(self.msg_type, data)  # type: ignore[return-value]  # T is msg_type
         except CdrError as exc:
             self.undecodable += 1  # under self._reading
             self._drop(sample, f'it does not decode as {self.type_name}: {exc}')

@@ -81,7 +81,7 @@ class Client(ServiceEntity):
             if self._closed:
                 return False
             status = self._querier.matching_status  # a MatchingStatus: the stub says bool
-            return bool(status.matching)  # type: ignore[attr-defined]
+            return bool(status.matching)  # type: ignore[attr-defined]  # see above
 
     def wait_for_service(self, timeout: float | None = 5.0) -> bool:
         """Wait until a server is reachable; returns whether one showed up in time (False once

@@ -59,7 +59,7 @@ def seconds(timeout: TimeoutLike) -> float | None:
     nanoseconds_of = getattr(timeout, 'nanoseconds', None)  # zros or rclpy Duration
     if isinstance(nanoseconds_of, int):
         return nanoseconds_of / _NS
-    return float(timeout)  # type: ignore[arg-type]
+    return float(timeout)  # type: ignore[arg-type]  # a number, else float raises
 
 
 def format_time(stamp: int) -> str:

@@ -162,7 +162,7 @@ class Router(Closing):
         self.endpoints = self._locators()
         self._closed = False
         _install_exit_hook()
-        _open.add(self)  # type: ignore[arg-type]
+        _open.add(self)  # type: ignore[arg-type]  # closed at exit as sessions are
 
     def _locators(self) -> list[str]:
         for reply in self.session.get(f'@/{self.zid}/router'):
@@ -184,7 +184,7 @@ class Router(Closing):
         """Stop the router; clients connected to it lose their link."""
         if not self._closed:
             self._closed = True
-            _open.discard(self)  # type: ignore[arg-type]
+            _open.discard(self)  # type: ignore[arg-type]  # as above
             self.session.close()  # type: ignore[no-untyped-call]  # untyped in zenoh's stub
 
     def __repr__(self) -> str:

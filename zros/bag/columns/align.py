@@ -27,6 +27,7 @@ import numpy as np
 from zros.bag.columns.extract import TIME
 from zros.bag.columns.plan import Leaf, plan, select
 from zros.bag.errors import BagError
+from zros.cdr.arrays import Array
 
 if TYPE_CHECKING:
     from zros.cdr.message import Message
@@ -40,18 +41,18 @@ _NS = 1_000_000_000
 #: struct of fields), a list of those, or a mapping topic -> field paths (None: every field)
 Columns = str | Iterable[str] | Mapping[str, str | Iterable[str] | None]
 #: ``Bag.columns(topic, fields)``
-ReadColumns = Callable[[str, list[str]], dict[str, np.ndarray]]
+ReadColumns = Callable[[str, list[str]], dict[str, Array]]
 
 
 @dataclass
 class _Topic:
     """One topic's columns as read, and the orders that put them on the clock."""
 
-    columns: dict[str, np.ndarray]  #: as ``Bag.columns`` gave them (receive order)
-    every: np.ndarray  #: every message's row, in stamp order (stable)
-    every_stamp: np.ndarray  #: their stamps, int64 ns
-    rows: np.ndarray  #: a row per distinct stamp: the last received
-    stamps: np.ndarray  #: their stamps, increasing
+    columns: dict[str, Array]  #: as ``Bag.columns`` gave them (receive order)
+    every: Array  #: every message's row, in stamp order (stable)
+    every_stamp: Array  #: their stamps, int64 ns
+    rows: Array  #: a row per distinct stamp: the last received
+    stamps: Array  #: their stamps, increasing
 
 
 def requested(columns: Columns) -> dict[str, list[str] | None]:
@@ -152,8 +153,8 @@ class Aligner:
 
 
 def _match(
-    topic: _Topic, instants: np.ndarray, method: str, tolerance: int | None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    topic: _Topic, instants: Array, method: str, tolerance: int | None
+) -> tuple[Array, Array, Array, Array]:
     """Per instant: the rows before and after (or the chosen row twice), the weight of the
     after row, and whether there is a match."""
     stamps = topic.stamps
@@ -190,18 +191,18 @@ def _match(
 
 
 def _fill(
-    column: np.ndarray,
-    low: np.ndarray,
-    high: np.ndarray,
-    weight: np.ndarray,
-    ok: np.ndarray,
+    column: Array,
+    low: Array,
+    high: Array,
+    weight: Array,
+    ok: Array,
     *,
     interpolate: bool,
-) -> np.ndarray:
+) -> Array:
     size = len(ok)
     if not len(column):
         return np.full((size, *column.shape[1:]), np.nan)
-    values: np.ndarray = column[low].astype(np.float64)
+    values: Array = column[low].astype(np.float64)
     if interpolate:
         w = weight.reshape(-1, *([1] * (column.ndim - 1)))
         values += (column[high].astype(np.float64) - values) * w
@@ -219,7 +220,7 @@ def align(
     method: str = 'nearest',
     tolerance: float | None = None,
     stamp: str = 'header',
-) -> dict[str, np.ndarray]:
+) -> dict[str, Array]:
     """The columns of ``Bag.align``: ``time`` (the reference instants, int64 ns), then
     ``topic.field`` (float64, NaN where nothing matched)."""
     limit = _check(method, stamp, tolerance)
@@ -249,7 +250,7 @@ def align(
             instants = np.arange(min(firsts), max(lasts) + 1, period, dtype=np.int64)
         else:
             instants = np.empty(0, np.int64)
-    result: dict[str, np.ndarray] = {TIME: np.asarray(instants, np.int64)}
+    result: dict[str, Array] = {TIME: np.asarray(instants, np.int64)}
     flat: list[str] = []
     for name, (leaves, topic) in topics.items():
         if name not in wanted:

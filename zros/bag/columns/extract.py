@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from zros.bag.columns.plan import Leaf, Plan, Step, plan, select
+from zros.cdr.arrays import Array, DType
 
 if TYPE_CHECKING:
     from typing import TypeAlias
@@ -53,7 +54,7 @@ class _Part:
     """Rows of one length group that reached the same offset."""
 
     rows: Rows  #: a row per message
-    where: np.ndarray  #: positions of the rows in the batch
+    where: Array  #: positions of the rows in the batch
     offset: int  #: current offset relative to the CDR body
 
 
@@ -62,17 +63,17 @@ class _Later:
     assembled: each copy is gone before the next is made, so a long column's copies reuse one
     another's memory instead of all being alive at once (fresh memory is slow to fault in)."""
 
-    def __init__(self, rows: Rows, start: int, stop: int, wire: np.dtype) -> None:
+    def __init__(self, rows: Rows, start: int, stop: int, wire: DType) -> None:
         self._rows, self._start, self._stop, self._wire = rows, start, stop, wire
         self.shape = (len(rows), (stop - start) // wire.itemsize)
 
-    def __array__(self, dtype: np.dtype | None = None, copy: bool | None = None) -> np.ndarray:
+    def __array__(self, dtype: DType | None = None, copy: bool | None = None) -> Array:
         values = self._rows.take(self._start, self._stop).view(self._wire)
         return values if dtype is None else values.astype(dtype)
 
 
-Values = np.ndarray | _Later
-Pieces = dict[str, list[tuple[np.ndarray, Values]]]  # leaf path -> (positions, values)
+Values = Array | _Later
+Pieces = dict[str, list[tuple[Array, Values]]]  # leaf path -> (positions, values)
 
 
 def _run(plan_: Plan, leaves: list[Leaf], parts: list[_Part], pieces: Pieces) -> None:
@@ -144,14 +145,14 @@ def _step(step: Step, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Pa
     return parts
 
 
-def _subset(part: _Part, counts: np.ndarray, count: int) -> _Part:
+def _subset(part: _Part, counts: Array, count: int) -> _Part:
     if len(counts) and counts[0] == count and (counts == count).all():
         return _Part(part.rows, part.where, part.offset)
     mask = counts == count
     return _Part(part.rows.subset(mask), part.where[mask], part.offset)
 
 
-def _split(part: _Part, counts: np.ndarray, offset_of: Callable[[int], int]) -> list[_Part]:
+def _split(part: _Part, counts: Array, offset_of: Callable[[int], int]) -> list[_Part]:
     parts = []
     for count in np.unique(counts).tolist():
         chosen = _subset(part, counts, count)
@@ -187,7 +188,7 @@ def _payloads(data: Sequence[bytes]) -> Payloads:
     return data if isinstance(data, Payloads) else Payloads.joined(data)
 
 
-def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, np.ndarray]:
+def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, Array]:
     """Decode one by one (with the reader's definition fallback) and pick the fields; also the
     positions of the messages kept (those no definition decodes are reported and skipped)."""
     getters = [(leaf, leaf.path.split('.')) for leaf in leaves]
@@ -221,15 +222,15 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, np
     return pieces, np.asarray(kept, np.int64)
 
 
-def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> np.ndarray:
+def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> Array:
     if not values:
         return np.empty((0, width) if width or leaf.sequence else 0, leaf.value)
     return np.asarray(values, dtype=leaf.value)
 
 
 def _assemble(
-    leaf: Leaf, pieces: list[tuple[np.ndarray, Values]], size: int, out: _Column | None = None
-) -> np.ndarray | None:
+    leaf: Leaf, pieces: list[tuple[Array, Values]], size: int, out: _Column | None = None
+) -> Array | None:
     """One column of a block from pieces of rows: written into ``out`` where its rows have
     the shape of the column's (then None), else returned."""
     shapes = {values.shape[1:] for _, values in pieces}
@@ -259,10 +260,10 @@ class _Column:
     def __init__(self, leaf: Leaf, capacity: int) -> None:
         self.leaf = leaf
         self.capacity = capacity
-        self.array: np.ndarray | None = None
+        self.array: Array | None = None
         self.size = 0
 
-    def rows(self, count: int, shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray | None:
+    def rows(self, count: int, shape: tuple[int, ...], dtype: DType) -> Array | None:
         """The next ``count`` rows to write into (a view), if they have ``shape``."""
         array = self.array
         if array is None:
@@ -276,7 +277,7 @@ class _Column:
         self.size += count
         return array[self.size - count : self.size]
 
-    def add(self, pieces: list[tuple[np.ndarray, Values]], count: int) -> None:
+    def add(self, pieces: list[tuple[Array, Values]], count: int) -> None:
         """The rows of a batch (``pieces`` as :func:`_assemble` takes them)."""
         if not count:
             return
@@ -299,7 +300,7 @@ class _Column:
             array[self.size + row] = other[row]
         self.size += count
 
-    def result(self, order: np.ndarray | None) -> np.ndarray:
+    def result(self, order: Array | None) -> Array:
         """The column in time order (``order``: the rows' order where arrival is not)."""
         if self.array is None:
             empty = _assemble(self.leaf, [], 0)
@@ -368,8 +369,8 @@ class _Extraction:
         self.capacity = capacity
         self.plans: dict[int, tuple[Plan, list[Leaf]]] = {}
         self.leaves: list[Leaf] | None = None
-        self.times: list[np.ndarray] = []
-        self.keys: list[np.ndarray] = []
+        self.times: list[Array] = []
+        self.keys: list[Array] = []
         self.columns: dict[str, _Column] = {}
         self.pending: dict[int, list[Block]] = {}
         self.queued: dict[int, tuple[int, int]] = {}  #: messages and bytes pending
@@ -384,7 +385,7 @@ class _Extraction:
             if count >= BATCH or size >= BATCH_BYTES:
                 self._flush(cid)
 
-    def finish(self, connections: list[Connection]) -> dict[str, np.ndarray]:
+    def finish(self, connections: list[Connection]) -> dict[str, Array]:
         for cid in list(self.pending):
             self._flush(cid)
         if self.leaves is None:
@@ -486,7 +487,7 @@ def extract(
     *,
     start: int | None,
     end: int | None,
-) -> dict[str, np.ndarray]:
+) -> dict[str, Array]:
     """The columns of ``Bag.columns``: the messages of ``connections`` (one topic's) in
     ``source``, decoded with ``types`` where the plan cannot read them."""
     requested = None if fields is None else ([fields] if isinstance(fields, str) else list(fields))
@@ -509,9 +510,9 @@ def extract(
     return extraction.finish(connections)
 
 
-def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
+def structured(columns: dict[str, Array], path: Path) -> Array:
     """Columns as one structured array; ragged columns cannot be part of one."""
-    fields: list[tuple[str, np.dtype, tuple[int, ...]]] = []
+    fields: list[tuple[str, DType, tuple[int, ...]]] = []
     for name, column in columns.items():
         if column.dtype == object:
             raise BagError(
@@ -527,7 +528,7 @@ def structured(columns: dict[str, np.ndarray], path: Path) -> np.ndarray:
     return out
 
 
-def dataframe(columns: dict[str, np.ndarray]) -> DataFrame:
+def dataframe(columns: dict[str, Array]) -> DataFrame:
     """Columns as a pandas DataFrame; 2-D columns spread over ``name[i]`` columns, views of
     the arrays (a copy, as pandas makes by default, would double the peak memory)."""
     try:
@@ -537,7 +538,7 @@ def dataframe(columns: dict[str, np.ndarray]) -> DataFrame:
             'to_dataframe() needs pandas, which zros does not install: pip install pandas '
             '(columns() and to_numpy() give the same data as numpy arrays)'
         ) from None
-    data: dict[str, np.ndarray | list[object]] = {}
+    data: dict[str, Array | list[object]] = {}
     for name, column in columns.items():
         if column.ndim == 2:
             for index in range(column.shape[1]):

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from zros.cdr.arrays import DType
 from zros.cdr.layout import VALUE_CODES, numpy_dtype
 from zros.cdr.message import Message, definition_of
 from zros.cdr.model import PRIMITIVE_SIZES, Kind, MessageDef
@@ -26,8 +27,8 @@ class Leaf:
     """A numeric field: its path, value dtype and, for fixed arrays, its length (else 0)."""
 
     path: str
-    wire: np.dtype  #: the dtype on the wire (bool is a byte)
-    value: np.dtype  #: the dtype of the column
+    wire: DType  #: the dtype on the wire (bool is a byte)
+    value: DType  #: the dtype of the column
     length: int = 0
     sequence: bool = False
 

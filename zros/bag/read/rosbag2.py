@@ -16,7 +16,7 @@ import sys
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -25,13 +25,12 @@ from zros.bag.read.damage import Skipped
 from zros.bag.read.db3_recover import RecoveredDb3, is_sqlite
 from zros.bag.read.mcap_chunks import Damaged, ordered_messages, read_blocks
 from zros.bag.read.mcap_recover import RecoveredMcap, is_mcap
+from zros.bag.read.recovered import SqlStorageReader, StorageReader, path_of
 from zros.bag.read.source_base import Block, Connection, RawMessage, Source, normalise_type_name
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection as NativeConnection
     from rosbags.interfaces import MessageDefinition
-
-    from zros.cdr import Untyped
 
 _log = logging.getLogger('zros.bag')
 _SQL_BATCH = 16384
@@ -43,9 +42,7 @@ _FORMATS = {'MSG': 'ros2msg', 'IDL': 'ros2idl', 'NONE': ''}
 class _Stream:
     """One storage file's reader and how its connections map to the source's."""
 
-    #: a rosbags storage reader or a RecoveredMcap: untyped here, as the members used (``path``,
-    #: ``dbconn``, a folder's ``storages``) are not in rosbags' declared reader protocol
-    reader: Untyped
+    reader: StorageReader  #: a rosbags storage reader, a RecoveredMcap or a RecoveredDb3
     mapping: dict[int, Connection] = field(default_factory=dict)
 
 
@@ -70,6 +67,7 @@ class Rosbag2Source(Source):
 
     def open(self) -> None:
         from rosbags.rosbag2 import Reader  # noqa: PLC0415 (lazy: rosbags, import time)
+        from rosbags.rosbag2.reader import DirectoryReader  # noqa: PLC0415 (lazy: as above)
 
         folder = self.path.is_dir()
         if folder and not (self.path / 'metadata.yaml').is_file():
@@ -86,9 +84,10 @@ class Rosbag2Source(Source):
             self._open_files(files, 'its files do not open as complete MCAP or db3 files')
             return
         self._closers.append(reader.close)
-        storage: Untyped = reader.storage  # a folder's reader, or one file's (see _Stream)
+        storage = reader.storage  # a folder's reader, or one file's
         folder = self.path.is_dir()
-        storages = list(storage.storages) if folder else [storage]
+        parts = storage.storages if isinstance(storage, DirectoryReader) else []
+        storages: list[StorageReader] = list(parts) if folder else [storage]
         self._streams = [_Stream(s) for s in storages]
         meta = storage.metadata
         self.ros_distro = meta.ros_distro or None
@@ -101,7 +100,7 @@ class Rosbag2Source(Source):
             self._decompress = zstd.decompress
         if folder:
             self.files = [self.path / 'metadata.yaml']
-            self.files += [s.path for s in storage.storages]
+            self.files += [path_of(s) for s in parts]
             if self.compression_mode == 'file':
                 self.files = [self.path / 'metadata.yaml', *self._compressed_files()]
         else:
@@ -126,7 +125,9 @@ class Rosbag2Source(Source):
             raise BagError(self.path, f'not a ROS 2 bag folder: {reason} and no .mcap or .db3 file')
         notes = []
         for path in paths:
-            storage: Untyped = Sqlite3Reader(path) if path.suffix == '.db3' else McapReader(path)
+            storage: StorageReader = (
+                Sqlite3Reader(path) if path.suffix == '.db3' else McapReader(path)
+            )
             try:
                 storage.open()
             except Exception as exc:  # whatever rosbags raised: raised again unless it recovers
@@ -140,16 +141,20 @@ class Rosbag2Source(Source):
                     notes.append(f'{path.name}: read row by row ({exc})')
                     self._streams.append(_Stream(storage))
                     continue
-                storage = RecoveredMcap(path)
-                storage.open()
-                if not storage.connections:
+                recovered = RecoveredMcap(path)
+                storage = recovered
+                recovered.open()
+                if not recovered.connections:
                     if len(paths) == 1:
-                        raise BagError(path, f'no complete record: {storage.stopped_at}') from None
+                        raise BagError(
+                            path, f'no complete record: {recovered.stopped_at}'
+                        ) from None
                     notes.append(f'{path.name}: no complete record, skipped')
                     continue
+                count = recovered.metadata.message_count if recovered.metadata else 0
                 notes.append(
-                    f'{path.name}: {storage.metadata.message_count} messages up to its last '
-                    f'complete record ({storage.stopped_at or "no summary"})'
+                    f'{path.name}: {count} messages up to its last '
+                    f'complete record ({recovered.stopped_at or "no summary"})'
                 )
             self._closers.append(storage.close)
             self._streams.append(_Stream(storage))
@@ -198,7 +203,7 @@ class Rosbag2Source(Source):
         for stream in self._streams:
             for item in stream.reader.connections:
                 stream.mapping[item.id] = by_key[(item.topic, item.msgtype)]
-        metas = [s.reader.metadata for s in self._streams if s.reader.metadata.message_count]
+        metas = [m for s in self._streams if (m := s.reader.metadata) and m.message_count]
         self.message_count = sum(meta.message_count for meta in metas)
         if metas:
             self.start_ns = min(meta.start_time for meta in metas)
@@ -255,7 +260,7 @@ class Rosbag2Source(Source):
         skip: list[tuple[int, bytes]] = []
         if self.storage_id == 'mcap' and decompress is None:
             # whole chunks through their message indexes, without rosbags' step per record
-            path = Path(getattr(stream.reader, 'path', ''))
+            path = path_of(stream.reader)
             try:
                 for connection, timestamp, data in ordered_messages(
                     path,
@@ -286,16 +291,18 @@ class Rosbag2Source(Source):
                 ids = [n for n, c in stream.mapping.items() if c == message.connection]
                 if not ids:
                     continue
+                database = cast(SqlStorageReader, stream.reader).dbconn  # storage_id says so
+                query = (
+                    'SELECT id FROM messages WHERE timestamp = ? AND data = ? AND topic_id IN '
+                    f'({",".join("?" * len(ids))})'
+                )
                 try:
-                    found = stream.reader.dbconn.execute(
-                        'SELECT id FROM messages WHERE timestamp = ? AND data = ? AND topic_id IN '
-                        f'({",".join("?" * len(ids))})',
-                        [message.timestamp, bytes(message.data), *ids],
-                    ).fetchone()
+                    args = [message.timestamp, bytes(message.data), *ids]
+                    found = database.execute(query, args).fetchone()
                 except Exception:  # a damaged database: the row stays unnamed
                     continue
                 if found:
-                    return Path(stream.reader.path), None, int(found[0])
+                    return path_of(stream.reader), None, int(found[0])
         return self.path, None, None
 
     def _damaged(self, path: Path, mapping: dict[int, Connection]) -> Damaged:
@@ -327,7 +334,7 @@ class Rosbag2Source(Source):
             if self.storage_id == 'sqlite3':
                 yield from _sqlite_blocks(stream, set(channels), start, end)
                 continue
-            path = Path(stream.reader.path)
+            path = path_of(stream.reader)
             damaged = self._damaged(path, stream.mapping)
             for found in read_blocks(
                 path, channels, start, end, mapped=mapping_chunks(), damaged=damaged
@@ -356,7 +363,7 @@ def _sqlite_blocks(
     if end is not None:
         query += ' AND timestamp < ?'
         args.append(end)
-    cursor = stream.reader.dbconn.execute(query, args)
+    cursor = cast(SqlStorageReader, stream.reader).dbconn.execute(query, args)
     while rows := list(itertools.islice(cursor, _SQL_BATCH)):
         grouped: dict[int, tuple[list[int], list[int], list[bytes]]] = {}
         for topic, stamp, key, data in rows:

@@ -26,7 +26,6 @@ from zros.cdr.typestore import from_rosbags
 if TYPE_CHECKING:
     from typing_extensions import Self
 
-    from zros.cdr import FieldValue
 
 _log = logging.getLogger('zros.bag')
 _EVENT = '_Event'
@@ -62,7 +61,7 @@ class UndecodedMessage(Message):
         """Another message with the same bytes."""
         return type(self)(self.data)
 
-    def to_dict(self) -> dict[str, FieldValue]:
+    def to_dict(self) -> dict[str, object]:
         """Refused: without a definition there are no fields."""
         raise TypeError(
             f'{self.__msgtype__} has no definition: no fields, only its CDR bytes in .data'

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -33,6 +33,17 @@ from zros.cdr.codegen.passes import JOIN, PARTS, parts_in_locals, without_dead_c
 from zros.cdr.codegen.program import Program, path_literal
 from zros.cdr.model import INTEGER_RANGES, PRIMITIVE_SIZES, FieldType, Kind, MessageDef
 from zros.cdr.struct_seq import struct_rows
+
+if TYPE_CHECKING:
+    from zros.cdr.encode_buffer import Join
+    from zros.cdr.message import Message
+
+
+class Encoder(Protocol):
+    """A compiled encoder: ``encode(message, join=b''.join) -> bytes``."""
+
+    def __call__(self, message: Message, join: Join = ..., /) -> bytes: ...
+
 
 #: the CDR header of little-endian data
 HEADER_LE = b'\x00\x01\x00\x00'
@@ -397,7 +408,7 @@ class _EncoderBuilder:
 _ZEROS = tuple(bytes(k) for k in range(8))
 
 
-def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Callable[..., bytes]:
+def generate_encoder(ctx: Context, msg: MessageDef, trace: bool) -> Encoder:
     """The function ``encode(message, join=b''.join) -> bytes`` (little-endian, header included,
     no padding). ``join`` assembles the parts; publishers pass one that reuses a buffer."""
     builder = _EncoderBuilder(ctx, trace)

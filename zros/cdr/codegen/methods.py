@@ -4,16 +4,18 @@
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import numpy as np
+import numpy.typing as npt
 
 from zros.cdr import convert
+from zros.cdr.arrays import Array
 from zros.cdr.codegen.ops import STRUCT_CODES, Context, value_dtype
 from zros.cdr.codegen.program import Generated, Program
 from zros.cdr.errors import FieldError
 from zros.cdr.message import Message
-from zros.cdr.model import PRIMITIVE_SIZES, Field, FieldType, FieldValue, Kind, MessageDef
+from zros.cdr.model import PRIMITIVE_SIZES, Field, FieldType, Kind, MessageDef
 from zros.cdr.naming import attribute_name
 from zros.cdr.struct_seq import StructSeq, struct_items
 
@@ -22,14 +24,12 @@ def _display_name(name: str) -> str:
     return name.replace('/', '.')
 
 
-def generate_methods(
-    ctx: Context, msg: MessageDef
-) -> dict[str, Generated | staticmethod[..., Message]]:
+def generate_methods(ctx: Context, msg: MessageDef) -> dict[str, object]:
     """``__init__``, ``__eq__``, ``__repr__``, ``copy`` and ``to_dict`` of a message class.
 
     For uniform structs also ``_from_tuple`` and ``_to_tuple`` (rows of its numpy dtype).
     """
-    result: dict[str, Generated | staticmethod[..., Message]] = {
+    result: dict[str, object] = {
         '__init__': _gen_init(ctx, msg),
         '_zros_default': staticmethod(_gen_default(ctx, msg)),
         '__eq__': _gen_eq(ctx, msg),
@@ -114,7 +114,7 @@ def _gen_default(ctx: Context, msg: MessageDef) -> Callable[[], Message]:
     return src.compile('', '_zros_default')
 
 
-def _gen_init(ctx: Context, msg: MessageDef) -> Callable[..., None]:
+def _gen_init(ctx: Context, msg: MessageDef) -> Generated:
     # parameters are field names, which may shadow builtins: generated code uses only _names.
     # Each scalar argument passes one cheap test (its exact type); anything else goes to a
     # convert helper that converts it (an int for a float...) or raises a FieldError.
@@ -201,7 +201,7 @@ def _gen_eq(ctx: Context, msg: MessageDef) -> Callable[[Message, object], bool]:
     return src.compile('self, other', '__eq__')
 
 
-def _array_equal(a: FieldValue, b: FieldValue) -> bool:
+def _array_equal(a: npt.ArrayLike, b: npt.ArrayLike) -> bool:
     return bool(np.array_equal(a, b))
 
 
@@ -235,11 +235,12 @@ def _gen_copy(ctx: Context, msg: MessageDef) -> Callable[[Message], Message]:
     return src.compile('self', 'copy')
 
 
-def _to_list(value: FieldValue) -> list[FieldValue]:
-    return value.tolist() if isinstance(value, np.ndarray) else list(value)
+def _to_list(value: Array | Iterable[object]) -> list[object]:
+    items: list[object] = value.tolist() if isinstance(value, np.ndarray) else list(value)
+    return items
 
 
-def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str, FieldValue]]:
+def _gen_to_dict(ctx: Context, msg: MessageDef) -> Callable[[Message], dict[str, object]]:
     src = Program()
     to_list = src.ref(_to_list, 'tolist')
     items = []
@@ -298,7 +299,7 @@ def _tuple_pattern(ctx: Context, msg: MessageDef, src: Program, var: str, lines:
     return '(' + ''.join(n + ', ' for n in names) + ')'
 
 
-def _gen_from_tuple(ctx: Context, msg: MessageDef) -> Callable[[tuple[FieldValue, ...]], Message]:
+def _gen_from_tuple(ctx: Context, msg: MessageDef) -> Callable[[tuple[object, ...]], Message]:
     src = Program()
     lines: list[str] = []
     pattern = _tuple_pattern(ctx, msg, src, 'o', lines)
@@ -324,7 +325,7 @@ def _tuple_expr(ctx: Context, msg: MessageDef, var: str) -> str:
     return '(' + ''.join(item + ', ' for item in items) + ')'
 
 
-def _gen_to_tuple(ctx: Context, msg: MessageDef) -> Callable[[Message], tuple[FieldValue, ...]]:
+def _gen_to_tuple(ctx: Context, msg: MessageDef) -> Callable[[Message], tuple[object, ...]]:
     src = Program()
     src.add(f'return {_tuple_expr(ctx, msg, "o")}')
     return src.compile('o', '_to_tuple')

@@ -13,6 +13,7 @@ from typing import Protocol
 
 import numpy as np
 
+from zros.cdr.arrays import DType
 from zros.cdr.layout import StructInfo, numpy_dtype
 from zros.cdr.model import FieldType, MessageDef
 from zros.cdr.naming import attribute_name
@@ -50,12 +51,12 @@ class Context(Protocol):
         """The class of a message type."""
         ...
 
-    def dtype(self, name: str, endian: str) -> np.dtype:
+    def dtype(self, name: str, endian: str) -> DType:
         """The structured dtype of a uniform message type."""
         ...
 
 
-def value_dtype(primitive: str) -> np.dtype:
+def value_dtype(primitive: str) -> DType:
     """The dtype of a primitive array field's value (numpy bool for ``bool``)."""
     return np.dtype('?') if primitive == 'bool' else numpy_dtype(primitive, '<')
 

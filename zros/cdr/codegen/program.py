@@ -9,9 +9,10 @@ from typing import Any
 
 from zros.cdr.errors import CdrError
 
-#: a function compiled from generated source (boundary): its signature is the source text's,
-#: and each generator states it in its own return type
-Generated = Callable[..., Any]
+#: a function compiled from generated source: what ``exec`` made, so its signature is known to
+#: the source text only; each generator states it in its own return type (a precise Callable or
+#: Protocol), so this is the one place a codec is unchecked, and nothing is cast per message
+Generated = Callable[..., Any]  # type: ignore[explicit-any,unused-ignore]  # as above
 
 
 class Program:
@@ -43,7 +44,7 @@ class Program:
         self.depth -= 1
 
     @contextmanager
-    def guarded(self, explain: Callable[..., Exception], arguments: str) -> Iterator[None]:
+    def guarded(self, explain: object, arguments: str) -> Iterator[None]:
         """Lines added inside the ``with`` go in a ``try:`` whose ``except`` raises
         ``explain(arguments)`` instead (``exc`` names the exception caught)."""
         self.depth += 1
@@ -113,7 +114,7 @@ class Program:
             ) from None
         exec(code, scope)
         function: Generated = scope['_factory'](**self.objects)
-        function.__zros_source__ = text  # type: ignore[attr-defined]
+        function.__zros_source__ = text  # type: ignore[attr-defined]  # read by source_of
         return function
 
 
@@ -132,6 +133,6 @@ def path_literal(path: str) -> str:
     return 'f' + repr(path) if '{' in path else repr(path)
 
 
-def source_of(function: Callable[..., object]) -> str:
+def source_of(function: object) -> str:
     """The generated source of a codec or method (for debugging)."""
     return str(getattr(function, '__zros_source__', ''))

@@ -240,7 +240,7 @@ class Calls:
             offered = self._offered.get(name)
         if offered is None or offered.peer is not peer:
             raise GatewayError(f'Service {name} has not been advertised via rosbridge.')
-        future = offered.pending.get(op.get('id'))  # type: ignore[arg-type]
+        future = offered.pending.get(op.get('id'))  # type: ignore[arg-type]  # a JSON id: a str key, else no future
         if future is None:
             raise GatewayError(f'Received service response for unrecognized id: {op.get("id")}')
         if op.get('result') is False:

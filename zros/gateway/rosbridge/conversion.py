@@ -36,7 +36,7 @@ from zros.cdr.naming import attribute_name
 from zros.errors import ZrosError
 
 if TYPE_CHECKING:
-    from zros.cdr import FieldValue, JsonValue, Message, TypeRegistry
+    from zros.cdr import JsonValue, Message, TypeRegistry
     from zros.gateway.common.json_types import OutObject
 
 TIME_TYPES = ('builtin_interfaces/msg/Time', 'builtin_interfaces/msg/Duration')
@@ -110,13 +110,15 @@ class Values:
     ) -> OutObject:
         values: dict[str, object] = {}
         for field in definition.fields:
-            value = getattr(message, attribute_name(field.name))
-            values[field.name] = self._out_field(value, field.type, cbor, blobs)
+            attribute = attribute_name(field.name)
+            values[field.name] = self._out_field(message, attribute, field.type, cbor, blobs)
         return values
 
     def _out_field(
-        self, value: FieldValue, kind: FieldType, cbor: bool, blobs: list[str] | None
+        self, message: Message, attribute: str, kind: FieldType, cbor: bool, blobs: list[str] | None
     ) -> object:
+        # a field of a message whose class is built at run time: its value's type is kind's
+        value = getattr(message, attribute)
         base = kind.base
         if kind.kind is Kind.SCALAR:
             if kind.is_nested:
@@ -168,9 +170,9 @@ class Values:
 
     def _in(
         self, values: Mapping[str, JsonValue], definition: MessageDef, root: str, path: list[str]
-    ) -> dict[str, FieldValue]:
+    ) -> dict[str, object]:
         by_name = {field.name: field for field in definition.fields}
-        fields: dict[str, FieldValue] = {}
+        fields: dict[str, object] = {}
         if definition.name == HEADER and 'stamp' not in values:
             sec, nanosec = self._now()
             fields['stamp'] = self.registry.get_class(TIME_TYPES[0])(sec=sec, nanosec=nanosec)
@@ -192,7 +194,7 @@ class Values:
             f'but got {_json_type(value)}'
         )
 
-    def _in_field(self, value: JsonValue, field: Field, root: str, path: list[str]) -> FieldValue:
+    def _in_field(self, value: JsonValue, field: Field, root: str, path: list[str]) -> object:
         kind = field.type
         if kind.kind is Kind.SCALAR:
             return self._in_scalar(value, kind, root, path)
@@ -218,9 +220,7 @@ class Values:
             return value
         return [self._in_scalar(item, element, root, path) for item in value]
 
-    def _in_scalar(
-        self, value: JsonValue, kind: FieldType, root: str, path: list[str]
-    ) -> FieldValue:
+    def _in_scalar(self, value: JsonValue, kind: FieldType, root: str, path: list[str]) -> object:
         base = kind.base
         if kind.is_primitive:
             return self._check_primitive(value, base, root, path)
@@ -252,9 +252,7 @@ class Values:
                     break
         return time
 
-    def _check_primitive(
-        self, value: JsonValue, base: str, root: str, path: list[str]
-    ) -> FieldValue:
+    def _check_primitive(self, value: JsonValue, base: str, root: str, path: list[str]) -> object:
         if base in _FLOATS:
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise self._mismatch(root, path, base, value)
