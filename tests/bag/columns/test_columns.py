@@ -13,7 +13,7 @@ import pytest
 from tests.bag.makebags import make_db3, make_points_mcap, make_sensor_bag
 from tests.bag.reference import RECORDINGS, rosbags_messages
 from zros.bag import Bag, BagError, Connection, RawMessage
-from zros.bag.columns import extract
+from zros.bag.columns import extract, rows
 from zros.cdr import encode, new_message
 
 
@@ -66,7 +66,7 @@ def test_sensor_columns_equal_rosbags(sensor_bag: Path, topic: str) -> None:
 
 def test_fast_and_slow_paths_agree(sensor_bag: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     def refuse(*args: Any) -> Any:
-        raise extract._Unplannable('forced')
+        raise rows.Unplannable('forced')
 
     def unexpected(*args: Any) -> Any:
         raise AssertionError('the fast path should read these messages')
@@ -75,7 +75,7 @@ def test_fast_and_slow_paths_agree(sensor_bag: Path, monkeypatch: pytest.MonkeyP
         monkeypatch.setattr(extract, '_slow', unexpected)
         fast = {t: bag.columns(t) for t in ('/imu', '/scan', '/odom')}
         monkeypatch.undo()
-        monkeypatch.setattr(extract, '_fast', refuse)
+        monkeypatch.setattr(extract, 'read_rows', refuse)
         slow = {t: bag.columns(t) for t in ('/imu', '/scan', '/odom')}
     for topic, found in fast.items():
         assert found.keys() == slow[topic].keys()

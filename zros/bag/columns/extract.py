@@ -1,25 +1,24 @@
 """Numeric fields of a topic as numpy columns, read straight from the CDR bytes.
 
-Messages of one connection are grouped by byte length into rows that stay in their buffers
-(:class:`~zros.bag.read.payloads.Rows`), so a field at the same offset in every row is gathered in
-one numpy copy and viewed with its dtype. Strings and sequences move the offset by their length:
-rows are split into parts by the offset they reach, and each part goes on alone. Recorded sensor
-data has few parts (the frame id and array lengths rarely change), so a topic costs a handful of
-numpy calls per field. Messages the plan cannot read (big-endian, sequences of strings before
-the fields, too many distinct layouts, data that does not fit the type) are decoded one by one
+A topic is read in batches of chunks. Each batch goes through the plan of its type
+(:mod:`zros.bag.columns.rows`: a handful of numpy calls per field, since recorded sensor data has
+few layouts) and fills the topic's columns (:mod:`zros.bag.columns.column`), allocated once for
+its message count. Messages the plan cannot read (big-endian, sequences of strings before the
+fields, too many distinct layouts, data that does not fit the type) are decoded one by one
 instead, which also gives the reader's definition fallback and errors.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from zros.bag.columns.plan import Leaf, Plan, Step, plan, select
+from zros.bag.columns.column import Column
+from zros.bag.columns.plan import Leaf, Plan, plan, select
+from zros.bag.columns.rows import Pieces, Unplannable, payloads_of, read_rows
 from zros.cdr.arrays import Array, DType
 
 if TYPE_CHECKING:
@@ -31,7 +30,7 @@ if TYPE_CHECKING:
 
     from zros.cdr import FieldValue
 from zros.bag.errors import BagError, Unsupported
-from zros.bag.read.payloads import Payloads, Rows, gather
+from zros.bag.read.payloads import Payloads
 from zros.bag.read.source import Block, Connection, RawMessage, Source
 from zros.bag.read.types import BagTypes
 from zros.cdr.message import Message
@@ -41,151 +40,6 @@ TIME = 'time'
 BATCH = 65536
 #: chunk bytes held per batch (the same bound for large messages, or chunks of many topics)
 BATCH_BYTES = 64 << 20
-#: beyond this many distinct layouts in a batch, decoding one by one is faster
-MAX_PARTS = 64
-
-
-class _Unplannable(Exception):
-    """The fast path cannot read these messages; decode them one by one."""
-
-
-@dataclass
-class _Part:
-    """Rows of one length group that reached the same offset."""
-
-    rows: Rows  #: a row per message
-    where: Array  #: positions of the rows in the batch
-    offset: int  #: current offset relative to the CDR body
-
-
-class _Later:
-    """The values of a sequence field in rows of one buffer, copied out when the column is
-    assembled: each copy is gone before the next is made, so a long column's copies reuse one
-    another's memory instead of all being alive at once (fresh memory is slow to fault in)."""
-
-    def __init__(self, rows: Rows, start: int, stop: int, wire: DType) -> None:
-        self._rows, self._start, self._stop, self._wire = rows, start, stop, wire
-        self.shape = (len(rows), (stop - start) // wire.itemsize)
-
-    def __array__(self, dtype: DType | None = None, copy: bool | None = None) -> Array:
-        values = self._rows.take(self._start, self._stop).view(self._wire)
-        return values if dtype is None else values.astype(dtype)
-
-
-Values = Array | _Later
-Pieces = dict[str, list[tuple[Array, Values]]]  # leaf path -> (positions, values)
-
-
-def _run(plan_: Plan, leaves: list[Leaf], parts: list[_Part], pieces: Pieces) -> None:
-    wanted = {leaf.path for leaf in leaves}
-    todo = set(wanted)
-    for step in plan_.steps:
-        if not todo and not plan_.complete:
-            return  # nothing left to read, and the rest cannot be checked
-        if step.kind == 'stop':
-            if todo:
-                raise _Unplannable(step.where)
-            return
-        if len(parts) > MAX_PARTS:
-            raise _Unplannable('too many layouts')
-        following: list[_Part] = []
-        for part in parts:
-            following += _step(step, part, wanted, pieces)
-        parts = following
-        todo -= {leaf.path for _, leaf in step.leaves if leaf is not None}
-    for part in parts:
-        left = part.rows.length - 4 - part.offset
-        if not 0 <= left <= 3:
-            raise _Unplannable(f'{left} bytes left after the message')
-
-
-def _step(step: Step, part: _Part, wanted: set[str], pieces: Pieces) -> list[_Part]:
-    rows, offset = part.rows, part.offset
-    body = rows.length - 4
-    offset += -offset % step.align
-    if step.kind == 'block':
-        if offset + step.size > body:
-            raise _Unplannable('short message')
-        spans = [
-            (at, at + leaf.wire.itemsize * max(leaf.length, 1), leaf)
-            for at, leaf in step.leaves
-            if leaf.path in wanted
-        ]
-        if spans:  # one copy of the bytes from the first wanted field to the end of the last
-            first = min(begin for begin, _, _ in spans)
-            taken = rows.take(4 + offset + first, 4 + offset + max(end for _, end, _ in spans))
-            for begin, end, leaf in spans:
-                values = taken[:, begin - first : end - first].view(leaf.wire)
-                pieces[leaf.path].append((part.where, values if leaf.length else values[:, 0]))
-        part.offset = offset + step.size
-        return [part]
-    if offset + 4 > body:
-        raise _Unplannable('short message')
-    counts = rows.take(4 + offset, 8 + offset).view('<u4')[:, 0]
-    offset += 4
-    if step.kind == 'string':
-        return _split(part, counts, lambda count: offset + int(count) * step.size)
-    # sequences of primitives or structs: the first element aligns, an empty one does not
-    parts = []
-    for count in np.unique(counts).tolist():
-        first = offset + (-offset % step.align if count else 0)
-        end = first + count * step.size
-        if end > body:
-            raise _Unplannable('short message')
-        chosen = _subset(part, counts, count)
-        leaves = [leaf for _, leaf in step.leaves if leaf.path in wanted]
-        at = 0
-        for rows in chosen.rows.segments() if leaves else ():
-            where = chosen.where[at : at + len(rows)]
-            at += len(rows)
-            for leaf in leaves:
-                pieces[leaf.path].append((where, _Later(rows, 4 + first, 4 + end, leaf.wire)))
-        chosen.offset = end
-        parts.append(chosen)
-    return parts
-
-
-def _subset(part: _Part, counts: Array, count: int) -> _Part:
-    if len(counts) and counts[0] == count and (counts == count).all():
-        return _Part(part.rows, part.where, part.offset)
-    mask = counts == count
-    return _Part(part.rows.subset(mask), part.where[mask], part.offset)
-
-
-def _split(part: _Part, counts: Array, offset_of: Callable[[int], int]) -> list[_Part]:
-    parts = []
-    for count in np.unique(counts).tolist():
-        chosen = _subset(part, counts, count)
-        chosen.offset = offset_of(count)
-        if chosen.offset > chosen.rows.length - 4:
-            raise _Unplannable('short message')
-        parts.append(chosen)
-    return parts
-
-
-def _groups(batch: list[Payloads]) -> list[_Part]:
-    """Messages grouped by length, each group one :class:`Rows`."""
-    lengths = np.concatenate([payloads.lengths() for payloads in batch])
-    parts = []
-    for length in np.unique(lengths).tolist():
-        if length < 4:
-            raise _Unplannable('shorter than a CDR header')
-        rows, chosen = gather(batch, length)
-        head = rows.take(0, 2)
-        if head[:, 0].any() or (head[:, 1] != 1).any():
-            raise _Unplannable('not little-endian CDR')
-        parts.append(_Part(rows, chosen, 0))
-    return parts
-
-
-def _fast(plan_: Plan, leaves: list[Leaf], batch: list[Payloads]) -> Pieces:
-    pieces: Pieces = {leaf.path: [] for leaf in leaves}
-    _run(plan_, leaves, _groups(batch), pieces)
-    return pieces
-
-
-def _payloads(data: Sequence[bytes]) -> Payloads:
-    return data if isinstance(data, Payloads) else Payloads.joined(data)
 
 
 def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, Array]:
@@ -226,93 +80,6 @@ def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> Array:
     if not values:
         return np.empty((0, width) if width or leaf.sequence else 0, leaf.value)
     return np.asarray(values, dtype=leaf.value)
-
-
-def _assemble(
-    leaf: Leaf, pieces: list[tuple[Array, Values]], size: int, out: _Column | None = None
-) -> Array | None:
-    """One column of a block from pieces of rows: written into ``out`` where its rows have
-    the shape of the column's (then None), else returned."""
-    shapes = {values.shape[1:] for _, values in pieces}
-    if len(shapes) <= 1:
-        shape = shapes.pop() if shapes else ((0,) if leaf.sequence else ())
-        if leaf.length:
-            shape = (leaf.length,)
-        target = None if out is None else out.rows(size, shape, leaf.value)
-        written = target is not None
-        if target is None:
-            target = np.empty((size, *shape), leaf.value)
-        for where, values in pieces:
-            target[where] = values
-        return None if written else target
-    ragged = np.empty(size, object)
-    for where, values in pieces:
-        converted = np.asarray(values).astype(leaf.value)
-        for row, index in enumerate(where.tolist()):
-            ragged[index] = converted[row]
-    return ragged
-
-
-class _Column:
-    """One column of a topic, filled batch by batch into one array allocated for the whole
-    topic: its rows are never held twice (per-batch arrays joined at the end were)."""
-
-    def __init__(self, leaf: Leaf, capacity: int) -> None:
-        self.leaf = leaf
-        self.capacity = capacity
-        self.array: Array | None = None
-        self.size = 0
-
-    def rows(self, count: int, shape: tuple[int, ...], dtype: DType) -> Array | None:
-        """The next ``count`` rows to write into (a view), if they have ``shape``."""
-        array = self.array
-        if array is None:
-            array = self.array = np.empty((max(self.capacity, count), *shape), dtype)
-        elif array.dtype == object or array.shape[1:] != shape:
-            return None
-        elif self.size + count > len(array):  # more messages than counted: grow
-            grown = np.empty((max(len(array) * 3 // 2, self.size + count), *shape), dtype)
-            grown[: self.size] = array[: self.size]
-            array = self.array = grown
-        self.size += count
-        return array[self.size - count : self.size]
-
-    def add(self, pieces: list[tuple[Array, Values]], count: int) -> None:
-        """The rows of a batch (``pieces`` as :func:`_assemble` takes them)."""
-        if not count:
-            return
-        other = _assemble(self.leaf, pieces, count, self)
-        if other is None:
-            return
-        # rows of another shape (sequences whose length changed): a column of 1-D arrays
-        array = self.array
-        if array is None or array.dtype != object:
-            ragged = np.empty(max(self.capacity, self.size + count), object)
-            if array is not None:
-                for index in range(self.size):
-                    ragged[index] = array[index]
-            array = self.array = ragged
-        elif self.size + count > len(array):
-            grown = np.empty(max(len(array) * 3 // 2, self.size + count), object)
-            grown[: self.size] = array[: self.size]
-            array = self.array = grown
-        for row in range(count):
-            array[self.size + row] = other[row]
-        self.size += count
-
-    def result(self, order: Array | None) -> Array:
-        """The column in time order (``order``: the rows' order where arrival is not)."""
-        if self.array is None:
-            empty = _assemble(self.leaf, [], 0)
-            assert empty is not None  # nothing to write into
-            return empty
-        column = self.array[: self.size]
-        if order is not None:
-            # only the rows out of place move: a copy of those, not of the column
-            moved = np.flatnonzero(order != np.arange(len(order)))
-            first, last = int(moved[0]), int(moved[-1]) + 1
-            column[first:last] = column[order[first:last]]
-        return column
 
 
 def _leaves(path: Path, topic: str, cls: type[Message], fields: list[str] | None) -> list[Leaf]:
@@ -371,7 +138,7 @@ class _Extraction:
         self.leaves: list[Leaf] | None = None
         self.times: list[Array] = []
         self.keys: list[Array] = []
-        self.columns: dict[str, _Column] = {}
+        self.columns: dict[str, Column] = {}
         self.pending: dict[int, list[Block]] = {}
         self.queued: dict[int, tuple[int, int]] = {}  #: messages and bytes pending
 
@@ -401,7 +168,7 @@ class _Extraction:
                 order = np.lexsort((keys, times))
         result = {TIME: times if order is None else times[order]}
         for leaf in self.leaves:
-            column = self.columns.get(leaf.path) or _Column(leaf, 0)
+            column = self.columns.get(leaf.path) or Column(leaf, 0)
             result[leaf.path] = column.result(order)
         return result
 
@@ -429,7 +196,7 @@ class _Extraction:
         self.queued.pop(cid, None)
         if not queue:
             return
-        batch = [_payloads(b.data) for b in queue]
+        batch = [payloads_of(b.data) for b in queue]
         times = np.concatenate([b.times for b in queue])
         keys = np.concatenate([b.keys for b in queue])
         known = self.plans.get(cid)
@@ -440,8 +207,8 @@ class _Extraction:
             self.plans[cid] = known
         plan_, own = known
         try:
-            found = _fast(plan_, own, batch)
-        except _Unplannable:
+            found = read_rows(plan_, own, batch)
+        except Unplannable:
             datas = [data for payloads in batch for data in payloads]
             found, kept = _slow(self.types, Block(queue[0].connection, times, keys, datas), own)
             if len(kept) < len(times):
@@ -449,7 +216,7 @@ class _Extraction:
         for leaf in own:
             column = self.columns.get(leaf.path)
             if column is None:
-                column = self.columns[leaf.path] = _Column(leaf, self.capacity)
+                column = self.columns[leaf.path] = Column(leaf, self.capacity)
             column.add(found[leaf.path], len(times))
         self.times.append(times)
         self.keys.append(keys)
