@@ -158,10 +158,11 @@ def test_a_memoryview_of_any_format_with_arrays_decodes_its_bytes(name: str) -> 
             assert cdr.decode(cls, view) == expected, label
 
 
-def test_text_running_past_the_copied_head_decodes_from_a_view() -> None:
+def test_text_past_the_copied_head_and_views_shorter_than_it_decode() -> None:
     Image = MESSAGES['Image 640x480'].__class__
     frame = 'f' * (2 * HEAD_BYTES)
     for image in (
+        Image(header={'frame_id': 'cam'}, encoding='mono8', data=np.ones(3, np.uint8)),
         Image(header={'frame_id': frame}, encoding='rgb8', data=np.arange(12, dtype=np.uint8)),
         Image(header={'frame_id': 'cam'}, encoding='e' * HEAD_BYTES, data=np.ones(3, np.uint8)),
     ):
