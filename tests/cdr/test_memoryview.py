@@ -16,7 +16,7 @@ from zros import cdr
 from zros.cdr import CdrError, Message
 from zros.cdr.classes import compiled_decoder
 from zros.cdr.codegen import replace_reference
-from zros.cdr.codegen.decoder import COPY_TEXT_BELOW
+from zros.cdr.codegen.decoder import COPY_TEXT_BELOW, HEAD_BYTES
 
 BENCHMARK = Path(__file__).resolve().parents[2] / 'benchmarks' / 'codec.py'
 
@@ -136,3 +136,50 @@ def test_replacing_a_reference_a_compiled_function_does_not_hold_fails() -> None
     entry = compiled_decoder(String)
     with pytest.raises(ValueError, match='decode does not refer to'):
         replace_reference(entry, object(), object())
+
+
+ARRAY_MESSAGES = [
+    'LaserScan(720)',
+    'Image 640x480',
+    'PointCloud2(100k)',
+    'Odometry',
+    'PoseArray(1000)',
+]
+
+
+@pytest.mark.parametrize('name', ARRAY_MESSAGES)
+def test_a_memoryview_of_any_format_with_arrays_decodes_its_bytes(name: str) -> None:
+    # the text before the arrays is read from a copy of the view's head, whatever its format
+    cls = type(MESSAGES[name])
+    data = cdr.encode(MESSAGES[name])
+    expected = cdr.decode(cls, data)
+    for label, view in _formats(data):
+        for _ in range(2):
+            assert cdr.decode(cls, view) == expected, label
+
+
+def test_text_past_the_copied_head_and_views_shorter_than_it_decode() -> None:
+    Image = MESSAGES['Image 640x480'].__class__
+    frame = 'f' * (2 * HEAD_BYTES)
+    for image in (
+        Image(header={'frame_id': 'cam'}, encoding='mono8', data=np.ones(3, np.uint8)),
+        Image(header={'frame_id': frame}, encoding='rgb8', data=np.arange(12, dtype=np.uint8)),
+        Image(header={'frame_id': 'cam'}, encoding='e' * HEAD_BYTES, data=np.ones(3, np.uint8)),
+    ):
+        data = cdr.encode(image)
+        for label, view in slices(data):
+            assert cdr.decode(Image, view) == image, label
+
+
+@pytest.mark.parametrize('name', ['LaserScan(720)', 'Image 640x480', 'PointCloud2(100k)'])
+def test_a_truncated_or_empty_view_fails_as_its_bytes_do(name: str) -> None:
+    message = MESSAGES[name]
+    data = cdr.encode(message)
+    cut = next(i for i in range(30, len(data)) if data[i - 1])  # inside the frame id's text
+    for size in (0, 3, 16, cut, len(data) - 1):
+        with pytest.raises(CdrError) as from_bytes:
+            cdr.decode(type(message), data[:size])
+        for label, view in slices(data[:size]):
+            with pytest.raises(CdrError) as from_view:
+                cdr.decode(type(message), view)
+            assert str(from_view.value) == str(from_bytes.value), (size, label)
