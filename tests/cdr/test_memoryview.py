@@ -16,7 +16,8 @@ from zros import cdr
 from zros.cdr import CdrError, Message
 from zros.cdr.classes import compiled_decoder
 from zros.cdr.codegen import replace_reference
-from zros.cdr.codegen.decoder import COPY_TEXT_BELOW, HEAD_BYTES
+from zros.cdr.codegen.decode_builder import HEAD_BYTES
+from zros.cdr.codegen.decoder import COPY_TEXT_BELOW
 
 BENCHMARK = Path(__file__).resolve().parents[2] / 'benchmarks' / 'codec.py'
 
