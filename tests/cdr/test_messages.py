@@ -350,10 +350,11 @@ def test_definition_of_a_message_class_gives_its_fields_with_their_types(
         cdr.definition_of(cdr.Message)
 
 
-def test_untyped_is_a_deprecated_name_for_object() -> None:
-    with pytest.warns(DeprecationWarning, match=r'zros.cdr.Untyped is deprecated: use object'):
-        untyped = cdr.Untyped
-    assert untyped is object
-    assert 'Untyped' not in cdr.__all__
+@pytest.mark.parametrize('name', ['Untyped', 'FieldValue'])
+def test_the_aliases_of_any_are_deprecated_names_for_object(name: str) -> None:
+    with pytest.warns(DeprecationWarning, match=rf'zros.cdr.{name} is deprecated: use object'):
+        alias = getattr(cdr, name)
+    assert alias is object
+    assert name not in cdr.__all__
     with pytest.raises(AttributeError, match="has no attribute 'Unknown'"):
         _ = cdr.Unknown

@@ -24,7 +24,6 @@ from zros.cdr.message import decode as _decode
 from zros.cdr.model import (
     ActionDef,
     Definition,
-    FieldValue,
     JsonValue,
     MessageDef,
     ServiceDef,
@@ -94,8 +93,8 @@ def _decode_first(type_name: str, buf: bytes | bytearray | memoryview, strict: b
 
 
 def __getattr__(name: str) -> object:
-    if name == 'Untyped':  # was an alias of Any
-        deprecated('zros.cdr.Untyped', 'object, or a Protocol of what is used')
+    if name in ('Untyped', 'FieldValue'):  # were aliases of Any
+        deprecated(f'zros.cdr.{name}', 'object, or a Protocol of what is used')
         return object
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
@@ -117,7 +116,6 @@ __all__ = [
     'CdrError',
     'Definition',
     'FieldError',
-    'FieldValue',
     'InterfaceSyntaxError',
     'JsonValue',
     'Message',

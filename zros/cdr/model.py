@@ -10,13 +10,9 @@ from __future__ import annotations
 import enum
 import re
 from dataclasses import dataclass, field
-from typing import Any
 
 from zros.cdr.errors import TypeNameError
 
-# Still Any (to be replaced at each use by object plus a narrowing, or a Protocol); no new uses.
-#: A message field's value (boundary): its type is the message definition's, known at run time.
-FieldValue = Any  # type: ignore[explicit-any,unused-ignore]  # as above
 #: The bytes a decoder reads: CDR from the network, a file or the user.
 Buffer = bytes | bytearray | memoryview
 #: A JSON value: nested dicts and lists whose shape the reader checks (isinstance) where it reads.

@@ -10,10 +10,10 @@ from __future__ import annotations
 import io
 import math
 import sys
-from collections.abc import Iterable, Sized
-from typing import TYPE_CHECKING
+from collections.abc import Collection, Iterable, Sized
+from typing import TYPE_CHECKING, cast
 
-from zros.cdr.message import definition_of
+from zros.cdr.message import Message, definition_of
 from zros.cdr.model import FieldType, Kind
 
 if TYPE_CHECKING:
@@ -24,7 +24,6 @@ if TYPE_CHECKING:
     from ruamel.yaml.nodes import Node
     from ruamel.yaml.representer import SafeRepresenter
 
-    from zros.cdr import FieldValue, Message
 
 #: a message as plain data (``to_plain``): what the YAML and CSV writers take
 PlainValue: TypeAlias = (
@@ -57,15 +56,22 @@ def _abbreviate(value: Sized, field_type: FieldType) -> str:
     return f'<sequence type: {name}, length: {len(value)}>'
 
 
-def _byte_text(value: FieldValue, csv: bool) -> str:
+def _byte_text(value: object, csv: bool) -> str:
     """rclpy holds ``byte`` values as ``bytes``: ros2 prints them as characters in YAML and as
     ``b'\\xff'`` in CSV."""
-    data = value if isinstance(value, bytes) else bytes([int(value)])
+    import numpy as np
+
+    if isinstance(value, bytes):
+        data = value
+    elif isinstance(value, (int, np.integer)):
+        data = bytes([int(value)])
+    else:
+        raise TypeError(f'a byte field holds {type(value).__name__}')
     return repr(data) if csv else ''.join(chr(c) for c in data)
 
 
 def _plain(
-    value: FieldValue,
+    value: object,
     field_type: FieldType | None,
     options: tuple[int | None, bool, bool, bool],
 ) -> PlainValue:
@@ -74,6 +80,8 @@ def _plain(
     truncate, no_arr, no_str, csv = options
     is_byte = field_type is not None and field_type.element.base == 'byte'
     if field_type is not None and not field_type.is_scalar:
+        if not isinstance(value, Collection):
+            raise TypeError(f'an array field holds {type(value).__name__}')
         if no_arr:
             return _abbreviate(value, field_type)
         items = value.tolist() if isinstance(value, np.ndarray) else list(value)
@@ -96,12 +104,11 @@ def _plain(
     if isinstance(value, np.generic):
         item: PlainValue = value.item()
         return item
-    if hasattr(value, '__msgtype__'):
+    if isinstance(value, Message):
         return _fields(value, options)
     if isinstance(value, (bytes, bytearray, np.ndarray, list, tuple)):  # a --field selection
         return [_plain(element, None, options) for element in list(value)]
-    scalar: PlainValue = value  # a bool, int, float (or None) field
-    return scalar
+    return cast('PlainValue', value)  # a bool, int, float (or None) field
 
 
 def _fields(
@@ -244,7 +251,7 @@ def message_to_yaml(
 
 
 def value_to_yaml(
-    value: FieldValue,
+    value: object,
     *,
     truncate: int | None = None,
     no_arr: bool = False,
@@ -280,13 +287,13 @@ def message_to_csv(
     return text(to_plain(message, truncate=truncate, no_arr=no_arr, no_str=no_str, csv=True))
 
 
-def select(message: Message, path: str) -> FieldValue:
+def select(message: Message, path: str) -> object:
     """The value at a dotted path (``pose.position``), for ``--field``."""
-    value = message
+    value: object = message
     for part in path.strip('.').split('.'):
         if not part:
             continue
-        if not hasattr(value, '__msgtype__') or part not in value.__slots__:
+        if not isinstance(value, Message) or part not in value.__slots__:
             where = getattr(value, '__msgtype__', type(value).__name__)
             raise KeyError(f"--field {path}: '{part}' is not a field of {where}")
         value = getattr(value, part)

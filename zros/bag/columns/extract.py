@@ -10,7 +10,7 @@ instead, which also gives the reader's definition fallback and errors.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sized
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -28,7 +28,6 @@ if TYPE_CHECKING:
 
     DataFrame: TypeAlias = pd.DataFrame  #: pandas' DataFrame (typed where pandas-stubs is)
 
-    from zros.cdr import FieldValue
 from zros.bag.errors import BagError, Unsupported
 from zros.bag.read.payloads import Payloads
 from zros.bag.read.source import Block, Connection, RawMessage, Source
@@ -46,7 +45,7 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, Ar
     """Decode one by one (with the reader's definition fallback) and pick the fields; also the
     positions of the messages kept (those no definition decodes are reported and skipped)."""
     getters = [(leaf, leaf.path.split('.')) for leaf in leaves]
-    values: dict[str, list[FieldValue]] = {leaf.path: [] for leaf in leaves}
+    values: dict[str, list[object]] = {leaf.path: [] for leaf in leaves}
     connection = block.connection
     kept = []
     for row, (stamp, data) in enumerate(zip(block.times.tolist(), block.data, strict=True)):
@@ -55,7 +54,7 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, Ar
             continue
         kept.append(row)
         for leaf, parts in getters:
-            value = message
+            value: object = message
             for part in parts:
                 value = getattr(value, part if hasattr(value, part) else part + '_')
             values[leaf.path].append(value)
@@ -66,6 +65,7 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, Ar
         if leaf.sequence:
             groups: dict[int, list[int]] = {}
             for row, value in enumerate(column):
+                assert isinstance(value, Sized)  # a sequence field's value
                 groups.setdefault(len(value), []).append(row)
             pieces[leaf.path] = [
                 (where[rows], _stack([column[r] for r in rows], leaf, size))
@@ -76,7 +76,7 @@ def _slow(types: BagTypes, block: Block, leaves: list[Leaf]) -> tuple[Pieces, Ar
     return pieces, np.asarray(kept, np.int64)
 
 
-def _stack(values: list[FieldValue], leaf: Leaf, width: int) -> Array:
+def _stack(values: list[object], leaf: Leaf, width: int) -> Array:
     if not values:
         return np.empty((0, width) if width or leaf.sequence else 0, leaf.value)
     return np.asarray(values, dtype=leaf.value)

@@ -106,20 +106,21 @@ def find(args: argparse.Namespace) -> int:
 
 
 def echo(args: argparse.Namespace) -> int:
+    from zros.cdr.message import Message
     from zros.cli.message_text import message_to_csv, message_to_yaml, select, value_to_yaml
 
     options = {'truncate': args.truncate_length, 'no_arr': args.no_arr, 'no_str': args.no_str}
 
     def text_of(message: Message) -> str:
-        value = message
+        value: object = message
         if args.field:
             try:
                 value = select(message, args.field)
             except KeyError as exc:
                 raise CommandError(str(exc.args[0])) from None
         if args.csv:
-            return message_to_csv(value, **options) if hasattr(value, '__msgtype__') else str(value)
-        if hasattr(value, '__msgtype__'):
+            return message_to_csv(value, **options) if isinstance(value, Message) else str(value)
+        if isinstance(value, Message):
             return message_to_yaml(value, flow_style=args.flow_style, **options)
         return value_to_yaml(value, flow_style=args.flow_style, **options)
 
