@@ -156,10 +156,13 @@ def _groups(batch: list[Payloads]) -> list[Part]:
 
 
 def read_rows(plan_: Plan, leaves: list[Leaf], batch: list[Payloads]) -> Pieces:
+    """The values of ``leaves`` in a batch of one connection's messages, by running its plan;
+    raises :class:`Unplannable` where the plan cannot read them."""
     pieces: Pieces = {leaf.path: [] for leaf in leaves}
     _run(plan_, leaves, _groups(batch), pieces)
     return pieces
 
 
 def payloads_of(data: Sequence[bytes]) -> Payloads:
+    """A block's messages as :class:`Payloads` (as they are, or joined into one buffer)."""
     return data if isinstance(data, Payloads) else Payloads.joined(data)

@@ -58,6 +58,10 @@ def _dynamic_align(align: int) -> str:
 
 
 class DecoderBuilder:
+    """The source of one decoder under construction: the reads of its fields in order, the
+    offset known so far, and the fast or traced form (``trace``) of a bytes or memoryview
+    (``memory``) decoder."""
+
     def __init__(
         self, ctx: Context, endian: str, memory: bool, trace: bool, src: Program | None = None
     ) -> None:
