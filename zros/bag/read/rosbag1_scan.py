@@ -14,9 +14,9 @@ import io
 import mmap
 import os
 import struct
-from collections.abc import Callable, Collection, Iterator
+from collections.abc import Callable, Collection, Iterable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, BinaryIO
+from typing import TYPE_CHECKING, BinaryIO, TypeVar
 
 from zros.bag.read.recovered import Recovered, within
 from zros.bag.read.source_base import describe_error
@@ -53,7 +53,7 @@ def indexed_messages(
     connmap = {c.id: c for c in reader.connections}
     bad: set[int] = set()
     current, chunk = -1, io.BytesIO()
-    for time, position, offset, cid in _entries(reader, {c.id for c in wanted}, start, stop):
+    for time, (position, offset, cid) in _entries(reader, {c.id for c in wanted}, start, stop):
         if start is not None and time < start:
             continue
         if stop is not None and time >= stop:
@@ -90,12 +90,9 @@ def indexed_messages(
 
 def _entries(
     reader: IndexedBag1, ids: set[int], start: int | None, stop: int | None
-) -> Iterator[tuple[int, int, int, int]]:
-    """``(time, chunk position, offset in the chunk, connection id)`` of the messages of
-    connections ``ids``, in time order, reading each chunk's index as the read reaches it.
-    Chunks are taken in the order of their first times; an entry is handed on once no chunk
-    still to read can hold an earlier one, so only where chunks overlap in time are entries
-    of several chunks held."""
+) -> Iterator[tuple[int, tuple[int, int, int]]]:
+    """``(time, (chunk position, offset in the chunk, connection id))`` of the messages of
+    connections ``ids``, in time order, reading each chunk's index as the read reaches it."""
     infos = sorted(
         (
             info
@@ -106,14 +103,30 @@ def _entries(
         ),
         key=lambda info: (info.start_time, info.pos),
     )
-    pending: list[tuple[int, int, int, int]] = []
-    for info in infos:
-        while pending and pending[0][0] < info.start_time:
-            yield heapq.heappop(pending)
-        for cid, entries in reader.chunk_index(info.pos).items():
+
+    def entries(position: int) -> Iterator[tuple[int, tuple[int, int, int]]]:
+        for cid, found in reader.chunk_index(position).items():
             if cid in ids:
-                for entry in entries:
-                    heapq.heappush(pending, (entry.time, entry.chunk_pos, entry.offset, cid))
+                for entry in found:
+                    yield entry.time, (entry.chunk_pos, entry.offset, cid)
+
+    return _merged((info.start_time, entries(info.pos)) for info in infos)
+
+
+_T = TypeVar('_T')
+
+
+def _merged(chunks: Iterable[tuple[int, Iterable[tuple[int, _T]]]]) -> Iterator[tuple[int, _T]]:
+    """The ``(time, rest)`` items of chunks given as ``(first time, items)`` in the order of
+    their first times, in time order (then ``rest``'s): an item is handed on once no chunk
+    still to read can hold an earlier one, so only where chunks overlap in time are items of
+    several chunks held. A chunk's items are taken when the merge reaches it."""
+    pending: list[tuple[int, _T]] = []
+    for first, items in chunks:
+        while pending and pending[0][0] < first:
+            yield heapq.heappop(pending)
+        for item in items:
+            heapq.heappush(pending, item)
     while pending:
         yield heapq.heappop(pending)
 
@@ -289,22 +302,19 @@ class ScannedBag1(Recovered):
             for chunk in self._chunks
             if (start is None or chunk[1] >= start) and (stop is None or chunk[0] < stop)
         )
-        pending: list[tuple[int, int, int, int, bytes]] = []  # time, chunk, rank, id, data
         with self.path.open('rb') as stream:
             size = os.fstat(stream.fileno()).st_size
-            for first, _, at in chunks:
-                while pending and pending[0][0] < first:
-                    time, _, _, cid, data = heapq.heappop(pending)
-                    yield by_id[cid], time, data
+
+            def read(at: int) -> Iterator[tuple[int, tuple[int, int, int, bytes]]]:
                 stream.seek(at)
                 header, data = _record(stream, size)
                 messages, _ = self._chunk(header, data, {})  # its damage was counted at open
                 for rank, (time, cid, payload) in enumerate(messages):
                     if cid in by_id and within(time, start, stop):
-                        heapq.heappush(pending, (time, at, rank, cid, payload))
-        while pending:
-            time, _, _, cid, data = heapq.heappop(pending)
-            yield by_id[cid], time, data
+                        yield time, (at, rank, cid, payload)
+
+            for time, (_, _, cid, data) in _merged((first, read(at)) for first, _, at in chunks):
+                yield by_id[cid], time, data
 
 
 def _record(stream: BinaryIO, size: int) -> tuple[Header, bytes]:
