@@ -156,9 +156,9 @@ def node_transport(
         if settings or connect is not None or config is not None:
             raise TypeError('a node given a transport= takes no connection settings')
         return transport
+    defaults = session_defaults(wire)
     if config is None and (connect is not None or settings or wire_given):
-        defaults = session_defaults(wire)
         config = TransportConfig.create(connect=connect, defaults=defaults, **settings)
     elif settings:
         raise TypeError(f'give settings {sorted(settings)} in config=, not beside it')
-    return default_transport(config, defaults=session_defaults(wire))
+    return default_transport(config, defaults=defaults)
