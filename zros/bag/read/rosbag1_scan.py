@@ -30,6 +30,11 @@ if TYPE_CHECKING:
 #: a damaged unit: its byte offset, the messages lost per (native) connection id (-1 for an
 #: unknown count of unknown connections: key -1), why
 Damaged = Callable[[int, dict[int, int], str], None]
+#: an indexed message: time, chunk position, offset in the chunk, connection id
+_Entry = tuple[int, int, int, int]
+#: a scanned message: time, chunk position, rank in the chunk, connection id, data
+_Scanned = tuple[int, int, int, int, bytes]
+_T = TypeVar('_T', _Entry, _Scanned)
 _MSGDATA, _IDXDATA, _CHUNK, _CHUNK_INFO, _CONNECTION = 2, 4, 5, 6, 7
 #: the op field of a chunk record's header, as written
 _CHUNK_OP = b'\x04\x00\x00\x00op=\x05'
@@ -53,7 +58,7 @@ def indexed_messages(
     connmap = {c.id: c for c in reader.connections}
     bad: set[int] = set()
     current, chunk = -1, io.BytesIO()
-    for time, (position, offset, cid) in _entries(reader, {c.id for c in wanted}, start, stop):
+    for time, position, offset, cid in _entries(reader, {c.id for c in wanted}, start, stop):
         if start is not None and time < start:
             continue
         if stop is not None and time >= stop:
@@ -90,8 +95,8 @@ def indexed_messages(
 
 def _entries(
     reader: IndexedBag1, ids: set[int], start: int | None, stop: int | None
-) -> Iterator[tuple[int, tuple[int, int, int]]]:
-    """``(time, (chunk position, offset in the chunk, connection id))`` of the messages of
+) -> Iterator[_Entry]:
+    """``(time, chunk position, offset in the chunk, connection id)`` of the messages of
     connections ``ids``, in time order, reading each chunk's index as the read reaches it."""
     infos = sorted(
         (
@@ -104,24 +109,23 @@ def _entries(
         key=lambda info: (info.start_time, info.pos),
     )
 
-    def entries(position: int) -> Iterator[tuple[int, tuple[int, int, int]]]:
-        for cid, found in reader.chunk_index(position).items():
-            if cid in ids:
-                for entry in found:
-                    yield entry.time, (entry.chunk_pos, entry.offset, cid)
+    def entries(position: int) -> list[_Entry]:
+        return [
+            (entry.time, entry.chunk_pos, entry.offset, cid)
+            for cid, found in reader.chunk_index(position).items()
+            if cid in ids
+            for entry in found
+        ]
 
     return _merged((info.start_time, entries(info.pos)) for info in infos)
 
 
-_T = TypeVar('_T')
-
-
-def _merged(chunks: Iterable[tuple[int, Iterable[tuple[int, _T]]]]) -> Iterator[tuple[int, _T]]:
-    """The ``(time, rest)`` items of chunks given as ``(first time, items)`` in the order of
-    their first times, in time order (then ``rest``'s): an item is handed on once no chunk
+def _merged(chunks: Iterable[tuple[int, list[_T]]]) -> Iterator[_T]:
+    """The items (time first) of chunks given as ``(first time, items)`` in the order of
+    their first times, in time order (then file order): an item is handed on once no chunk
     still to read can hold an earlier one, so only where chunks overlap in time are items of
-    several chunks held. A chunk's items are taken when the merge reaches it."""
-    pending: list[tuple[int, _T]] = []
+    several chunks held. A chunk is read when the merge reaches it."""
+    pending: list[_T] = []
     for first, items in chunks:
         while pending and pending[0][0] < first:
             yield heapq.heappop(pending)
@@ -305,15 +309,17 @@ class ScannedBag1(Recovered):
         with self.path.open('rb') as stream:
             size = os.fstat(stream.fileno()).st_size
 
-            def read(at: int) -> Iterator[tuple[int, tuple[int, int, int, bytes]]]:
+            def read(at: int) -> list[_Scanned]:
                 stream.seek(at)
                 header, data = _record(stream, size)
                 messages, _ = self._chunk(header, data, {})  # its damage was counted at open
-                for rank, (time, cid, payload) in enumerate(messages):
-                    if cid in by_id and within(time, start, stop):
-                        yield time, (at, rank, cid, payload)
+                return [
+                    (time, at, rank, cid, payload)
+                    for rank, (time, cid, payload) in enumerate(messages)
+                    if cid in by_id and within(time, start, stop)
+                ]
 
-            for time, (_, _, cid, data) in _merged((first, read(at)) for first, _, at in chunks):
+            for time, _, _, cid, data in _merged((first, read(at)) for first, _, at in chunks):
                 yield by_id[cid], time, data
 
 
