@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import io
 import math
+import operator
 import sys
 from collections.abc import Collection, Iterable, Sized
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, SupportsIndex, cast
 
 from zros.cdr.message import Message, definition_of
 from zros.cdr.model import FieldType, Kind
@@ -59,12 +60,10 @@ def _abbreviate(value: Sized, field_type: FieldType) -> str:
 def _byte_text(value: object, csv: bool) -> str:
     """rclpy holds ``byte`` values as ``bytes``: ros2 prints them as characters in YAML and as
     ``b'\\xff'`` in CSV."""
-    import numpy as np
-
     if isinstance(value, bytes):
         data = value
-    elif isinstance(value, (int, np.integer)):
-        data = bytes([int(value)])
+    elif hasattr(value, '__index__'):  # an int or a numpy integer (no numpy import per item)
+        data = bytes([operator.index(cast('SupportsIndex', value))])
     else:
         raise TypeError(f'a byte field holds {type(value).__name__}')
     return repr(data) if csv else ''.join(chr(c) for c in data)
