@@ -78,7 +78,7 @@ def test_the_safety_options(cli: Cli, zros_node: Any) -> None:
     listener = zros_node('listener').create_subscription('geometry_msgs/msg/Twist', '/cmd_vel')
     running = cli.start(
         'rosbridge', '--port', '0', '--read-only', '--client-buffer', '1MiB',
-        '--allow-origin', 'https://dashboard.example',
+        '--allow-origin', 'https://dashboard.example', '--max-clients', '1',
     )  # fmt: skip
     line = running.wait_line(lambda line: line.startswith('rosbridge: '))
     assert 'read-only' in line
@@ -91,6 +91,9 @@ def test_the_safety_options(cli: Cli, zros_node: Any) -> None:
         client.send(op='publish', topic='/cmd_vel', msg={'linear': {'x': 1.0}}, id='p')
         status = client.wait(lambda m: m.get('id') == 'p', TIMEOUT)
         assert status['op'] == 'status' and 'read-only' in status['msg']
+        with pytest.raises(InvalidStatus) as full:
+            RawClient(url)
+        assert full.value.response.status_code == 503
     finally:
         client.close()
     assert listener.read_message() is None
@@ -123,7 +126,7 @@ def test_the_gateway_commands_share_their_listen_and_safety_options() -> None:
 
     foxglove, rosbridge = options('foxglove'), options('rosbridge')
     shared = ['--address', '--tls-cert', '--tls-key', '--read-only', '--throttle']
-    for flag in [*shared, '--client-buffer']:
+    for flag in [*shared, '--client-buffer', '--max-clients']:
         assert foxglove[flag] == rosbridge[flag], flag
     # in the same order: where they listen first, what clients may do after their own options
     assert [f for f in foxglove if f in rosbridge] == [f for f in rosbridge if f in foxglove]
@@ -146,9 +149,27 @@ def test_the_gateway_commands_share_their_listen_and_safety_options() -> None:
     # the same words give the same settings
     words = ['--port', '0', '--address', '0.0.0.0', '--tls-cert', 'c.pem', '--tls-key',
              'k.pem', '--read-only', '--throttle', '/a=2', '--allow-origin', 'https://x.example',
-             '--client-buffer', '1MiB']  # fmt: skip
+             '--client-buffer', '1MiB', '--max-clients', '7']  # fmt: skip
     keys = ['port', 'address', 'tls_cert', 'tls_key', 'read_only', 'throttle', 'allow_origin',
-            'client_buffer']  # fmt: skip
+            'client_buffer', 'max_clients']  # fmt: skip
     read = [vars(parser_of(c).parse_args(words)) for c in ('foxglove', 'rosbridge')]
     assert {k: read[0][k] for k in keys} == {k: read[1][k] for k in keys}
     assert read[0]['client_buffer'] == 1024**2 and read[0]['throttle'] == ['/a=2']
+    assert read[0]['max_clients'] == 7
+
+
+def test_the_commands_defaults_are_the_gateways() -> None:
+    # the command line does not import the gateways to start: its defaults are copies
+    from zros.cli import gateway_options
+    from zros.gateway.common.admission import MAX_CLIENTS
+    from zros.gateway.foxglove.front import CLIENT_BUFFER
+    from zros.gateway.rosbridge.server import CLIENT_BUFFER as ROSBRIDGE_BUFFER
+
+    assert gateway_options.MAX_CLIENTS == MAX_CLIENTS
+    assert gateway_options.CLIENT_BUFFER == CLIENT_BUFFER == ROSBRIDGE_BUFFER
+
+
+def test_a_bound_of_clients_below_one_is_a_usage_error(cli: Cli) -> None:
+    result = cli.run('rosbridge', '--port', '0', '--max-clients', '0')
+    assert result.returncode == 2
+    assert 'must be at least 1, not 0' in result.stderr

@@ -8,7 +8,7 @@ import argparse
 from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, TypedDict
 
-from zros.cli.shared import byte_count, out, port_number, serve_until_interrupted
+from zros.cli.shared import at_least_one, byte_count, out, port_number, serve_until_interrupted
 from zros.version import install_hint
 
 if TYPE_CHECKING:
@@ -16,6 +16,9 @@ if TYPE_CHECKING:
 
 #: 32 MiB: what one client of a gateway may hold queued before its oldest messages drop
 CLIENT_BUFFER = 32 * 1024**2
+#: the clients a gateway serves at once (zros.gateway.common.admission's, not imported: the
+#: command line starts without the gateways)
+MAX_CLIENTS = 100
 
 
 class ListenSettings(TypedDict):
@@ -26,6 +29,7 @@ class ListenSettings(TypedDict):
     tls_cert: str | None
     tls_key: str | None
     client_buffer: int
+    max_clients: int
     allow_origins: Iterable[str]
 
 
@@ -66,7 +70,8 @@ def add_name_filters(
 
 def add_gateway_safety_options(parser: argparse.ArgumentParser, default_origins: str) -> None:
     """The options both gateway commands share: which browsers may connect, whether clients
-    may act on the robot, the rate of topics and the bytes queued per client.
+    may act on the robot, the rate of topics, the bytes queued per client and how many clients
+    are served at once.
     ``default_origins`` says in the help which origins the command allows besides this
     machine's pages."""
     parser.add_argument('--allow-origin', action='append', default=[], metavar='ORIGIN',
@@ -82,6 +87,9 @@ def add_gateway_safety_options(parser: argparse.ArgumentParser, default_origins:
     parser.add_argument('--client-buffer', type=byte_count, default=CLIENT_BUFFER,
                         metavar='BYTES', help='bytes queued per client before its oldest '
                         'messages are dropped (default 32MiB)')  # fmt: skip
+    parser.add_argument('--max-clients', type=at_least_one, default=MAX_CLIENTS, metavar='N',
+                        help='connections served at once; more get HTTP 503 (default '
+                        f'{MAX_CLIENTS})')  # fmt: skip
 
 
 def listen_settings(args: argparse.Namespace, origins: Iterable[str] = ()) -> ListenSettings:
@@ -93,6 +101,7 @@ def listen_settings(args: argparse.Namespace, origins: Iterable[str] = ()) -> Li
         'tls_cert': args.tls_cert,
         'tls_key': args.tls_key,
         'client_buffer': args.client_buffer,
+        'max_clients': args.max_clients,
         'allow_origins': [*origins, *args.allow_origin],
     }
 

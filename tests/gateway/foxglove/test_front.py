@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import socket
 import threading
 from collections.abc import Iterator
@@ -200,6 +201,60 @@ def test_closing_ends_a_connection_still_in_its_handshake(
         assert silent.recv(10) == b''
 
 
+def _refused(port: int) -> bytes:
+    """What a connection over the bound gets before the front closes it."""
+    with socket.create_connection(('127.0.0.1', port), timeout=TIMEOUT) as client:
+        answer = b''
+        while chunk := client.recv(4096):
+            answer += chunk
+    return answer
+
+
+def test_connections_over_the_bound_get_503_and_a_place_frees_when_one_leaves(
+    front: list[Front | FrontProcess], caplog: pytest.LogCaptureFixture
+) -> None:
+    server = _Server([])
+    served = Front(Listen(0), ('127.0.0.1', server.port), OriginPolicy(), 1000, max_clients=2)
+    front.append(served)
+    silent = [socket.create_connection(('127.0.0.1', served.port)) for _ in range(2)]
+    assert wait_for(lambda: len(served.admission) == 2, TIMEOUT)
+    with caplog.at_level(logging.WARNING, 'zros.gateway'):
+        answer = _refused(served.port)
+    assert answer.startswith(b'HTTP/1.1 503 Service Unavailable\r\n')
+    assert answer.endswith(b'at most 2 clients at once (--max-clients raises it)')
+    assert 'refused 1 connection: the server serves at most 2 clients' in caplog.text
+    silent[0].close()
+    assert wait_for(lambda: len(served.admission) == 1, TIMEOUT)
+    client = _upgrade(served.port)
+    assert b' 101 ' in _head(client)
+    client.close()
+    silent[1].close()
+    server.close()
+
+
+def _resident() -> int:
+    with open('/proc/self/statm') as statm:
+        return int(statm.read().split()[1]) * os.sysconf('SC_PAGE_SIZE')
+
+
+@pytest.mark.skipif(not os.path.exists('/proc/self/statm'), reason='reads /proc (Linux)')
+def test_a_connection_that_never_upgrades_holds_no_buffer(
+    front: list[Front | FrontProcess],
+) -> None:
+    # each connection's megabyte for the server's frames is taken once it is upgraded: a
+    # program opening connections and sending nothing cost 1 GB a thousand
+    count = 60
+    served = Front(Listen(0), ('127.0.0.1', 9), OriginPolicy(), 1000, max_clients=count)
+    front.append(served)
+    before = _resident()
+    silent = [socket.create_connection(('127.0.0.1', served.port)) for _ in range(count)]
+    assert wait_for(lambda: len(served.admission) == count, TIMEOUT)
+    grown = _resident() - before
+    for client in silent:
+        client.close()
+    assert grown < count * 2**20 // 3, f'{count} idle connections took {grown / 2**20:.0f} MB'
+
+
 # --- the front in a process of its own -----------------------------------------------------
 
 
@@ -313,3 +368,11 @@ def test_a_process_that_neither_answers_nor_ends_is_killed(
     ):
         FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000)
     assert 'the Foxglove front did not end in 1 s: killed' in caplog.text
+
+
+def test_the_process_serves_at_most_max_clients(front: list[Front | FrontProcess]) -> None:
+    served = FrontProcess(Listen(0), ('127.0.0.1', 9), (), 1000, max_clients=1)
+    front.append(served)
+    with socket.create_connection(('127.0.0.1', served.port)):
+        # accepted in turn: the first is admitted before the second is looked at
+        assert _refused(served.port).startswith(b'HTTP/1.1 503')

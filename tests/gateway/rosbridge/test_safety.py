@@ -69,6 +69,31 @@ def test_pages_of_other_sites_are_refused(
         assert client.wait(lambda m, o=origin: m.get('id') == str(o))['op'] == 'status'
 
 
+def test_clients_over_the_bound_get_503_and_a_place_frees_when_one_leaves(
+    rosbridge: Make, raw_client: Make, caplog: pytest.LogCaptureFixture
+) -> None:
+    from websockets.exceptions import InvalidStatus
+
+    gateway = rosbridge(max_clients=2)
+    first, second = raw_client(gateway), raw_client(gateway)
+    with caplog.at_level(logging.WARNING, 'zros.gateway'), pytest.raises(InvalidStatus) as refused:
+        RawClient(gateway.url)
+    assert refused.value.response.status_code == 503
+    assert b'at most 2 clients at once (--max-clients raises it)' in refused.value.response.body
+    assert 'refused 1 connection: the server serves at most 2 clients' in caplog.text
+    first.close()
+    assert wait_for(lambda: len(gateway.admission) == 1, TIMEOUT)
+    third = raw_client(gateway)
+    for client in (second, third):
+        client.send(op='dance', id='still served')
+        assert client.status('Unknown operation')
+
+
+def test_a_bound_of_clients_below_one_is_refused(rosbridge: Make) -> None:
+    with pytest.raises(GatewayError, match='at least 1 client at once, not 0'):
+        rosbridge(max_clients=0)
+
+
 def test_allowed_origins(rosbridge: Make, raw_client: Make) -> None:
     gateway = rosbridge(allow_origins=['https://dashboard.example:8443'])
     client = raw_client(gateway, origin='https://dashboard.example:8443')

@@ -7,7 +7,8 @@
   :class:`DropNotices` (when to tell a slow client of its drops); ``entities``: the
   gateway's node, the clients made for clients (:class:`ClientCache`) and the QoS of their
   publishers (:func:`publisher_qos`).
-* ``listen`` (address, port, TLS), ``origins`` (which browser pages may connect), ``throttle``
+* ``listen`` (address, port, TLS), ``origins`` (which browser pages may connect),
+  ``admission`` (how many clients are served at once), ``throttle``
   (per-topic rate limits), ``views`` (the graph views the gateways show), ``json_types``,
   ``heap`` (a gateway process's malloc thresholds).
 

@@ -17,6 +17,10 @@ public address (with TLS, if any) and, per connection:
   control frame), the client gets a warning status (at most one a second) and the log counts
   the drops. The SDK's side is always read, so neither it nor Zenoh waits for a slow client.
 
+At most ``max_clients`` connections are served at once, handshakes included (each has a
+thread, and once upgraded a buffer of a megabyte); past that a connection gets HTTP 503
+(:mod:`~zros.gateway.common.admission`).
+
 This module listens; :mod:`~zros.gateway.foxglove.handshake` reads and rewrites the upgrade,
 :mod:`~zros.gateway.foxglove.relay` relays one connection and queues its frames,
 :mod:`~zros.gateway.foxglove.ws_frames` delimits them. ``zros foxglove`` runs the front in a
@@ -33,6 +37,7 @@ import socket
 import threading
 from typing import TYPE_CHECKING
 
+from zros.gateway.common.admission import MAX_CLIENTS, Admission
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.foxglove.relay import Connection
 
@@ -48,7 +53,8 @@ CLIENT_BUFFER = 32 * 1024**2
 
 class Front:
     """Listens where ``listen`` says and relays each connection to the SDK's server at
-    ``upstream`` (see the module docstring); ``port`` is the port it got."""
+    ``upstream``, at most ``max_clients`` at once (see the module docstring); ``port`` is the
+    port it got."""
 
     def __init__(
         self,
@@ -56,10 +62,12 @@ class Front:
         upstream: tuple[str, int],
         origins: OriginPolicy,
         client_buffer: int,
+        max_clients: int = MAX_CLIENTS,
     ) -> None:
         self.server_address = upstream  #: the SDK's server
         self.origins = origins
         self.client_buffer = client_buffer
+        self.admission = Admission(max_clients)
         self.tls = listen.ssl_context()
         try:
             self._socket = socket.create_server(
@@ -89,6 +97,12 @@ class Front:
                 client, address = self._socket.accept()
             except OSError:
                 return  # closed
+            if not self.admission.enter(client):
+                if self.tls is None:
+                    _refuse(client, self.admission.refusal())
+                else:  # a TLS handshake would hold the accepting thread
+                    client.close()
+                continue
             with self._lock:
                 if self._closed:
                     client.close()
@@ -109,6 +123,7 @@ class Front:
         except Exception:  # one client's failure never reaches the others
             _log.debug('the connection of %s failed', name, exc_info=True)
         finally:
+            self.admission.leave(client)
             with self._lock:
                 self._threads.pop(threading.current_thread(), None)
 
@@ -130,6 +145,18 @@ class Front:
             thread.join(5.0)
         self.closing.close()
         self._stop_w.close()
+
+
+def _refuse(client: socket.socket, text: str) -> None:
+    """Answer a connection over the bound with HTTP 503 (without waiting for its request or
+    on a full socket: the accepting thread must not block) and close it."""
+    body = text.encode()
+    with contextlib.suppress(OSError), client:
+        client.setblocking(False)
+        client.send(
+            b'HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain; charset=utf-8\r\n'
+            b'Content-Length: %d\r\nConnection: close\r\n\r\n%s' % (len(body), body)
+        )
 
 
 def private_loopback() -> str:

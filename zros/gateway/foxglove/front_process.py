@@ -26,6 +26,7 @@ import sys
 import threading
 from typing import IO
 
+from zros.gateway.common.admission import MAX_CLIENTS
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.heap import keep_large_blocks
 from zros.gateway.common.listen import Listen
@@ -46,9 +47,9 @@ _CHILD = 'import sys; sys.path.insert(0, sys.argv[1]); from {} import main; main
 
 class FrontProcess:
     """A :class:`~zros.gateway.foxglove.front.Front` listening where ``listen`` says, in a
-    child process, relaying to the SDK's server at ``upstream``; browsers from
-    ``allow_origins`` are accepted (see :class:`~zros.gateway.common.origins.OriginPolicy`).
-    GatewayError when it cannot listen."""
+    child process, relaying to the SDK's server at ``upstream`` at most ``max_clients``
+    connections at once; browsers from ``allow_origins`` are accepted (see
+    :class:`~zros.gateway.common.origins.OriginPolicy`). GatewayError when it cannot listen."""
 
     def __init__(
         self,
@@ -56,6 +57,7 @@ class FrontProcess:
         upstream: tuple[str, int],
         allow_origins: tuple[str, ...],
         client_buffer: int,
+        max_clients: int = MAX_CLIENTS,
     ) -> None:
         self.port = 0
         self.dropped = 0  #: message frames dropped for slow clients, all clients together
@@ -86,6 +88,7 @@ class FrontProcess:
             'upstream': list(upstream),
             'allow_origins': list(allow_origins),
             'client_buffer': client_buffer,
+            'max_clients': max_clients,
             'log_level': _log.getEffectiveLevel(),
         }
         try:
@@ -199,6 +202,7 @@ def main() -> None:
             (settings['upstream'][0], settings['upstream'][1]),
             OriginPolicy(settings['allow_origins']),
             settings['client_buffer'],
+            settings['max_clients'],
         )
     except GatewayError as exc:
         reports.send(error=str(exc))

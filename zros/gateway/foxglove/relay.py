@@ -55,8 +55,9 @@ class Connection:
         self.client = client
         self.name = name
         self.upstream: socket.socket | None = None
-        # the server's frames on their way to the client
-        self._rx = bytearray(_CHUNK)
+        # the server's frames on their way to the client (allocated once upgraded: a
+        # connection that never finishes its handshake holds no megabyte)
+        self._rx = bytearray()
         self._rx_view = memoryview(self._rx)
         self._start = 0  # the first byte of rx not yet handled
         self._end = 0  # the end of what rx holds
@@ -100,6 +101,8 @@ class Connection:
         after = upgrade.relay(self.upstream, self.client)
         if after is None:
             return False
+        self._rx = bytearray(_CHUNK)
+        self._rx_view = memoryview(self._rx)
         self._rx[: len(after)] = after
         self._end = len(after)
         return True

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypedDict, cast
 
 from zros.errors import ZrosError
+from zros.gateway.common.admission import MAX_CLIENTS, check_max_clients
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import FOXGLOVE_APP
@@ -80,7 +81,8 @@ class ServerOptions:
     ``address`` defaults to loopback; any other address is reachable from the network and
     logs a warning. ``tls_cert`` and ``tls_key`` (PEM files, the key in PKCS#8 as
     ``zros tls init`` writes it) make it ``wss://``. ``message_backlog`` bounds the SDK's
-    outbox of each client (messages), ``client_buffer`` the front's queue of each (bytes).
+    outbox of each client (messages), ``client_buffer`` the front's queue of each (bytes);
+    ``max_clients`` connections are served at once.
     Browsers are accepted from pages of this machine and of ``allow_origins`` (``'*'``: any);
     programs, which send no ``Origin``, always.
     """
@@ -93,6 +95,7 @@ class ServerOptions:
     name: str = 'zros'
     allow_origins: tuple[str, ...] = (FOXGLOVE_APP,)
     client_buffer: int = CLIENT_BUFFER
+    max_clients: int = MAX_CLIENTS
 
     def _listen(self) -> Listen:
         return Listen(self.port, self.address, self.tls_cert, self.tls_key, 'the Foxglove server')
@@ -113,6 +116,7 @@ class ServerOptions:
             raise GatewayError(
                 f'the client buffer must be at least 1 byte, not {self.client_buffer}'
             )
+        check_max_clients(self.max_clients)
 
     def start(self, **settings: Unpack[SdkOptions]) -> tuple[WebSocketServer, FrontProcess]:
         """Start the SDK's server with these options and ``settings`` (capabilities, listener,
@@ -136,7 +140,11 @@ class ServerOptions:
             raise GatewayError(f'cannot start the Foxglove server on {host}: {exc}') from None
         try:
             front = FrontProcess(
-                listen, (host, server.port), self.allow_origins, self.client_buffer
+                listen,
+                (host, server.port),
+                self.allow_origins,
+                self.client_buffer,
+                self.max_clients,
             )
         except BaseException:
             server.stop()

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 from zros.closing import Closing
 from zros.errors import ZrosError
+from zros.gateway.common.admission import MAX_CLIENTS
 from zros.gateway.common.entities import start_gateway
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
@@ -367,6 +368,7 @@ def serve(
     tls_key: str | os.PathLike[str] | None = None,
     message_backlog: int = DEFAULT_BACKLOG,
     client_buffer: int = CLIENT_BUFFER,
+    max_clients: int = MAX_CLIENTS,
     allow_origins: Iterable[str] = (FOXGLOVE_APP,),
     read_only: bool = False,
     sim_time: bool | None = None,
@@ -380,8 +382,8 @@ def serve(
 
     Browsers connect from pages of this machine and of ``allow_origins`` (the Foxglove web
     app's by default; ``'*'``: any page); programs (no ``Origin``) always. Each client may have
-    ``client_buffer`` bytes queued before its oldest messages are dropped. ``read_only``: clients
-    only watch.
+    ``client_buffer`` bytes queued before its oldest messages are dropped; at most
+    ``max_clients`` are served at once (others get HTTP 503). ``read_only``: clients only watch.
 
     Without ``node``, a node named ``name`` joins the graph with the connection ``settings``
     of :class:`zros.Node` (``connect``, ``wire``, ``transport``, ``tls``...). ``throttle``:
@@ -396,6 +398,7 @@ def serve(
         name='zros',
         allow_origins=tuple(allow_origins),
         client_buffer=client_buffer,
+        max_clients=max_clients,
     )
     if bag is not None:
         from zros.gateway.foxglove.bag_server import BagGateway  # noqa: PLC0415 (loaded only to play a bag)

@@ -17,7 +17,8 @@ give it a node of its own.
 What a client may do is bounded (:class:`Limits`): browsers are accepted by the ``Origin`` of
 their page (:class:`~zros.gateway.common.origins.OriginPolicy`), a read-only gateway refuses
 every op that acts on the robot, a client may not take over a service or action another node serves,
-and each client's outbox holds at most ``client_buffer`` bytes.
+each client's outbox holds at most ``client_buffer`` bytes, and at most ``max_clients`` clients
+are served at once (:mod:`~zros.gateway.common.admission`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from zros.closing import Closing
+from zros.gateway.common.admission import MAX_CLIENTS, Admission
 from zros.gateway.common.entities import start_gateway
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
@@ -97,7 +99,8 @@ class RosbridgeGateway(Closing):
 
     ``topics_glob``, ``services_glob`` and ``params_glob`` are allow-lists of shell globs as
     rosbridge's (every name when empty); ``max_message_size`` bounds what a client may send in
-    one message; ``queue_items`` and ``client_buffer`` (bytes) bound each client's outbox.
+    one message; ``queue_items`` and ``client_buffer`` (bytes) bound each client's outbox;
+    at most ``max_clients`` are served at once (others get HTTP 503).
     ``allow_origins``: the origins of web pages accepted besides this machine's (``'*'``: any);
     ``limits``: what clients may do. ``own_node``: the gateway made ``node`` and destroys it on
     :meth:`close`.
@@ -114,6 +117,7 @@ class RosbridgeGateway(Closing):
         max_message_size: int = MAX_MESSAGE_SIZE,
         queue_items: int = QUEUE_ITEMS,
         client_buffer: int = CLIENT_BUFFER,
+        max_clients: int = MAX_CLIENTS,
         allow_origins: Iterable[str] = (),
         limits: Limits = Limits(),
         own_node: bool = False,
@@ -128,6 +132,7 @@ class RosbridgeGateway(Closing):
         self._own_node = own_node
         self._sizes = (max_message_size, queue_items, client_buffer)
         self.origins = OriginPolicy(allow_origins)
+        self.admission = Admission(max_clients)
         self.limits = limits
         if limits.read_only:
             _log.info('read-only: clients may watch the robot, not act on it')
@@ -163,7 +168,7 @@ class RosbridgeGateway(Closing):
                 compression=None,
                 close_timeout=CLOSE_TIMEOUT,
                 server_header='zros rosbridge',
-                process_request=self._check_origin,
+                process_request=self._check_request,
             )
         except OSError as exc:
             self._close_parts()
@@ -189,16 +194,20 @@ class RosbridgeGateway(Closing):
         while not self._closed.is_set() and self.node.ok():
             self.node.spin_once(0.2)
 
-    def _check_origin(self, connection: ServerConnection, request: Request) -> Response | None:
-        """Refuse (HTTP 403) the upgrade of a web page whose origin is not accepted."""
+    def _check_request(self, connection: ServerConnection, request: Request) -> Response | None:
+        """Refuse the upgrade of a web page whose origin is not accepted (HTTP 403), and any
+        over the bound of clients (HTTP 503)."""
         origins = request.headers.get_all('Origin')
         if len(origins) > 1:  # browsers send one: refused whole, not by its first
             origin: str | None = ', '.join(origins)
         else:
             origin = origins[0] if origins else None
-        if len(origins) <= 1 and self.origins.accepts(origin):
-            return None
-        return connection.respond(http.HTTPStatus.FORBIDDEN, self.origins.refuse(str(origin)))
+        if len(origins) > 1 or not self.origins.accepts(origin):
+            return connection.respond(http.HTTPStatus.FORBIDDEN, self.origins.refuse(str(origin)))
+        if not self.admission.enter(connection):
+            refusal = self.admission.refusal()
+            return connection.respond(http.HTTPStatus.SERVICE_UNAVAILABLE, refusal)
+        return None
 
     def _serve_client(self, connection: ServerConnection) -> None:
         max_message_size, queue_items, client_buffer = self._sizes
@@ -214,6 +223,7 @@ class RosbridgeGateway(Closing):
         )
         with self._lock:
             if self._closed.is_set():
+                self.admission.leave(connection)
                 return
             self._clients[client.id] = client
         _log.info('client %d connected from %s', client.id, connection.remote_address)
@@ -222,6 +232,7 @@ class RosbridgeGateway(Closing):
         finally:
             with self._lock:
                 self._clients.pop(client.id, None)
+            self.admission.leave(connection)
             _log.info('client %d left', client.id)
 
     # --- the user's side -----------------------------------------------------------------------
@@ -276,6 +287,7 @@ def serve(
     max_message_size: int = MAX_MESSAGE_SIZE,
     queue_items: int = QUEUE_ITEMS,
     client_buffer: int = CLIENT_BUFFER,
+    max_clients: int = MAX_CLIENTS,
     allow_origins: Iterable[str] = (),
     read_only: bool = False,
     allow_service_override: bool = False,
@@ -293,7 +305,8 @@ def serve(
 
     Web pages of other machines are refused unless ``allow_origins`` lists their origin;
     ``read_only`` lets clients watch only; ``allow_service_override`` lets a client serve a
-    service another node serves; ``client_buffer`` bounds the bytes queued for each client;
+    service another node serves; ``client_buffer`` bounds the bytes queued for each client,
+    ``max_clients`` the clients served at once (others get HTTP 503);
     ``throttle`` holds ``REGEX=HZ`` rate limits of topics (:mod:`zros.gateway.common.throttle`).
     """
     listen = Listen(port, address, tls_cert, tls_key, 'the rosbridge server')
@@ -306,6 +319,7 @@ def serve(
         max_message_size=max_message_size,
         queue_items=queue_items,
         client_buffer=client_buffer,
+        max_clients=max_clients,
         allow_origins=allow_origins,
         limits=Limits(read_only, allow_service_override),
         own_node=own,
