@@ -89,6 +89,45 @@ def test_clients_over_the_bound_get_503_and_a_place_frees_when_one_leaves(
         assert client.status('Unknown operation')
 
 
+def test_a_client_holds_a_bounded_number_of_topics_and_services(
+    rosbridge: Make, raw_client: Make, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Names cost a client nothing to invent, and each costs the gateway a Zenoh entity (a
+    tap has a thread of its own; a publisher or a service shows in the whole graph)."""
+    from zros.gateway.rosbridge import actions, calls, topics
+
+    for module, name, value in ((topics, 'MAX_TOPICS', 3), (topics, 'MAX_REQUESTS', 2),
+                                (calls, 'MAX_SERVED', 2), (actions, 'MAX_SERVED', 2)):  # fmt: skip
+        monkeypatch.setattr(module, name, value)
+    gateway = rosbridge()
+    client, other = raw_client(gateway), raw_client(gateway)
+    string = 'std_msgs/msg/String'
+    for index in range(4):
+        client.send(op='subscribe', topic=f'/t{index}', type=string, id=f's{index}')
+    client.status('a client may subscribe to at most 3 topics at once: unsubscribe one first')
+    for index in range(4):
+        client.send(op='advertise', topic=f'/p{index}', type=string)
+    client.status('a client may advertise at most 3 topics at once: unadvertise one first')
+    for index in range(3):  # ids of one topic
+        client.send(op='subscribe', topic='/t0', type=string, id=f'again{index}')
+    client.status('at most 2 subscribe requests of one topic (/t0): unsubscribe one first')
+    for index in range(3):
+        client.send(op='advertise_service', service=f'/s{index}', type=ADD)
+        client.send(op='advertise_action', action=f'/a{index}', type=FIB)
+    client.status('a client may serve at most 2 services at once: unadvertise one first')
+    client.status('a client may serve at most 2 actions at once: unadvertise one first')
+    # the bounds are one client's: another has its own, and one let go is room again
+    other.send(op='subscribe', topic='/t3', type=string, id='o')
+    client.send(op='unsubscribe', topic='/t2')
+    mark = client.mark()
+    client.send(op='subscribe', topic='/t3', type=string, id='s3')
+    client.send(op='dance', id='after')
+    client.wait(lambda m: m.get('id') == 'after', start=mark)
+    assert not [m for m in client.received[mark:] if 'at most' in str(m.get('msg'))]
+    first = min(session.id for session in gateway.clients)  # the client that connected first
+    assert set(gateway.topics.subscribed(first)) == {'/t0', '/t1', '/t3'}
+
+
 def test_a_bound_of_clients_below_one_is_refused(rosbridge: Make) -> None:
     with pytest.raises(GatewayError, match='at least 1 client at once, not 0'):
         rosbridge(max_clients=0)

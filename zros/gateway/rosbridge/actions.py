@@ -48,6 +48,9 @@ _log = logging.getLogger('zros.gateway')
 
 #: goals one advertised action may have waiting for its client (later ones are aborted)
 MAX_GOALS = 1000
+#: services one client may serve at once, and actions (each a Zenoh queryable or several, with
+#: threads of their own, and a name in the whole graph)
+MAX_SERVED = 100
 #: seconds a withdrawn action waits for its aborted goals to report their results
 WITHDRAW_WAIT = 5.0
 #: the ends a client may give a goal (``status`` of ``action_result``)
@@ -116,6 +119,11 @@ class ServedActions:
             held = self._advertised.get(name)
             if held is not None and held.peer is not peer:
                 raise GatewayError(f'Action {name} is already advertised by another client')
+            served = sum(a.peer is peer for a in self._advertised.values())
+        if held is None and served >= MAX_SERVED:
+            raise GatewayError(
+                f'a client may serve at most {MAX_SERVED} actions at once: unadvertise one first'
+            )
         if held is None:
             self._unserved(name, EntityKind.ACTION_SERVER)
         self._withdraw(name, peer)  # advertised again by the same client: the new one replaces

@@ -32,7 +32,7 @@ from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.json_types import text_field
 from zros.gateway.common.views import offered_services, owners
-from zros.gateway.rosbridge.actions import ServedActions
+from zros.gateway.rosbridge.actions import MAX_SERVED, ServedActions
 from zros.gateway.rosbridge.conversion import ConversionError, Values
 from zros.gateway.rosbridge.rosapi import Rosapi
 from zros.keyexpr.kinds import EntityKind
@@ -204,6 +204,12 @@ class Calls:
             raise GatewayError(f'unknown service type {type_text}: {exc}') from None
         with self._lock:
             ours = name in self._offered  # the graph shows it served by the gateway: replaced
+            again = ours and self._offered[name].peer is peer
+            served = sum(o.peer is peer for o in self._offered.values())
+        if not again and served >= MAX_SERVED:
+            raise GatewayError(
+                f'a client may serve at most {MAX_SERVED} services at once: unadvertise one first'
+            )
         if not ours:
             self.check_unserved(name)
         self._withdraw(name, None)  # a service advertised again replaces the older one

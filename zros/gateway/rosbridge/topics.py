@@ -11,6 +11,10 @@ rate and fragment size, the shortest queue and the heaviest compression, as rosb
 
 Publishing goes through one zros publisher per topic, shared by the clients that advertise
 it (latched when asked: transient local, depth 1).
+
+A client holds at most :data:`MAX_TOPICS` subscriptions and as many advertised topics, and
+:data:`MAX_REQUESTS` subscribe requests of one topic: each tap is a Zenoh subscription with a
+thread of its own, each publisher shows in the whole graph, and names cost nothing to invent.
 """
 
 from __future__ import annotations
@@ -40,6 +44,11 @@ if TYPE_CHECKING:
     from zros.pubsub import Publisher
 
 _log = logging.getLogger('zros.gateway')
+
+#: topics one client may subscribe to at once, and topics it may advertise at once
+MAX_TOPICS = 1000
+#: subscribe requests (ids) one client may hold for one topic (they are merged per message)
+MAX_REQUESTS = 100
 
 
 class Peer(Protocol):
@@ -209,6 +218,9 @@ class Topics:
         self._streams: dict[str, _Stream] = {}
         self._subscriptions: dict[tuple[int, str], Subscription] = {}
         self._publishers: dict[str, _Published] = {}
+        # per client: how many topics it subscribes to, and advertises
+        self._subscribed: collections.Counter[int] = collections.Counter()
+        self._advertised: collections.Counter[int] = collections.Counter()
 
     # --- names and types ---------------------------------------------------------------------
 
@@ -263,6 +275,8 @@ class Topics:
             raise GatewayError(f'unknown compression {request.compression!r}: {COMPRESSIONS}')
         if min(request.throttle_rate, request.queue_length, request.fragment_size) < 0:
             raise GatewayError('throttle_rate, queue_length and fragment_size are never negative')
+        with self._lock:  # before the graph is looked at: refusing costs next to nothing
+            self._check_room(peer.id, name)
         known = self._graph_topic(name)
         with self._lock:
             subscription = self._subscriptions.get((peer.id, name))
@@ -270,7 +284,14 @@ class Topics:
                 self._type(
                     name, optional_text(op, 'type'), GraphTopic(name, subscription.type_name)
                 )
+                requests = subscription.requests
+                if op.get('id') not in requests and len(requests) >= MAX_REQUESTS:
+                    raise GatewayError(
+                        f'a client may hold at most {MAX_REQUESTS} subscribe requests of one '
+                        f'topic ({name}): unsubscribe one first'
+                    )
             else:
+                self._check_room(peer.id, name)
                 type_name = self._type(name, optional_text(op, 'type'), known)
                 subscription = Subscription(peer, name, type_name, self._pacer)
             subscription.requests[op.get('id')] = request
@@ -278,6 +299,7 @@ class Topics:
             if (peer.id, name) in self._subscriptions:
                 return
             self._subscriptions[peer.id, name] = subscription
+            self._subscribed[peer.id] += 1
             stream = self._streams.get(name)
             if stream is None:
                 cls = self._node.registry.get_class(subscription.type_name)
@@ -287,6 +309,15 @@ class Topics:
             latched = self._taps.watch(stream.topic, subscription, stream.deliver)
         for data, stamp in latched:  # a latched topic others watch already: this one's copy
             subscription.offer(stream.sample(data, stamp))
+
+    def _check_room(self, peer: int, name: str) -> None:
+        """GatewayError if client ``peer`` may not subscribe to one more topic (under the
+        lock)."""
+        if (peer, name) not in self._subscriptions and self._subscribed[peer] >= MAX_TOPICS:
+            raise GatewayError(
+                f'a client may subscribe to at most {MAX_TOPICS} topics at once: '
+                'unsubscribe one first'
+            )
 
     def unsubscribe(self, peer: Peer, op: JsonObject) -> None:
         """An ``unsubscribe`` message: its id's request ends, or all of the client's for the
@@ -310,6 +341,7 @@ class Topics:
         with self._lock:
             if self._subscriptions.pop((subscription.peer.id, subscription.topic), None) is None:
                 return
+            _count_down(self._subscribed, subscription.peer.id)
             stream = self._streams[subscription.topic]
             stream.subscriptions = tuple(s for s in stream.subscriptions if s is not subscription)
             if not stream.subscriptions:
@@ -332,6 +364,12 @@ class Topics:
     def _publisher(self, peer: Peer, name: str, asked: str | None, latch: bool) -> _Published:
         with self._lock:
             published = self._publishers.get(name)
+            joins = published is None or peer.id not in published.peers
+            if joins and self._advertised[peer.id] >= MAX_TOPICS:
+                raise GatewayError(
+                    f'a client may advertise at most {MAX_TOPICS} topics at once: '
+                    'unadvertise one first'
+                )
             if published is None:
                 known = self._graph_topic(name)
                 type_name = self._type(name, asked, known)
@@ -345,7 +383,9 @@ class Topics:
                 published = self._publishers[name] = _Published(publisher, set())
             elif asked is not None:
                 self._type(name, asked, GraphTopic(name, published.publisher.type_name))
-            published.peers.add(peer.id)
+            if joins:
+                published.peers.add(peer.id)
+                self._advertised[peer.id] += 1
             return published
 
     def unadvertise(self, peer: Peer, op: JsonObject) -> None:
@@ -359,6 +399,7 @@ class Topics:
             if published is None or peer not in published.peers:
                 return
             published.peers.discard(peer)
+            _count_down(self._advertised, peer)
             if published.peers:
                 return
             del self._publishers[name]
@@ -393,8 +434,16 @@ class Topics:
             published, self._publishers = list(self._publishers.values()), {}
             self._streams.clear()
             self._subscriptions.clear()
+            self._subscribed.clear()
+            self._advertised.clear()
         for item in published:
             item.publisher.close()
+
+
+def _count_down(counts: collections.Counter[int], peer: int) -> None:
+    counts[peer] -= 1
+    if counts[peer] <= 0:  # a client that left holds no key
+        del counts[peer]
 
 
 @dataclass
