@@ -160,3 +160,35 @@ def test_clients_publish_only_on_the_topics_offered(
     client: FoxgloveClient = foxglove_client(server.url)
     assert 'clientPublish' in client.server_info()['capabilities']
     _refused_publish(server, client, zros_node, 'not among the topics this server offers')
+
+
+def test_a_client_advertises_a_bounded_number_of_channels(
+    gateway: Make, foxglove_client: Make, zros_node: Make, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each client channel is a publisher the whole graph sees, and channels cost a client
+    nothing to invent."""
+    from zros.gateway.foxglove import calls
+
+    monkeypatch.setattr(calls, 'MAX_CHANNELS', 2)
+    server = gateway()
+    graph = zros_node('graph_watcher')
+
+    def published() -> list[bool]:
+        return [graph.count_publishers(f'/web{index}') > 0 for index in range(4)]
+
+    client: FoxgloveClient = foxglove_client(server.url)
+    other: FoxgloveClient = foxglove_client(server.url)
+    start = client.mark()
+    channels = [client.advertise(f'/web{index}', 'cdr', TWIST) for index in range(3)]
+    client.wait(
+        lambda e: (
+            e['ev'] == 'status'
+            and '/web2: a client may advertise at most 2 channels at once' in e['status']['message']
+        ),
+        start=start,
+    )
+    assert wait_for(lambda: published() == [True, True, False, False], TIMEOUT), published()
+    other.advertise('/web2', 'cdr', TWIST)  # the bound is each client's
+    client.send('unadvertise', channelId=channels[0])
+    client.advertise('/web3', 'cdr', TWIST)  # one let go is room again
+    assert wait_for(lambda: published() == [False, True, True, True], TIMEOUT), published()

@@ -40,6 +40,8 @@ _log = logging.getLogger('zros.gateway')
 ENCODINGS = ('cdr', 'json')
 #: seconds a service call through the gateway may take
 SERVICE_TIMEOUT = 10.0
+#: channels one client may advertise at once (each is a publisher the whole graph sees)
+MAX_CHANNELS = 1000
 
 
 @dataclass
@@ -72,6 +74,12 @@ class ClientChannels:
         (GatewayError says why not)."""
         topic, encoding, type_name = channel.topic, channel.encoding, channel.schema_name
         schema_encoding, schema = channel.schema_encoding, channel.schema
+        with self._lock:
+            held = sum(owner == client for owner, _ in self._channels)
+            if (client, channel.id) not in self._channels and held >= MAX_CHANNELS:
+                raise GatewayError(
+                    f'{topic}: a client may advertise at most {MAX_CHANNELS} channels at once'
+                )
         if encoding not in ENCODINGS:
             raise GatewayError(f'{topic}: the encoding {encoding!r} is not one of {ENCODINGS}')
         try:
