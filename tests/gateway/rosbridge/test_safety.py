@@ -128,6 +128,60 @@ def test_a_client_holds_a_bounded_number_of_topics_and_services(
     assert set(gateway.topics.subscribed(first)) == {'/t0', '/t1', '/t3'}
 
 
+def test_goals_to_made_up_actions_leave_nothing_behind(
+    rosbridge: Make, raw_client: Make, zros_node: Make
+) -> None:
+    gateway = rosbridge()
+    watcher = zros_node('graph_watcher')
+    client: RawClient = raw_client(gateway)
+    count = 30
+    for index in range(count):
+        client.send(op='send_action_goal', id=f'g{index}', action=f'/made_up_{index}',
+                    action_type=FIB, args={'order': 3})  # fmt: skip
+    client.wait(lambda m: len(client.of('action_result')) == count)
+    assert all(not r['result'] and 'no server' in r['values'] for r in client.of('action_result'))
+
+    def made_up() -> list[str]:
+        namespace = watcher.scheme.namespace
+        return [e.ros_name(namespace) for e in watcher.graph.endpoints() if 'made_up' in e.key]
+
+    # each goal had a client of its own, closed with it: none stays in the graph (a topic
+    # advertised after them shows that the graph has caught up)
+    client.send(op='advertise', topic='/marker', type='std_msgs/msg/String')
+    assert wait_for(lambda: watcher.count_publishers('/marker') == 1, TIMEOUT)
+    assert wait_for(lambda: not made_up(), TIMEOUT), made_up()
+
+
+def test_a_client_has_a_bounded_number_of_calls_waiting(
+    rosbridge: Make, raw_client: Make, zros_node: Make, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import threading
+
+    from zros.gateway.rosbridge import calls
+
+    monkeypatch.setattr(calls, 'MAX_PENDING', 2)
+    gate = threading.Event()
+    server = zros_node('slow_server')
+    server.create_service(
+        ADD, '/slow_add', lambda r: (gate.wait(TIMEOUT), service_response(server, r))[1]
+    )
+    gateway = rosbridge()
+    client: RawClient = raw_client(gateway)
+    assert wait_for(lambda: '/slow_add' in service_providers(gateway.node, ['/slow_add']), TIMEOUT)
+    with spinning(server):
+        for index in range(3):
+            client.send(op='call_service', id=f'c{index}', service='/slow_add',
+                        args={'a': index, 'b': 1})  # fmt: skip
+        refused = client.wait(lambda m: m.get('id') == 'c2')
+        assert refused['result'] is False
+        assert refused['values'] == 'a client may have at most 2 calls and goals waiting'
+        gate.set()
+        answers = [client.wait(lambda m, i=i: m.get('id') == f'c{i}') for i in range(2)]
+        assert [a['values'] for a in answers] == [{'sum': 1001}, {'sum': 1002}]
+        client.send(op='call_service', id='after', service='/slow_add', args={'a': 5, 'b': 5})
+        assert client.wait(lambda m: m.get('id') == 'after')['values'] == {'sum': 1010}
+
+
 def test_a_bound_of_clients_below_one_is_refused(rosbridge: Make) -> None:
     with pytest.raises(GatewayError, match='at least 1 client at once, not 0'):
         rosbridge(max_clients=0)

@@ -18,7 +18,9 @@
 from __future__ import annotations
 
 import asyncio
+import collections
 import concurrent.futures
+import functools
 import itertools
 import logging
 import threading
@@ -44,12 +46,15 @@ if TYPE_CHECKING:
     from zros.cdr import JsonValue, Message
     from zros.gateway.common.json_types import JsonObject
     from zros.gateway.rosbridge.topics import Peer
+    from zros.graph import Endpoint
     from zros.node import Node
     from zros.services import Client, Service
 
 _log = logging.getLogger('zros.gateway')
 _T = TypeVar('_T')
 
+#: service calls and action goals one client may have waiting for their answer at once
+MAX_PENDING = 1000
 #: seconds a service call may take unless the client says (``timeout``)
 SERVICE_TIMEOUT = 10.0
 #: seconds a client serving a service has to answer a request
@@ -95,6 +100,7 @@ class Calls:
         self._lock = threading.Lock()
         self._offered: dict[str, _Offered] = {}
         self._goals: dict[tuple[int, JsonValue], _Goal] = {}  # by (peer, id)
+        self._pending: collections.Counter[int] = collections.Counter()  # calls and goals
         self._ids = itertools.count(1)
         self._pool = concurrent.futures.ThreadPoolExecutor(workers, 'zros rosbridge calls')
         #: the actions clients serve
@@ -137,22 +143,42 @@ class Calls:
         elif op.get('op') == 'send_action_goal':
             _Answer(peer, op, str(text_field(op, 'action')), 'action').fail(reason, STATUS_UNKNOWN)
 
+    def _begin(self, peer: Peer, answer: _Answer, status: int | None = None) -> bool:
+        """Count a call or goal of ``peer`` waiting for its answer; past :data:`MAX_PENDING`
+        it fails at once instead."""
+        with self._lock:
+            if self._pending[peer.id] < MAX_PENDING:
+                self._pending[peer.id] += 1
+                return True
+        answer.fail(f'a client may have at most {MAX_PENDING} calls and goals waiting', status)
+        return False
+
+    def _end(self, peer: Peer) -> None:
+        """A call or goal of ``peer`` got its answer."""
+        with self._lock:
+            self._pending[peer.id] -= 1
+            if self._pending[peer.id] <= 0:
+                del self._pending[peer.id]
+
+    def _served(self, name: str, kind: EntityKind) -> list[Endpoint]:
+        """The endpoints of the graph serving ``name`` as a service, or as an action (its
+        ``send_goal`` service where the wire shows only that)."""
+        node = self._node
+        namespace = node.scheme.namespace
+        wanted = (
+            {name} if kind is EntityKind.SERVICE_SERVER else {name, f'{name}/_action/send_goal'}
+        )
+        kinds = (kind, EntityKind.SERVICE_SERVER)
+        return [e for e in node.graph.endpoints(kinds) if e.ros_name(namespace) in wanted]
+
     def check_unserved(self, name: str, kind: EntityKind = EntityKind.SERVICE_SERVER) -> None:
         """Refuse to serve ``name`` when another node serves it (unless overriding is
         allowed): GatewayError names the nodes."""
         if self.allow_override:
             return
         node = self._node
-        own, namespace = node.fully_qualified_name, node.scheme.namespace
-        wanted = (
-            {name} if kind is EntityKind.SERVICE_SERVER else {name, f'{name}/_action/send_goal'}
-        )
-        kinds = (kind, EntityKind.SERVICE_SERVER)
-        found = [
-            e
-            for e in node.graph.endpoints(kinds)
-            if e.node != own and e.ros_name(namespace) in wanted
-        ]
+        own = node.fully_qualified_name
+        found = [e for e in self._served(name, kind) if e.node != own]
         if found:
             what = 'service' if kind is EntityKind.SERVICE_SERVER else 'action'
             raise GatewayError(
@@ -171,8 +197,10 @@ class Calls:
             args = op.get('args') or {}
             if not isinstance(args, dict):
                 raise GatewayError(f'the args of {name} must be an object')
+            if not self._begin(peer, answer):
+                return
             future = self._pool.submit(self.rosapi.call, name, args)
-            future.add_done_callback(lambda f: answer.done(f, lambda values: values))
+            future.add_done_callback(lambda f: self._answered(peer, answer, f, lambda v: v))
             return
         type_name = offered_services(self._node, include_hidden=True).get(name)
         if type_name is None:
@@ -189,8 +217,32 @@ class Calls:
         timeout = op.get('timeout')
         if not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or timeout <= 0:
             timeout = SERVICE_TIMEOUT
+        if not self._begin(peer, answer):
+            return
         call = client.call_async(request, float(timeout))
-        call.add_done_callback(lambda f: answer.done(f, self._values.to_json))
+        call.add_done_callback(lambda f: self._answered(peer, answer, f, self._values.to_json))
+
+    def _action_client(
+        self, name: str, type_name: str
+    ) -> tuple[ActionClient, Callable[[], None] | None]:
+        """The action client for a goal, and what to call when the goal ends: the cached
+        client of an action the graph shows, else (not seen yet, or invented) one for this
+        goal only, closed after it, so made-up names leave nothing behind."""
+        make = functools.partial(self._node.create_action_client, type_name, name)
+        if self._served(name, EntityKind.ACTION_SERVER):
+            return self._actions.get((name, type_name), make), None
+        client = make()
+        return client, client.close
+
+    def _answered(
+        self,
+        peer: Peer,
+        answer: _Answer,
+        future: concurrent.futures.Future[_T],
+        convert: Callable[[_T], object],
+    ) -> None:
+        self._end(peer)
+        answer.done(future, convert)
 
     # --- serving -----------------------------------------------------------------------------
 
@@ -288,19 +340,24 @@ class Calls:
         action = text_field(op, 'action')
         name = self._name(action, 'action')
         type_text = text_field(op, 'action_type')
-        try:
-            client: ActionClient = self._actions.get(
-                (name, type_text), lambda: self._node.create_action_client(type_text, name)
-            )
-        except ZrosError as exc:
-            raise GatewayError(f'cannot reach action {name} as {type_text}: {exc}') from None
-        goal_id = op.get('id')
         answer = _Answer(peer, op, action, 'action')
         try:
-            goal = self._request(client.Goal, op.get('args'))
+            action_type = self._node.registry.get_action(type_text)
+        except (ZrosError, TypeError) as exc:
+            raise GatewayError(f'cannot reach action {name} as {type_text}: {exc}') from None
+        goal_id = op.get('id')
+        try:
+            goal = self._request(action_type.Goal, op.get('args'))
         except GatewayError as exc:
             answer.fail(str(exc), STATUS_UNKNOWN)
             return
+        if not self._begin(peer, answer, STATUS_UNKNOWN):
+            return
+        try:
+            client, release = self._action_client(name, type_text)
+        except (ZrosError, ValueError) as exc:
+            self._end(peer)
+            raise GatewayError(f'cannot reach action {name} as {type_text}: {exc}') from None
 
         sent = _Count()
         record = _Goal()
@@ -324,6 +381,9 @@ class Calls:
             except Exception as exc:  # no server, or it failed: the client is told why
                 with self._lock:
                     self._goals.pop((peer.id, goal_id), None)
+                self._end(peer)
+                if release is not None:
+                    self._pool.submit(release)
                 answer.fail(str(exc), STATUS_UNKNOWN)
                 return
             with self._lock:
@@ -337,6 +397,9 @@ class Calls:
                     sent.wait_for(handle.feedback_count, FEEDBACK_WAIT)
                 with self._lock:
                     self._goals.pop((peer.id, goal_id), None)
+                self._end(peer)
+                if release is not None:
+                    release()  # on the pool's thread, not the goal's
                 answer.done(result, self._values.to_json, int(handle.status))
 
             handle.result_async().add_done_callback(lambda f: self._pool.submit(send_result, f))
