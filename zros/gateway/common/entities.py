@@ -4,6 +4,7 @@ clients (:class:`ClientCache`, closed together) and the QoS of the publishers cl
 
 from __future__ import annotations
 
+import collections
 import threading
 from collections.abc import Callable, Hashable, Iterable
 from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
@@ -17,6 +18,10 @@ if TYPE_CHECKING:
     from zros.node.settings import NodeKeywords
 
 
+#: the parameter clients a gateway keeps (one per node asked; clients name nodes freely)
+PARAMETER_NODES = 1000
+
+
 class Closable(Protocol):
     """What :class:`ClientCache` holds: anything with ``close()``."""
 
@@ -28,19 +33,29 @@ C = TypeVar('C', bound=Closable)
 
 class ClientCache(Generic[C]):
     """The service or parameter clients a gateway made, one per key, made on first use and
-    closed together (thread-safe)."""
+    closed together (thread-safe). With a ``capacity``, the least recently used client is
+    closed to make room: for keys a client may name freely (the nodes it asks parameters of),
+    which would otherwise each leave a client behind."""
 
-    def __init__(self) -> None:
+    def __init__(self, capacity: int | None = None) -> None:
         self._lock = threading.Lock()
-        self._clients: dict[Hashable, C] = {}
+        self._clients: collections.OrderedDict[Hashable, C] = collections.OrderedDict()
+        self._capacity = capacity
 
     def get(self, key: Hashable, make: Callable[[], C]) -> C:
         """The client of ``key``, made by ``make()`` the first time."""
+        evicted = None
         with self._lock:
             client = self._clients.get(key)
             if client is None:
                 client = self._clients[key] = make()
-            return client
+                if self._capacity is not None and len(self._clients) > self._capacity:
+                    _, evicted = self._clients.popitem(last=False)
+            else:
+                self._clients.move_to_end(key)
+        if evicted is not None:
+            evicted.close()
+        return client
 
     def discard(self, key: Hashable) -> None:
         """Close and forget the client of ``key`` (if any)."""
@@ -52,7 +67,8 @@ class ClientCache(Generic[C]):
     def close(self) -> None:
         """Close every client."""
         with self._lock:
-            clients, self._clients = list(self._clients.values()), {}
+            clients = list(self._clients.values())
+            self._clients.clear()
         for client in clients:
             client.close()
 

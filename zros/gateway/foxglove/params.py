@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 from zros.cdr import CdrError
 from zros.cdr.message import decode
 from zros.errors import ZrosError
-from zros.gateway.common.entities import ClientCache
+from zros.gateway.common.entities import PARAMETER_NODES, ClientCache
 from zros.gateway.common.filters import NameFilter
 from zros.params.descriptor import Parameter
 from zros.params.errors import ParameterError
@@ -121,7 +121,7 @@ class Parameters:
         self._publish = publish
         self._status = status
         self._lock = threading.Lock()
-        self._clients: ClientCache[ParameterClient] = ClientCache()
+        self._clients: ClientCache[ParameterClient] = ClientCache(PARAMETER_NODES)
         self._subscribed: set[str] = set()
         self._events: RawTap | None = None
         self._pool = concurrent.futures.ThreadPoolExecutor(_WORKERS, 'zros foxglove parameters')

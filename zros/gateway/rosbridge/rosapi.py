@@ -21,7 +21,7 @@ from zros.cdr.model import Kind, MessageDef
 from zros.cdr.naming import attribute_name
 from zros.cdr.render import render_bundle
 from zros.errors import ZrosError
-from zros.gateway.common.entities import ClientCache
+from zros.gateway.common.entities import PARAMETER_NODES, ClientCache
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.json_types import text_field
@@ -55,7 +55,7 @@ class Rosapi:
         self._topics = topics
         self._services = services
         self._params = params
-        self._parameter_clients: ClientCache[ParameterClient] = ClientCache()
+        self._parameter_clients: ClientCache[ParameterClient] = ClientCache(PARAMETER_NODES)
         self._handlers: dict[str, Callable[[JsonObject], OutObject]] = {
             'topics': self._topics_and_types,
             'topics_for_type': self._topics_for_type,
