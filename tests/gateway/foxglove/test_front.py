@@ -376,3 +376,32 @@ def test_the_process_serves_at_most_max_clients(front: list[Front | FrontProcess
     with socket.create_connection(('127.0.0.1', served.port)):
         # accepted in turn: the first is admitted before the second is looked at
         assert _refused(served.port).startswith(b'HTTP/1.1 503')
+
+
+def test_a_client_that_trickles_its_upgrade_loses_its_place(
+    front: list[Front | FrontProcess], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A byte now and then must not hold a connection (of at most ``max_clients``) for hours:
+    the whole upgrade request has the handshake's time, not each read."""
+    import time
+
+    from zros.gateway.foxglove import handshake
+
+    monkeypatch.setattr(handshake, 'HANDSHAKE_TIMEOUT', 1.0)
+    served = Front(Listen(0), ('127.0.0.1', 9), OriginPolicy(), 1000, max_clients=1)
+    front.append(served)
+    start = time.monotonic()
+    with socket.create_connection(('127.0.0.1', served.port)) as slow:
+        slow.settimeout(0.25)  # the pace of its bytes
+        for byte in b'GET / HTTP/1.1\r\nHost: x\r\n' * 10:
+            try:
+                slow.sendall(bytes([byte]))
+                if slow.recv(1) == b'':
+                    break  # closed by the front
+            except TimeoutError:
+                continue
+            except OSError:
+                break
+        took = time.monotonic() - start
+    assert took < 5.0, f'a trickling client held its connection {took:.1f} s'
+    assert wait_for(lambda: len(served.admission) == 0, TIMEOUT)

@@ -9,6 +9,7 @@ out (after the handshake the two are the same protocol).
 from __future__ import annotations
 
 import socket
+import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -21,7 +22,8 @@ SDK_SUBPROTOCOL = 'foxglove.sdk.v1'
 SUBPROTOCOLS = ('foxglove.websocket.v1', SDK_SUBPROTOCOL)
 #: the longest HTTP request or response head accepted
 MAX_HEAD = 16 * 1024
-#: seconds a client has for its TLS handshake and upgrade request
+#: seconds a client has for its TLS handshake and upgrade request, and for each head in all
+#: (a client sending a byte now and then must not hold its place for hours)
 HANDSHAKE_TIMEOUT = 10.0
 
 
@@ -62,11 +64,17 @@ class Head:
 
 def read_head(sock: socket.socket) -> tuple[bytes, bytes] | None:
     """An HTTP head read from ``sock`` (blocking) and the bytes after it; None when the peer
-    closed or sent more than MAX_HEAD without ending it."""
+    closed or sent more than MAX_HEAD without ending it; TimeoutError when the whole head
+    took longer than :data:`HANDSHAKE_TIMEOUT`."""
+    deadline = time.monotonic() + HANDSHAKE_TIMEOUT
     data = b''
     while b'\r\n\r\n' not in data:
         if len(data) > MAX_HEAD:
             return None
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError(f'no whole HTTP head in {HANDSHAKE_TIMEOUT:g} s')
+        sock.settimeout(left)
         chunk = sock.recv(4096)
         if not chunk:
             return None
