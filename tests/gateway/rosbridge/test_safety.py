@@ -182,6 +182,25 @@ def test_a_client_has_a_bounded_number_of_calls_waiting(
         assert client.wait(lambda m: m.get('id') == 'after')['values'] == {'sum': 1010}
 
 
+def test_a_goal_that_cannot_be_sent_frees_its_place(
+    rosbridge: Make, raw_client: Make, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.actions import ActionClient, ActionError
+    from zros.gateway.rosbridge import calls
+
+    def closed(*_: object) -> None:
+        raise ActionError('the action client was closed')
+
+    monkeypatch.setattr(calls, 'MAX_PENDING', 1)
+    monkeypatch.setattr(ActionClient, 'send_goal_async', closed)
+    gateway = rosbridge()
+    client: RawClient = raw_client(gateway)
+    for index in range(3):  # the place of each failed goal is free again for the next
+        client.send(op='send_action_goal', id=f'g{index}', action='/made_up', action_type=FIB,
+                    args={'order': 3})  # fmt: skip
+        client.wait(lambda m, i=index: m.get('id') == f'g{i}' and 'client was closed' in m['msg'])
+
+
 def test_a_bound_of_clients_below_one_is_refused(rosbridge: Make) -> None:
     with pytest.raises(GatewayError, match='at least 1 client at once, not 0'):
         rosbridge(max_clients=0)

@@ -405,7 +405,16 @@ class Calls:
             handle.result_async().add_done_callback(lambda f: self._pool.submit(send_result, f))
 
         feedback = on_feedback if op.get('feedback') else None
-        client.send_goal_async(goal, feedback).add_done_callback(on_answer)
+        try:
+            sending = client.send_goal_async(goal, feedback)
+        except BaseException:
+            with self._lock:
+                self._goals.pop((peer.id, goal_id), None)
+            self._end(peer)
+            if release is not None:
+                release()
+            raise
+        sending.add_done_callback(on_answer)
 
     def cancel_action_goal(self, peer: Peer, op: JsonObject) -> None:
         """A ``cancel_action_goal`` message (asked of the server on a thread of the pool)."""
