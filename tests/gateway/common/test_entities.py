@@ -77,3 +77,13 @@ def test_a_cache_with_a_capacity_closes_the_least_recently_used() -> None:
     assert (a.closed, b.closed, c.closed) == (False, True, False)
     assert cache.get('b', lambda: _Client('b2')).key == 'b2'  # made anew; a goes
     assert a.closed
+
+
+def test_a_cache_keeps_a_client_made_elsewhere_only_for_a_free_key() -> None:
+    from zros.gateway.common.entities import ClientCache
+
+    cache: ClientCache[_Client] = ClientCache()
+    first, second = _Client('first'), _Client('second')
+    assert cache.keep('k', first)
+    assert not cache.keep('k', second)  # the caller still owns it
+    assert cache.get('k', lambda: _Client('made')) is first

@@ -57,6 +57,15 @@ class ClientCache(Generic[C]):
             evicted.close()
         return client
 
+    def keep(self, key: Hashable, client: C) -> bool:
+        """Keep ``client`` as the client of ``key`` unless there is one already (then False:
+        the caller still owns ``client``)."""
+        with self._lock:
+            if key in self._clients:
+                return False
+            self._clients[key] = client
+        return True
+
     def discard(self, key: Hashable) -> None:
         """Close and forget the client of ``key`` (if any)."""
         with self._lock:

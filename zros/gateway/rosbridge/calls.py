@@ -227,12 +227,20 @@ class Calls:
     ) -> tuple[ActionClient, Callable[[], None] | None]:
         """The action client for a goal, and what to call when the goal ends: the cached
         client of an action the graph shows, else (not seen yet, or invented) one for this
-        goal only, closed after it, so made-up names leave nothing behind."""
+        goal, kept when the goal ends if the graph shows the action by then (its routes are
+        up for the next goals), else closed, so made-up names leave nothing behind."""
+        key = (name, type_name)
         make = functools.partial(self._node.create_action_client, type_name, name)
         if self._served(name, EntityKind.ACTION_SERVER):
-            return self._actions.get((name, type_name), make), None
+            return self._actions.get(key, make), None
         client = make()
-        return client, client.close
+
+        def release() -> None:
+            served = self._served(name, EntityKind.ACTION_SERVER)
+            if not (served and self._actions.keep(key, client)):
+                client.close()
+
+        return client, release
 
     def _answered(
         self,
