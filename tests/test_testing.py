@@ -41,6 +41,23 @@ def test_peaks_of_anonymous_and_file_mapped_memory(tmp_path: Path) -> None:
     assert mapped.file >= 100 * MB and mapped.anonymous < 100 * MB
 
 
+#: a parent of 100 MB less than its child, which holds 100 MB
+PARENT = """
+import subprocess, sys
+sys.exit(subprocess.run([sys.executable, '-c', sys.argv[1], 'anonymous', '100']).returncode)
+"""
+
+
+def test_children_are_sampled_when_asked() -> None:
+    argv = [sys.executable, '-c', PARENT, HOLD]
+    alone = peak_memory(argv)
+    assert alone.anonymous < 100 * MB and alone.children_anonymous == alone.total_anonymous == 0
+    found = peak_memory(argv, children=True)
+    assert found.returncode == 3 and found.anonymous < 100 * MB
+    assert found.children_anonymous >= 100 * MB
+    assert found.total_anonymous >= found.children_anonymous
+
+
 def test_a_process_past_its_timeout_is_killed() -> None:
     begin = time.monotonic()
     with pytest.raises(subprocess.TimeoutExpired):

@@ -67,13 +67,17 @@ def wait_for(condition: Callable[[], object], timeout: float = 5.0) -> bool:
 @dataclass(frozen=True)
 class PeakMemory:
     """What :func:`peak_memory` saw of a process: the largest resident anonymous memory and
-    file-mapped memory (bytes, each at its own peak), its exit code and output."""
+    file-mapped memory (bytes, each at its own peak), its exit code and output; when asked,
+    the peak anonymous memory of its child processes (summed at each sample) and of the
+    process and its children together."""
 
     anonymous: int
     file: int
     returncode: int
     stdout: str
     stderr: str
+    children_anonymous: int = 0
+    total_anonymous: int = 0
 
 
 def _resident(pid: int) -> tuple[int, int]:
@@ -86,17 +90,36 @@ def _resident(pid: int) -> tuple[int, int]:
     return found.get('RssAnon', 0), found.get('RssFile', 0)
 
 
+def _children(pid: int) -> list[int]:
+    """The process ids of a process's children (from ``/proc/PID/task/*/children``)."""
+    found: list[int] = []
+    for task in Path(f'/proc/{pid}/task').glob('*/children'):
+        with contextlib.suppress(OSError):
+            found.extend(int(child) for child in task.read_text().split())
+    return found
+
+
+def _children_anonymous(pid: int) -> int:
+    total = 0
+    for child in _children(pid):
+        with contextlib.suppress(OSError, ValueError):  # ended since it was listed
+            total += _resident(child)[0]
+    return total
+
+
 def peak_memory(
     argv: Sequence[str],
     *,
     env: Mapping[str, str] | None = None,
     timeout: float = 600.0,
     interval: float = 0.001,
+    children: bool = False,
 ) -> PeakMemory:
     """Run ``argv`` and sample its ``/proc/PID/status`` every ``interval`` seconds until it
-    ends (Linux only): a peak shorter than an interval can be missed. Raises
-    ``subprocess.TimeoutExpired`` (the process killed) after ``timeout`` seconds."""
-    anonymous = file = 0
+    ends (Linux only): a peak shorter than an interval can be missed. With ``children``, its
+    child processes are sampled too. Raises ``subprocess.TimeoutExpired`` (the process
+    killed) after ``timeout`` seconds."""
+    anonymous = file = below = total = 0
     deadline = time.monotonic() + timeout
     output = {'stdout': '', 'stderr': ''}
     with subprocess.Popen(
@@ -123,6 +146,9 @@ def peak_memory(
             except (OSError, ValueError):  # ended between poll and read
                 break
             anonymous, file = max(anonymous, anon), max(file, mapped)
+            if children:
+                theirs = _children_anonymous(process.pid)
+                below, total = max(below, theirs), max(total, anon + theirs)
             if time.monotonic() > deadline:
                 process.kill()
                 process.wait()
@@ -131,7 +157,9 @@ def peak_memory(
         process.wait()
         for reader in readers:
             reader.join()
-    return PeakMemory(anonymous, file, process.returncode, output['stdout'], output['stderr'])
+    return PeakMemory(
+        anonymous, file, process.returncode, output['stdout'], output['stderr'], below, total
+    )
 
 
 @contextlib.contextmanager

@@ -1,5 +1,6 @@
 """A Foxglove bag server in a process of its own, played to its end by a real Foxglove client
-subscribed to every channel, and the peak memory of the server's process.
+subscribed to every channel, and the peak memory of the server's process and of its child
+(the Foxglove front, which relays the WebSocket bytes).
 
 Shared by tests/gateway/foxglove/test_bag_memory.py and benchmarks/bag_server.py.
 """
@@ -52,7 +53,7 @@ print(json.dumps({'idle': idle, 'published': published, 'seconds': seconds}))
 class Played:
     """What playing a bag through a server in a process of its own cost that process."""
 
-    peak: PeakMemory  #: its peak anonymous and file-mapped memory
+    peak: PeakMemory  #: its peak anonymous and file-mapped memory, and its children's
     idle_anonymous: int  #: its anonymous memory once listening, before playing
     idle_file: int  #: and its file-mapped memory then
     published: int  #: messages the server sent
@@ -71,7 +72,9 @@ def play_through(
         found: list[PeakMemory] = []
         extra = sum(count for _, count in seeks)
         argv = [sys.executable, '-c', SERVE, str(path), str(address), str(timeout), str(extra)]
-        server = threading.Thread(target=lambda: found.append(peak_memory(argv, timeout=timeout)))
+        server = threading.Thread(
+            target=lambda: found.append(peak_memory(argv, timeout=timeout, children=True))
+        )
         server.start()
         wait_for(lambda: address.exists() or not server.is_alive(), timeout)
         if not address.exists():

@@ -14,6 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
+from zros.bag.read.merge import Scanned, merged
 from zros.bag.read.recovered import Recovered, within
 
 if TYPE_CHECKING:
@@ -23,6 +24,8 @@ if TYPE_CHECKING:
 
 MAGIC = b'\x89MCAP0\r\n'
 _FORMATS = {'ros2msg': 'MSG', 'ros2idl': 'IDL', 'omgidl': 'IDL'}
+#: the most messages outside chunks read again as one unit (they are held until merged)
+_RUN = 1000
 
 
 def is_mcap(path: Path) -> bool:
@@ -42,6 +45,9 @@ class LinearScan:
     unknown, channel and count -1). After the iteration, ``stopped_at`` says why it
     stopped before the end ('' when it reached the footer), ``end`` is the byte offset just past
     the last complete record, and ``compression`` is the first chunk's ('' without chunks).
+    While a record is yielded, ``unit`` is where the unit it came from lies (start and end
+    byte: a chunk with its message indexes, or the record itself outside chunks) and
+    ``in_chunk`` whether that unit is a chunk: :meth:`records` from ``unit`` reads it again.
     """
 
     def __init__(self, path: Path) -> None:
@@ -52,18 +58,27 @@ class LinearScan:
         self.compression = ''
         #: chunks skipped as damaged: (offset, messages lost per channel id, why)
         self.skipped: list[tuple[int, dict[int, int], str]] = []
+        self.unit = (0, 0)
+        self.in_chunk = False
         self._chunked = False
 
-    def records(self) -> Iterator[McapRecord]:
-        """Header, schemas, channels, messages, metadata, attachments... in file order."""
+    def records(self, start: int = 0, stop: int | None = None) -> Iterator[McapRecord]:
+        """Header, schemas, channels, messages, metadata, attachments... in file order; from
+        the record at byte ``start`` (default the file's start) to the last one before byte
+        ``stop`` (default the end)."""
         from mcap.exceptions import EndOfFile  # noqa: PLC0415 (lazy: mcap, import time)
         from mcap.records import Chunk, MessageIndex  # noqa: PLC0415 (lazy: mcap, import time)
         from mcap.stream_reader import StreamReader, breakup_chunk  # noqa: PLC0415 (lazy: mcap, import time)
 
         self.size = size = self.path.stat().st_size
         with self.path.open('rb') as stream:
+            stream.seek(start)
             reader = StreamReader(
-                stream, emit_chunks=True, validate_crcs=True, record_size_limit=size
+                stream,
+                skip_magic=start > 0,
+                emit_chunks=True,
+                validate_crcs=True,
+                record_size_limit=size,
             )
             records = reader.records
             damaged: dict[int, int] | None = None  # the lost counts of the chunk just skipped
@@ -72,13 +87,16 @@ class LinearScan:
             indexed: dict[int, list[int]] = {}  # its message index: channel -> log times
             while True:
                 at = max(stream.tell(), len(MAGIC))  # the first read takes the magic too
+                if stop is not None and at >= stop:
+                    yield from self._held(held, held_at, at, indexed)
+                    return
                 try:
                     record = next(records)
                 except StopIteration:
-                    yield from self._checked(held, held_at, indexed)
+                    yield from self._held(held, held_at, at, indexed)
                     return
                 except Exception as exc:  # a record cut short or corrupt
-                    yield from self._checked(held, held_at, indexed)
+                    yield from self._held(held, held_at, at, indexed)
                     held, indexed, damaged = [], {}, None
                     why = str(exc) or type(exc).__name__
                     following = None if isinstance(exc, EndOfFile) else next_chunk(stream, at + 1)
@@ -104,9 +122,10 @@ class LinearScan:
                     elif held:
                         indexed[record.channel_id] = sorted(t for t, _ in record.records)
                     continue
-                yield from self._checked(held, held_at, indexed)
+                yield from self._held(held, held_at, at, indexed)
                 held, indexed, damaged = [], {}, None
                 if not isinstance(record, Chunk):
+                    self.unit, self.in_chunk = (at, self.end), False
                     yield record
                     continue
                 if not self._chunked:
@@ -117,6 +136,13 @@ class LinearScan:
                 except Exception as exc:  # whole but damaged: skipped, the scan goes on
                     damaged = {}
                     self.skipped.append((at, damaged, str(exc) or type(exc).__name__))
+
+    def _held(
+        self, held: list[McapRecord], at: int, end: int, indexed: dict[int, list[int]]
+    ) -> Iterator[McapRecord]:
+        """The records of the chunk at byte ``at`` whose message indexes end at ``end``."""
+        self.unit, self.in_chunk = (at, end), True
+        yield from self._checked(held, at, indexed)
 
     def _checked(
         self, held: list[McapRecord], at: int, indexed: dict[int, list[int]]
@@ -184,9 +210,11 @@ class RecoveredMcap(Recovered):
         #: damaged chunks skipped: (offset, messages lost per channel id, why)
         self.skipped: list[tuple[int, dict[int, int], str]] = []
         self.in_order = True
+        #: where the messages lie: (first time, last time, start byte, end byte) of each
+        #: chunk, or run of messages outside chunks, that holds some
+        self.units: list[tuple[int, int, int, int]] = []
 
-    def _records(self) -> Iterator[McapRecord]:
-        scan = LinearScan(self.path)
+    def _records(self, scan: LinearScan) -> Iterator[McapRecord]:
         yield from scan.records()
         self.stopped_at = scan.stopped_at
         self.skipped = scan.skipped
@@ -206,7 +234,9 @@ class RecoveredMcap(Recovered):
         channels: dict[int, Channel] = {}
         counts: dict[int, int] = {}
         first, last, previous = None, None, None
-        for record in self._records():
+        scan = LinearScan(self.path)
+        run = 0  # the messages of the last unit, when it is a run outside chunks
+        for record in self._records(scan):
             if isinstance(record, Schema):
                 schemas[record.id] = record
             elif isinstance(record, Channel):
@@ -219,6 +249,7 @@ class RecoveredMcap(Recovered):
                 if previous is not None and stamp < previous:
                     self.in_order = False
                 previous = stamp
+                run = self._add(scan, stamp, run)
         for channel in channels.values():
             schema = schemas.get(channel.schema_id)
             form = _FORMATS.get(schema.encoding, 'NONE') if schema else 'NONE'
@@ -250,6 +281,18 @@ class RecoveredMcap(Recovered):
             None,
         )
 
+    def _add(self, scan: LinearScan, stamp: int, run: int) -> int:
+        """Count a message at ``stamp`` into the unit it lies in (a chunk, or up to
+        :data:`_RUN` messages in a row outside chunks); the messages of the run it is in."""
+        begin, end = scan.unit
+        units = self.units
+        if units and (units[-1][2] == begin or (run and units[-1][3] == begin and run < _RUN)):
+            low, high, begin, _ = units[-1]
+            units[-1] = (min(low, stamp), max(high, stamp), begin, end)
+            return run + 1 if run else 0
+        units.append((stamp, stamp, begin, end))
+        return 0 if scan.in_chunk else 1
+
     def close(self) -> None:
         """Nothing stays open between scans."""
 
@@ -258,12 +301,30 @@ class RecoveredMcap(Recovered):
     ) -> Iterator[tuple[Connection, int, bytes]]:
         from mcap.records import Message  # noqa: PLC0415 (lazy: mcap, import time)
 
-        found = (
-            (by_id[r.channel_id], r.log_time, r.data)
-            for r in self._records()
-            if isinstance(r, Message) and r.channel_id in by_id and within(r.log_time, start, stop)
-        )
         if self.in_order:
-            yield from found
-        else:
-            yield from sorted(found, key=lambda item: item[1])
+            yield from (
+                (by_id[r.channel_id], r.log_time, r.data)
+                for r in self._records(LinearScan(self.path))
+                if isinstance(r, Message)
+                and r.channel_id in by_id
+                and within(r.log_time, start, stop)
+            )
+            return
+        # out of time order: the units in the order of their first times, merged
+        units = sorted(
+            unit
+            for unit in self.units
+            if (start is None or unit[1] >= start) and (stop is None or unit[0] < stop)
+        )
+
+        def read(begin: int, end: int) -> list[Scanned]:
+            found = LinearScan(self.path).records(begin, end)
+            messages = (r for r in found if isinstance(r, Message))
+            return [
+                (r.log_time, begin, rank, r.channel_id, r.data)
+                for rank, r in enumerate(messages)
+                if r.channel_id in by_id and within(r.log_time, start, stop)
+            ]
+
+        for time, _, _, cid, data in merged((first, read(b, e)) for first, _, b, e in units):
+            yield by_id[cid], time, data

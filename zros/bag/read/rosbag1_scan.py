@@ -9,15 +9,15 @@ reader; connections come from the connection records each chunk holds.
 
 from __future__ import annotations
 
-import heapq
 import io
 import mmap
 import os
 import struct
-from collections.abc import Callable, Collection, Iterable, Iterator
+from collections.abc import Callable, Collection, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, BinaryIO, TypeVar
+from typing import TYPE_CHECKING, BinaryIO
 
+from zros.bag.read.merge import Entry, Scanned, merged
 from zros.bag.read.recovered import Recovered, within
 from zros.bag.read.source_base import describe_error
 
@@ -30,11 +30,6 @@ if TYPE_CHECKING:
 #: a damaged unit: its byte offset, the messages lost per (native) connection id (-1 for an
 #: unknown count of unknown connections: key -1), why
 Damaged = Callable[[int, dict[int, int], str], None]
-#: an indexed message: time, chunk position, offset in the chunk, connection id
-_Entry = tuple[int, int, int, int]
-#: a scanned message: time, chunk position, rank in the chunk, connection id, data
-_Scanned = tuple[int, int, int, int, bytes]
-_T = TypeVar('_T', _Entry, _Scanned)
 _MSGDATA, _IDXDATA, _CHUNK, _CHUNK_INFO, _CONNECTION = 2, 4, 5, 6, 7
 #: the op field of a chunk record's header, as written
 _CHUNK_OP = b'\x04\x00\x00\x00op=\x05'
@@ -95,7 +90,7 @@ def indexed_messages(
 
 def _entries(
     reader: IndexedBag1, ids: set[int], start: int | None, stop: int | None
-) -> Iterator[_Entry]:
+) -> Iterator[Entry]:
     """``(time, chunk position, offset in the chunk, connection id)`` of the messages of
     connections ``ids``, in time order, reading each chunk's index as the read reaches it."""
     infos = sorted(
@@ -109,7 +104,7 @@ def _entries(
         key=lambda info: (info.start_time, info.pos),
     )
 
-    def entries(position: int) -> list[_Entry]:
+    def entries(position: int) -> list[Entry]:
         return [
             (entry.time, entry.chunk_pos, entry.offset, cid)
             for cid, found in reader.chunk_index(position).items()
@@ -117,22 +112,7 @@ def _entries(
             for entry in found
         ]
 
-    return _merged((info.start_time, entries(info.pos)) for info in infos)
-
-
-def _merged(chunks: Iterable[tuple[int, list[_T]]]) -> Iterator[_T]:
-    """The items (time first) of chunks given as ``(first time, items)`` in the order of
-    their first times, in time order (then file order): an item is handed on once no chunk
-    still to read can hold an earlier one, so only where chunks overlap in time are items of
-    several chunks held. A chunk is read when the merge reaches it."""
-    pending: list[_T] = []
-    for first, items in chunks:
-        while pending and pending[0][0] < first:
-            yield heapq.heappop(pending)
-        for item in items:
-            heapq.heappush(pending, item)
-    while pending:
-        yield heapq.heappop(pending)
+    return merged((info.start_time, entries(info.pos)) for info in infos)
 
 
 def _in_chunk(
@@ -309,7 +289,7 @@ class ScannedBag1(Recovered):
         with self.path.open('rb') as stream:
             size = os.fstat(stream.fileno()).st_size
 
-            def read(at: int) -> list[_Scanned]:
+            def read(at: int) -> list[Scanned]:
                 stream.seek(at)
                 header, data = _record(stream, size)
                 messages, _ = self._chunk(header, data, {})  # its damage was counted at open
@@ -319,7 +299,7 @@ class ScannedBag1(Recovered):
                     if cid in by_id and within(time, start, stop)
                 ]
 
-            for time, _, _, cid, data in _merged((first, read(at)) for first, _, at in chunks):
+            for time, _, _, cid, data in merged((first, read(at)) for first, _, at in chunks):
                 yield by_id[cid], time, data
 
 
