@@ -38,7 +38,7 @@ from transport_roles import (  # noqa: E402
 
 from tests.gateway.foxglove.client import SCRIPT, FoxgloveClient  # noqa: E402
 from tests.gateway.node_process import NODE_DIR  # noqa: E402
-from tests.support.processes import children  # noqa: E402
+from zros.testing import child_processes  # noqa: E402
 
 #: the client that counts message frames and parses nothing else of them
 LEAN = NODE_DIR / 'counter.js'
@@ -105,7 +105,7 @@ class ClientPath:
     ) -> None:  # fmt: skip
         self.server, url = start_server(command)
         # zros foxglove's front runs in a child of its own: its CPU is the gateway's too
-        self.front = next(iter(children(self.server.pid)), None)
+        self.front = next(iter(child_processes(self.server.pid)), None)
         self.client = FoxgloveClient(url, script=LEAN if lean else SCRIPT, protocol=protocol)
         self.publisher = _publisher(kind, endpoint, tag) if publish else None
         # the topic shows once the publisher is up; the publisher waits for the tap this makes

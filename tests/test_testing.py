@@ -1,15 +1,18 @@
-"""zros.testing's helpers that need no router: peak_memory."""
+"""zros.testing's helpers that need no router: peak_memory, child_processes."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
-from pathlib import Path
+from collections.abc import Iterator
+from pathlib import Path, PosixPath
 
 import pytest
 
-from zros.testing import peak_memory
+import zros.testing
+from zros.testing import child_processes, peak_memory
 
 pytestmark = pytest.mark.skipif(not Path('/proc/self/status').exists(), reason='Linux /proc')
 
@@ -63,3 +66,22 @@ def test_a_process_past_its_timeout_is_killed() -> None:
     with pytest.raises(subprocess.TimeoutExpired):
         peak_memory([sys.executable, '-c', 'import time; time.sleep(60)'], timeout=0.5)
     assert time.monotonic() - begin < 30
+
+
+class _NoChildrenFiles(PosixPath):
+    """/proc as a kernel built without CONFIG_PROC_CHILDREN shows it."""
+
+    def glob(self, pattern: str) -> Iterator[PosixPath]:  # type: ignore[override]  # the one form used
+        return iter(()) if pattern.endswith('/children') else super().glob(pattern)
+
+
+@pytest.mark.parametrize('kernel', ['with task children files', 'without them'])
+def test_child_processes_are_found(kernel: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    if kernel == 'without them':
+        monkeypatch.setattr(zros.testing, 'Path', _NoChildrenFiles)
+    code = 'import sys; sys.stdin.read()'  # runs until its stdin closes
+    with subprocess.Popen([sys.executable, '-c', code], stdin=subprocess.PIPE) as child:
+        assert child.stdin is not None
+        assert child.pid in child_processes(os.getpid())
+        assert child_processes(child.pid) == []
+        child.stdin.close()

@@ -90,18 +90,32 @@ def _resident(pid: int) -> tuple[int, int]:
     return found.get('RssAnon', 0), found.get('RssFile', 0)
 
 
-def _children(pid: int) -> list[int]:
-    """The process ids of a process's children (from ``/proc/PID/task/*/children``)."""
+def child_processes(pid: int) -> list[int]:
+    """The process ids of a process's children (Linux: ``/proc/PID/task/*/children``, or the
+    parent of every process where the kernel has no such files; none elsewhere)."""
+    tasks = list(Path(f'/proc/{pid}/task').glob('*/children'))
+    if not tasks:
+        return [p for p, parent in _parents() if parent == pid]
     found: list[int] = []
-    for task in Path(f'/proc/{pid}/task').glob('*/children'):
-        with contextlib.suppress(OSError):
+    for task in tasks:
+        with contextlib.suppress(OSError):  # the thread ended meanwhile
             found.extend(int(child) for child in task.read_text().split())
     return found
 
 
+def _parents() -> Iterator[tuple[int, int]]:
+    """(process id, parent id) of every process (from ``/proc/*/stat``)."""
+    for stat in Path('/proc').glob('[0-9]*/stat'):
+        try:
+            fields = stat.read_text().rpartition(')')[2].split()
+        except OSError:  # ended meanwhile
+            continue
+        yield int(stat.parent.name), int(fields[1])
+
+
 def _children_anonymous(pid: int) -> int:
     total = 0
-    for child in _children(pid):
+    for child in child_processes(pid):
         with contextlib.suppress(OSError, ValueError):  # ended since it was listed
             total += _resident(child)[0]
     return total

@@ -16,8 +16,7 @@ import zros
 from tests.cli.conftest import Cli
 from tests.gateway.foxglove.client import FoxgloveClient, image
 from tests.gateway.node_process import require
-from tests.support.processes import children
-from zros.testing import wait_for
+from zros.testing import child_processes, wait_for
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
 
@@ -117,7 +116,7 @@ def test_bad_arguments_fail_with_a_message(cli: Cli, args: list[str], error: str
 def _rss(pid: int) -> int:
     """The resident memory of a process and its children (the front's process), in bytes."""
     total = 0
-    for process in [pid, *children(pid)]:
+    for process in [pid, *child_processes(pid)]:
         for line in Path(f'/proc/{process}/status').read_text().splitlines():
             if line.startswith('VmRSS:'):
                 total += int(line.split()[1]) * 1024
@@ -190,7 +189,7 @@ def test_a_killed_gateway_leaves_no_front_behind(cli: Cli) -> None:
     running = cli.start('foxglove', '--port', '0', '--no-sim-time')
     url = _url(running.wait_line(lambda line: line.startswith('Foxglove: ')))
     port = int(url.rpartition(':')[2])
-    fronts = children(running.process.pid)
+    fronts = child_processes(running.process.pid)
     assert len(fronts) == 1
     front = Path(f'/proc/{fronts[0]}/stat')
 

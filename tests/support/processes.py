@@ -9,23 +9,9 @@ import sys
 import textwrap
 import threading
 import time
-from pathlib import Path
 
 from tests.support.streams import Drained
 from zros.transport import Router
-
-
-def children(pid: int) -> list[int]:
-    """The processes whose parent is ``pid`` (Linux: from /proc; none elsewhere)."""
-    found = []
-    for stat in Path('/proc').glob('[0-9]*/stat'):
-        try:
-            fields = stat.read_text().rpartition(')')[2].split()
-        except OSError:  # ended meanwhile
-            continue
-        if int(fields[1]) == pid:
-            found.append(int(stat.parent.name))
-    return found
 
 
 def launch(code: str, router: Router, **extra_env: str) -> subprocess.Popen[str]:
