@@ -152,6 +152,35 @@ def test_goals_to_made_up_actions_leave_nothing_behind(
     assert wait_for(lambda: not made_up(), TIMEOUT), made_up()
 
 
+def test_an_action_whose_server_answered_keeps_its_client(
+    rosbridge: Make, raw_client: Make, zros_node: Make
+) -> None:
+    from tests.actions.test_actions import fibonacci
+    from zros.actions import ActionServer
+
+    gateway = rosbridge()
+    server = zros_node('hidden_server')
+    # a server the graph does not show (as one not discovered yet): its answer shows it is real
+    ActionServer('/hidden_fib', FIB, fibonacci, node=server, announce=False)
+    watcher = zros_node('graph_watcher')
+    client: RawClient = raw_client(gateway)
+    with spinning(server):
+        client.send(op='send_action_goal', id='g', action='/hidden_fib', action_type=FIB,
+                    args={'order': 3}, feedback=True)  # fmt: skip
+        result = client.wait(lambda m: m.get('op') == 'action_result')
+    assert result['result'] and result['values'] == {'sequence': [0, 1, 1, 2]}
+
+    def kept() -> list[str]:
+        return [e.key for e in watcher.graph.endpoints() if 'hidden_fib' in e.key]
+
+    # the gateway's client stays for the next goals (its feedback route is up): a topic
+    # advertised after the goal ended shows that the graph has caught up
+    client.send(op='advertise', topic='/marker', type='std_msgs/msg/String')
+    assert wait_for(lambda: watcher.count_publishers('/marker') == 1, TIMEOUT)
+    assert wait_for(kept, TIMEOUT)
+    assert kept()
+
+
 def test_a_client_has_a_bounded_number_of_calls_waiting(
     rosbridge: Make, raw_client: Make, zros_node: Make, monkeypatch: pytest.MonkeyPatch
 ) -> None:

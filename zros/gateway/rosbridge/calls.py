@@ -224,20 +224,21 @@ class Calls:
 
     def _action_client(
         self, name: str, type_name: str
-    ) -> tuple[ActionClient, Callable[[], None] | None]:
-        """The action client for a goal, and what to call when the goal ends: the cached
-        client of an action the graph shows, else (not seen yet, or invented) one for this
-        goal, kept when the goal ends if the graph shows the action by then (its routes are
-        up for the next goals), else closed, so made-up names leave nothing behind."""
+    ) -> tuple[ActionClient, Callable[[bool], None] | None]:
+        """The action client for a goal, and what to call when the goal ends (with whether a
+        server answered it): the cached client of an action the graph shows, else (not seen
+        yet, or invented) one for this goal, kept when the goal ends if a server answered or
+        the graph shows the action by then (its routes are up for the next goals), else
+        closed, so made-up names leave nothing behind."""
         key = (name, type_name)
         make = functools.partial(self._node.create_action_client, type_name, name)
         if self._served(name, EntityKind.ACTION_SERVER):
             return self._actions.get(key, make), None
         client = make()
 
-        def release() -> None:
-            served = self._served(name, EntityKind.ACTION_SERVER)
-            if not (served and self._actions.keep(key, client)):
+        def release(answered: bool) -> None:
+            real = answered or self._served(name, EntityKind.ACTION_SERVER)
+            if not (real and self._actions.keep(key, client)):
                 client.close()
 
         return client, release
@@ -391,7 +392,7 @@ class Calls:
                     self._goals.pop((peer.id, goal_id), None)
                 self._end(peer)
                 if release is not None:
-                    self._pool.submit(release)
+                    self._pool.submit(release, False)
                 answer.fail(str(exc), STATUS_UNKNOWN)
                 return
             with self._lock:
@@ -407,7 +408,7 @@ class Calls:
                     self._goals.pop((peer.id, goal_id), None)
                 self._end(peer)
                 if release is not None:
-                    release()  # on the pool's thread, not the goal's
+                    release(True)  # on the pool's thread, not the goal's
                 answer.done(result, self._values.to_json, int(handle.status))
 
             handle.result_async().add_done_callback(lambda f: self._pool.submit(send_result, f))
@@ -420,7 +421,7 @@ class Calls:
                 self._goals.pop((peer.id, goal_id), None)
             self._end(peer)
             if release is not None:
-                release()
+                release(False)
             raise
         sending.add_done_callback(on_answer)
 
