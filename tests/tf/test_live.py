@@ -128,14 +128,17 @@ def test_bad_data_from_the_network_is_dropped_and_told_once(
                 garbage.write(zros.Message('std_msgs/msg/String', data='not a transform'))
             assert wait_for(lambda: buffer.rejections.counts['TF_UNDECODABLE'] == 3)
         for i in range(10):
+            stamp = (i + 1) * 10**9
             broadcaster.send_transform(
                 [
-                    stamped('a', 'a', (i + 1) * 10**9, (0.0, 0.0, 0.0)),
-                    stamped('a', 'b', (i + 1) * 10**9, (math.nan, 0.0, 0.0)),
-                    stamped('a', 'c', (i + 1) * 10**9, (1.0, 0.0, 0.0)),
+                    stamped('a', 'a', stamp, (0.0, 0.0, 0.0)),
+                    stamped('a', 'b', stamp, (math.nan, 0.0, 0.0)),
+                    stamped('a', 'c', stamp, (1.0, 0.0, 0.0)),
                 ]
             )
-        assert wait_for(lambda: buffer.can_transform('a', 'c', 10 * 10**9), 10)
+            # one at a time: /tf drops on a full queue (as under rmw_zenoh), and a burst of ten
+            # on a loaded machine may lose one, which is not what this test is about
+            assert wait_for(lambda s=stamp: buffer.can_transform('a', 'c', s), 10)
     counts = buffer.rejections.counts
     assert counts['TF_SELF_TRANSFORM'] == 10 and counts['TF_NAN_INPUT'] == 10
     told = [r.getMessage() for r in caplog.records if r.name == 'zros.tf']
