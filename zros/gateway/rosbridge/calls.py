@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, TypeVar
 
 from zros.errors import ZrosError
+from zros.gateway.common.counts import count_down
 from zros.gateway.common.entities import ClientCache
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
@@ -156,9 +157,7 @@ class Calls:
     def _end(self, peer: Peer) -> None:
         """A call or goal of ``peer`` got its answer."""
         with self._lock:
-            self._pending[peer.id] -= 1
-            if self._pending[peer.id] <= 0:
-                del self._pending[peer.id]
+            count_down(self._pending, peer.id)
 
     def _served(self, name: str, kind: EntityKind) -> list[Endpoint]:
         """The endpoints of the graph serving ``name`` as a service, or as an action (its

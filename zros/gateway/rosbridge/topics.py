@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
 from zros.errors import ZrosError
+from zros.gateway.common.counts import count_down
 from zros.gateway.common.entities import publisher_qos
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
@@ -341,7 +342,7 @@ class Topics:
         with self._lock:
             if self._subscriptions.pop((subscription.peer.id, subscription.topic), None) is None:
                 return
-            _count_down(self._subscribed, subscription.peer.id)
+            count_down(self._subscribed, subscription.peer.id)
             stream = self._streams[subscription.topic]
             stream.subscriptions = tuple(s for s in stream.subscriptions if s is not subscription)
             if not stream.subscriptions:
@@ -399,7 +400,7 @@ class Topics:
             if published is None or peer not in published.peers:
                 return
             published.peers.discard(peer)
-            _count_down(self._advertised, peer)
+            count_down(self._advertised, peer)
             if published.peers:
                 return
             del self._publishers[name]
@@ -438,12 +439,6 @@ class Topics:
             self._advertised.clear()
         for item in published:
             item.publisher.close()
-
-
-def _count_down(counts: collections.Counter[int], peer: int) -> None:
-    counts[peer] -= 1
-    if counts[peer] <= 0:  # a client that left holds no key
-        del counts[peer]
 
 
 @dataclass
