@@ -208,3 +208,25 @@ def image(width: int, height: int, seq: int) -> Any:
         step=width * 3,
         data=data,
     )
+
+
+def changes_followed(client: FoxgloveClient, node: Any, name: str) -> None:
+    """Change parameter ``name`` of ``node`` (to 1000, 1001...) until ``client`` is told of a
+    change: the gateway's subscription to /parameter_events is matched from then on."""
+    from zros.testing import wait_for
+
+    full = f'/{node.get_name()}.{name}'
+    kind = type(node.get_parameter(name))
+    values = iter(range(1000, 1_000_000))
+    start = client.mark()
+
+    def told() -> bool:
+        node.set_parameter(name, kind(next(values)))
+        return any(
+            p['name'] == full
+            for e in client.events[start:]
+            if e['ev'] == 'parameterValues' and 'id' not in e
+            for p in e['parameters']
+        )
+
+    assert wait_for(told, TIMEOUT), f'no change of {full} reached the client'

@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 import zros
-from tests.gateway.foxglove.client import FoxgloveClient
+from tests.gateway.foxglove.client import FoxgloveClient, changes_followed
 from zros.cdr import TypeRegistry, default_registry
 from zros.cdr.message import decode, encode
 from zros.cdr.render import render_bundle
@@ -286,6 +286,21 @@ def test_services_and_parameters_are_selected_by_regex(
     assert client.set_parameters([{'name': '/pnode.count', 'value': 5}]) == []
     _told(client, 'the parameter /pnode.count may not be set through this server', start)
     assert node.get_parameter('count') == 4
+    # nor followed: its changes are not sent (they would come before the later change of gain)
+    start = client.mark()
+    client.send('subscribeParameterUpdates', names=['/pnode.gain', '/pnode.count'])
+    _told(client, '1 parameter may not be followed through this server (/pnode.count)', start)
+    changes_followed(client, node, 'gain')
+    start = client.mark()
+    node.set_parameter('count', 9)
+    node.set_parameter('gain', 0.25)
+    client.wait(
+        lambda e: e['ev'] == 'parameterValues' and 'id' not in e
+        and {'name': '/pnode.gain', 'value': 0.25, 'type': 'float64'} in e['parameters'],
+        start=start,
+    )  # fmt: skip
+    followed = [e for e in client.events[start:] if e['ev'] == 'parameterValues']
+    assert all(p['name'] == '/pnode.gain' for e in followed for p in e['parameters']), followed
 
 
 def test_unknown_nodes_and_service_types(

@@ -11,7 +11,12 @@ from typing import Any
 import pytest
 
 import zros
-from tests.gateway.foxglove.client import LIBRARY_PROTOCOL, SDK_PROTOCOL, FoxgloveClient
+from tests.gateway.foxglove.client import (
+    LIBRARY_PROTOCOL,
+    SDK_PROTOCOL,
+    FoxgloveClient,
+    changes_followed,
+)
 from zros.testing import wait_for
 
 pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
@@ -192,3 +197,36 @@ def test_a_client_advertises_a_bounded_number_of_channels(
     client.send('unadvertise', channelId=channels[0])
     client.advertise('/web3', 'cdr', TWIST)  # one let go is room again
     assert wait_for(lambda: published() == [False, True, True, True], TIMEOUT), published()
+
+
+def test_clients_follow_a_bounded_number_of_parameters(
+    gateway: Make, foxglove_client: Make, zros_node: Make, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The SDK tells the server only the union of what clients follow, and names cost a client
+    nothing to invent: the server keeps at most MAX_FOLLOWED of them."""
+    from zros.gateway.foxglove import params
+
+    monkeypatch.setattr(params, 'MAX_FOLLOWED', 2)
+    node = zros_node('pnode', start_parameter_services=True, enable_rosout=False)
+    for name in ('a', 'b', 'c'):
+        node.declare_parameter(name, 1)
+    server = gateway()
+    client: FoxgloveClient = foxglove_client(server.url)
+    start = client.mark()
+    client.send('subscribeParameterUpdates', names=['/pnode.a', '/pnode.b', '/pnode.c'])
+    client.wait(
+        lambda e: e['ev'] == 'status' and '1 parameter not followed: this server follows at '
+        'most 2 at once' in e['status']['message'],
+        start=start,
+    )  # fmt: skip
+    changes_followed(client, node, 'b')
+    start = client.mark()
+    node.set_parameter('c', 3)
+    node.set_parameter('b', 2)  # of the first two, followed
+    client.wait(
+        lambda e: e['ev'] == 'parameterValues'
+        and {'name': '/pnode.b', 'value': 2} in e['parameters'],
+        start=start,
+    )  # fmt: skip
+    followed = [e for e in client.events[start:] if e['ev'] == 'parameterValues']
+    assert all(p['name'] == '/pnode.b' for e in followed for p in e['parameters']), followed

@@ -25,6 +25,7 @@ from zros.params.errors import ParameterError
 from zros.params.values import ParameterType, describe_value, from_message, is_param_value
 from zros.pubsub.taps import RawTap
 from zros.qos import PARAMETER_EVENTS
+from zros.version import counted
 
 if TYPE_CHECKING:
     import foxglove
@@ -42,6 +43,8 @@ _log = logging.getLogger('zros.gateway')
 TIMEOUT = 3.0
 #: nodes asked at once
 _WORKERS = 8
+#: parameters followed at once, all clients together (the SDK tells only their union)
+MAX_FOLLOWED = 10_000
 
 
 def split_name(full: str) -> tuple[str, str]:
@@ -200,19 +203,34 @@ class Parameters:
     # --- updates ---------------------------------------------------------------------------------
 
     def subscribe(self, names: Iterable[str]) -> None:
-        """Send clients the changes of these parameters (from ``/parameter_events``)."""
+        """Send clients the changes of these parameters (from ``/parameter_events``): those the
+        server offers, up to :data:`MAX_FOLLOWED` at once; clients are told of the others."""
+        names = list(dict.fromkeys(names))
+        offered = [full for full in names if split_name(full)[1] and self._allowed(full)]
         with self._lock:
-            self._subscribed.update(names)
-            if self._events is not None or not self._subscribed:
-                return
-            cls = self._node.registry.get_class('rcl_interfaces/msg/ParameterEvent')
-            self._events = RawTap(
-                self._node,
-                '/parameter_events',
-                cls.__msgtype__,
-                qos=PARAMETER_EVENTS,
-                key=None,
-                callback=self._event_callback(cls),
+            new = [full for full in offered if full not in self._subscribed]
+            room = max(0, MAX_FOLLOWED - len(self._subscribed))
+            self._subscribed.update(new[:room])
+            if self._events is None and self._subscribed:
+                cls = self._node.registry.get_class('rcl_interfaces/msg/ParameterEvent')
+                self._events = RawTap(
+                    self._node,
+                    '/parameter_events',
+                    cls.__msgtype__,
+                    qos=PARAMETER_EVENTS,
+                    key=None,
+                    callback=self._event_callback(cls),
+                )
+        hidden = [full for full in names if full not in offered]
+        if hidden:  # one status however many: a client may send thousands
+            self._status(
+                f'{counted(len(hidden), "parameter")} may not be followed through this server '
+                f'({hidden[0]}{", ..." if len(hidden) > 1 else ""})'
+            )
+        if len(new) > room:
+            self._status(
+                f'{counted(len(new) - room, "parameter")} not followed: this server follows at '
+                f'most {MAX_FOLLOWED} at once'
             )
 
     def unsubscribe(self, names: Iterable[str]) -> None:
