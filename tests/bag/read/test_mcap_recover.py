@@ -267,13 +267,19 @@ def test_reindex_keeps_the_whole_messages_of_a_cut_last_chunk(tmp_path: Path) ->
     path = tmp_path / 'cut.mcap'
     truth, chunks = _chunked_mcap(path, 'zstd')
     last = chunks[-2]
-    _cut(path, last.chunk_start_offset + last.chunk_length * 3 // 4)
+    end = last.chunk_start_offset + last.chunk_length * 3 // 4
+    _cut(path, end)
     read = _read(path)
     assert len(read) > sum(1 for m in truth if m[1] < last.message_start_time)
     report = reindex(path)
     assert report.message_count == len(read)
     kept = len(read) - sum(1 for m in truth if m[1] < last.message_start_time)
-    assert f'its first {kept} messages were read' in str(report)
+    assert str(report).startswith(
+        f'cut.mcap: rewritten, {len(read)} messages up to its last whole message (the '
+        f'{end - last.chunk_start_offset} bytes after its last complete chunk: the file ends at '
+        f'byte {end}, inside the chunk at byte {last.chunk_start_offset} ('
+    )
+    assert str(report).endswith(f'its first {kept} messages were read, the rest of it is lost)')
     with path.open('rb') as stream:  # finished: the mcap library's own reader reads it
         rewritten = [
             (c.topic, m.log_time, m.data) for _, c, m in make_reader(stream).iter_messages()
