@@ -179,6 +179,23 @@ def _cut(path: Path, at: int) -> Path:
     return path
 
 
+def _to_cut(tmp_path: Path, compression: str) -> tuple[Path, Messages, Chunk, int]:
+    """A file of :func:`_chunked_mcap` to cut: it, its messages, the full chunk a cut goes
+    into (the one before the last) and how many messages lie before that chunk."""
+    path = tmp_path / 'cut.mcap'
+    truth, chunks = _chunked_mcap(path, compression)
+    assert len(chunks) >= 3
+    last = chunks[-2]
+    return path, truth, last, sum(1 for m in truth if m[1] < last.message_start_time)
+
+
+def _cut_into(path: Path, chunk: Chunk, fraction: float) -> int:
+    """The file cut at ``fraction`` of ``chunk``: where it ends now."""
+    end = chunk.chunk_start_offset + int(chunk.chunk_length * fraction)
+    _cut(path, end)
+    return end
+
+
 def _records_at(chunk: Chunk) -> int:
     """Where an uncompressed chunk's records start (after its header and records length)."""
     return chunk.chunk_start_offset + 1 + 8 + 8 + 8 + 8 + 4 + 4 + len(chunk.compression) + 8
@@ -194,20 +211,15 @@ def _stopped_at(path: Path) -> str:
 def test_a_last_chunk_cut_short_keeps_its_whole_messages(
     tmp_path: Path, compression: str, caplog: pytest.LogCaptureFixture
 ) -> None:
-    path = tmp_path / 'cut.mcap'
-    truth, chunks = _chunked_mcap(path, compression)
-    assert len(chunks) >= 3
-    last = chunks[-2]  # a full chunk: the file ends in its middle
-    before = [m for m in truth if m[1] < last.message_start_time]
+    path, truth, last, before = _to_cut(tmp_path, compression)
     in_chunk = [m for m in truth if last.message_start_time <= m[1] <= last.message_end_time]
-    end = last.chunk_start_offset + last.chunk_length // 2
-    _cut(path, end)
+    end = _cut_into(path, last, 0.5)
     with caplog.at_level(logging.WARNING, 'zros.bag'), Bag(path) as bag:
         got = [(r.connection.topic, r.timestamp, bytes(r.data)) for r in bag.raw_messages()]
         assert bag.message_count == len(got) and not bag.skipped
     # every message of the complete chunks, then an in-order part of the cut one, as written
     assert got == truth[: len(got)]
-    kept = len(got) - len(before)
+    kept = len(got) - before
     assert 0 < kept < len(in_chunk)
     said = (
         f'the file ends at byte {end}, inside the chunk at byte {last.chunk_start_offset} '
@@ -219,10 +231,7 @@ def test_a_last_chunk_cut_short_keeps_its_whole_messages(
 
 
 def test_a_cut_at_a_record_boundary_keeps_every_record_before_it(tmp_path: Path) -> None:
-    path = tmp_path / 'cut.mcap'
-    truth, chunks = _chunked_mcap(path, '')
-    last = chunks[-2]
-    before = [m for m in truth if m[1] < last.message_start_time]
+    path, truth, last, before = _to_cut(tmp_path, '')
     # the 10th message record of the (uncompressed) chunk ends where its 11th starts
     boundary = _records_at(last)
     with path.open('rb') as stream:
@@ -231,23 +240,20 @@ def test_a_cut_at_a_record_boundary_keeps_every_record_before_it(tmp_path: Path)
             opcode, length = struct.unpack('<BQ', stream.read(9))
             assert opcode == 0x05  # a message
             boundary += 9 + length
-    assert _read(_cut(path, boundary)) == truth[: len(before) + 10]
+    assert _read(_cut(path, boundary)) == truth[: before + 10]
     assert 'its first 10 messages were read' in _stopped_at(path)
-    assert _read(_cut(path, boundary - 1)) == truth[: len(before) + 9]  # the 10th cut short
+    assert _read(_cut(path, boundary - 1)) == truth[: before + 9]  # the 10th cut short
     assert 'its first 9 messages were read' in _stopped_at(path)
 
 
 @pytest.mark.parametrize('into', [1, 9, 30, 'records length', 'records'])
 def test_a_cut_inside_a_chunk_header_loses_only_that_chunk(tmp_path: Path, into: int | str) -> None:
-    path = tmp_path / 'cut.mcap'
-    truth, chunks = _chunked_mcap(path, 'zstd')
-    last = chunks[-2]
-    before = [m for m in truth if m[1] < last.message_start_time]
+    path, truth, last, before = _to_cut(tmp_path, 'zstd')
     start = last.chunk_start_offset
     records = _records_at(last)
     end = {'records length': records - 1, 'records': records}.get(str(into), start)
     end = end if isinstance(into, str) else start + into
-    assert _read(_cut(path, end)) == before
+    assert _read(_cut(path, end)) == truth[:before]
     if into == 'records':  # the header whole, no byte of its records
         assert _stopped_at(path) == (
             f'the file ends at byte {end}, inside the chunk at byte {start} ({end - start} of '
@@ -264,16 +270,13 @@ def test_a_cut_inside_a_chunk_header_loses_only_that_chunk(tmp_path: Path, into:
 def test_reindex_keeps_the_whole_messages_of_a_cut_last_chunk(tmp_path: Path) -> None:
     from mcap.reader import make_reader
 
-    path = tmp_path / 'cut.mcap'
-    truth, chunks = _chunked_mcap(path, 'zstd')
-    last = chunks[-2]
-    end = last.chunk_start_offset + last.chunk_length * 3 // 4
-    _cut(path, end)
+    path, truth, last, before = _to_cut(tmp_path, 'zstd')
+    end = _cut_into(path, last, 0.75)
     read = _read(path)
-    assert len(read) > sum(1 for m in truth if m[1] < last.message_start_time)
+    kept = len(read) - before
+    assert kept > 0
     report = reindex(path)
     assert report.message_count == len(read)
-    kept = len(read) - sum(1 for m in truth if m[1] < last.message_start_time)
     assert str(report).startswith(
         f'cut.mcap: rewritten, {len(read)} messages up to its last whole message (the '
         f'{end - last.chunk_start_offset} bytes after its last complete chunk: the file ends at '
@@ -304,20 +307,18 @@ def test_a_real_recording_cut_at_60_percent_keeps_the_part_of_its_chunk(
 # --- what stops the read of a cut chunk, and the other records the file's end cuts ------------
 
 
-def _uncompressed_cut(tmp_path: Path) -> tuple[Path, Messages, Chunk, int]:
+def _uncompressed_cut(tmp_path: Path) -> tuple[Path, Messages, Chunk, int, int]:
     """A file cut in the middle of its last (uncompressed) chunk present: it, the messages
-    written, the chunk, and the offset of its 5th message record."""
-    path = tmp_path / 'cut.mcap'
-    truth, chunks = _chunked_mcap(path, '')
-    last = chunks[-2]
-    _cut(path, last.chunk_start_offset + last.chunk_length // 2)
+    written, the chunk, how many messages lie before it and the offset of its 5th message."""
+    path, truth, last, before = _to_cut(tmp_path, '')
+    _cut_into(path, last, 0.5)
     fifth = _records_at(last)
     with path.open('rb') as stream:
         for _ in range(4):
             stream.seek(fifth)
             _, length = struct.unpack('<BQ', stream.read(9))
             fifth += 9 + length
-    return path, truth, last, fifth
+    return path, truth, last, before, fifth
 
 
 def _patch(path: Path, at: int, data: bytes) -> None:
@@ -327,10 +328,9 @@ def _patch(path: Path, at: int, data: bytes) -> None:
 
 
 def test_a_message_outside_the_cut_chunks_times_stops_its_read(tmp_path: Path) -> None:
-    path, truth, last, fifth = _uncompressed_cut(tmp_path)
+    path, truth, last, before, fifth = _uncompressed_cut(tmp_path)
     # the 5th message's log time (after opcode, length, channel id and sequence)
     _patch(path, fifth + 9 + 2 + 4, struct.pack('<Q', last.message_end_time + 1))
-    before = sum(1 for m in truth if m[1] < last.message_start_time)
     assert _read(path) == truth[: before + 4]
     assert _stopped_at(path).endswith(
         'its first 4 messages were read, the rest of it is lost '
@@ -339,20 +339,18 @@ def test_a_message_outside_the_cut_chunks_times_stops_its_read(tmp_path: Path) -
 
 
 def test_a_record_that_does_not_parse_stops_the_read_of_a_cut_chunk(tmp_path: Path) -> None:
-    path, truth, last, fifth = _uncompressed_cut(tmp_path)
+    path, truth, _, before, fifth = _uncompressed_cut(tmp_path)
     # the 5th record made a schema whose name (from its sequence bytes on) is not UTF-8
     _patch(path, fifth, b'\x03')
     _patch(path, fifth + 9 + 2, struct.pack('<I', 4) + b'\xff\xfe\xfd\xfc')
-    before = sum(1 for m in truth if m[1] < last.message_start_time)
     assert _read(path) == truth[: before + 4]
     assert 'the rest of it is lost (a record in it does not parse: ' in _stopped_at(path)
 
 
 def test_more_data_than_the_cut_chunks_header_declares_stops_its_read(tmp_path: Path) -> None:
-    path, truth, last, _ = _uncompressed_cut(tmp_path)
+    path, truth, last, before, _ = _uncompressed_cut(tmp_path)
     # its uncompressed size (after opcode, length, start and end times): 1 byte
     _patch(path, last.chunk_start_offset + 1 + 8 + 8 + 8, struct.pack('<Q', 1))
-    before = sum(1 for m in truth if m[1] < last.message_start_time)
     assert _read(path) == truth[:before]
     assert _stopped_at(path).endswith(
         'no whole message in the part present, that chunk is lost '
@@ -361,16 +359,12 @@ def test_more_data_than_the_cut_chunks_header_declares_stops_its_read(tmp_path: 
 
 
 def test_a_cut_chunk_that_stops_decompressing_keeps_what_came_before(tmp_path: Path) -> None:
-    path = tmp_path / 'cut.mcap'
-    truth, chunks = _chunked_mcap(path, 'lz4')
-    last = chunks[-2]
-    end = last.chunk_start_offset + last.chunk_length * 3 // 4
-    _cut(path, end)
+    path, truth, last, before = _to_cut(tmp_path, 'lz4')
+    end = _cut_into(path, last, 0.75)
     whole = _read(path)
     # garbage in its last quarter present: what decompresses before it is kept
     _patch(path, end - last.chunk_length // 4, bytes(range(256)) * 16)
     got = _read(path)
-    before = sum(1 for m in truth if m[1] < last.message_start_time)
     assert before <= len(got) < len(whole) and got == truth[: len(got)]
     assert '(it does not decompress further: ' in _stopped_at(path)
 
