@@ -32,7 +32,9 @@ MB = 1 << 20
 SLACK = 8 * MB
 
 
-def _shuffled_mcap(path: Path, count: int, size: int = 16) -> tuple[Path, Messages]:
+def _shuffled_mcap(
+    path: Path, count: int, size: int = 16, chunk_size: int = 1 << 12
+) -> tuple[Path, Messages]:
     """Three topics written one after the other in 4 KB zstd chunks, so chunks overlap in
     time and later chunks start earlier: /a every 10 ns, /b at the same times as /a (ties
     across chunks), /c going back in time in pairs of equal times (ties inside a chunk). The
@@ -41,7 +43,7 @@ def _shuffled_mcap(path: Path, count: int, size: int = 16) -> tuple[Path, Messag
 
     written: list[tuple[int, int, str, bytes]] = []
     with path.open('wb') as stream:
-        writer = Writer(stream, chunk_size=1 << 12, compression=CompressionType.ZSTD)
+        writer = Writer(stream, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         writer.start(profile='ros2', library='zros tests')
         schema = writer.register_schema('std_msgs/msg/String', 'ros2msg', b'string data\n')
         for topic in ('/a', '/b', '/c'):
@@ -288,6 +290,28 @@ def test_reindex_keeps_the_whole_messages_of_a_cut_last_chunk(tmp_path: Path) ->
             (c.topic, m.log_time, m.data) for _, c, m in make_reader(stream).iter_messages()
         ]
     assert rewritten == read == truth[: len(read)]
+
+
+def test_a_cut_last_chunk_of_a_file_out_of_time_order_is_merged_in_time_order(
+    tmp_path: Path,
+) -> None:
+    from mcap.reader import make_reader
+
+    path, truth = _shuffled_mcap(tmp_path / 'shuffled.mcap', 3000, size=100, chunk_size=1 << 18)
+    with path.open('rb') as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    last = max(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    before = tmp_path / 'before.mcap'  # the complete chunks
+    before.write_bytes(path.read_bytes()[: last.chunk_start_offset])
+    _cut_into(path, last, 0.75)
+    recovered = RecoveredMcap(path)
+    recovered.open()
+    assert not recovered.in_order and 'messages were read' in recovered.stopped_at
+    got = _read(path)
+    # in time order, each as written, and more than the complete chunks hold
+    assert got == sorted(got, key=lambda m: m[1]) and not Counter(got) - Counter(truth)
+    assert len(got) > len(_read(before))
 
 
 def test_a_real_recording_cut_at_60_percent_keeps_the_part_of_its_chunk(
