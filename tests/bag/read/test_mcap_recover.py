@@ -371,6 +371,16 @@ def test_a_record_that_does_not_parse_stops_the_read_of_a_cut_chunk(tmp_path: Pa
     assert 'the rest of it is lost (a record in it does not parse: ' in _stopped_at(path)
 
 
+def test_a_record_longer_than_the_cut_chunk_stops_its_read(tmp_path: Path) -> None:
+    path, truth, last, before, fifth = _uncompressed_cut(tmp_path)
+    _patch(path, fifth + 1, struct.pack('<Q', last.uncompressed_size))  # the 5th record's length
+    assert _read(path) == truth[: before + 4]
+    assert _stopped_at(path).endswith(
+        'its first 4 messages were read, the rest of it is lost '
+        '(a record in it is longer than the chunk)'
+    )
+
+
 def test_more_data_than_the_cut_chunks_header_declares_stops_its_read(tmp_path: Path) -> None:
     path, truth, last, before, _ = _uncompressed_cut(tmp_path)
     # its uncompressed size (after opcode, length, start and end times): 1 byte

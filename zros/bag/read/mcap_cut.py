@@ -161,6 +161,9 @@ def _whole(buffer: bytearray, chunk: CutChunk) -> Iterator[McapRecord]:
     done = 0
     while len(buffer) - done >= RECORD.size:
         opcode, length = RECORD.unpack_from(buffer, done)
+        if RECORD.size + length > chunk.uncompressed:  # else held until it never completes
+            chunk.damage = 'a record in it is longer than the chunk'
+            break
         end = done + RECORD.size + length
         if end > len(buffer):
             break
