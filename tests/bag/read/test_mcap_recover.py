@@ -351,34 +351,27 @@ def _patch(path: Path, at: int, data: bytes) -> None:
         stream.write(data)
 
 
-def test_a_message_outside_the_cut_chunks_times_stops_its_read(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ('damage', 'reason'),
+    [
+        ('time', 'a message in it is not one its header declares'),
+        ('length', 'a record in it is longer than the chunk'),
+        ('schema', 'a record in it does not parse: '),
+    ],
+)
+def test_a_damaged_record_stops_the_read_of_a_cut_chunk(
+    tmp_path: Path, damage: str, reason: str
+) -> None:
     path, truth, last, before, fifth = _uncompressed_cut(tmp_path)
-    # the 5th message's log time (after opcode, length, channel id and sequence)
-    _patch(path, fifth + 9 + 2 + 4, struct.pack('<Q', last.message_end_time + 1))
+    if damage == 'time':  # the 5th message's log time (after its channel id and sequence)
+        _patch(path, fifth + 9 + 2 + 4, struct.pack('<Q', last.message_end_time + 1))
+    elif damage == 'length':  # the 5th record's length
+        _patch(path, fifth + 1, struct.pack('<Q', last.uncompressed_size))
+    else:  # the 5th record made a schema whose name (from its sequence bytes on) is no UTF-8
+        _patch(path, fifth, b'\x03')
+        _patch(path, fifth + 9 + 2, struct.pack('<I', 4) + b'\xff\xfe\xfd\xfc')
     assert _read(path) == truth[: before + 4]
-    assert _stopped_at(path).endswith(
-        'its first 4 messages were read, the rest of it is lost '
-        '(a message in it is not one its header declares)'
-    )
-
-
-def test_a_record_that_does_not_parse_stops_the_read_of_a_cut_chunk(tmp_path: Path) -> None:
-    path, truth, _, before, fifth = _uncompressed_cut(tmp_path)
-    # the 5th record made a schema whose name (from its sequence bytes on) is not UTF-8
-    _patch(path, fifth, b'\x03')
-    _patch(path, fifth + 9 + 2, struct.pack('<I', 4) + b'\xff\xfe\xfd\xfc')
-    assert _read(path) == truth[: before + 4]
-    assert 'the rest of it is lost (a record in it does not parse: ' in _stopped_at(path)
-
-
-def test_a_record_longer_than_the_cut_chunk_stops_its_read(tmp_path: Path) -> None:
-    path, truth, last, before, fifth = _uncompressed_cut(tmp_path)
-    _patch(path, fifth + 1, struct.pack('<Q', last.uncompressed_size))  # the 5th record's length
-    assert _read(path) == truth[: before + 4]
-    assert _stopped_at(path).endswith(
-        'its first 4 messages were read, the rest of it is lost '
-        '(a record in it is longer than the chunk)'
-    )
+    assert f'its first 4 messages were read, the rest of it is lost ({reason}' in _stopped_at(path)
 
 
 def test_more_data_than_the_cut_chunks_header_declares_stops_its_read(tmp_path: Path) -> None:
