@@ -1,5 +1,5 @@
 """``zros bag reindex``: a bag a killed recorder left reads again in rosbags, the mcap library
-and zros, up to its last complete chunk; the original is never lost on the way."""
+and zros, up to its last whole message; the original is never lost on the way."""
 
 from __future__ import annotations
 
@@ -102,9 +102,9 @@ def test_a_killed_recording_reads_everywhere_after_reindex(
 
     files = storage_files(folder)
     assert len(files) > 2
-    recovered = [m for file in files for m in complete_chunks(file)]
-    assert texts(recovered) == sent[: len(recovered)]  # in order, nothing missing before the cut
-    assert len(recovered) >= 1500
+    complete = [m for file in files for m in complete_chunks(file)]
+    assert texts(complete) == sent[: len(complete)]  # in order, nothing missing before the cut
+    assert len(complete) >= 1500
     # kept current at each split: it names every file (but one just opened, at worst)
     listed = [f['path'] for f in bag_yaml(folder)['files']]
     assert listed == [f.name for f in files][: len(listed)] and len(listed) >= len(files) - 1
@@ -120,13 +120,15 @@ def test_a_killed_recording_reads_everywhere_after_reindex(
     skipped = f'{files[-1].name}: skipped' in result.stdout
     assert skipped or f'{files[-1].name}: rewritten, ' in result.stdout
     used = files[:-1] if skipped else files
+    # the complete chunks, and the whole messages of a last chunk the kill cut short, if any
+    recovered = [m for file in used for m in mcap_reader(file)]
+    assert recovered[: len(complete)] == complete and texts(recovered) == sent[: len(recovered)]
     assert f'{len(recovered)} messages on 1 topic in {counted(len(used), "file")}' in result.stdout
 
     assert rosbags_reader(folder) == recovered
     assert any_reader(folder) == [(topic, text) for topic, text in zip(
         ['/burst'] * len(recovered), texts(recovered), strict=True
     )]  # fmt: skip
-    assert [m for file in used for m in mcap_reader(file)] == recovered
     assert zros_info_count(zros_cli, folder) == len(recovered)
     yaml = bag_yaml(folder)
     assert yaml['message_count'] == len(recovered)

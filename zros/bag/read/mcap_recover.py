@@ -1,5 +1,5 @@
 """An MCAP file that never got its summary and end (a recorder killed mid-file), read up to its
-last complete record.
+last complete record, and the whole messages of a last chunk that the file's end cuts short.
 
 The mcap library's stream reader scans the file linearly (chunk CRCs checked) and stops at the
 first record that is cut short or corrupt; everything before it is read. The class has the
@@ -14,6 +14,14 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
+from zros.bag.read.mcap_cut import (
+    CHUNK_HEAD,
+    CHUNK_OPCODE,
+    COMPRESSIONS,
+    RECORD,
+    cut_chunk,
+    read_cut,
+)
 from zros.bag.read.merge import Scanned, merged
 from zros.bag.read.recovered import Recovered, within
 
@@ -37,17 +45,19 @@ def is_mcap(path: Path) -> bool:
 class LinearScan:
     """One pass over the complete records of an MCAP file, from its start.
 
-    Chunks are read whole and their CRCs checked before any record inside them is yielded, so
-    a chunk cut short or corrupt yields nothing; a whole chunk that does not decompress or whose
-    CRC fails is listed in ``skipped`` (with its messages per channel, from the message index
-    records after it) and the scan goes on after it; after a record that does not parse, it
-    goes on at the next record laid out as a chunk (``skipped`` counts what lay between as
-    unknown, channel and count -1). After the iteration, ``stopped_at`` says why it
-    stopped before the end ('' when it reached the footer), ``end`` is the byte offset just past
-    the last complete record, and ``compression`` is the first chunk's ('' without chunks).
-    While a record is yielded, ``unit`` is where the unit it came from lies (start and end
-    byte: a chunk with its message indexes, or the record itself outside chunks) and
-    ``in_chunk`` whether that unit is a chunk: :meth:`records` from ``unit`` reads it again.
+    Chunks are read whole and their CRCs checked before any record inside them is yielded, so a
+    corrupt chunk yields nothing; only the last chunk, when the file's end cuts it short, yields
+    the whole records of its part present (:mod:`zros.bag.read.mcap_cut`). A whole chunk that
+    does not decompress or whose CRC fails is listed in ``skipped`` (with its messages per
+    channel, from the message index records after it) and the scan goes on after it; after a
+    record that does not parse, it goes on at the next record laid out as a chunk (``skipped``
+    counts what lay between as unknown, channel and count -1). After the iteration,
+    ``stopped_at`` says why it stopped before the end ('' when it reached the footer), ``end``
+    is the byte offset just past the last complete record, and ``compression`` is the first
+    chunk's ('' without chunks). While a record is yielded, ``unit`` is where the unit it came
+    from lies (start and end byte: a chunk with its message indexes, or the record itself
+    outside chunks) and ``in_chunk`` whether that unit is a chunk: :meth:`records` from ``unit``
+    reads it again.
     """
 
     def __init__(self, path: Path) -> None:
@@ -98,13 +108,11 @@ class LinearScan:
                 except Exception as exc:  # a record cut short or corrupt
                     yield from self._held(held, held_at, at, indexed)
                     held, indexed, damaged = [], {}, None
-                    why = str(exc) or type(exc).__name__
                     following = None if isinstance(exc, EndOfFile) else next_chunk(stream, at + 1)
                     if following is None:  # the end of what can be read
-                        self.stopped_at = (
-                            'the file ends before its footer' if isinstance(exc, EndOfFile) else why
-                        )
+                        yield from self._cut(stream, at, size, exc)
                         return
+                    why = _why(stream, at, size, exc, cut=False)
                     self.skipped.append((at, {-1: -1}, f'{why}; read on at byte {following}'))
                     stream.seek(following)
                     records = StreamReader(
@@ -137,6 +145,20 @@ class LinearScan:
                     damaged = {}
                     self.skipped.append((at, damaged, str(exc) or type(exc).__name__))
 
+    def _cut(self, stream: BinaryIO, at: int, size: int, exc: Exception) -> Iterator[McapRecord]:
+        """The whole records of a chunk at byte ``at`` that the file's end cuts short (none
+        when the record there is not such a chunk); ``stopped_at`` says what was read."""
+        chunk = cut_chunk(stream, at, size)
+        if chunk is None:
+            self.stopped_at = _why(stream, at, size, exc, cut=True)
+            return
+        if not self._chunked and chunk.data_at is not None:
+            self._chunked = True
+            self.compression = chunk.compression
+        self.unit, self.in_chunk = (at, size), True
+        yield from read_cut(stream, chunk)
+        self.stopped_at = chunk.describe()
+
     def _held(
         self, held: list[McapRecord], at: int, end: int, indexed: dict[int, list[int]]
     ) -> Iterator[McapRecord]:
@@ -166,10 +188,32 @@ class LinearScan:
         return [record for record in held if not isinstance(record, Message)]
 
 
-#: a chunk record's opcode, and the byte lengths of its fields before the compression name
-_CHUNK_OPCODE = 0x06
-_CHUNK_HEAD = struct.Struct('<BQQQQII')
-_COMPRESSIONS = (b'', b'lz4', b'zstd')
+def _why(stream: BinaryIO, at: int, size: int, exc: Exception, *, cut: bool) -> str:
+    """Why the record at byte ``at`` does not read, for a user: where a record runs past the
+    file's end (of ``size`` bytes), that rather than the mcap library's text. ``cut``: the
+    scan ends here (nothing readable follows), so the file's end is what cuts it."""
+    from mcap.exceptions import EndOfFile  # noqa: PLC0415 (lazy: mcap, import time)
+    from mcap.opcode import Opcode  # noqa: PLC0415 (lazy: mcap, import time)
+
+    stream.seek(at)
+    head = stream.read(RECORD.size)
+    if len(head) < RECORD.size:
+        if isinstance(exc, EndOfFile) and at >= size:
+            return 'the file ends before its footer'
+        return f'the file ends at byte {size}, inside the record at byte {at}'
+    opcode, length = RECORD.unpack(head)
+    try:
+        kind = Opcode(opcode).name.lower().replace('_', ' ') + ' record'
+    except ValueError:
+        kind = f'record of opcode {opcode}'
+    if at + RECORD.size + length <= size:
+        return str(exc) or type(exc).__name__
+    if cut:
+        return (
+            f'the file ends at byte {size}, inside the {kind} at byte {at} '
+            f'({size - at} of its {RECORD.size + length} bytes present)'
+        )
+    return f"the {kind} at byte {at} declares {length} bytes, past the file's end at byte {size}"
 
 
 def next_chunk(stream: BinaryIO, start: int) -> int | None:
@@ -182,13 +226,13 @@ def next_chunk(stream: BinaryIO, start: int) -> int | None:
 
 
 def _find_chunk(data: mmap.mmap, at: int) -> int | None:
-    while (found := data.find(bytes([_CHUNK_OPCODE]), at)) >= 0:
+    while (found := data.find(bytes([CHUNK_OPCODE]), at)) >= 0:
         at = found + 1
-        if found + _CHUNK_HEAD.size > len(data):
+        if found + CHUNK_HEAD.size > len(data):
             return None
-        _, length, _, _, _, _, name_length = _CHUNK_HEAD.unpack_from(data, found)
-        name_at = found + _CHUNK_HEAD.size
-        if name_length > 4 or data[name_at : name_at + name_length] not in _COMPRESSIONS:
+        _, length, _, _, _, _, name_length = CHUNK_HEAD.unpack_from(data, found)
+        name_at = found + CHUNK_HEAD.size
+        if name_length > 4 or data[name_at : name_at + name_length] not in COMPRESSIONS:
             continue
         records_at = name_at + name_length
         if found + 9 + length > len(data) or records_at + 8 > len(data):

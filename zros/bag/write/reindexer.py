@@ -6,14 +6,15 @@ cannot open such a bag and the mcap library's default reader refuses the file. A
 ``ros2 bag reindex``, :func:`reindex` rebuilds ``metadata.yaml`` from the files; since Python
 readers need a finished MCAP file (rosbag2's C++ reader scans an unfinished one itself), each
 unfinished file is first rewritten into a finished one holding its complete records: messages
-up to the last complete chunk, then chunk and message indexes, statistics, the summary and the
-footer.
+up to the last complete chunk (and the whole ones of a last chunk cut short), then chunk and
+message indexes, statistics, the summary and the footer.
 
 Files already finished are left untouched. An unfinished file is rewritten into a hidden
 temporary file beside it (``.<name>.reindex``), synced to disk, then renamed over the original
 in one step: if anything fails before the rename (disk full, a crash), the original is still
 there as it was, and running :func:`reindex` again starts over. What the rewrite drops is what
-no reader can read: the bytes after the last complete record (a chunk cut short).
+no reader can read: the bytes after the last complete record, but for the whole messages of a
+last chunk the file's end cuts short (:mod:`zros.bag.read.mcap_cut`).
 """
 
 from __future__ import annotations
@@ -80,14 +81,15 @@ class FileReport:
                 f'{self.name}: rewritten, {counted(self.message_count, "message")}; could not '
                 f'keep {lost} (damaged or cut short at byte {at})'
             )
-        tail = (
-            f'{self.dropped_bytes} bytes after it dropped: {self.reason}'
-            if self.dropped_bytes
-            else 'it had no summary and footer'
-        )
+        messages = counted(self.message_count, 'message')
+        if self.dropped_bytes:  # the reason says what of them was read (a last chunk cut short)
+            return (
+                f'{self.name}: rewritten, {messages} up to its last whole message (the '
+                f'{self.dropped_bytes} bytes after its last complete chunk: {self.reason})'
+            )
         return (
-            f'{self.name}: rewritten, {counted(self.message_count, "message")} up to its last '
-            f'complete chunk ({tail})'
+            f'{self.name}: rewritten, {messages} up to its last complete chunk (it had no '
+            'summary and footer)'
         )
 
 

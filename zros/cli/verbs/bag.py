@@ -218,7 +218,8 @@ def add_parser(
         help='make a bag a killed recorder left, or a damaged one, readable again',
         description='Finish every MCAP file of a bag that was never finished (a recorder killed '
         'with SIGKILL, a power loss) into one holding its messages up to the last complete '
-        'chunk, with summary, indexes and footer, and rewrite metadata.yaml from the files, '
+        "chunk (and the whole messages of a last chunk the file's end cuts short), with "
+        'summary, indexes and footer, and rewrite metadata.yaml from the files, '
         'as `ros2 bag reindex` does. Finished files are left as they are; an unfinished one is '
         'rewritten into a temporary file renamed over it once complete, so a failure leaves '
         'the original unchanged. A file with a damaged chunk, and a ROS 1 .bag cut short or '

@@ -1,0 +1,204 @@
+"""The whole records at the start of an MCAP chunk that the end of the file cuts short (a copy
+of a file still being written, a full disk, a download cut off).
+
+A chunk's CRC covers all of its records, so none of a cut chunk's can be checked: only the
+last chunk of a file, cut by the file's end, is read so (a chunk damaged in the middle of a
+file is skipped whole). The compressed bytes present are decompressed as a stream (zstd and
+lz4 frames give their output so far) and parsed up to the last whole record, a piece at a
+time: memory holds at most the chunk's records, never the file.
+"""
+
+from __future__ import annotations
+
+import io
+import struct
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, BinaryIO
+
+if TYPE_CHECKING:
+    from mcap.records import McapRecord
+
+#: a chunk record's opcode, and the byte lengths of its fields before the compression name
+CHUNK_OPCODE = 0x06
+CHUNK_HEAD = struct.Struct('<BQQQQII')
+COMPRESSIONS = (b'', b'lz4', b'zstd')
+#: opcode and length, before every record
+RECORD = struct.Struct('<BQ')
+_SCHEMA, _CHANNEL, _MESSAGE = 0x03, 0x04, 0x05
+#: the compressed bytes read and decompressed at a time
+_PIECE = 1 << 20
+
+
+@dataclass
+class CutChunk:
+    """A chunk record at byte ``at`` whose declared end lies past the end of the file (its
+    ``size``). ``data_at`` is None when the file ends inside its header; ``messages`` and
+    ``damage`` say what reading it found."""
+
+    at: int
+    size: int
+    length: int | None = None  #: the record's declared length (None: not even that present)
+    first: int = 0  #: its messages' first and last log times, as its header declares
+    last: int = 0
+    uncompressed: int = 0
+    compression: str = ''
+    data_at: int | None = None
+    data_length: int = 0
+    messages: int = 0
+    damage: str = ''
+
+    def describe(self) -> str:
+        """Why the scan stops here, and what of the chunk was read: a sentence for a user."""
+        where = f'the file ends at byte {self.size}, inside'
+        if self.data_at is None or self.length is None:
+            return f'{where} the header of the chunk at byte {self.at}: that chunk is lost'
+        text = (
+            f'{where} the chunk at byte {self.at} '
+            f'({self.size - self.at} of its {RECORD.size + self.length} bytes present)'
+        )
+        if self.messages == 1:
+            text += ': its first message was read, the rest of it is lost'
+        elif self.messages:
+            text += f': its first {self.messages} messages were read, the rest of it is lost'
+        else:
+            text += ': no whole message in the part present, that chunk is lost'
+        return f'{text} ({self.damage})' if self.damage else text
+
+
+def cut_chunk(stream: BinaryIO, at: int, size: int) -> CutChunk | None:
+    """The chunk at byte ``at`` when the file's end (at ``size``) cuts it short; None when the
+    record there is not a chunk, or is one whose lengths do not add up (damaged, not cut)."""
+    stream.seek(at)
+    head = stream.read(CHUNK_HEAD.size + 4 + 8)  # the longest compression name, then a length
+    if not head or head[0] != CHUNK_OPCODE:
+        return None
+    if len(head) < RECORD.size:
+        return CutChunk(at, size)
+    _, length = RECORD.unpack_from(head)
+    if at + RECORD.size + length <= size:
+        return None
+    if len(head) < CHUNK_HEAD.size:
+        return CutChunk(at, size, length)
+    _, _, first, last, uncompressed, _, name_length = CHUNK_HEAD.unpack_from(head)
+    if name_length > 4:
+        return None
+    records_at = CHUNK_HEAD.size + name_length
+    if len(head) < records_at + 8:
+        return CutChunk(at, size, length)
+    name = head[CHUNK_HEAD.size : records_at]
+    (records_length,) = struct.unpack_from('<Q', head, records_at)
+    if name not in COMPRESSIONS or records_at + 8 + records_length != RECORD.size + length:
+        return None
+    return CutChunk(
+        at,
+        size,
+        length,
+        first,
+        last,
+        uncompressed,
+        name.decode(),
+        at + records_at + 8,
+        records_length,
+    )
+
+
+def read_cut(stream: BinaryIO, chunk: CutChunk) -> Iterator[McapRecord]:
+    """The whole Schema, Channel and Message records in the part of ``chunk`` present, in
+    order; counts its messages into ``chunk.messages`` and stops at the first sign of damage
+    (in ``chunk.damage``)."""
+    if chunk.data_at is None:
+        return
+    buffer = bytearray()
+    produced = 0  # the uncompressed bytes so far
+    stream.seek(chunk.data_at)
+    pieces = _decompressed(stream, chunk.compression)
+    while not chunk.damage:
+        try:
+            piece = next(pieces, b'')
+        except Exception as exc:  # zstd's or lz4's error on a damaged frame, or none installed
+            chunk.damage = f'it does not decompress further: {str(exc) or type(exc).__name__}'
+            return
+        if not piece:
+            return
+        produced += len(piece)
+        if produced > chunk.uncompressed:
+            chunk.damage = 'it decompresses to more than its header declares'
+            return
+        buffer += piece
+        yield from _whole(buffer, chunk)
+
+
+def _decompressed(stream: BinaryIO, compression: str) -> Iterator[bytes]:
+    """The output of the compressed bytes from the position of ``stream`` to the file's end
+    (the chunk's part present), as far as they go, in pieces of at most :data:`_PIECE`."""
+    if compression == 'zstd':
+        import zstandard  # noqa: PLC0415 (only for zstd chunks)
+
+        reader = zstandard.ZstdDecompressor().stream_reader(stream, read_size=_PIECE, closefd=False)
+        while piece := reader.read(_PIECE):
+            yield piece
+    elif compression == 'lz4':
+        import lz4.frame  # type: ignore[import-untyped]  # noqa: PLC0415 (only for lz4 chunks)
+
+        decompressor = lz4.frame.LZ4FrameDecompressor()
+        while data := stream.read(_PIECE):
+            while True:  # at most a piece of output at a time
+                output: bytes = decompressor.decompress(data, max_length=_PIECE)
+                if output:
+                    yield output
+                data = b''
+                if decompressor.needs_input or decompressor.eof:
+                    break
+    else:
+        while piece := stream.read(_PIECE):
+            yield piece
+
+
+def _whole(buffer: bytearray, chunk: CutChunk) -> Iterator[McapRecord]:
+    """The whole records at the start of ``buffer``, removed from it."""
+    records = []
+    done = 0
+    while len(buffer) - done >= RECORD.size:
+        opcode, length = RECORD.unpack_from(buffer, done)
+        if RECORD.size + length > chunk.uncompressed:  # else held until it never completes
+            chunk.damage = 'a record in it is longer than the chunk'
+            break
+        end = done + RECORD.size + length
+        if end > len(buffer):
+            break
+        record = _record(opcode, bytes(buffer[done + RECORD.size : end]), chunk)
+        if chunk.damage:
+            break
+        done = end
+        if record is not None:
+            records.append(record)
+    del buffer[:done]
+    yield from records
+
+
+def _record(opcode: int, body: bytes, chunk: CutChunk) -> McapRecord | None:
+    """A Schema, Channel or Message record from its body (None for other records); damage
+    noted in ``chunk`` when it does not parse or a message lies outside the chunk's times."""
+    from mcap.data_stream import ReadDataStream  # noqa: PLC0415 (lazy: mcap, import time)
+    from mcap.records import Channel, Message, Schema  # noqa: PLC0415 (lazy: mcap, import time)
+
+    stream = ReadDataStream(io.BytesIO(body))
+    record: McapRecord | None = None
+    try:
+        if opcode == _SCHEMA:
+            record = Schema.read(stream)
+        elif opcode == _CHANNEL:
+            record = Channel.read(stream)
+        if opcode != _MESSAGE:
+            return record
+        message = Message.read(stream, len(body)) if len(body) >= 22 else None
+    except Exception as exc:  # the mcap library's parse errors: struct, unicode, end of data
+        chunk.damage = f'a record in it does not parse: {str(exc) or type(exc).__name__}'
+        return None
+    if message is None or (chunk.last and not chunk.first <= message.log_time <= chunk.last):
+        chunk.damage = 'a message in it is not one its header declares'
+        return None
+    chunk.messages += 1
+    record = message
+    return record
