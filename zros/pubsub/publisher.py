@@ -10,14 +10,14 @@ from typing import TYPE_CHECKING, Generic, Protocol, cast, overload
 
 from zenoh import CongestionControl, Priority, Reliability, ZError, ext
 
-from zros.cdr import definition_of, encode
+from zros.cdr import encode
 from zros.cdr.encode_buffer import EncodeBuffer
 from zros.cdr.message import M, Message
-from zros.cdr.model import Kind
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
+from zros.pubsub.tail import Newest, can_be_large
 from zros.pubsub.type_watch import forget_types, type_watch_of
-from zros.qos import QoS, QoSLike, as_qos
+from zros.qos import Congestion, QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
 from zros.runtime.entity import Entity, message_class
 from zros.runtime.signal import sleep
@@ -25,8 +25,18 @@ from zros.transport.zenoh_qos import CONGESTION, PRIORITY
 
 if TYPE_CHECKING:
     from zenoh import Publisher as ZenohPublisher
+    from zenoh import Timestamp
 
     from zros.wire import WireEntity
+    from zros.wire.base import Put
+
+
+class _TimedPut(Protocol):
+    """A Zenoh publisher's ``put`` given a timestamp."""
+
+    def __call__(
+        self, payload: bytes | bytearray, *, attachment: bytes | None, timestamp: Timestamp | None
+    ) -> None: ...
 
 
 class _DeclarePublisher(Protocol):
@@ -105,20 +115,25 @@ class Publisher(Entity, Generic[M]):
             qos=self.qos, announce=announce, own=True,
         )  # fmt: skip
         self._publisher = self._keep(self._declare(wire))
-        self._put: Callable[[bytes | bytearray], None] = wire.sender(self._publisher.put)
-        # types that can grow large (sequences) reuse one output buffer while their messages are
+        # types that can grow large (sequences) reuse an output buffer while their messages are
         # large, holding _in_use while they do; small ones are joined into fresh bytes (faster
         # for them) and put with no lock: close() swaps _put first, then waits for a put still
         # running (zenoh-python refuses to undeclare a publisher another thread is inside).
-        self._buffer: EncodeBuffer | None = None
-        self._large = sys.maxsize  #: messages from this size on go through the buffer
+        self._buffers: tuple[EncodeBuffer, ...] = ()
+        self._turn = 0  #: the buffer the next large message goes to
+        self._large = sys.maxsize  #: messages from this size on go through a buffer
         self._small = True  #: the last message was small
-        definition = definition_of(self.msg_type)
-        if any(f.type.kind is not Kind.SCALAR for f in definition.fields) or any(
-            f.type.is_nested for f in definition.fields
-        ):
-            self._buffer = EncodeBuffer()
-            self._large = self._buffer.threshold
+        #: the newest large message, for subscribers whose slow link dropped it (pubsub.tail)
+        self._newest: Newest | None = None
+        put: Put = self._publisher.put
+        if can_be_large(self.msg_type):
+            self._buffers = (EncodeBuffer(),)
+            self._large = self._buffers[0].threshold
+            if self._keeps_newest():
+                # the newest is kept in one buffer while the next message goes to the other
+                self._buffers += (EncodeBuffer(),)
+                put = self._stamped(self._publisher.put)
+        self._put: Callable[[bytes | bytearray], None] = wire.sender(put)
         if announce:  # before its tokens: the check warns from this side, before it returns
             type_watch_of(context.transport).watch(
                 self, EntityKind.PUBLISHER, self.topic, self.type_name
@@ -145,6 +160,34 @@ class Publisher(Entity, Generic[M]):
             priority=PRIORITY[priority], express=express,
         )  # fmt: skip
 
+    @property
+    def resent(self) -> int:
+        """Newest messages sent again, each to one subscriber whose slow link had dropped it
+        (:mod:`zros.pubsub.tail`)."""
+        return 0 if self._newest is None else self._newest.sent
+
+    def _keeps_newest(self) -> bool:
+        """Whether it keeps its newest large message: a reliable keep-last publisher of the
+        volatile kind (transient local ones have zenoh-ext's cache; keep-all ones block)."""
+        qos = self.qos
+        return (
+            qos.reliable
+            and not qos.transient_local
+            and qos.congestion_control is not Congestion.BLOCK
+        )
+
+    def _stamped(self, put: _TimedPut) -> Put:
+        """``put`` with the timestamp :class:`~zros.pubsub.tail.Newest` gives each payload."""
+        newest = self._newest = Newest(
+            self.context.transport.session, self.key, PRIORITY[self.priority]
+        )
+        stamp = newest.stamp
+
+        def stamped(payload: bytes | bytearray, *, attachment: bytes | None = None) -> None:
+            put(payload, attachment=attachment, timestamp=stamp(payload))
+
+        return stamped
+
     def write(self, message: M) -> None:
         """Publish a message (rosR: ``ros.WriteMessage``)."""
         if type(message) is not self.msg_type:
@@ -158,8 +201,9 @@ class Publisher(Entity, Generic[M]):
                 self._small = False  # the next ones go through the buffer
             self._put(data)
             return
-        buffer = self._buffer
-        assert buffer is not None
+        buffers = self._buffers
+        buffer = buffers[self._turn]
+        self._turn = (self._turn + 1) % len(buffers)
         with self._in_use:
             try:
                 data = message._cdr_encode(message, buffer.join)
@@ -174,12 +218,16 @@ class Publisher(Entity, Generic[M]):
 
     def write_raw(self, data: bytes | bytearray) -> None:
         """Publish CDR bytes (4-byte header included) as they are."""
-        self._put(bytes(data) if isinstance(data, memoryview) else data)
+        if type(data) is not bytes and (isinstance(data, memoryview) or self._newest is not None):
+            data = bytes(data)  # the newest is kept: not a buffer its owner may change
+        self._put(data)
 
     def close(self) -> None:
         """Withdraw it from the network; safe to call twice. Later writes raise ``zenoh.ZError``."""
         self._put = self._refuse
         forget_types(self)
+        if self._newest is not None:
+            self._newest.close()
         super().close()
 
     def _refuse(self, data: bytes | bytearray) -> None:

@@ -22,6 +22,7 @@ from zros.cdr.message import M, Message, decode
 from zros.cdr.registry import registry_of
 from zros.keyexpr.kinds import EntityKind
 from zros.pubsub.senders import describe_sender
+from zros.pubsub.tail import Tail, can_be_large
 from zros.pubsub.type_watch import forget_types, type_watch_of
 from zros.qos import QoS, QoSLike, as_qos
 from zros.runtime.defaults import NodeLike
@@ -182,7 +183,12 @@ class Subscriber(Entity, Generic[T]):
         self._lifespan = self.qos.lifespan
         self._expiries = DropCounter(self.topic)
         self._rejection = wire.rejection
-        self._subscribe(wire, self.qos, batches=self._on_samples, rejected=self._on_rejected)
+        #: reliable: asks for the newest large message once a stream pauses (pubsub.tail)
+        self._tail: Tail | None = None
+        if self.qos.reliable and can_be_large(self.msg_type):
+            self._tail = Tail(context.transport, self.key, self._admit)
+        batches = self._admit if self._tail is None else self._on_samples
+        self._subscribe(wire, self.qos, batches=batches, rejected=self._on_rejected)
         if announce:  # before its tokens: the check warns from this side, before it returns
             type_watch_of(context.transport).watch(
                 self, EntityKind.SUBSCRIBER, self.topic, self.type_name
@@ -222,7 +228,19 @@ class Subscriber(Entity, Generic[T]):
         self._queue.reject()
         self._drop(sample, self._rejection)
 
+    @property
+    def recovered(self) -> int:
+        """Newest messages that a slow link had dropped, fetched once their stream paused
+        (counted in ``received`` too)."""
+        return 0 if self._tail is None else self._tail.recovered
+
     def _on_samples(self, samples: list[Sample]) -> None:
+        """Live samples of a subscriber that follows its large ones."""
+        assert self._tail is not None
+        self._tail.seen(samples)
+        self._admit(samples)
+
+    def _admit(self, samples: list[Sample]) -> None:
         if self._lifespan is not None:
             samples = self._unexpired(samples, self._lifespan)
             if not samples:
@@ -445,6 +463,8 @@ class Subscriber(Entity, Generic[T]):
 
     def _on_close(self) -> None:
         forget_types(self)
+        if self._tail is not None:
+            self._tail.close()
         self._drops.flush()
         self._overflows.flush()
         self._expiries.flush()

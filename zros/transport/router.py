@@ -45,6 +45,8 @@ def _tls_settings(
     return settings
 
 
+#: bytes from which a message is large: sent on with ``block_first`` by zros routers (below)
+LARGE_PAYLOAD = 65536
 #: what zros routers do to large messages (64 KiB on) sent with congestion control ``drop``
 #: (rmw_zenoh's and zros's default but for keep-all; the bridge's for best effort) as they
 #: leave: ``block_first``, so that the newest of them still crosses a congested link whole
@@ -53,13 +55,13 @@ def _tls_settings(
 LARGE_PAYLOADS: list[JsonValue] = [
     {
         'id': 'zros_large_payloads_last',
-        'messages': ['put'], 'flows': ['egress'], 'payload_size': '65536..',
+        'messages': ['put'], 'flows': ['egress'], 'payload_size': f'{LARGE_PAYLOAD}..',
         'qos': {'congestion_control': 'drop', 'priority': 'data'},
         'overwrite': {'congestion_control': 'block_first', 'priority': 'data_low'},
     },
     {
         'id': 'zros_large_payloads_block_first',
-        'messages': ['put'], 'flows': ['egress'], 'payload_size': '65536..',
+        'messages': ['put'], 'flows': ['egress'], 'payload_size': f'{LARGE_PAYLOAD}..',
         'qos': {'congestion_control': 'drop'},
         'overwrite': {'congestion_control': 'block_first'},
     },
