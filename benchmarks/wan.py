@@ -14,7 +14,8 @@ subscribes to all three. Reported per run:
   their own, as a control loop would);
 * each small topic's delivery ratio and age on arrival (p50, p99; age = arrival - header stamp,
   one clock);
-* the images that arrived, and their age.
+* the images that arrived, and their age; how many images were written after the last one to
+  arrive, and how many the laptop fetched once the stream paused (zros.pubsub.tail).
 
 ``before`` restores the settings of zros before issue 38 through the QoS: reliable publishers
 ``block``, every message at priority ``data`` and not express, the router's large-payload rule
@@ -56,11 +57,13 @@ class Arrivals:
 
     ages: list[float] = field(default_factory=list)
     last: float = 0.0  #: monotonic time of the last arrival
+    frame: str = ''  #: the frame id of the last arrival (the camera numbers its images)
 
     def on(self, message: zros.Message) -> None:
         stamp = message.header.stamp
         self.ages.append(time.time() - stamp.sec - stamp.nanosec * 1e-9)
         self.last = time.monotonic()
+        self.frame = message.header.frame_id
 
 
 def _stamp(message: zros.Message) -> zros.Message:
@@ -92,7 +95,7 @@ def _measure(rig: Wan, before: bool, seconds: float) -> dict[str, object]:
     robot = rig.node('robot', remote=False)
     laptop = rig.node('laptop', remote=True)
     arrivals = {name: Arrivals() for name, _ in (*SMALL, ('/camera', ''))}
-    laptop.create_subscription(
+    seen = laptop.create_subscription(
         'sensor_msgs/msg/Image', '/camera', arrivals['/camera'].on, qos=_qos(False, 1)
     )
     for name, type_name in SMALL:
@@ -127,6 +130,7 @@ def _measure(rig: Wan, before: bool, seconds: float) -> dict[str, object]:
             time.sleep(max(0.0, start + sent[name] / RATE - time.monotonic()))
 
     def write_image() -> None:
+        image.header.frame_id = str(sent['/camera'])
         before_write = time.perf_counter()
         camera.write(_stamp(image))
         camera_writes.append(time.perf_counter() - before_write)
@@ -167,15 +171,21 @@ def _measure(rig: Wan, before: bool, seconds: float) -> dict[str, object]:
     figures['images delivered'] = f'{len(images)}/{sent["/camera"]}'
     figures['image age p50 s'] = _percentile(images, 0.5)
     figures['image age max s'] = max(images) if images else float('nan')
+    last = arrivals['/camera'].frame
+    figures['last image: written before the last'] = (
+        str(sent['/camera'] - 1 - int(last)) if last else '-'
+    )
+    figures['images fetched after the stream'] = str(seen.recovered)
     return figures
 
 
 def _drain(arrivals: dict[str, Arrivals], timeout: float) -> None:
-    """Wait until nothing arrived for 2 s (what was on its way has), at most ``timeout``."""
+    """Wait until nothing arrived for 5 s (what was on its way has, and the newest image the
+    laptop asks for once the stream paused), at most ``timeout``."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         last = max(a.last for a in arrivals.values())
-        if time.monotonic() - last > 2.0:
+        if time.monotonic() - last > 5.0:
             return
         time.sleep(0.2)
 

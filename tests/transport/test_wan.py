@@ -107,6 +107,13 @@ def test_a_robot_behind_the_slow_link_asks_for_block_first_itself() -> None:
         took = _publish(camera, 30, 0.1)
         assert max(took) < 0.05, f'the slowest write() took {max(took) * 1e3:.0f} ms'
         assert wait_for(lambda: seen.received >= 2, 10)  # under drop, none would arrive whole
+        arrived: list[int] = []
+
+        def newest() -> bool:  # asked for, and sent block_first as the stream was
+            arrived.extend(int(m.header.frame_id) for m in seen.take())
+            return bool(arrived) and arrived[-1] == 29
+
+        assert wait_for(newest, 20), arrived[-3:]
 
 
 def test_a_keep_all_writer_blocks_until_every_message_is_sent(rig: Wan) -> None:

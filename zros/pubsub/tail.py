@@ -85,10 +85,17 @@ class Newest:
     timestamp to put it with; for a small one it returns None.
     """
 
-    def __init__(self, session: Session, key: str, priority: Priority) -> None:
+    def __init__(
+        self,
+        session: Session,
+        key: str,
+        priority: Priority,
+        congestion: CongestionControl = CongestionControl.DROP,
+    ) -> None:
         self._session = session
         self._key = NEWEST + key
         self._priority = priority
+        self._congestion = congestion  #: the publisher's: drop, or block_first
         self._lock = threading.Lock()
         self._data: bytes | bytearray | None = None
         self._stamp: Timestamp | None = None
@@ -129,10 +136,17 @@ class Newest:
                 return
             self._sent.append(now)
             data, stamp = bytes(self._data), self._stamp
+        # off Zenoh's thread: a put may wait for room (block_first, or 25 ms under drop for a
+        # message in fragments), and that thread takes all the session's incoming messages
+        threading.Thread(
+            target=self._send, args=(TAIL + token, data, stamp), name='zros newest', daemon=True
+        ).start()
+
+    def _send(self, key: str, data: bytes, stamp: Timestamp) -> None:
         try:
             self._session.put(
-                TAIL + token, data, congestion_control=CongestionControl.DROP,
-                priority=self._priority, timestamp=stamp,
+                key, data, congestion_control=self._congestion, priority=self._priority,
+                timestamp=stamp,
             )  # fmt: skip
         except ZError:  # the session closes
             return
@@ -260,6 +274,9 @@ class Tail:
             self._closed = True
             subscriber, self._subscriber = self._subscriber, None
         if subscriber is not None:
+            watch = tail_watch_of.peek(self._transport)
+            if watch is not None:
+                watch.remove(self)
             try:
                 subscriber.undeclare()
             except ZError:  # the session closes
@@ -290,6 +307,11 @@ class TailWatch:
                 self._thread = threading.Thread(target=self._run, name='zros tails', daemon=True)
                 self._thread.start()
 
+    def remove(self, tail: Tail) -> None:
+        """Stop watching ``tail`` (it closed); the thread ends with the last one."""
+        with self._lock:
+            self._tails.discard(tail)
+
     def _run(self) -> None:
         transport = self._transport
         while not transport.closed:
@@ -297,10 +319,15 @@ class TailWatch:
             now = time.monotonic()
             with self._lock:
                 tails = list(self._tails)
+                if not tails:
+                    self._thread = None
+                    return
             for tail in tails:
                 due = tail.due()
                 if due is not None and due <= now:
                     tail.ask()
+        with self._lock:
+            self._thread = None
 
 
 #: the watch of a session, made with its first subscriber that receives a large message
