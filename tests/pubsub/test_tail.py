@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 import zenoh
 
-import zros
+from tests.support.wan_rig import numbered_image
 from zros.pubsub import tail as tails
 from zros.pubsub.tail import LARGE, NEWEST, TAIL, Newest, Tail, ask, parse_question
 from zros.testing import wait_for
@@ -18,15 +18,6 @@ from zros.transport import Transport
 
 TIMEOUT = 20.0
 IMAGE = 200_000
-
-
-def _image(number: int) -> zros.Message:
-    image = zros.Message(
-        'sensor_msgs/msg/Image', height=1, width=IMAGE, encoding='mono8', step=IMAGE,
-        data=bytes(IMAGE),
-    )  # fmt: skip
-    image.header.frame_id = str(number)
-    return image
 
 
 class _Tails:
@@ -57,7 +48,7 @@ def test_a_subscriber_that_has_the_newest_is_sent_nothing_again(zros_node: Any) 
     stranger.declare_queryable(NEWEST + '**', on_question)
     sent = _Tails(stranger)
     for number in range(5):
-        camera.write(_image(number))
+        camera.write(numbered_image(number, IMAGE))
         assert wait_for(lambda n=number: seen.received > n, TIMEOUT)
     # the stream paused: the viewer asks, once, with what it has
     assert asked.wait(TIMEOUT)

@@ -9,6 +9,7 @@ import contextlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
+import zros
 from tests.support.delay_proxy import DelayProxy
 from zros.node import Node
 from zros.transport import Router, Transport, TransportConfig, start_router
@@ -18,6 +19,17 @@ RATE = 10e6 / 8  #: bytes per second each way (10 Mbit/s)
 BDP = int(RATE * 2 * DELAY)  #: the path's bandwidth-delay product (125 kB)
 #: Zenoh's TCP socket buffers: the bandwidth-delay product (Linux doubles what it is given)
 SIZED = {'transport/link/tcp/so_sndbuf': BDP // 2, 'transport/link/tcp/so_rcvbuf': BDP // 2}
+
+
+def numbered_image(number: int, size: int = 900_000) -> zros.Message:
+    """A mono8 image of ``size`` bytes of data whose frame id is ``number`` (which one
+    arrived)."""
+    image = zros.Message(
+        'sensor_msgs/msg/Image', height=1, width=size, encoding='mono8', step=size,
+        data=bytes(size),
+    )  # fmt: skip
+    image.header.frame_id = str(number)
+    return image
 
 
 @dataclass

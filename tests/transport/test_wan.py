@@ -11,7 +11,7 @@ import pytest
 import zenoh
 
 import zros
-from tests.support.wan_rig import Wan, wan
+from tests.support.wan_rig import Wan, numbered_image, wan
 from zros.node import Node
 from zros.qos import Congestion, History, Priority, QoS
 from zros.testing import wait_for
@@ -25,15 +25,6 @@ IMAGE = 900_000  #: bytes of image data (640x480 rgb8 is 921,600)
 def rig(request: pytest.FixtureRequest) -> Iterator[Wan]:
     with wan(request.param) as made:
         yield made
-
-
-def _image(number: int) -> zros.Message:
-    image = zros.Message(
-        'sensor_msgs/msg/Image', height=1, width=IMAGE, encoding='mono8', step=IMAGE,
-        data=bytes(IMAGE),
-    )  # fmt: skip
-    image.header.frame_id = str(number)
-    return image
 
 
 def _camera(rig: Wan, qos: QoS) -> tuple[Node, zros.Publisher, zros.Subscriber]:
@@ -63,7 +54,7 @@ def _publish(camera: zros.Publisher, count: int, period: float) -> list[float]:
     took = []
     start = time.monotonic()
     for number in range(count):
-        image = _image(number)
+        image = numbered_image(number, IMAGE)
         before = time.perf_counter()
         camera.write(image)
         took.append(time.perf_counter() - before)
@@ -150,7 +141,7 @@ def test_small_urgent_messages_overtake_images_that_saturate_the_link(rig: Wan) 
     try:
         start = time.monotonic()
         for number in range(30):  # 9 MB/s of images into 1.25 MB/s, and 10 commands a second
-            camera.write(_image(number))
+            camera.write(numbered_image(number, IMAGE))
             twist = zros.Message('geometry_msgs/msg/TwistStamped')
             now = time.time_ns()
             twist.header.stamp.sec, twist.header.stamp.nanosec = divmod(now, 10**9)
