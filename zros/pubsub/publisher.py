@@ -203,9 +203,9 @@ class Publisher(Entity, Generic[M]):
             self._put(data)
             return
         buffers = self._buffers
-        buffer = buffers[self._turn]
-        self._turn = (self._turn + 1) % len(buffers)
-        with self._in_use:
+        with self._in_use:  # the buffer is chosen under it too: one writer at a time per buffer
+            buffer = buffers[self._turn]
+            self._turn = (self._turn + 1) % len(buffers)
             try:
                 data = message._cdr_encode(message, buffer.join)
             except Exception:  # the fast encoder failed: the checked one names the field
