@@ -407,8 +407,13 @@ def _recoverable(path: Path) -> bool:
         return False
 
 
+#: what ``reindex`` adds to a file's stem for the original it keeps (``bag_0.orig.mcap``)
+BACKUP_MARK = '.orig'
+
+
 def storage_files(folder: Path) -> list[Path]:
-    """The ``.mcap`` or ``.db3`` files of a folder, in split order (``name_0``, ``name_1``...)."""
+    """The ``.mcap`` or ``.db3`` files of a folder, in split order (``name_0``, ``name_1``...);
+    not the originals ``reindex`` kept (``bag_0.orig.mcap``, ``bag_0.orig-2.mcap``)."""
 
     def order(path: Path) -> tuple[str, int, str]:
         match = re.search(r'_(\d+)$', path.stem)
@@ -416,5 +421,8 @@ def storage_files(folder: Path) -> list[Path]:
         return (stem, int(match.group(1)) if match else -1, path.name)
 
     found = sorted([*folder.glob('*.mcap'), *folder.glob('*.db3')], key=order)
+    found = [
+        path for path in found if not re.search(rf'{re.escape(BACKUP_MARK)}(-\d+)?$', path.stem)
+    ]
     kinds = {path.suffix for path in found}
     return [path for path in found if path.suffix == '.mcap'] if len(kinds) > 1 else found
