@@ -50,20 +50,30 @@ class CutChunk:
 
     def describe(self) -> str:
         """Why the scan stops here, and what of the chunk was read: a sentence for a user."""
-        where = f'the file ends at byte {self.size}, inside'
         if self.data_at is None or self.length is None:
-            return f'{where} the header of the chunk at byte {self.at}: that chunk is lost'
-        text = (
-            f'{where} the chunk at byte {self.at} '
-            f'({self.size - self.at} of its {RECORD.size + self.length} bytes present)'
-        )
-        if self.messages == 1:
-            text += ': its first message was read, the rest of it is lost'
-        elif self.messages:
-            text += f': its first {self.messages} messages were read, the rest of it is lost'
-        else:
-            text += ': no whole message in the part present, that chunk is lost'
-        return f'{text} ({self.damage})' if self.damage else text
+            return (
+                f'the file ends at byte {self.size}, inside the header of the chunk at byte '
+                f'{self.at}: that chunk is lost'
+            )
+        total = RECORD.size + self.length
+        return describe_cut(self.at, self.size, total, self.messages, self.damage)
+
+
+def describe_cut(at: int, size: int, total: int, messages: int, damage: str) -> str:
+    """A sentence for a user: the file ends at byte ``size`` inside the chunk record of
+    ``total`` bytes at byte ``at``, of which ``messages`` were read (``damage``: why the read
+    of its part stopped before that part's end)."""
+    text = (
+        f'the file ends at byte {size}, inside the chunk at byte {at} '
+        f'({size - at} of its {total} bytes present)'
+    )
+    if messages == 1:
+        text += ': its first message was read, the rest of it is lost'
+    elif messages:
+        text += f': its first {messages} messages were read, the rest of it is lost'
+    else:
+        text += ': no whole message in the part present, that chunk is lost'
+    return f'{text} ({damage})' if damage else text
 
 
 def cut_chunk(stream: BinaryIO, at: int, size: int) -> CutChunk | None:
