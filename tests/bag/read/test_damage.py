@@ -13,7 +13,7 @@ import pytest
 
 from tests.bag.makebags import make_db3, make_points_mcap, make_ros1_bag, make_sensor_bag
 from tests.bag.reference import raw_messages
-from zros.bag import Bag, BagError, bag_read
+from zros.bag import Bag, BagError, bag_read, reindex
 from zros.bag.read.damage import Skipped
 from zros.cdr import encode, new_message
 
@@ -82,6 +82,11 @@ def _check_mcap(
 ) -> None:
     expected = sorted(set(whole) - set(lost))
     assert len(expected) == len(whole) - len(lost) and lost
+    with Bag(bag_path) as bag:  # and the start of the chunk its message index confirms
+        kept = sorted(set(_read(bag)) - set(expected))
+    caplog.clear()
+    assert sorted(lost[: len(kept)]) == kept
+    expected, lost = sorted(expected + kept), lost[len(kept) :]
     per_topic = {}
     for topic, _, _ in lost:
         per_topic[topic] = per_topic.get(topic, 0) + 1
@@ -522,19 +527,33 @@ def test_garbage_rows_in_a_real_db3(testdata: Path, tmp_path: Path) -> None:
         bag_read(folder, strict=True)
 
 
-def test_a_real_one_chunk_mcap_zeroed_reads_nothing_and_says_so(
+def test_a_real_one_chunk_mcap_damaged_reads_its_start_and_says_so(
     testdata: Path, tmp_path: Path
 ) -> None:
     folder = tmp_path / 'nav2'
     shutil.copytree(testdata / 'ros2' / 'tf_nav2_mcap', folder)
     [file] = folder.glob('*.mcap')
     whole = len(raw_messages(file))
-    offset, lost = zero_a_chunk(file)
-    assert len(lost) == whole
-    with Bag(folder) as bag:
-        assert list(bag.messages()) == []
-        assert sum(s.lost for s in bag.skipped) == whole
-        assert {s.offset for s in bag.skipped} == {offset}
+    in_order = _chunk_messages(file, 58)  # its one chunk
+    assert len(in_order) == whole
+    data = bytearray(file.read_bytes())
+    data[249856 : 249856 + 4096] = bytes(4096)  # zstd stops there: 1.96 MB of 2.96 MB before
+    file.write_bytes(bytes(data))
+    for path in (folder, file):
+        with Bag(path) as bag:
+            got = _read(bag)
+            assert sorted(in_order[: len(got)]) == got  # equal to the intact file's
+            assert sum(s.lost for s in bag.skipped) == whole - len(got)
+            assert {s.offset for s in bag.skipped} == {58}
+            assert all(
+                'Data corruption detected; its messages in its first ' in s.reason
+                for s in bag.skipped
+            )
+        assert len(got) == 4698  # two zstd blocks before where it fails are not trusted
+    [report] = reindex(file, backup=False).files  # through the linear scan
+    assert (report.message_count, report.lost_messages) == (4698, whole - 4698)
+    with Bag(file) as bag:
+        assert _read(bag) == got
 
 
 def test_ros1_scan_with_a_damaged_connection_record_loses_only_its_messages(
