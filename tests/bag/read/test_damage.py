@@ -581,7 +581,9 @@ def _zero_a_page(path: Path) -> None:
     path.write_bytes(bytes(data))
 
 
-def test_a_db3_with_a_zeroed_page_reads_every_other_row(tmp_path: Path) -> None:
+def test_a_db3_with_a_zeroed_page_reads_every_other_row(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     texts = [
         encode(new_message('std_msgs/msg/String', data='x' * 200 + str(i))) for i in range(5000)
     ]
@@ -591,12 +593,21 @@ def test_a_db3_with_a_zeroed_page_reads_every_other_row(tmp_path: Path) -> None:
         [(0, 1000 + i, text) for i, text in enumerate(texts)],
     )
     _zero_a_page(path)
-    with Bag(path) as bag:
+    with caplog.at_level(logging.WARNING, 'zros.bag'), Bag(path) as bag:
         got = [(stamp, encode(m)) for _, stamp, m in bag.messages()]
         skipped = bag.skipped
         assert len(bag.columns('/a')['time']) == len(got)
-    rows = [s.row for s in skipped]
-    assert 0 < len(rows) < 100 and all(s.lost == 1 and s.file == path for s in skipped)
+    # a run of rows lost is one entry and one warning, after the one saying how it is read
+    rows = [row for s in skipped if s.row is not None for row in range(s.row, s.row + s.lost)]
+    assert 0 < len(rows) < 100 and all(s.file == path for s in skipped)
+    warnings = [r.getMessage() for r in caplog.records]
+    assert 'read row by row' in warnings[0]
+    assert warnings[1:] == [
+        f'{path}: skipped the damaged data at row {s.row} '
+        f'({f"rows {s.row} to {s.row + s.lost - 1} do not read" if s.lost > 1 else "the row does not read"}): '
+        f'lost {s.lost} message{"s" if s.lost > 1 else ""} of unknown topics'
+        for s in skipped
+    ]
     # the rows that read are the originals, the others are counted by row id (row i is message
     # i - 1): every message is one or the other
     assert got == [(1000 + i, text) for i, text in enumerate(texts) if i + 1 not in rows]
@@ -651,3 +662,20 @@ def test_a_damaged_chunk_among_chunks_that_overlap_in_time(
     with Bag(file) as bag:
         stamps = [stamp for _, stamp, _ in bag.messages()]
     assert stamps == sorted(stamps) and len(stamps) == 6000 - len(lost)
+
+
+def test_damage_of_unknown_topics_names_them_when_no_longer_logged(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    from zros.bag.read.damage import Damage
+
+    damage = Damage()
+    with caplog.at_level(logging.WARNING, 'zros.bag'):
+        for offset in range(12):
+            damage.report([Skipped(tmp_path, offset, None, '', -1, 'cut')])
+    warnings = [r.getMessage() for r in caplog.records]
+    assert len(warnings) == 10 and len(damage.skipped) == 12
+    assert warnings[-1].endswith(
+        'lost an unknown number of messages of unknown topics; further damage on unknown '
+        'topics is counted in Bag.skipped, not logged'
+    )

@@ -87,7 +87,7 @@ class Damage:
             _log.warning(
                 '%s; further damage on %s is counted in Bag.skipped, not logged',
                 text,
-                topic,
+                topic or 'unknown topics',
             )
         else:
             _log.debug('%s', text)
