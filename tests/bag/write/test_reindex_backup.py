@@ -54,17 +54,25 @@ def test_a_rewritten_ros1_bag_keeps_its_original(tmp_path: Path) -> None:
     assert (tmp_path / 'r.orig.bag').read_bytes() == data[: len(data) * 9 // 10]
 
 
+def _damaged_with_failing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, call: str, error: OSError
+) -> tuple[Path, bytes]:
+    """A file with a zeroed chunk and its bytes; ``os.<call>`` raises ``error`` from now."""
+    file = make_points_mcap(tmp_path / 'p.mcap', 6100, chunk_size=1 << 16)
+    zero_a_chunk(file)
+
+    def failing(*args: object) -> None:
+        raise error
+
+    monkeypatch.setattr(os, call, failing)
+    return file, file.read_bytes()
+
+
 def test_the_original_is_copied_where_it_cannot_be_linked(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    file = make_points_mcap(tmp_path / 'p.mcap', 6100, chunk_size=1 << 16)
-    zero_a_chunk(file)
-    damaged = file.read_bytes()
-
-    def no_link(*args: object) -> None:
-        raise OSError(18, 'Invalid cross-device link')
-
-    monkeypatch.setattr(os, 'link', no_link)
+    error = OSError(18, 'Invalid cross-device link')
+    file, damaged = _damaged_with_failing(tmp_path, monkeypatch, 'link', error)
     assert reindex(file).files[0].backup == 'p.orig.mcap'
     assert (tmp_path / 'p.orig.mcap').read_bytes() == damaged
 
@@ -72,14 +80,8 @@ def test_the_original_is_copied_where_it_cannot_be_linked(
 def test_a_failed_rename_keeps_the_original_and_no_backup(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    file = make_points_mcap(tmp_path / 'p.mcap', 6100, chunk_size=1 << 16)
-    zero_a_chunk(file)
-    damaged = file.read_bytes()
-
-    def read_only(*args: object) -> None:
-        raise OSError(30, 'Read-only file system')
-
-    monkeypatch.setattr(os, 'replace', read_only)
+    error = OSError(30, 'Read-only file system')
+    file, damaged = _damaged_with_failing(tmp_path, monkeypatch, 'replace', error)
     with pytest.raises(BagError, match=r'Read-only file system.*the original is unchanged'):
         reindex(file)
     assert file.read_bytes() == damaged
@@ -88,14 +90,8 @@ def test_a_failed_rename_keeps_the_original_and_no_backup(
 
 def _zero_the_only_chunk(file: Path) -> None:
     """Zero the start of the compressed data of a one-chunk zstd file: nothing of it reads."""
-    from mcap.reader import make_reader
-
-    with file.open('rb') as stream:
-        summary = make_reader(stream).get_summary()
-    assert summary is not None
-    [chunk] = summary.chunk_indexes
     data = bytearray(file.read_bytes())
-    start = chunk.chunk_start_offset + 1 + 8 * 4 + 4 + 4 + len('zstd') + 8
+    start = _only_chunk(file) + 1 + 8 * 4 + 4 + 4 + len('zstd') + 8
     data[start : start + 64] = bytes(64)
     file.write_bytes(bytes(data))
 
