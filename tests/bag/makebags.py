@@ -171,11 +171,15 @@ def make_points_mcap(
 
 
 def make_ros1_bag(
-    path: Path, count: int, compression: str | None = None, bad_definition: bool = False
+    path: Path,
+    count: int,
+    compression: str | None = None,
+    bad_definition: bool = False,
+    chunk_threshold: int = 4096,
 ) -> Path:
     """A ROS 1 bag of String on /a and Point on /b (``count`` each, interleaved) in chunks of
-    about 4 KB, ``compression`` 'bz2', 'lz4' or None; with ``bad_definition`` a third topic
-    /c whose connection's message definition does not parse."""
+    about ``chunk_threshold`` bytes, ``compression`` 'bz2', 'lz4' or None; with
+    ``bad_definition`` a third topic /c whose connection's message definition does not parse."""
     from rosbags.rosbag1 import Writer
     from rosbags.typesys import Stores, get_typestore
 
@@ -184,7 +188,7 @@ def make_ros1_bag(
     writer = Writer(path)
     if compression:
         writer.set_compression(Writer.CompressionFormat[compression.upper()])
-    writer.chunk_threshold = 4096
+    writer.chunk_threshold = chunk_threshold
     with writer:
         a = writer.add_connection('/a', 'std_msgs/msg/String', typestore=store)
         b = writer.add_connection('/b', 'geometry_msgs/msg/Point', typestore=store)

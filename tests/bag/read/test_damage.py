@@ -13,7 +13,7 @@ import pytest
 
 from tests.bag.makebags import make_db3, make_points_mcap, make_ros1_bag, make_sensor_bag
 from tests.bag.reference import raw_messages
-from zros.bag import Bag, BagError, bag_read
+from zros.bag import Bag, BagError, bag_read, reindex
 from zros.bag.read.damage import Skipped
 from zros.cdr import encode, new_message
 
@@ -82,6 +82,11 @@ def _check_mcap(
 ) -> None:
     expected = sorted(set(whole) - set(lost))
     assert len(expected) == len(whole) - len(lost) and lost
+    with Bag(bag_path) as bag:  # and the start of the chunk its message index confirms
+        kept = sorted(set(_read(bag)) - set(expected))
+    caplog.clear()
+    assert sorted(lost[: len(kept)]) == kept
+    expected, lost = sorted(expected + kept), lost[len(kept) :]
     per_topic = {}
     for topic, _, _ in lost:
         per_topic[topic] = per_topic.get(topic, 0) + 1
@@ -278,15 +283,18 @@ def test_ros1_bag_cut_at_90_percent_reads_what_is_there(
     path.write_bytes(data[:cut])
     expected = sorted(m for _, end, found in chunks if end <= cut for m in found)
     assert 0 < len(expected) < 2000
+    # and the whole messages of the chunk the cut falls in, from its start
+    present = [m for at, end, found in chunks if at < cut < end for m in found]
     got, skipped = _ros1_read(path)
-    assert got == expected
+    first = sorted(present, key=lambda m: m[1])[: len(got) - len(expected)]
+    assert got == sorted(expected + first)
     # what lay past the cut is unknown: the index at the end is gone
     assert [(s.topic, s.lost) for s in skipped] == [('', -1)]
     assert skipped[0].offset is not None and skipped[0].offset <= cut
     with Bag(path) as bag:
-        assert bag.message_count == len(expected)
-        assert len(bag.columns('/b')['x']) == sum(1 for t, _ in expected if t == '/b')
-    with pytest.raises(BagError, match='cut short'), Bag(path, strict=True):
+        assert bag.message_count == len(got)
+        assert len(bag.columns('/b')['x']) == sum(1 for t, _ in got if t == '/b')
+    with pytest.raises(BagError, match=r'the file ends at byte|cut short'), Bag(path, strict=True):
         pass
 
 
@@ -519,19 +527,33 @@ def test_garbage_rows_in_a_real_db3(testdata: Path, tmp_path: Path) -> None:
         bag_read(folder, strict=True)
 
 
-def test_a_real_one_chunk_mcap_zeroed_reads_nothing_and_says_so(
+def test_a_real_one_chunk_mcap_damaged_reads_its_start_and_says_so(
     testdata: Path, tmp_path: Path
 ) -> None:
     folder = tmp_path / 'nav2'
     shutil.copytree(testdata / 'ros2' / 'tf_nav2_mcap', folder)
     [file] = folder.glob('*.mcap')
     whole = len(raw_messages(file))
-    offset, lost = zero_a_chunk(file)
-    assert len(lost) == whole
-    with Bag(folder) as bag:
-        assert list(bag.messages()) == []
-        assert sum(s.lost for s in bag.skipped) == whole
-        assert {s.offset for s in bag.skipped} == {offset}
+    in_order = _chunk_messages(file, 58)  # its one chunk
+    assert len(in_order) == whole
+    data = bytearray(file.read_bytes())
+    data[249856 : 249856 + 4096] = bytes(4096)  # zstd stops there: 1.96 MB of 2.96 MB before
+    file.write_bytes(bytes(data))
+    for path in (folder, file):
+        with Bag(path) as bag:
+            got = _read(bag)
+            assert sorted(in_order[: len(got)]) == got  # equal to the intact file's
+            assert sum(s.lost for s in bag.skipped) == whole - len(got)
+            assert {s.offset for s in bag.skipped} == {58}
+            assert all(
+                'Data corruption detected; its messages in its first ' in s.reason
+                for s in bag.skipped
+            )
+        assert len(got) == 4698  # two zstd blocks before where it fails are not trusted
+    [report] = reindex(file, backup=False).files  # through the linear scan
+    assert (report.message_count, report.lost_messages) == (4698, whole - 4698)
+    with Bag(file) as bag:
+        assert _read(bag) == got
 
 
 def test_ros1_scan_with_a_damaged_connection_record_loses_only_its_messages(
@@ -559,7 +581,9 @@ def _zero_a_page(path: Path) -> None:
     path.write_bytes(bytes(data))
 
 
-def test_a_db3_with_a_zeroed_page_reads_every_other_row(tmp_path: Path) -> None:
+def test_a_db3_with_a_zeroed_page_reads_every_other_row(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     texts = [
         encode(new_message('std_msgs/msg/String', data='x' * 200 + str(i))) for i in range(5000)
     ]
@@ -569,12 +593,21 @@ def test_a_db3_with_a_zeroed_page_reads_every_other_row(tmp_path: Path) -> None:
         [(0, 1000 + i, text) for i, text in enumerate(texts)],
     )
     _zero_a_page(path)
-    with Bag(path) as bag:
+    with caplog.at_level(logging.WARNING, 'zros.bag'), Bag(path) as bag:
         got = [(stamp, encode(m)) for _, stamp, m in bag.messages()]
         skipped = bag.skipped
         assert len(bag.columns('/a')['time']) == len(got)
-    rows = [s.row for s in skipped]
-    assert 0 < len(rows) < 100 and all(s.lost == 1 and s.file == path for s in skipped)
+    # a run of rows lost is one entry and one warning, after the one saying how it is read
+    rows = [row for s in skipped if s.row is not None for row in range(s.row, s.row + s.lost)]
+    assert 0 < len(rows) < 100 and all(s.file == path for s in skipped)
+    warnings = [r.getMessage() for r in caplog.records]
+    assert 'read row by row' in warnings[0]
+    assert warnings[1:] == [
+        f'{path}: skipped the damaged data at row {s.row} '
+        f'({f"rows {s.row} to {s.row + s.lost - 1} do not read" if s.lost > 1 else "the row does not read"}): '
+        f'lost {s.lost} message{"s" if s.lost > 1 else ""} of unknown topics'
+        for s in skipped
+    ]
     # the rows that read are the originals, the others are counted by row id (row i is message
     # i - 1): every message is one or the other
     assert got == [(1000 + i, text) for i, text in enumerate(texts) if i + 1 not in rows]
@@ -629,3 +662,20 @@ def test_a_damaged_chunk_among_chunks_that_overlap_in_time(
     with Bag(file) as bag:
         stamps = [stamp for _, stamp, _ in bag.messages()]
     assert stamps == sorted(stamps) and len(stamps) == 6000 - len(lost)
+
+
+def test_damage_of_unknown_topics_names_them_when_no_longer_logged(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    from zros.bag.read.damage import Damage
+
+    damage = Damage()
+    with caplog.at_level(logging.WARNING, 'zros.bag'):
+        for offset in range(12):
+            damage.report([Skipped(tmp_path, offset, None, '', -1, 'cut')])
+    warnings = [r.getMessage() for r in caplog.records]
+    assert len(warnings) == 10 and len(damage.skipped) == 12
+    assert warnings[-1].endswith(
+        'lost an unknown number of messages of unknown topics; further damage on unknown '
+        'topics is counted in Bag.skipped, not logged'
+    )

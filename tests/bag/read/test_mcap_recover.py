@@ -284,7 +284,10 @@ def test_reindex_keeps_the_whole_messages_of_a_cut_last_chunk(tmp_path: Path) ->
         f'{end - last.chunk_start_offset} bytes after its last complete chunk: the file ends at '
         f'byte {end}, inside the chunk at byte {last.chunk_start_offset} ('
     )
-    assert str(report).endswith(f'its first {kept} messages were read, the rest of it is lost)')
+    assert str(report).endswith(
+        f'its first {kept} messages were read, the rest of it is lost)\n'
+        '  the original is kept as cut.orig.mcap'
+    )
     with path.open('rb') as stream:  # finished: the mcap library's own reader reads it
         rewritten = [
             (c.topic, m.log_time, m.data) for _, c, m in make_reader(stream).iter_messages()

@@ -216,11 +216,17 @@ def test_split_bag_with_nothing_complete_in_its_last_file(testdata: Path, tmp_pa
     shutil.copytree(testdata / 'ros2' / 'wbag_split_mcap', folder)
     (folder / 'metadata.yaml').unlink()
     last = folder / 'wbag_4.mcap'
-    last.write_bytes(last.read_bytes()[:3000])  # its one chunk cut in the middle
+    last.write_bytes(cut := last.read_bytes()[:3000])  # its one chunk cut in the middle
     whole = [m for i in range(4) for m in raw_messages(folder / f'wbag_{i}.mcap')]
     report = reindex(folder)
-    assert [f.action for f in report.files] == ['complete'] * 4 + ['rewritten']
-    assert report.files[-1].message_count == 0 and report.files[-1].dropped_bytes > 0
+    # no whole message in it: left as it is (not emptied), not listed, and said so
+    assert [f.action for f in report.files] == ['complete'] * 4 + ['refused']
+    assert report.refused and last.read_bytes() == cut
+    assert str(report.files[-1]).startswith(
+        'wbag_4.mcap: refused, left as it is: no message of it reads, so a rewrite would hold '
+        'none (2'
+    )
+    assert str(report).endswith(f'{report.message_count} messages on 8 topics in 4 files')
     assert len(rosbags_reader(folder)) == len(whole) == 6074 - 1108
     with Bag(folder) as bag:
         assert bag.message_count == len(whole)

@@ -25,8 +25,8 @@ class Skipped:
     """Messages of one topic a damaged unit of a recording lost.
 
     ``offset`` is the unit's byte offset in ``file`` (None where the storage has none: a db3
-    row); ``row`` is the db3 row id (else None); ``lost`` is how many messages of ``topic`` the
-    unit held (-1 when the damage hides it).
+    row); ``row`` is the db3 row id, the first of a run of rows lost (else None); ``lost`` is how
+    many messages of ``topic`` the unit held (-1 when the damage hides it).
     """
 
     file: Path
@@ -87,7 +87,7 @@ class Damage:
             _log.warning(
                 '%s; further damage on %s is counted in Bag.skipped, not logged',
                 text,
-                topic,
+                topic or 'unknown topics',
             )
         else:
             _log.debug('%s', text)

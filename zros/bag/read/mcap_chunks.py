@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from zros.bag.errors import Unsupported
+from zros.bag.read.mcap_cut import intact_start, read_part
 from zros.bag.read.payloads import Payloads
 from zros.bag.read.source_base import Block, Connection, describe_error
 
@@ -209,6 +210,7 @@ def _chunk_blocks(
                     access=mmap.ACCESS_READ,
                     offset=base,
                 )
+            chunk: Chunk | None = None
             try:
                 if window is not None:
                     chunk = _mapped_chunk(memoryview(window), at - base)
@@ -229,18 +231,15 @@ def _chunk_blocks(
                     for channel in wanted
                 ]
             except Exception as exc:  # the compression libraries raise what they like
-                if damaged is None or not _damaged_chunk(exc, locals().get('chunk')):
+                if damaged is None or not _damaged_chunk(exc, chunk):
                     raise
-                lost = {}
-                for channel in wanted:
-                    try:
-                        entries = _index(stream, index.message_index_offsets[channel], limit)
-                        times = entries['time'].astype(np.int64)
-                        lost[channel] = int(_in_window(times, start, end).sum())
-                    except Unsupported:
-                        lost[channel] = -1
-                damaged(index.chunk_start_offset, lost, describe_error(exc))
-                continue
+                runs, lost, part = _intact_runs(
+                    stream, index, chunk, wanted=wanted, limit=limit, start=start, end=end
+                )
+                if lost:
+                    damaged(index.chunk_start_offset, lost, f'{describe_error(exc)}; {part}')
+                if not any(len(run.times) for run in runs):
+                    continue
             offsets = np.concatenate([run.offsets for run in runs])
             ranks = np.empty(len(offsets), np.int64)
             ranks[np.argsort(offsets, kind='stable')] = np.arange(len(offsets))
@@ -342,24 +341,77 @@ def _window(run: _Run, start: int | None, end: int | None) -> _Run:
     return _Run(run.times[keep], run.offsets[keep], run.data.select(keep))
 
 
-def _block(data: bytes | memoryview, channel: int, entries: npt.NDArray[np.void]) -> _Run:
+def _intact_runs(
+    stream: io.BufferedReader,
+    index: ChunkIndex,
+    chunk: Chunk | None,
+    *,
+    wanted: list[int],
+    limit: int,
+    start: int | None,
+    end: int | None,
+) -> tuple[list[_Run], dict[int, int], str]:
+    """The messages in the window at the start of a damaged chunk that its message index
+    confirms (each channel's records where its index says, up to the first that is not, among
+    the records read before the damage), the count of each channel's not kept (-1: its index
+    does not read either), and what was read, for a user."""
+    if chunk is None:
+        intact, part = b'', 'its record does not read'
+    else:
+        read, _, intact = intact_start(index.chunk_start_offset, chunk)
+        part = read_part(read)
+    raw = np.frombuffer(intact, np.uint8)  # memory: one chunk
+    runs: list[_Run] = []
+    lost: dict[int, int] = {}
+    for channel in wanted:
+        try:
+            entries = _index(stream, index.message_index_offsets[channel], limit)
+        except Unsupported:
+            lost[channel] = -1
+            nothing = np.empty(0, np.int64)
+            runs.append(_Run(nothing, nothing, Payloads(intact, nothing, nothing)))
+            continue
+        entries = entries[np.argsort(entries['offset'], kind='stable')]
+        good = _matching(raw, channel, entries)
+        kept = len(good) if good.all() else int(np.argmin(good))
+        run = _window(_block(intact, channel, entries[:kept]), start, end)
+        total = int(_in_window(entries['time'].astype(np.int64), start, end).sum())
+        if total > len(run.times):
+            lost[channel] = total - len(run.times)
+        runs.append(run)
+    return runs, lost, part
+
+
+def _matching(
+    raw: npt.NDArray[np.uint8], channel: int, entries: npt.NDArray[np.void]
+) -> npt.NDArray[np.bool_]:
+    """Which of a channel's index entries point at a message record of it in ``raw``, of the
+    time the index says."""
     times = entries['time'].astype(np.int64)
     offsets = entries['offset'].astype(np.int64)
-    order = np.argsort(offsets, kind='stable')
-    times, offsets = times[order], offsets[order]
+    good = np.zeros(len(offsets), np.bool_)
+    inside = np.flatnonzero((offsets >= 0) & (offsets + _HEAD <= len(raw)))
+    heads = raw[offsets[inside][:, None] + np.arange(_HEAD)]
+    lengths = heads[:, 1:9].copy().view('<u8')[:, 0].astype(np.int64)
+    recorded = heads[:, 15:23].copy().view('<u8')[:, 0].astype(np.int64)
+    good[inside] = (
+        (heads[:, 0] == _MESSAGE)
+        & (heads[:, 9:11].copy().view('<u2')[:, 0] == channel)
+        & (lengths >= _HEAD - 9)
+        & (offsets[inside] + 9 + lengths <= len(raw))
+        & (recorded == times[inside])
+    )
+    return good
+
+
+def _block(data: bytes | memoryview, channel: int, entries: npt.NDArray[np.void]) -> _Run:
+    entries = entries[np.argsort(entries['offset'], kind='stable')]
+    times = entries['time'].astype(np.int64)
+    offsets = entries['offset'].astype(np.int64)
     raw = np.frombuffer(data, np.uint8)
     if len(offsets) and (offsets.min() < 0 or offsets.max() + _HEAD > len(raw)):
         raise Unsupported('message offset out of the chunk')
-    heads = raw[offsets[:, None] + np.arange(_HEAD)]
-    lengths = heads[:, 1:9].copy().view('<u8')[:, 0].astype(np.int64)
-    ends = offsets + 9 + lengths
-    recorded = heads[:, 15:23].copy().view('<u8')[:, 0].astype(np.int64)
-    if (
-        (heads[:, 0] != _MESSAGE).any()
-        or (heads[:, 9:11].copy().view('<u2')[:, 0] != channel).any()
-        or (lengths < _HEAD - 9).any()
-        or (len(ends) and ends.max() > len(raw))
-        or (recorded != times).any()
-    ):
+    if not _matching(raw, channel, entries).all():
         raise Unsupported('message index does not match the chunk')
-    return _Run(times, offsets, Payloads(data, offsets + _HEAD, ends))
+    lengths = raw[offsets[:, None] + np.arange(1, 9)].copy().view('<u8')[:, 0].astype(np.int64)
+    return _Run(times, offsets, Payloads(data, offsets + _HEAD, offsets + 9 + lengths))

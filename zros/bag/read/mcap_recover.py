@@ -20,7 +20,9 @@ from zros.bag.read.mcap_cut import (
     COMPRESSIONS,
     RECORD,
     cut_chunk,
+    intact_start,
     read_cut,
+    read_part,
 )
 from zros.bag.read.merge import Scanned, merged
 from zros.bag.read.recovered import Recovered, within
@@ -46,10 +48,12 @@ class LinearScan:
     """One pass over the complete records of an MCAP file, from its start.
 
     Chunks are read whole and their CRCs checked before any record inside them is yielded, so a
-    corrupt chunk yields nothing; only the last chunk, when the file's end cuts it short, yields
-    the whole records of its part present (:mod:`zros.bag.read.mcap_cut`). A whole chunk that
-    does not decompress or whose CRC fails is listed in ``skipped`` (with its messages per
-    channel, from the message index records after it) and the scan goes on after it; after a
+    corrupt chunk yields only what its message index confirms; the last chunk, when the file's
+    end cuts it short, yields the whole records of its part present
+    (:mod:`zros.bag.read.mcap_cut`). A whole chunk that does not decompress or whose CRC fails
+    yields the messages before the damage that its message index records after it confirm
+    (none without them), is listed in ``skipped`` (with the messages per channel it lost) and
+    the scan goes on after it; after a
     record that does not parse, it goes on at the next record laid out as a chunk (``skipped``
     counts what lay between as unknown, channel and count -1). After the iteration,
     ``stopped_at`` says why it stopped before the end ('' when it reached the footer), ``end``
@@ -71,6 +75,7 @@ class LinearScan:
         self.unit = (0, 0)
         self.in_chunk = False
         self._chunked = False
+        self._damage = ''  #: why the chunk held failed its CRC or decompression (else '')
 
     def records(self, start: int = 0, stop: int | None = None) -> Iterator[McapRecord]:
         """Header, schemas, channels, messages, metadata, attachments... in file order; from
@@ -91,7 +96,6 @@ class LinearScan:
                 record_size_limit=size,
             )
             records = reader.records
-            damaged: dict[int, int] | None = None  # the lost counts of the chunk just skipped
             held: list[McapRecord] = []  # the last chunk's records, until its indexes are read
             held_at = 0
             indexed: dict[int, list[int]] = {}  # its message index: channel -> log times
@@ -107,7 +111,7 @@ class LinearScan:
                     return
                 except Exception as exc:  # a record cut short or corrupt
                     yield from self._held(held, held_at, at, indexed)
-                    held, indexed, damaged = [], {}, None
+                    held, indexed = [], {}
                     following = None if isinstance(exc, EndOfFile) else next_chunk(stream, at + 1)
                     if following is None:  # the end of what can be read
                         yield from self._cut(stream, at, size, exc)
@@ -125,13 +129,12 @@ class LinearScan:
                     continue
                 self.end = stream.tell()
                 if isinstance(record, MessageIndex):
-                    if damaged is not None:
-                        damaged[record.channel_id] = len(record.records)
-                    elif held:
-                        indexed[record.channel_id] = sorted(t for t, _ in record.records)
+                    if held or self._damage:  # log times in the chunk's order
+                        entries = sorted(record.records, key=lambda entry: entry[1])
+                        indexed[record.channel_id] = [time for time, _ in entries]
                     continue
                 yield from self._held(held, held_at, at, indexed)
-                held, indexed, damaged = [], {}, None
+                held, indexed = [], {}
                 if not isinstance(record, Chunk):
                     self.unit, self.in_chunk = (at, self.end), False
                     yield record
@@ -139,11 +142,12 @@ class LinearScan:
                 if not self._chunked:
                     self._chunked = True
                     self.compression = record.compression
+                held_at = at
                 try:
-                    held, held_at = breakup_chunk(record, validate_crc=True), at
-                except Exception as exc:  # whole but damaged: skipped, the scan goes on
-                    damaged = {}
-                    self.skipped.append((at, damaged, str(exc) or type(exc).__name__))
+                    held = breakup_chunk(record, validate_crc=True)
+                except Exception as exc:  # whole but damaged: its start, the scan goes on
+                    part, held, _ = intact_start(at, record)
+                    self._damage = f'{str(exc) or type(exc).__name__}; {read_part(part)}'
 
     def _cut(self, stream: BinaryIO, at: int, size: int, exc: Exception) -> Iterator[McapRecord]:
         """The whole records of a chunk at byte ``at`` that the file's end cuts short (none
@@ -164,7 +168,36 @@ class LinearScan:
     ) -> Iterator[McapRecord]:
         """The records of the chunk at byte ``at`` whose message indexes end at ``end``."""
         self.unit, self.in_chunk = (at, end), True
-        yield from self._checked(held, at, indexed)
+        if self._damage:
+            damage, self._damage = self._damage, ''
+            yield from self._confirmed(held, at, indexed, damage)
+        else:
+            yield from self._checked(held, at, indexed)
+
+    def _confirmed(
+        self, held: list[McapRecord], at: int, indexed: dict[int, list[int]], damage: str
+    ) -> list[McapRecord]:
+        """The records read from the start of a damaged chunk, its messages only while their
+        log times match its message index, channel by channel (none without an index: nothing
+        confirms them); what is not kept is listed in ``skipped``."""
+        from mcap.records import Message  # noqa: PLC0415 (lazy: mcap, import time)
+
+        kept: list[McapRecord] = []
+        read = dict.fromkeys(indexed, 0)
+        for record in held:
+            if isinstance(record, Message):
+                times = indexed.get(record.channel_id, [])
+                done = read.get(record.channel_id, 0)
+                if done >= len(times) or times[done] != record.log_time:
+                    break  # not what was written: the damage starts here
+                read[record.channel_id] = done + 1
+            kept.append(record)
+        lost = {c: len(times) - read[c] for c, times in indexed.items() if len(times) > read[c]}
+        if not indexed:
+            lost = {-1: -1}
+        if lost:
+            self.skipped.append((at, lost, damage))
+        return kept
 
     def _checked(
         self, held: list[McapRecord], at: int, indexed: dict[int, list[int]]
@@ -179,7 +212,7 @@ class LinearScan:
         for record in held:
             if isinstance(record, Message):
                 found.setdefault(record.channel_id, []).append(record.log_time)
-        if all(sorted(found.get(c, [])) == times for c, times in indexed.items()) and set(
+        if all(sorted(found.get(c, [])) == sorted(times) for c, times in indexed.items()) and set(
             found
         ) <= set(indexed):
             return held

@@ -62,7 +62,7 @@ class Rosbag1Source(Source):
             _log.warning(
                 '%s: %s: read record by record%s',
                 self.path,
-                describe_error(exc),
+                describe_error(exc).rstrip('.'),
                 f', up to {reader.stopped_at}' if reader.stopped_at else '',
             )
         self._reader = reader

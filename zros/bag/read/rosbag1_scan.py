@@ -4,7 +4,11 @@
 not decompress, or a record that does not parse, is reported and skipped instead of ending the
 read. :class:`ScannedBag1` reads a bag rosbags cannot open (cut short, so its index at the end
 is gone, or a damaged index) in one pass over its records, with the interface of rosbags'
-reader; connections come from the connection records each chunk holds.
+reader; connections come from the connection records each chunk holds. A last chunk that the
+file's end cuts short gives the whole records of its part present (decompressed as a stream,
+bz2 and lz4 alike, as :mod:`zros.bag.read.mcap_cut` does for MCAP; lz4 by
+:mod:`zros.bag.read.lz4_part`): a recording interrupted
+before its first chunk was finished is not lost whole.
 """
 
 from __future__ import annotations
@@ -17,6 +21,8 @@ from collections.abc import Callable, Collection, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
+from zros.bag.read.lz4_part import decompress_part
+from zros.bag.read.mcap_cut import describe_cut
 from zros.bag.read.merge import Entry, Scanned, merged
 from zros.bag.read.recovered import Recovered, within
 from zros.bag.read.source_base import describe_error
@@ -169,6 +175,7 @@ class ScannedBag1(Recovered):
         self._chunked = False
         #: the chunks with messages: (first time, last time, byte offset), read again by a read
         self._chunks: list[tuple[int, int, int]] = []
+        self._cut = -1  #: the byte offset of a last chunk the file's end cuts short
 
     def open(self) -> None:
         """Read every record that can be read."""
@@ -191,6 +198,12 @@ class ScannedBag1(Recovered):
                     if loss is not None and not loss[1]:
                         loss[1][-1] = -1  # no index after the damaged chunk: count unknown
                     loss = None
+                    if getattr(exc, 'op', None) == _CHUNK:  # the file ends inside this chunk
+                        messages, cut = self._read_cut(stream, at, size, headers)
+                        self._cut = at
+                        self._add(at, messages, counts)
+                        self.losses.append((at, {-1: -1}, cut))  # it reached the file's end
+                        break
                     # the index at the end holds no messages: a scan cut there lost none
                     if getattr(exc, 'op', None) not in (_CONNECTION, _CHUNK_INFO):
                         self.losses.append((at, {-1: -1}, describe_error(exc)))
@@ -241,11 +254,32 @@ class ScannedBag1(Recovered):
         for _, cid, _ in messages:
             counts[cid] = counts.get(cid, 0) + 1
 
+    def _read_cut(
+        self, stream: BinaryIO, at: int, size: int, headers: dict[int, tuple[Header, Header]]
+    ) -> tuple[list[tuple[int, int, bytes]], str]:
+        """Read the chunk at byte ``at`` that the file's end (at ``size``) cuts short: its
+        messages (as :meth:`_chunk`) and what was read of it, as a sentence."""
+        from rosbags.rosbag1.reader import Header  # noqa: PLC0415 (lazy: rosbags, import time)
+
+        stream.seek(at)
+        header = Header.read(stream)
+        (length,) = struct.unpack('<L', stream.read(4))
+        total = stream.tell() + length - at
+        data = stream.read(size - stream.tell())  # less than the chunk: memory holds one
+        messages, problem = self._chunk(header, data, headers, cut=True)
+        return messages, describe_cut(at, size, total, len(messages), problem)
+
     def _chunk(
-        self, header: Header, data: bytes, headers: dict[int, tuple[Header, Header]]
+        self,
+        header: Header,
+        data: bytes,
+        headers: dict[int, tuple[Header, Header]],
+        cut: bool = False,
     ) -> tuple[list[tuple[int, int, bytes]], str]:
         """Read a chunk's records: its messages (time, connection id, data) up to the first
-        record that does not parse, and what went wrong ('')."""
+        record that does not parse, and what went wrong (''). A ``cut`` chunk's ``data`` is
+        the part of it present: what it decompresses to so far is read up to its last whole
+        record."""
         from rosbags.rosbag1.reader import decompressors  # noqa: PLC0415 (lazy: rosbags, import time)
 
         read: list[tuple[int, int, bytes]] = []
@@ -256,7 +290,10 @@ class ScannedBag1(Recovered):
                 self.compression = compression
             if compression not in decompressors:
                 return read, f'compression {compression!r} unknown'
-            inner = decompressors[compression](data)
+            if cut:
+                inner = _decompressed_part(compression, data, header.get_uint32('size'))
+            else:
+                inner = decompressors[compression](data)
         except Exception as exc:  # the decompressors raise what they like
             return read, why(exc)
         stream = io.BytesIO(inner)
@@ -268,6 +305,9 @@ class ScannedBag1(Recovered):
                     headers.setdefault(record.get_uint32('conn'), (record, _fields(payload)))
                 elif op == _MSGDATA:
                     read.append((record.get_time('time'), record.get_uint32('conn'), payload))
+        except _Unreadable as exc:
+            if not cut:  # else the end of the part present
+                return read, f'a record in the chunk: {why(exc)}'
         except Exception as exc:  # flipped bytes: anything from struct or rosbags
             return read, f'a record in the chunk: {why(exc)}'
         return read, ''
@@ -291,8 +331,11 @@ class ScannedBag1(Recovered):
 
             def read(at: int) -> list[Scanned]:
                 stream.seek(at)
-                header, data = _record(stream, size)
-                messages, _ = self._chunk(header, data, {})  # its damage was counted at open
+                if at == self._cut:
+                    messages, _ = self._read_cut(stream, at, size, {})
+                else:
+                    header, data = _record(stream, size)
+                    messages, _ = self._chunk(header, data, {})  # its damage was counted at open
                 return [
                     (time, at, rank, cid, payload)
                     for rank, (time, cid, payload) in enumerate(messages)
@@ -301,6 +344,22 @@ class ScannedBag1(Recovered):
 
             for time, _, _, cid, data in merged((first, read(at)) for first, _, at in chunks):
                 yield by_id[cid], time, data
+
+
+def _decompressed_part(compression: str, data: bytes, declared: int) -> bytes:
+    """What the part present of a chunk compressed with ``compression`` decompresses to so far
+    (at most the chunk's ``declared`` size: more is damage)."""
+    if compression == 'bz2':
+        import bz2  # noqa: PLC0415 (only for bz2 chunks)
+
+        inner: bytes = bz2.BZ2Decompressor().decompress(data, max_length=declared + 1)
+    elif compression == 'lz4':  # lz4.frame gives nothing of a block cut short
+        inner = decompress_part(data, declared)
+    else:
+        inner = data
+    if len(inner) > declared:
+        raise ValueError('it decompresses to more than its header declares')
+    return inner
 
 
 def _record(stream: BinaryIO, size: int) -> tuple[Header, bytes]:

@@ -162,20 +162,23 @@ class Rosbag2Source(Source):
         self.files = ([metadata] if metadata.is_file() else []) + paths
         self.storage_id = 'sqlite3' if paths[0].suffix == '.db3' else 'mcap'
         self._build_connections([])
+        if notes or self.path.is_dir():  # how it is read, before what reading it lost
+            _log.warning(
+                '%s: %s: read file by file%s', self.path, reason, ''.join('; ' + n for n in notes)
+            )
         for stream in self._streams:
             if isinstance(stream.reader, RecoveredMcap):
                 report = self._damaged(stream.reader.path, stream.mapping)
                 for offset, lost, why in stream.reader.skipped:
                     report(offset, lost or {-1: -1}, why)
             elif isinstance(stream.reader, RecoveredDb3):
-                for row in stream.reader.lost_rows:
-                    self.damage.report(
-                        [Skipped(stream.reader.path, None, row, '', 1, 'the row does not read')]
+                for first, count in _runs(stream.reader.lost_rows):
+                    why = (
+                        'the row does not read'
+                        if count == 1
+                        else f'rows {first} to {first + count - 1} do not read'
                     )
-        if notes or self.path.is_dir():
-            _log.warning(
-                '%s: %s: read file by file%s', self.path, reason, ''.join('; ' + n for n in notes)
-            )
+                    self.damage.report([Skipped(stream.reader.path, None, first, '', count, why)])
 
     def _compressed_files(self) -> list[Path]:
         from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
@@ -407,8 +410,27 @@ def _recoverable(path: Path) -> bool:
         return False
 
 
+def _runs(rows: list[int]) -> Iterator[tuple[int, int]]:
+    """(first, count) of each run of consecutive ids in sorted ``rows``."""
+    first = count = 0
+    for row in rows:
+        if count and row == first + count:
+            count += 1
+            continue
+        if count:
+            yield first, count
+        first, count = row, 1
+    if count:
+        yield first, count
+
+
+#: what ``reindex`` adds to a file's stem for the original it keeps (``bag_0.orig.mcap``)
+BACKUP_MARK = '.orig'
+
+
 def storage_files(folder: Path) -> list[Path]:
-    """The ``.mcap`` or ``.db3`` files of a folder, in split order (``name_0``, ``name_1``...)."""
+    """The ``.mcap`` or ``.db3`` files of a folder, in split order (``name_0``, ``name_1``...);
+    not the originals ``reindex`` kept (``bag_0.orig.mcap``, ``bag_0.orig-2.mcap``)."""
 
     def order(path: Path) -> tuple[str, int, str]:
         match = re.search(r'_(\d+)$', path.stem)
@@ -416,5 +438,8 @@ def storage_files(folder: Path) -> list[Path]:
         return (stem, int(match.group(1)) if match else -1, path.name)
 
     found = sorted([*folder.glob('*.mcap'), *folder.glob('*.db3')], key=order)
+    found = [
+        path for path in found if not re.search(rf'{re.escape(BACKUP_MARK)}(-\d+)?$', path.stem)
+    ]
     kinds = {path.suffix for path in found}
     return [path for path in found if path.suffix == '.mcap'] if len(kinds) > 1 else found

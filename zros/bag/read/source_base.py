@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import contextlib
+import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -168,6 +169,7 @@ class Source(Closing):
 def describe_error(exc: BaseException) -> str:
     """The text of an error a storage reader raised, for a BagError."""
     text = str(exc).strip() or type(exc).__name__
+    text = re.sub(r"\((['\"])(.*?)\1,\)", r'\2', text)  # rosbags puts a bare args tuple in some
     if isinstance(exc, MemoryError):
         text = 'a record claims more memory than available (corrupt file?)'
     return text

@@ -5,8 +5,9 @@ or records that no longer read: rosbags refuses the first and stops at the secon
 read as :mod:`zros.bag.read.rosbag1_scan` reads it (chunk by chunk, or record by record without
 index), and every message that reads is written into a new bag with its connections, chunk
 compression and index; the rest is counted. As for MCAP files, the new bag is written beside
-the original (``.<name>.reindex``) and renamed over it once complete and on disk; a bag that
-reads whole is left untouched.
+the original (``.<name>.reindex``) and renamed over it once complete and on disk, the original
+kept as ``NAME.orig.bag`` when asked; a bag that reads whole is left untouched, and one of which
+no message reads though it holds some is refused (left as it is).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from typing import TYPE_CHECKING
 from zros.bag.errors import BagError
 from zros.bag.read.rosbag1_scan import ScannedBag1, indexed_messages
 from zros.bag.read.source_base import describe_error
-from zros.bag.write.replace import replacing, temporary_of
+from zros.bag.write.replace import lost_words, replacing, temporary_of
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
@@ -87,18 +88,22 @@ def _compression(reader: Reader) -> str:
 
 @dataclass(frozen=True)
 class Rebuilt:
-    """What :func:`reindex_ros1` did: ``rewritten`` or not (everything read), the messages
-    the bag holds now, those it could not keep (-1: unknown) and where the damage was."""
+    """What :func:`reindex_ros1` did (``action``: ``'complete'``, everything read,
+    ``'rewritten'`` or ``'refused'``, nothing read), the messages the bag holds now, those it
+    could not keep (-1: unknown), where the damage was and the name the original is kept
+    under."""
 
-    rewritten: bool
+    action: str
     message_count: int
     reason: str = ''
     lost_messages: int = 0
     damaged: tuple[int, ...] = ()
+    backup: str = ''
 
 
-def reindex_ros1(file: Path) -> Rebuilt:
-    """Rewrite a ROS 1 bag from what can be read (untouched when everything reads)."""
+def reindex_ros1(file: Path, backup: Path | None = None) -> Rebuilt:
+    """Rewrite a ROS 1 bag from what can be read (untouched when everything reads or
+    nothing does), keeping the original as ``backup``."""
     try:
         bag = _Readable(file)
     except Exception as exc:  # not even a bag header: nothing to rebuild from
@@ -106,25 +111,31 @@ def reindex_ros1(file: Path) -> Rebuilt:
     try:
         count = sum(1 for _ in bag.messages())
         if bag.indexed is not None and not bag.losses:
-            return Rebuilt(False, count)
-        _rewrite(file, bag)
+            return Rebuilt('complete', count)
+        counts = [sum(lost.values()) if -1 not in lost else -1 for _, lost, _ in bag.losses]
+        lost = -1 if -1 in counts else sum(counts)
+        damaged = tuple(dict.fromkeys(offset for offset, _, _ in bag.losses))
+        if not count:
+            at = ', '.join(map(str, damaged))
+            return Rebuilt('refused', 0, f'{lost_words(lost)} damaged or cut short at byte {at}')
+        _rewrite(file, bag, backup)
     finally:
         bag.close()
-    counts = [sum(lost.values()) if -1 not in lost else -1 for _, lost, _ in bag.losses]
     return Rebuilt(
-        True,
+        'rewritten',
         count,
         '' if bag.indexed is not None else 'its index is gone or damaged',
-        -1 if -1 in counts else sum(counts),
-        tuple(dict.fromkeys(offset for offset, _, _ in bag.losses)),
+        lost,
+        damaged,
+        backup.name if backup is not None else '',
     )
 
 
-def _rewrite(file: Path, bag: _Readable) -> None:
+def _rewrite(file: Path, bag: _Readable, backup: Path | None) -> None:
     from rosbags.rosbag1 import Writer  # noqa: PLC0415 (lazy: rosbags, import time)
 
     temporary_of(file).unlink(missing_ok=True)  # left by a reindex itself interrupted
-    with replacing(file) as temporary:
+    with replacing(file, backup) as temporary:
         writer = Writer(temporary)
         if bag.compression != 'none':
             writer.set_compression(Writer.CompressionFormat[bag.compression.upper()])

@@ -12,7 +12,10 @@ message indexes, statistics, the summary and the footer.
 Files already finished are left untouched. An unfinished file is rewritten into a hidden
 temporary file beside it (``.<name>.reindex``), synced to disk, then renamed over the original
 in one step: if anything fails before the rename (disk full, a crash), the original is still
-there as it was, and running :func:`reindex` again starts over. What the rewrite drops is what
+there as it was, and running :func:`reindex` again starts over. The original is kept beside it
+as ``NAME.orig.EXT`` (as ROS 1's ``rosbag reindex`` keeps ``.orig.bag``; ``backup=False`` does
+not), and a file of which no message would be kept while it held some is refused: left as it
+is, reported ``'refused'``. What the rewrite drops is what
 no reader can read: the bytes after the last complete record, but for the whole messages of a
 last chunk the file's end cuts short (:mod:`zros.bag.read.mcap_cut`).
 """
@@ -29,7 +32,7 @@ from typing import TYPE_CHECKING
 from zros.bag.errors import BagError
 from zros.bag.read.mcap_recover import LinearScan, is_mcap
 from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE, McapWriter, compression_type
-from zros.bag.write.replace import replacing, temporary_of
+from zros.bag.write.replace import backup_of, lost_words, replacing, temporary_of
 from zros.version import counted
 
 if TYPE_CHECKING:
@@ -53,8 +56,10 @@ class FileReport:
     ``action`` is ``'complete'`` (already finished and intact: untouched), ``'rewritten'``
     (finished from its complete records; ``dropped_bytes`` were past the last one, ``reason``
     says why the scan stopped; damaged chunks are left out, ``lost_messages`` counts their
-    messages, -1 when a chunk's count is unknown) or ``'skipped'`` (not even an MCAP header:
-    left as it is, not listed in the metadata).
+    messages, -1 when a chunk's count is unknown; the original kept as ``backup``, '' when
+    not kept), ``'refused'`` (no message of it reads though it holds data: left as it is,
+    not listed in the metadata) or ``'skipped'`` (not even an MCAP header: left as it is, not
+    listed in the metadata).
     """
 
     name: str
@@ -64,18 +69,24 @@ class FileReport:
     reason: str = ''
     lost_messages: int = 0
     damaged: tuple[int, ...] = ()  #: byte offsets of the damaged chunks left out
+    backup: str = ''  #: the name the original is kept under beside it ('' when not kept)
 
     def __str__(self) -> str:
         if self.action == 'complete':
             return f'{self.name}: complete, {counted(self.message_count, "message")}'
         if self.action == 'skipped':
             return f'{self.name}: skipped, no complete MCAP record ({self.reason})'
-        if self.damaged:
-            lost = (
-                'an unknown number of messages'
-                if self.lost_messages < 0
-                else counted(self.lost_messages, 'message')
+        if self.action == 'refused':
+            return (
+                f'{self.name}: refused, left as it is: no message of it reads, so a rewrite '
+                f'would hold none ({self.reason})'
             )
+        kept = f'\n  the original is kept as {self.backup}' if self.backup else ''
+        return self._rewritten() + kept
+
+    def _rewritten(self) -> str:
+        if self.damaged:
+            lost = lost_words(self.lost_messages)
             at = ', '.join(map(str, self.damaged))
             return (
                 f'{self.name}: rewritten, {counted(self.message_count, "message")}; could not '
@@ -108,10 +119,15 @@ class ReindexReport:
         """Messages the bag holds now."""
         return sum(f.message_count for f in self.files)
 
+    @property
+    def refused(self) -> bool:
+        """Whether a file was refused (left as it is: nothing of it would be kept)."""
+        return any(f.action == 'refused' for f in self.files)
+
     def __str__(self) -> str:
         lines = [str(f) for f in self.files]
         if self.metadata is not None:
-            used = sum(1 for f in self.files if f.action != 'skipped')
+            used = sum(1 for f in self.files if f.action not in ('skipped', 'refused'))
             lines.append(
                 f'Wrote {self.metadata}: {counted(self.message_count, "message")} on '
                 f'{counted(self.topic_count, "topic")} in {counted(used, "file")}'
@@ -178,14 +194,17 @@ class _Bag:
         return dump(bag.metadata())
 
 
-def reindex(path: str | os.PathLike[str]) -> ReindexReport:
+def reindex(path: str | os.PathLike[str], *, backup: bool = True) -> ReindexReport:
     """Finish every unfinished MCAP file of a bag and rewrite its ``metadata.yaml`` from the
     files, as ``ros2 bag reindex`` does; returns what was done.
 
-    ``path`` is a bag folder or one ``.mcap`` file (which gets no ``metadata.yaml``). Raises
-    :class:`BagError` for a path that is no MCAP bag, or when writing fails (the file being
-    rewritten then keeps its original content). Not for a bag a recorder is still writing: its
-    open file would be replaced under it.
+    ``path`` is a bag folder, one ``.mcap`` file (which gets no ``metadata.yaml``) or a ROS 1
+    ``.bag``. Each file rewritten is kept as ``NAME.orig.EXT`` beside it unless ``backup`` is
+    false; a file no message of which reads though it holds data is left as it is (its report
+    says ``'refused'``, :attr:`ReindexReport.refused`). Raises :class:`BagError` for a path
+    that is no bag, or when writing fails (the file being rewritten then keeps its original
+    content). Not for a bag a recorder is still writing: its open file would be replaced under
+    it.
     """
     location = Path(path).expanduser()
     if not location.exists():
@@ -194,35 +213,35 @@ def reindex(path: str | os.PathLike[str]) -> ReindexReport:
         if location.suffix == '.bag':
             from zros.bag.write.reindex_ros1 import reindex_ros1  # noqa: PLC0415 (ROS 1 only)
 
-            done = reindex_ros1(location)
-            action = 'rewritten' if done.rewritten else 'complete'
+            done = reindex_ros1(location, backup_of(location) if backup else None)
             report = FileReport(
                 location.name,
-                action,
+                done.action,
                 done.message_count,
                 0,
                 done.reason,
                 done.lost_messages,
                 done.damaged,
+                done.backup,
             )
             return ReindexReport(location, [report], None, 0)
         if location.suffix != '.mcap':
             raise BagError(
                 location, 'reindex reads MCAP and ROS 1 bags (a folder, a .mcap or .bag file)'
             )
-        return ReindexReport(location, [_reindex_file(location, _Bag())], None, 0)
+        return ReindexReport(location, [_reindex_file(location, _Bag(), backup)], None, 0)
     files = storage_files(location)
     if not files:
         raise BagError(location, 'not a bag folder: no .mcap file in it')
     if any(file.suffix != '.mcap' for file in files):
         raise BagError(location, 'reindex reads MCAP bags; this folder holds .db3 files')
     bag = _Bag(*_previous_metadata(location / 'metadata.yaml'))
-    reports = [_reindex_file(file, bag) for file in files]
+    reports = [_reindex_file(file, bag, backup) for file in files]
     metadata = write_metadata_yaml(location, bag.metadata())
     return ReindexReport(location, reports, metadata, len(bag.topics))
 
 
-def _reindex_file(file: Path, bag: _Bag) -> FileReport:
+def _reindex_file(file: Path, bag: _Bag, backup: bool) -> FileReport:
     """Finish one file if needed and add it to ``bag``."""
     stale = temporary_of(file)
     stale.unlink(missing_ok=True)  # left by a reindex that was itself interrupted
@@ -233,26 +252,43 @@ def _reindex_file(file: Path, bag: _Bag) -> FileReport:
         report = FileReport(file.name, 'complete', summary.entry.message_count)
     else:
         finished = summary is not None
-        summary, scan = _rewrite(file, bag)
+        kept = backup_of(file) if backup else None
+        try:
+            summary, scan = _rewrite(file, bag, finished, kept)
+        except _Refused as refused:
+            return FileReport(file.name, 'refused', 0, reason=str(refused))
         if summary is None:
             return FileReport(file.name, 'skipped', 0, reason=scan.stopped_at)
-        # a finished file's summary is past its last chunk: not dropped, rewritten
-        dropped = 0 if finished else max(0, scan.size - scan.end)
+        dropped = _dropped(scan, finished)
         count = summary.entry.message_count
-        losses = [
-            sum(lost.values()) if lost and -1 not in lost else -1 for _, lost, _ in scan.skipped
-        ]
         report = FileReport(
             file.name,
             'rewritten',
             count,
             dropped,
             '' if finished else scan.stopped_at,
-            -1 if -1 in losses else sum(losses),
+            _lost(scan),
             tuple(offset for offset, _, _ in scan.skipped),
+            kept.name if kept is not None else '',
         )
     bag.add(summary)
     return report
+
+
+class _Refused(Exception):
+    """A rewrite that would keep no message of a file holding some: the original stays."""
+
+
+def _dropped(scan: LinearScan, finished: bool) -> int:
+    """The bytes after the last complete record (a finished file's summary is past its last
+    chunk: not dropped, rewritten)."""
+    return 0 if finished else max(0, scan.size - scan.end)
+
+
+def _lost(scan: LinearScan) -> int:
+    """The messages of the damaged chunks (-1 when a chunk's count is unknown)."""
+    losses = [sum(lost.values()) if lost and -1 not in lost else -1 for _, lost, _ in scan.skipped]
+    return -1 if -1 in losses else sum(losses)
 
 
 def _intact(file: Path) -> bool:
@@ -362,9 +398,13 @@ class _Stats:
         )
 
 
-def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
+def _rewrite(
+    file: Path, bag: _Bag, finished: bool, backup: Path | None
+) -> tuple[_FileSummary | None, LinearScan]:
     """Rewrite an unfinished file from its complete records, into a temporary file renamed
-    over the original once complete and on disk. (None, scan) when there is no header."""
+    over the original once complete and on disk (the original kept as ``backup``). (None,
+    scan) when there is no header; raises :class:`_Refused` when no message would be kept of
+    a file holding some data."""
     from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema  # noqa: PLC0415 (lazy: mcap, import time)
     from mcap.writer import Writer  # noqa: PLC0415 (lazy: mcap, import time)
 
@@ -376,7 +416,7 @@ def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
     stats = _Stats()
     schemas: dict[int, int] = {0: 0}
     channels: dict[int, int] = {}
-    with replacing(file) as temporary, temporary.open('xb') as stream:
+    with replacing(file, backup) as temporary, temporary.open('xb') as stream:
         writer: McapWriter | None = None
         for record in records:
             if writer is None:
@@ -416,6 +456,15 @@ def _rewrite(file: Path, bag: _Bag) -> tuple[_FileSummary | None, LinearScan]:
                 continue
             if isinstance(record, Schema | Channel | Message):
                 stats.add(record)
+        dropped = _dropped(scan, finished)
+        if not stats.count and (scan.skipped or dropped):
+            said = []
+            if scan.skipped:
+                at = ', '.join(str(offset) for offset, _, _ in scan.skipped)
+                said.append(f'{lost_words(_lost(scan))} damaged at byte {at}')
+            if dropped:
+                said.append(f'{dropped} bytes after its last complete record: {scan.stopped_at}')
+            raise _Refused('; '.join(said))
         if writer is None:
             writer = Writer(stream, compression=compression_type('none'))
             writer.start(profile=header.profile, library=header.library)

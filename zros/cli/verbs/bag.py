@@ -43,8 +43,9 @@ def info(args: argparse.Namespace) -> int:
 def reindex(args: argparse.Namespace) -> int:
     from zros.bag.write.reindexer import reindex as reindex_bag
 
-    out(str(reindex_bag(args.path)))
-    return 0
+    report = reindex_bag(args.path, backup=not args.no_backup)
+    out(str(report))
+    return 1 if report.refused else 0
 
 
 def default_bag_name() -> str:
@@ -224,9 +225,16 @@ def add_parser(
         'rewritten into a temporary file renamed over it once complete, so a failure leaves '
         'the original unchanged. A file with a damaged chunk, and a ROS 1 .bag cut short or '
         'damaged, is rebuilt the same way from what reads; the report says how many messages '
-        'could not be kept. Not for a bag still being recorded.',
+        'could not be kept. The original of each file rewritten is kept beside it as '
+        'NAME.orig.EXT. A file of which no message reads though it holds data is left as it '
+        'is and the command exits 1. Not for a bag still being recorded.',
     )
     fix.add_argument('path', help='a bag folder, .mcap or ROS 1 .bag file')
+    fix.add_argument(
+        '--no-backup',
+        action='store_true',
+        help='do not keep the original of a file rewritten (NAME.orig.EXT)',
+    )
     fix.set_defaults(run=reindex)
 
     # --- record and play ---------------------------------------------------------------------
