@@ -66,8 +66,12 @@ def test_topics_and_time_window(testdata: Path) -> None:
         window = [s for _, s, _ in bag.messages('/rosout', start=stamps[3], end=stamps[6])]
         assert window == stamps[3:6]
         assert [s for _, s, _ in bag.messages('/rosout', start=zros.Time(stamps[8]))] == stamps[8:]
-        with pytest.raises(TypeError, match='nanoseconds'):
-            list(bag.messages(start=1.5))
+        # the times of bag.columns are numpy int64: they bound a read as they are
+        numpy_window = bag.messages('/rosout', start=np.int64(stamps[3]), end=np.uint64(stamps[6]))
+        assert [s for _, s, _ in numpy_window] == stamps[3:6]
+        for wrong in (1.5, True, np.float64(stamps[3])):
+            with pytest.raises(TypeError, match='nanoseconds'):
+                list(bag.messages(start=wrong))
         with pytest.raises(BagError, match=r'no topic /nothing in the recording; it has: /topic'):
             list(bag.messages(['/nothing']))
         assert bag.message_class('/topic').__msgtype__ == 'std_msgs/msg/String'
