@@ -370,3 +370,27 @@ def test_an_empty_schema_with_longer_messages_is_an_unknown_type(
     warnings = [r.getMessage() for r in caplog.records]
     assert len(warnings) == 1, warnings
     assert 'their_pkg/msg/Mystery (topic /mystery) has an empty definition' in warnings[0]
+
+
+def test_a_folder_of_one_file_without_metadata_opens_quietly(
+    testdata: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import shutil
+
+    mcap = testdata / 'ros2' / 'services_and_topics' / 'topics_and_services.mcap'
+    one = tmp_path / 'one'
+    one.mkdir()
+    shutil.copy(mcap, one / mcap.name)
+    two = tmp_path / 'two'
+    two.mkdir()
+    shutil.copy(mcap, two / 'a.mcap')
+    shutil.copy(mcap, two / 'b.mcap')
+    with caplog.at_level('WARNING', logger='zros'):
+        with Bag(one) as bag:
+            assert bag.topics
+        assert not caplog.records  # once a warning on every open
+        with Bag(two):
+            pass
+    assert [r.getMessage() for r in caplog.records] == [
+        f'{two}: it has no metadata.yaml: read file by file'
+    ]

@@ -173,9 +173,12 @@ class Rosbag2Source(Source):
                         [Skipped(stream.reader.path, None, row, '', 1, 'the row does not read')]
                     )
         if notes or self.path.is_dir():
-            _log.warning(
-                '%s: %s: read file by file%s', self.path, reason, ''.join('; ' + n for n in notes)
-            )
+            # a folder of one complete file reads as that file: no warning on every open
+            level = logging.WARNING if notes or len(paths) > 1 else logging.DEBUG
+            _log.log(
+                level, '%s: %s: read file by file%s', self.path, reason,
+                ''.join('; ' + n for n in notes),
+            )  # fmt: skip
 
     def _compressed_files(self) -> list[Path]:
         from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
