@@ -13,6 +13,7 @@ first whose stamps span less than ``slop``; each arrival emits at most one set.
 from __future__ import annotations
 
 import itertools
+import numbers
 from collections.abc import Sequence
 from typing import Generic, TypeVar
 
@@ -20,13 +21,21 @@ T = TypeVar('T')
 _NS = 1_000_000_000
 
 
+def integer_ns(value: object) -> int | None:
+    """``value`` as an int when it is an integer of any kind (``int``, ``numpy.int64``, …;
+    never a bool), else None: times in nanoseconds come as numpy integers from bag columns."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return int(value)
+    return None
+
+
 def header_stamp(message: object) -> int | None:
     """``message.header.stamp`` in integer nanoseconds, or None when it has none."""
     stamp = getattr(getattr(message, 'header', None), 'stamp', None)
     if stamp is None:
         return None
-    nanoseconds = getattr(stamp, 'nanoseconds', None)
-    if isinstance(nanoseconds, int):
+    nanoseconds = integer_ns(getattr(stamp, 'nanoseconds', None))
+    if nanoseconds is not None:
         return nanoseconds
     return int(stamp.sec) * _NS + int(stamp.nanosec)
 

@@ -11,7 +11,7 @@ import pytest
 import zros
 from tests.bag.makebags import make_db3
 from tests.bag.reference import RECORDINGS, assert_same, rosbags_messages
-from zros.bag import Bag, BagError, bag_read
+from zros.bag import Bag, BagError, UndecodedMessage, bag_read
 from zros.cdr import encode, new_message
 
 
@@ -66,8 +66,12 @@ def test_topics_and_time_window(testdata: Path) -> None:
         window = [s for _, s, _ in bag.messages('/rosout', start=stamps[3], end=stamps[6])]
         assert window == stamps[3:6]
         assert [s for _, s, _ in bag.messages('/rosout', start=zros.Time(stamps[8]))] == stamps[8:]
-        with pytest.raises(TypeError, match='nanoseconds'):
-            list(bag.messages(start=1.5))
+        # the times of bag.columns are numpy int64: they bound a read as they are
+        numpy_window = bag.messages('/rosout', start=np.int64(stamps[3]), end=np.uint64(stamps[6]))
+        assert [s for _, s, _ in numpy_window] == stamps[3:6]
+        for wrong in (1.5, True, np.float64(stamps[3])):
+            with pytest.raises(TypeError, match='nanoseconds'):
+                list(bag.messages(start=wrong))
         with pytest.raises(BagError, match=r'no topic /nothing in the recording; it has: /topic'):
             list(bag.messages(['/nothing']))
         assert bag.message_class('/topic').__msgtype__ == 'std_msgs/msg/String'
@@ -157,7 +161,6 @@ def secret_bag(path: Path) -> tuple[Path, list[bytes]]:
 def test_a_type_defined_nowhere_reads_as_bytes_and_the_rest_decodes(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
-    from zros.bag import UndecodedMessage
 
     path, secrets = secret_bag(tmp_path / 'secret')
     with caplog.at_level(logging.WARNING, 'zros.bag'):
@@ -334,3 +337,60 @@ def test_a_bag_counts_its_topics_and_messages_in_words(tmp_path: Path) -> None:
         assert repr(bag) == f'<Bag {bag.path}: 1 topic, 1 message>'
     with open_source(path) as source:
         assert repr(source).endswith(': 1 connection, 1 message>')
+
+
+def test_an_empty_schema_with_longer_messages_is_an_unknown_type(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a recorder that did not know the type wrote an empty ros2msg schema: its messages are not
+    # empty ones (4-byte header and at most 4 more), so they come back undecoded, not skipped
+    from mcap.writer import Writer
+
+    path = tmp_path / 'unknown.mcap'
+    payloads = [b'\x00\x01\x00\x00' + bytes(range(n, n + 7)) for n in range(3)]
+    with path.open('wb') as stream:
+        writer = Writer(stream)
+        writer.start(profile='ros2', library='test')
+        unknown = writer.register_channel(
+            '/mystery', 'cdr', writer.register_schema('their_pkg/msg/Mystery', 'ros2msg', b'')
+        )
+        empty = writer.register_channel(
+            '/empty', 'cdr', writer.register_schema('their_pkg/msg/Nothing', 'ros2msg', b'')
+        )
+        for stamp, payload in enumerate(payloads):
+            writer.add_message(unknown, log_time=stamp, data=payload, publish_time=stamp)
+        writer.add_message(empty, log_time=9, data=b'\x00\x01\x00\x00\x00', publish_time=9)
+        writer.finish()
+    with caplog.at_level('WARNING', logger='zros'), Bag(path) as bag:
+        mystery = [m for _, _, m in bag.messages(['/mystery'])]
+        ((_, _, nothing),) = list(bag.messages(['/empty']))
+    assert [m.data for m in mystery] == payloads
+    assert all(isinstance(m, UndecodedMessage) for m in mystery)
+    assert not isinstance(nothing, UndecodedMessage)  # an empty message decodes as one
+    warnings = [r.getMessage() for r in caplog.records]
+    assert len(warnings) == 1, warnings
+    assert 'their_pkg/msg/Mystery (topic /mystery) has an empty definition' in warnings[0]
+
+
+def test_a_folder_of_one_file_without_metadata_opens_quietly(
+    testdata: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import shutil
+
+    mcap = testdata / 'ros2' / 'services_and_topics' / 'topics_and_services.mcap'
+    one = tmp_path / 'one'
+    one.mkdir()
+    shutil.copy(mcap, one / mcap.name)
+    two = tmp_path / 'two'
+    two.mkdir()
+    shutil.copy(mcap, two / 'a.mcap')
+    shutil.copy(mcap, two / 'b.mcap')
+    with caplog.at_level('WARNING', logger='zros'):
+        with Bag(one) as bag:
+            assert bag.topics
+        assert not caplog.records  # once a warning on every open
+        with Bag(two):
+            pass
+    assert [r.getMessage() for r in caplog.records] == [
+        f'{two}: it has no metadata.yaml: read file by file'
+    ]

@@ -105,3 +105,22 @@ def test_a_type_defined_nowhere_in_the_bag(tmp_path: Path) -> None:
     assert figure.axes[0].lines[0].get_ydata().tolist() == [0.0, 1.0, 2.0]
     with pytest.raises(BagError, match=f'{SECRET}, which has no definition.*register_type'):
         plot_bag(bag, ['/secret/code'])
+
+
+def test_an_element_past_the_end_of_every_array(tmp_path: Path) -> None:
+    bag = make_bag(tmp_path / 'run4')
+    with pytest.raises(PlotError) as raised:
+        plot_bag(bag, ['/joint_states/position[5]'])
+    assert str(raised.value) == (
+        '/joint_states/position[5]: position has 2, 3 elements in this recording, no element 5'
+    )
+    with pytest.raises(PlotError, match=r'^/joint_states/velocity/1: velocity has 0 elements'):
+        plot_bag(bag, ['/joint_states/velocity/1'])
+
+
+def test_an_element_past_the_end_of_a_real_recording(testdata: Path) -> None:
+    bag = testdata / 'ros1' / 'tf_franka.bag'
+    with pytest.raises(
+        PlotError, match=r'position has 9 elements in this recording, no element 20'
+    ):
+        plot_bag(bag, ['/joint_states/position[20]'])

@@ -123,7 +123,9 @@ def test_a_missing_bag_is_said_at_once(
 ) -> None:
     # --wait 60: had any of these been taken for a live topic, the command would wait a minute
     monkeypatch.chdir(tmp_path)
-    for argument in ('no_such_bag', './run9', '~/no_such_bag', 'run9.mcap', '/no/run9.mcap'):
+    absolute = str(tmp_path / 'run9')  # a mistyped absolute path: its folder exists
+    for argument in ('no_such_bag', './run9', '~/no_such_bag', 'run9.mcap', '/no/run9.mcap',
+                     absolute):  # fmt: skip
         started = time.monotonic()
         result = cli.run('plot', argument, '/x/data', '--wait', '60', timeout=50)
         assert time.monotonic() - started < 30
@@ -142,7 +144,7 @@ def test_a_missing_bag_is_said_at_once(
     assert 'no topic on the network starts this address (waited 0.2 s' in live.stderr
 
 
-def test_which_first_arguments_name_files() -> None:
+def test_which_first_arguments_name_files(tmp_path: Path) -> None:
     from zros.cli.verbs.plot import names_a_path
 
     paths = ['run1', 'run1/', './run1', '../bags/run1', '~/bags/x.mcap', 'x.db3', '/d/x.MCAP',
@@ -150,6 +152,10 @@ def test_which_first_arguments_name_files() -> None:
     addresses = ['/odom/twist/twist/linear/x', '/x/data', '/scan/ranges[0]', '/run1']
     assert [names_a_path(p) for p in paths] == [True] * len(paths)
     assert [names_a_path(a) for a in addresses] == [False] * len(addresses)
+    # an absolute path whose folder exists; a top-level folder (a topic /tmp, field x) does not
+    assert names_a_path(str(tmp_path / 'run1'))
+    assert not names_a_path('/tmp/x')
+    assert not names_a_path(str(tmp_path / 'nope' / 'x'))
 
 
 def test_graph_picture_and_dot(

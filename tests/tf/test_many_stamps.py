@@ -86,3 +86,19 @@ def test_bad_arguments() -> None:
         buffer.lookup_transforms('a', 'b', np.zeros((2, 2), dtype=np.int64))
     with pytest.raises(LookupException, match='"c" passed'):
         buffer.lookup_transforms('a', 'c', [1])
+
+
+def test_numpy_integer_times_are_times() -> None:
+    # bag columns give int64 stamps; a lookup at one of them is a lookup at that time
+    buffer = Buffer()
+    buffer.add('a', 'b', 10, (1, 0, 0, 0, 0, 0, 1), 't')
+    buffer.add('a', 'b', 20, (3, 0, 0, 0, 0, 0, 1), 't')
+    buffer.add('a', 'c', 0, (0, 0, 0, 0, 0, 0, 1), 't', static=True)
+    for stamp in (np.int64(15), np.uint32(15), np.int16(15)):
+        assert buffer.lookup_transform('a', 'b', stamp).transform.translation.x == 2.0
+        full = buffer.lookup_transform_full('c', stamp, 'b', np.int64(20), 'a')
+        assert full.transform.translation.x == 3.0  # b at its source time 20
+        assert full.header.stamp.nanosec == 15
+    for wrong in (np.float64(15), True):
+        with pytest.raises(InvalidArgumentException, match='integer nanoseconds'):
+            buffer.lookup_transform('a', 'b', wrong)

@@ -16,7 +16,7 @@ from zros.bag.read.source import Connection, RawMessage, Source, open_source
 from zros.bag.read.types import BagTypes
 from zros.cdr.arrays import Array
 from zros.closing import Closing
-from zros.timesync import ApproximatePolicy, header_stamp
+from zros.timesync import ApproximatePolicy, header_stamp, integer_ns
 from zros.version import counted
 
 if TYPE_CHECKING:
@@ -49,8 +49,8 @@ class TopicInfo:
 def _nanoseconds(value: TimeLike) -> int | None:
     if value is None:
         return None
-    nanoseconds = getattr(value, 'nanoseconds', value)
-    if isinstance(nanoseconds, bool) or not isinstance(nanoseconds, int):
+    nanoseconds = integer_ns(getattr(value, 'nanoseconds', value))
+    if nanoseconds is None:
         raise TypeError(
             f'a time bound is integer nanoseconds or a zros.Time, not {type(value).__name__}'
         )

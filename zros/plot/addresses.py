@@ -76,10 +76,22 @@ class Series:
         column = columns[self.field]
         if self.index is None:
             return np.asarray(column, dtype=np.float64)
-        if column.dtype != object:
-            return np.asarray(column[:, self.index], dtype=np.float64)
         index = self.index
+        if column.dtype != object:
+            if index >= column.shape[1]:
+                raise PlotError(self._too_short({column.shape[1]}))
+            return np.asarray(column[:, index], dtype=np.float64)
+        lengths = {len(row) for row in column}
+        if lengths and index >= max(lengths):
+            raise PlotError(self._too_short(lengths))
         return np.array([row[index] if index < len(row) else np.nan for row in column], np.float64)
+
+    def _too_short(self, lengths: set[int]) -> str:
+        shown = ', '.join(str(n) for n in sorted(lengths)[:5]) + (', …' if len(lengths) > 5 else '')
+        return (
+            f'{self.label}: {self.field} has {shown} element{"" if lengths == {1} else "s"} in '
+            f'this recording, no element {self.index}'
+        )
 
 
 def _parse_type(text: str) -> tuple[str, int | None]:

@@ -7,6 +7,7 @@ from typing import Protocol
 
 from zros.runtime.clock import Duration, Time
 from zros.tf.errors import InvalidArgumentException
+from zros.timesync import integer_ns
 
 _NS = 1_000_000_000
 
@@ -35,8 +36,9 @@ TimeoutLike = float | Duration | HasNanoseconds | None
 def nanoseconds(time: TimeLike, argument: str = 'time') -> int:
     """A time as integer nanoseconds (0 means the latest common time)."""
     nanoseconds_of = getattr(time, 'nanoseconds', None)  # zros.Time, rclpy.time.Time
-    if isinstance(time, int) and not isinstance(time, bool):
-        value = time
+    integer = integer_ns(time)
+    if integer is not None:
+        value = integer
     elif isinstance(nanoseconds_of, int):
         value = nanoseconds_of
     elif hasattr(time, 'sec') and hasattr(time, 'nanosec'):

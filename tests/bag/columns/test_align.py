@@ -248,3 +248,23 @@ def test_synchronize_skips_headerless_or_stamps_them_with_receive_time(two: Path
             bag.synchronize(['/a', '/f'], 1.0, queue_size=0)
     # /f received at 12 and 28 meets /a stamped 10 and 30 (2 ns apart)
     assert [(f.data, a.point.x) for f, a in pairs] == [(1.0, 1.0), (2.6, 3.0)]
+
+
+def test_a_period_grid_too_large_is_refused_before_it_is_made(
+    two: Path, testdata: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from zros.bag.columns import align
+
+    with Bag(testdata / 'ros2' / 'talker_mcap') as bag, pytest.raises(ValueError) as raised:
+        bag.align(['/rosout.level'], on=1e-9, stamp='receive')  # once: MemoryError, 720 GiB
+    assert 'rows (at most 100,000,000): use a longer period' in str(raised.value)
+    monkeypatch.setattr(align, 'MAX_GRID_ROWS', 20)
+    with Bag(two) as bag:  # /a and /b span 10 to 30 ns: 21 rows of 1 ns
+        with pytest.raises(ValueError) as raised:
+            bag.align(['/a.point.x', '/b.point.x'], on=1e-9)
+        assert str(raised.value) == (
+            'a period of 1e-09 s over 0.000 s of data is 21 rows (at most 20): use a longer '
+            "period, or on='/topic' for a row per message of that topic"
+        )
+        monkeypatch.setattr(align, 'MAX_GRID_ROWS', 21)
+        assert len(bag.align(['/a.point.x', '/b.point.x'], on=1e-9)) == 21

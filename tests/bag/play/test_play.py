@@ -393,3 +393,25 @@ def test_a_stop_at_any_moment_of_the_start_ends_playing(player_node: Any, tmp_pa
         player.stop()
         assert player.wait(10), f'playing did not end after a stop {delay * 1000:.1f} ms in'
         player.close()
+
+
+def test_service_events_are_skipped_with_one_warning(
+    player_node: Any, testdata: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    bag = testdata / 'ros2' / 'services_and_topics'
+    with caplog.at_level('WARNING', logger='zros'), Player(player_node, bag) as player:
+        assert player.topics
+        assert not any(t.endswith('/_service_event') for t in player.topics)
+    warnings = [r.getMessage() for r in caplog.records if 'service events' in r.getMessage()]
+    assert len(warnings) == 1 and '/_service_event' in warnings[0]
+    event = '/add_two_ints/_service_event'
+    with pytest.raises(PlayerError, match=f'cannot play {event}: zros does not play service'):
+        Player(player_node, bag, topics=[event])
+
+
+def test_an_empty_message_type_plays_from_its_empty_definition(
+    player_node: Any, testdata: Path
+) -> None:
+    # test_msgs/msg/Empty is unknown to zros; the bag's definition of it is '' (no fields)
+    with Player(player_node, testdata / 'ros2' / 'convert_b_mcap', topics=['a_empty']) as player:
+        assert player.topics == {'/a_empty': 'test_msgs/msg/Empty'}

@@ -36,6 +36,8 @@ METHODS = ('nearest', 'previous', 'linear')
 STAMPS = ('header', 'receive')
 _STAMP_FIELDS = ['header.stamp.sec', 'header.stamp.nanosec']
 _NS = 1_000_000_000
+#: the most rows a period grid may have (8 bytes a row for each column): larger is refused
+MAX_GRID_ROWS = 100_000_000
 
 #: what to align: ``'/imu'`` (every numeric field), ``'/imu.linear_acceleration'`` (a field or a
 #: struct of fields), a list of those, or a mapping topic -> field paths (None: every field)
@@ -247,6 +249,13 @@ def align(
         firsts = [t.stamps[0] for _, t in topics.values() if len(t.stamps)]
         lasts = [t.stamps[-1] for _, t in topics.values() if len(t.stamps)]
         if firsts:
+            rows = (max(lasts) - min(firsts)) // period + 1
+            if rows > MAX_GRID_ROWS:
+                raise ValueError(
+                    f'a period of {on} s over {(max(lasts) - min(firsts)) / _NS:.3f} s of data is '
+                    f'{rows:,} rows (at most {MAX_GRID_ROWS:,}): use a longer period, or '
+                    "on='/topic' for a row per message of that topic"
+                )
             instants = np.arange(min(firsts), max(lasts) + 1, period, dtype=np.int64)
         else:
             instants = np.empty(0, np.int64)

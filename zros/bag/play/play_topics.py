@@ -39,7 +39,8 @@ def message_class(node: Node, connection: Connection) -> type[Message]:
     try:
         return node.registry.get_class(connection.type_name)
     except ZrosError as exc:
-        if connection.definition_format != 'ros2msg' or not connection.definition:
+        # an empty message's definition is '' in format ros2msg; no definition has no format
+        if connection.definition_format != 'ros2msg':
             raise PlayerError(
                 f'cannot play {connection.topic}: the bag has no definition of '
                 f'{connection.type_name} and zros knows none; {how_to_define(connection.type_name)}'
@@ -47,6 +48,13 @@ def message_class(node: Node, connection: Connection) -> type[Message]:
     registry = TypeRegistry(distro=node.registry.distro)
     registry.register_bundle(connection.type_name, connection.definition, str(connection.topic))
     return registry.get_class(connection.type_name)
+
+
+def is_service_event(connection: Connection) -> bool:
+    """Whether a connection is a recorded service event topic (``…/srv/X_Event``), which
+    rosbag2 republishes only on request and zros's publishers do not take."""
+    parts = connection.type_name.split('/')
+    return len(parts) == 3 and parts[1] == 'srv' and parts[2].endswith('_Event')
 
 
 def parse_remap(rules: Mapping[str, str] | Iterable[str] | None) -> dict[str, str]:

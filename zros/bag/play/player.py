@@ -20,7 +20,12 @@ from typing import TYPE_CHECKING
 from zros.api import default_node
 from zros.bag.errors import PlayerError
 from zros.bag.play.play_clock import PlayClock
-from zros.bag.play.play_topics import message_class, parse_remap, playback_qos
+from zros.bag.play.play_topics import (
+    is_service_event,
+    message_class,
+    parse_remap,
+    playback_qos,
+)
 from zros.bag.read.rosbag2_yaml import parse_qos_profiles
 from zros.bag.read.source import open_source
 from zros.cdr.message import Message
@@ -123,6 +128,21 @@ class Player(Closing):
                     f'{", ".join(sorted({name(c.topic) for c in connections}))}'
                 )
             connections = [c for c in connections if name(c.topic) in wanted]
+            events = sorted({c.topic for c in connections if is_service_event(c)})
+            if events:
+                raise PlayerError(
+                    f'cannot play {", ".join(events)}: zros does not play service events '
+                    f'(recorded service calls); leave {"them" if len(events) > 1 else "it"} '
+                    'out of the topics'
+                )
+        else:
+            events = sorted({c.topic for c in connections if is_service_event(c)})
+            if events:
+                _log.warning(
+                    'not playing %s: zros does not play service events (recorded service calls)',
+                    ', '.join(events),
+                )
+                connections = [c for c in connections if not is_service_event(c)]
         self.start_ns = source.start_ns + round(start_offset * _NS)
         self.end_ns = source.end_ns
         self._publishers: dict[int, Publisher[Message]] = {}

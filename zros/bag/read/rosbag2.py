@@ -163,9 +163,12 @@ class Rosbag2Source(Source):
         self.storage_id = 'sqlite3' if paths[0].suffix == '.db3' else 'mcap'
         self._build_connections([])
         if notes or self.path.is_dir():  # how it is read, before what reading it lost
-            _log.warning(
-                '%s: %s: read file by file%s', self.path, reason, ''.join('; ' + n for n in notes)
-            )
+            # a folder of one complete file reads as that file: no warning on every open
+            level = logging.WARNING if notes or len(paths) > 1 else logging.DEBUG
+            _log.log(
+                level, '%s: %s: read file by file%s', self.path, reason,
+                ''.join('; ' + n for n in notes),
+            )  # fmt: skip
         for stream in self._streams:
             if isinstance(stream.reader, RecoveredMcap):
                 report = self._damaged(stream.reader.path, stream.mapping)

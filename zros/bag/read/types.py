@@ -130,6 +130,9 @@ class BagTypes:
         self._embedded: set[int] = set()
         self._choices: dict[int, _Choice] = {}
         self._warned: set[str] = set()  #: types whose messages were said to stay undecoded
+        #: connections whose embedded definition is empty: an unknown type recorded with an
+        #: empty schema, unless its messages are as short as an empty message's
+        self._empty: set[int] = set()
         for connection in connections:
             if self._register(connection):
                 self._embedded.add(connection.id)
@@ -151,6 +154,7 @@ class BagTypes:
                 self.registry.register_bundle(name, text, origin, override_dependencies=True)
             else:
                 self.registry.register_text(name, '', origin)
+                self._empty.add(connection.id)
         except (ValueError, CdrError) as exc:
             # a syntax error, or a second definition of a type that differs from the first
             _log.warning(
@@ -248,6 +252,10 @@ class BagTypes:
             )
             choice.current = index
             return decoded
+        if message.connection.id in self._empty:  # longer than an empty message: no definition
+            return self._undecoded(
+                message, 'an empty definition in the recording, but longer messages than it makes'
+            )
         raise BagError(
             self.path,
             f'cannot decode the message of {message.connection.topic} at {message.timestamp} '
@@ -266,17 +274,19 @@ class BagTypes:
             )
             return None
 
-    def _undecoded(self, message: RawMessage) -> Message:
+    def _undecoded(
+        self, message: RawMessage, found: str = 'no definition in the recording and none zros knows'
+    ) -> Message:
         name = message.connection.type_name
         if name not in self._warned:
             self._warned.add(name)
             _log.warning(
-                '%s: type %s (topic %s) has no definition in the recording and none zros '
-                'knows: its messages come back undecoded, as zros.bag.UndecodedMessage with the '
-                'CDR bytes in .data; %s',
+                '%s: type %s (topic %s) has %s: its messages come back undecoded, as '
+                'zros.bag.UndecodedMessage with the CDR bytes in .data; %s',
                 self.path,
                 name,
                 message.connection.topic,
+                found,
                 how_to_define(name),
             )
         data = message.data

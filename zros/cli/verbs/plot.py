@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from zros.cli.shared import CommandError, add_connection_options, open_node, out
@@ -132,8 +133,12 @@ BAG_SUFFIXES = ('.mcap', '.db3', '.bag')
 def names_a_path(argument: str) -> bool:
     """Whether the first argument of ``zros plot`` can only be a file or folder: it does not
     start with ``/`` (every topic address does: ``~/bags``, ``./run1``, ``run1``) or it ends
-    like a recording (``/data/run1.mcap``)."""
-    return not argument.startswith('/') or argument.lower().endswith(BAG_SUFFIXES)
+    like a recording (``/data/run1.mcap``) or sits in a folder that exists, two levels deep or
+    more (``/tmp/bags/run1``; a topic ``/run`` with field ``x`` stays an address)."""
+    if not argument.startswith('/') or argument.lower().endswith(BAG_SUFFIXES):
+        return True
+    folder = Path(argument).parent
+    return len(folder.parts) > 2 and folder.is_dir()
 
 
 def plot(args: argparse.Namespace) -> int:
@@ -145,7 +150,8 @@ def plot(args: argparse.Namespace) -> int:
     if is_recording(first):
         return _plot_bag(args)
     if names_a_path(first):  # not a topic address either: say so now, not after --wait
-        hint = '' if first.lower().endswith(BAG_SUFFIXES) else ' (a topic address starts with /)'
+        bare = not first.startswith('/') and not first.lower().endswith(BAG_SUFFIXES)
+        hint = ' (a topic address starts with /)' if bare else ''
         print(f'zros: error: no such file or folder: {first}{hint}', file=sys.stderr)
         return 2
     return _plot_live(args)
