@@ -179,9 +179,8 @@ class Publisher(Entity, Generic[M]):
     def _stamped(self, put: _TimedPut) -> Put:
         """``put`` with the timestamp :class:`~zros.pubsub.tail.Newest` gives each payload."""
         newest = self._newest = Newest(
-            self.context.transport.session, self.key, PRIORITY[self.priority],
-            CONGESTION[self.qos.congestion_control],
-        )  # fmt: skip
+            self.context.transport.session, self.key, PRIORITY[self.priority]
+        )
         stamp = newest.stamp
 
         def stamped(payload: bytes | bytearray, *, attachment: bytes | None = None) -> None:

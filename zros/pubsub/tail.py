@@ -13,10 +13,10 @@ DDS repairs to the newest there. zros does the same between zros nodes, once a s
   gap between them, within :data:`QUIET`) asks once, sending a token of its own and the
   timestamps of the last large messages it received (:class:`Tail`).
 * A publisher whose newest is not among those puts it on ``@zros/tail/<token>``, which only that
-  subscriber listens to: a plain message of the publisher's own priority, which routers send on
-  as they send the stream's messages (``block_first``, small messages overtaking it), never a
-  query reply (a reply holds the messages behind it). The subscriber takes it as the next
-  message unless one arrived since it asked.
+  subscriber listens to: a plain message of the publisher's own priority sent ``block_first``,
+  which routers send on as they send the stream's large messages (small messages overtaking
+  it), never a query reply (a reply holds the messages behind it). The subscriber takes it as
+  the next message unless one arrived since it asked.
 
 Nothing is sent again to a subscriber that has the newest; other subscribers never see it; and
 publishers other than zros's (no answer) or subscribers other than zros's (no question) are
@@ -85,17 +85,10 @@ class Newest:
     timestamp to put it with; for a small one it returns None.
     """
 
-    def __init__(
-        self,
-        session: Session,
-        key: str,
-        priority: Priority,
-        congestion: CongestionControl = CongestionControl.DROP,
-    ) -> None:
+    def __init__(self, session: Session, key: str, priority: Priority) -> None:
         self._session = session
         self._key = NEWEST + key
         self._priority = priority
-        self._congestion = congestion  #: the publisher's: drop, or block_first
         self._lock = threading.Lock()
         self._data: bytes | bytearray | None = None
         self._stamp: Timestamp | None = None
@@ -136,8 +129,9 @@ class Newest:
                 return
             self._sent.append(now)
             data, stamp = bytes(self._data), self._stamp
-        # off Zenoh's thread: a put may wait for room (block_first, or 25 ms under drop for a
-        # message in fragments), and that thread takes all the session's incoming messages
+        # block_first: one answer waits for room rather than being dropped (a busy local link
+        # dropped a fragmented one under drop), and never the writer, which puts with drop; off
+        # Zenoh's thread, which takes all the session's incoming messages
         threading.Thread(
             target=self._send, args=(TAIL + token, data, stamp), name='zros newest', daemon=True
         ).start()
@@ -145,8 +139,8 @@ class Newest:
     def _send(self, key: str, data: bytes, stamp: Timestamp) -> None:
         try:
             self._session.put(
-                key, data, congestion_control=self._congestion, priority=self._priority,
-                timestamp=stamp,
+                key, data, congestion_control=CongestionControl.BLOCK_FIRST,
+                priority=self._priority, timestamp=stamp,
             )  # fmt: skip
         except ZError:  # the session closes
             return

@@ -26,6 +26,7 @@ def test_graph_views(zros_node: Make) -> None:
         lambda: (
             parameter_nodes(offered_services(observer)) == ['/adder']
             and '/add_two_ints' in offered_services(observer)
+            and '/_hidden' in offered_services(observer, include_hidden=True)
         ),
         TIMEOUT,
     )
