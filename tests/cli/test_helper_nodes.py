@@ -12,6 +12,7 @@ import pytest
 
 import zros
 from tests.cli.conftest import Cli, publishing
+from zros.testing import wait_for
 
 Node = Callable[..., Any]
 
@@ -41,10 +42,15 @@ def test_helper_nodes_are_named_alike_and_fully_visible(
     hz_node = f'/zros_topic_hz_{hz.process.pid}'
     pub_node = f'/zros_topic_pub_{pub.process.pid}'
 
-    listing = cli.run('node', 'list', '--wire', wire)
-    assert listing.returncode == 0, listing.stderr
-    nodes = listing.stdout.split()
-    assert {hz_node, pub_node} <= set(nodes)
+    nodes: list[str] = []
+
+    def listed() -> bool:  # a snapshot: a token on its way shows in the next one
+        listing = cli.run('node', 'list', '--wire', wire)
+        assert listing.returncode == 0, listing.stderr
+        nodes[:] = listing.stdout.split()
+        return {hz_node, pub_node} <= set(nodes)
+
+    assert wait_for(listed, 30), nodes
     assert all(re.fullmatch(r'/zros_[a-z_]+_\d+', n) for n in nodes if n.startswith('/zros'))
 
     shown = cli.run('node', 'info', hz_node, '--wire', wire)
