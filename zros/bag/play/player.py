@@ -128,21 +128,19 @@ class Player(Closing):
                     f'{", ".join(sorted({name(c.topic) for c in connections}))}'
                 )
             connections = [c for c in connections if name(c.topic) in wanted]
-            events = sorted({c.topic for c in connections if is_service_event(c)})
-            if events:
-                raise PlayerError(
-                    f'cannot play {", ".join(events)}: zros does not play service events '
-                    f'(recorded service calls); leave {"them" if len(events) > 1 else "it"} '
-                    'out of the topics'
-                )
-        else:
-            events = sorted({c.topic for c in connections if is_service_event(c)})
-            if events:
-                _log.warning(
-                    'not playing %s: zros does not play service events (recorded service calls)',
-                    ', '.join(events),
-                )
-                connections = [c for c in connections if not is_service_event(c)]
+        events = sorted({c.topic for c in connections if is_service_event(c)})
+        if events and topics is not None:  # named: an error; else left out, and told
+            raise PlayerError(
+                f'cannot play {", ".join(events)}: zros does not play service events '
+                f'(recorded service calls); leave {"them" if len(events) > 1 else "it"} '
+                'out of the topics'
+            )
+        if events:
+            _log.warning(
+                'not playing %s: zros does not play service events (recorded service calls)',
+                ', '.join(events),
+            )
+            connections = [c for c in connections if not is_service_event(c)]
         self.start_ns = source.start_ns + round(start_offset * _NS)
         self.end_ns = source.end_ns
         self._publishers: dict[int, Publisher[Message]] = {}
