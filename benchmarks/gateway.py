@@ -21,7 +21,11 @@ the same message's CDR bytes on an SDK channel as fast as it takes them, with no
 router and no copy of its own, to the same node client; and raw zenoh-python logging each
 sample's bytes into the SDK from its callback (the gateway's work without zros).
 
-All five paths are up at once, each on a topic of its own, and they take turns (10 each, after
+One more path is the gateway with its client on the SDK's own server, past the front that
+checks origins, answers both subprotocols and bounds each client in bytes: the rate it gains
+over the gateway is what the front costs, measured in the same run.
+
+All six paths are up at once, each on a topic of its own, and they take turns (10 each, after
 one to warm up; the median turn's rate counts): this VM's speed drifts by a third within
 minutes, more than the differences measured, and turns make the drift fall on every path alike.
 
@@ -138,6 +142,33 @@ def role_zenoh_sdk(args: argparse.Namespace) -> None:
     session.close()
 
 
+def role_gateway_direct(args: argparse.Namespace) -> None:
+    """``zros foxglove``'s gateway with its client on the SDK's server itself, past the front
+    (which checks origins, names both subprotocols and bounds each client in bytes): what the
+    front costs, measured beside the gateway. Ends when the driver kills it."""
+    from urllib.parse import parse_qs, urlparse
+
+    from zros.gateway.foxglove.sdk import ServerOptions
+    from zros.gateway.foxglove.server import FoxgloveGateway
+
+    found: list[str] = []
+
+    class Direct(ServerOptions):
+        def start(self, **settings: Any) -> Any:
+            server, front = super().start(**settings)
+            found.append(parse_qs(urlparse(server.app_url()).query)['ds.url'][0])
+            return server, front
+
+    node = bench.zros_node('bench_gateway_direct', args.endpoint, False)
+    options = Direct(port=0, message_backlog=1_000_000, client_buffer=16 * 1024**3)
+    gateway = FoxgloveGateway(node, options, sim_time=False)
+    print(f'Foxglove: {found[0]}', flush=True)
+    try:
+        threading.Event().wait()
+    finally:
+        gateway.close()
+
+
 def role_latency(args: argparse.Namespace) -> None:
     """Receive stamped headers with a zros subscriber; print the latencies (ns)."""
     node = bench.zros_node('bench_latency', args.endpoint, False)
@@ -200,7 +231,7 @@ class Gateway:
 
 
 #: the paths a message takes, in the order they take their turns
-PATHS = ('zros', 'gateway', 'gateway_lean', 'sdk', 'zenoh_sdk')
+PATHS = ('zros', 'gateway', 'gateway_direct', 'gateway_lean', 'sdk', 'zenoh_sdk')
 #: turns each path takes in one run (after one to warm up)
 TURNS = 10
 
@@ -219,6 +250,10 @@ def interleaved(kind: str, count: int, endpoint: str) -> dict[str, dict[str, Any
         paths['zros'] = ZrosPath(kind, endpoint, '0', turn)
         paths['gateway'] = ClientPath(gateway, kind, endpoint, '1', publish=True)
         paths['gateway_lean'] = ClientPath(gateway, kind, endpoint, '4', publish=True, lean=True)
+        command = [*here, '--role', 'gateway_direct', '--tag', '5']
+        paths['gateway_direct'] = ClientPath(
+            command, kind, endpoint, '5', publish=True, protocol=SDK
+        )
         command = [*here, '--role', 'sdk', '--tag', '2', '--timeout', '300']
         # the SDK's own server accepts its subprotocol only (zros foxglove's front both)
         paths['sdk'] = ClientPath(command, kind, endpoint, '2', publish=False, protocol=SDK)
@@ -282,6 +317,7 @@ def main() -> None:
     if args.role:
         roles = {'stamps': role_stamps, 'latency': role_latency, 'sdk': role_sdk}
         roles['zenoh_sdk'] = role_zenoh_sdk
+        roles['gateway_direct'] = role_gateway_direct
         roles[args.role](args)
         return
     reason = install()
@@ -336,7 +372,11 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
     def amount(row: dict[str, Any], kind: str) -> float:  # what the rows above compare
         return float(row['rate']) if kind == 'string' else mbs(row)
 
-    labels = [('gateway_lean', 'gateway, lean client'), ('sdk', 'foxglove-sdk alone')]
+    labels = [
+        ('gateway_direct', 'gateway past its front'),
+        ('gateway_lean', 'gateway, lean client'),
+    ]
+    labels.append(('sdk', 'foxglove-sdk alone'))
     for name, label in [*labels, ('zenoh_sdk', 'raw zenoh into the SDK')]:
         for kind, unit in (('string', 'String msgs/s'), ('image', 'Image MB/s')):
             other = amount(rows[name][kind], kind)
@@ -357,6 +397,8 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
         ('  its front process', 'gateway', 'cpu_front'),
         ('  its node client process', 'gateway', 'cpu_client'),
         ('  a lean client process instead', 'gateway_lean', 'cpu_client'),
+        ('past the front: zros foxglove process', 'gateway_direct', 'cpu'),
+        ('  its node client process', 'gateway_direct', 'cpu_client'),
         ('foxglove-sdk alone, its process', 'sdk', 'cpu'),
         ('  its node client process', 'sdk', 'cpu_client'),
         ('raw zenoh into the SDK, its process', 'zenoh_sdk', 'cpu'),
@@ -395,6 +437,13 @@ def report(rows: dict[str, dict[str, dict[str, Any]]], latency: dict[str, list[f
                 mbs(found['image']) >= 0.9 * mbs(z['image']),
             ),
         ]
+    for kind, label in (('string', 'String'), ('image', 'Image')):
+        cost = (amount(rows['gateway_direct'][kind], kind) - amount(g[kind], kind)) / amount(
+            z[kind], kind
+        )
+        goals.append(
+            (f'the front costs the {label} ratio <= 0.03 (it costs {cost:.2f})', cost <= 0.03)
+        )
     for text, met in goals:
         print(f'  {"met   " if met else "MISSED"}  {text}')
     print(f'  latency the gateway adds (median): {added:,.0f} us')
