@@ -158,3 +158,19 @@ def test_a_subscriber_takes_the_newest_unless_a_live_one_came_after_it_asked(
     assert tail.recovered == 1 and len(taken) == 1
     tail.close()
     later.close()
+
+
+def test_a_tail_whose_session_closed_neither_asks_nor_fails(
+    zros_transport: Callable[..., Transport],
+) -> None:
+    transport = zros_transport()
+    tail = Tail(transport, 'cam', lambda _: None)
+    tail.seen(_samples(transport, 1))
+    newest = Newest(transport.session, 'cam', zenoh.Priority.DATA)
+    assert newest.stamp(b'x' * LARGE) is not None  # it answers questions now
+    assert tail.due() is not None  # it would ask
+    transport.close()  # the node is being destroyed
+    tail.ask()
+    assert tail.asked == 0
+    tail.close()
+    newest.close()
