@@ -428,3 +428,45 @@ def test_a_chunk_index_failing_midway_hands_over_to_rosbags_without_loss_or_repe
         got = [(m.timestamp, bytes(m.data)) for m in source.messages()]
     assert 0 < given[0] < len(expected)
     assert got == expected
+
+
+def test_a_schema_encoding_no_ros_reader_reads_is_no_damage(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import logging
+
+    from mcap.writer import Writer
+
+    from zros.bag import UndecodedMessage
+
+    path = tmp_path / 'unknown.mcap'
+    with path.open('wb') as stream:
+        writer = Writer(stream)
+        writer.start(profile='ros2', library='test')
+        thing = writer.register_channel(
+            '/thing', 'cdr', writer.register_schema('pkg/msg/Thing', 'unknown', b'whatever')
+        )
+        chatter = writer.register_channel(
+            '/chatter',
+            'cdr',
+            writer.register_schema('std_msgs/msg/String', 'ros2msg', b'string data'),
+        )
+        for n in range(3):
+            writer.add_message(thing, log_time=n, data=b'\x00\x01\x00\x00abcd', publish_time=n)
+            writer.add_message(chatter, log_time=n, data=b'\x00\x01\x00\x00\x02\x00\x00\x00a\x00', publish_time=n)  # fmt: skip
+        writer.finish()
+    with caplog.at_level(logging.DEBUG, 'zros.bag'), Bag(path) as bag:
+        found = list(bag.messages())
+        assert bag.skipped == []
+    warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert len(warnings) == 1, warnings  # not "do not open as complete MCAP … (no summary)"
+    assert (
+        "/thing) has its definition in schema encoding 'unknown', which zros does not read"
+        in (warnings[0])
+    )
+    things = [message for topic, _, message in found if topic == '/thing']
+    assert len(things) == 3 and all(isinstance(m, UndecodedMessage) for m in things)
+    assert things[0].data == b'\x00\x01\x00\x00abcd'
+    assert [m.data for topic, _, m in found if topic == '/chatter'] == ['a'] * 3
+    with Bag(path) as bag, pytest.raises(BagError, match="schema encoding 'unknown'"):
+        bag.columns('/thing')
