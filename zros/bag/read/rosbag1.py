@@ -85,6 +85,7 @@ class Rosbag1Source(Source):
                 serialization='cdr',
                 count=item.msgcount,
                 qos=_ros1_qos(item.ext),
+                caller_id=getattr(item.ext, 'callerid', None) or '',
             )
             self.connections.append(connection)
             self._native[connection.id] = item
