@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from tests.bag.makebags import make_points_mcap
+from tests.bag.makebags import make_points_mcap, make_schema_mcap
 from tests.bag.reference import RECORDINGS, raw_messages, to_plain
 from zros.bag import Bag, BagError, Connection, open_source
 from zros.bag.read import source
@@ -435,26 +435,17 @@ def test_a_schema_encoding_no_ros_reader_reads_is_no_damage(
 ) -> None:
     import logging
 
-    from mcap.writer import Writer
-
     from zros.bag import UndecodedMessage
 
-    path = tmp_path / 'unknown.mcap'
-    with path.open('wb') as stream:
-        writer = Writer(stream)
-        writer.start(profile='ros2', library='test')
-        thing = writer.register_channel(
-            '/thing', 'cdr', writer.register_schema('pkg/msg/Thing', 'unknown', b'whatever')
-        )
-        chatter = writer.register_channel(
-            '/chatter',
-            'cdr',
-            writer.register_schema('std_msgs/msg/String', 'ros2msg', b'string data'),
-        )
-        for n in range(3):
-            writer.add_message(thing, log_time=n, data=b'\x00\x01\x00\x00abcd', publish_time=n)
-            writer.add_message(chatter, log_time=n, data=b'\x00\x01\x00\x00\x02\x00\x00\x00a\x00', publish_time=n)  # fmt: skip
-        writer.finish()
+    thing, text = b'\x00\x01\x00\x00abcd', b'\x00\x01\x00\x00\x02\x00\x00\x00a\x00'
+    path = make_schema_mcap(
+        tmp_path / 'unknown.mcap',
+        [
+            ('/thing', 'pkg/msg/Thing', 'unknown', b'whatever'),
+            ('/chatter', 'std_msgs/msg/String', 'ros2msg', b'string data'),
+        ],
+        [row for n in range(3) for row in ((0, n, thing), (1, n, text))],
+    )
     with caplog.at_level(logging.DEBUG, 'zros.bag'), Bag(path) as bag:
         found = list(bag.messages())
         assert bag.skipped == []
