@@ -205,3 +205,25 @@ def make_ros1_bag(
             if c is not None and index % 10 == 0:
                 writer.write(c, 1007 + index * 10, bytes(8))
     return path
+
+
+def make_schema_mcap(
+    path: Path,
+    schemas: list[tuple[str, str, str, bytes]],
+    messages: list[tuple[int, int, bytes]],
+) -> Path:
+    """A finished ros2-profile MCAP file with the mcap library's writer: a channel per
+    ``(topic, type, schema encoding, schema data)`` and ``(channel index, time, data)`` each."""
+    from mcap.writer import Writer
+
+    with path.open('wb') as stream:
+        writer = Writer(stream)
+        writer.start(profile='ros2', library='test')
+        channels = [
+            writer.register_channel(topic, 'cdr', writer.register_schema(name, encoding, data))
+            for topic, name, encoding, data in schemas
+        ]
+        for index, stamp, data in messages:
+            writer.add_message(channels[index], log_time=stamp, data=data, publish_time=stamp)
+        writer.finish()
+    return path

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import zros
-from tests.bag.makebags import make_db3
+from tests.bag.makebags import make_db3, make_schema_mcap
 from tests.bag.reference import RECORDINGS, assert_same, rosbags_messages
 from zros.bag import Bag, BagError, UndecodedMessage, bag_read
 from zros.cdr import encode, new_message
@@ -344,23 +344,14 @@ def test_an_empty_schema_with_longer_messages_is_an_unknown_type(
 ) -> None:
     # a recorder that did not know the type wrote an empty ros2msg schema: its messages are not
     # empty ones (4-byte header and at most 4 more), so they come back undecoded, not skipped
-    from mcap.writer import Writer
-
     path = tmp_path / 'unknown.mcap'
     payloads = [b'\x00\x01\x00\x00' + bytes(range(n, n + 7)) for n in range(3)]
-    with path.open('wb') as stream:
-        writer = Writer(stream)
-        writer.start(profile='ros2', library='test')
-        unknown = writer.register_channel(
-            '/mystery', 'cdr', writer.register_schema('their_pkg/msg/Mystery', 'ros2msg', b'')
-        )
-        empty = writer.register_channel(
-            '/empty', 'cdr', writer.register_schema('their_pkg/msg/Nothing', 'ros2msg', b'')
-        )
-        for stamp, payload in enumerate(payloads):
-            writer.add_message(unknown, log_time=stamp, data=payload, publish_time=stamp)
-        writer.add_message(empty, log_time=9, data=b'\x00\x01\x00\x00\x00', publish_time=9)
-        writer.finish()
+    schemas = [
+        ('/mystery', 'their_pkg/msg/Mystery', 'ros2msg', b''),
+        ('/empty', 'their_pkg/msg/Nothing', 'ros2msg', b''),
+    ]
+    rows = [(0, stamp, payload) for stamp, payload in enumerate(payloads)]
+    make_schema_mcap(path, schemas, [*rows, (1, 9, b'\x00\x01\x00\x00\x00')])
     with caplog.at_level('WARNING', logger='zros'), Bag(path) as bag:
         mystery = [m for _, _, m in bag.messages(['/mystery'])]
         ((_, _, nothing),) = list(bag.messages(['/empty']))

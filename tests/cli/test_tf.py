@@ -51,6 +51,27 @@ def test_echo_from_a_recording_prints_what_tf2_echo_prints(cli: Cli, testdata: P
     assert lines[10].startswith('At time ') and lines[10] != lines[0]  # one second later
 
 
+def test_a_static_chain_and_ros1_broadcasters_as_tf2_tools_print_them(
+    cli: Cli, testdata: Path
+) -> None:
+    bag = testdata / 'ros1' / 'tf_franka.bag'
+    result = cli.run('tf', 'echo', 'panda_hand', 'panda_hand_tcp', '--bag', str(bag))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[:2] == ['At time 0.0', '- Translation: [0.000, 0.000, 0.103]']  # tf2_echo's
+    result = cli.run('tf', 'frames', '--bag', str(bag))
+    assert result.returncode == 0, result.stderr
+    # view_frames names the node that sent each frame (the ROS 1 connection's callerid)
+    frames = result.stdout
+    assert (
+        "panda_link0: \n  parent: 'world'\n  broadcaster: '/virtual_joint_broadcaster_0'" in frames
+    )
+    assert (
+        "panda_leftfinger: \n  parent: 'panda_hand'\n  broadcaster: '/robot_state_publisher'"
+        in (frames)
+    )
+
+
 def test_echo_unknown_frame_from_a_recording_names_the_closest(cli: Cli, testdata: Path) -> None:
     bag = testdata / 'ros2' / 'tf_example_db3'
     result = cli.run('tf', 'echo', 'odom', 'base_lnk', '--bag', str(bag))

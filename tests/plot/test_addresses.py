@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import zros
+from zros.bag.columns.addresses import split_address
 from zros.cdr import default_registry
 from zros.plot import PlotError, Series, moving_average, resolve
-from zros.plot.addresses import split_address
 
 TOPICS = {
     '/imu': 'sensor_msgs/msg/Imu',

@@ -13,7 +13,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
-from zros.bag.errors import BagError, BagWriteError, PlayerError, RecorderError
+from zros.bag.errors import AddressError, BagError, BagWriteError, PlayerError, RecorderError
 
 #: public name -> module defining it, imported on first access
 _LAZY = {
@@ -65,6 +65,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    'AddressError',
     'Bag',
     'BagError',
     'BagInfo',

@@ -16,6 +16,11 @@ class BagError(ZrosError):
         self.reason = reason
 
 
+class AddressError(ZrosError, ValueError):
+    """A field address (``/topic/field/path``) that names no numeric field or no known topic
+    (``Bag.columns``, ``zros plot``: ``zros.plot.PlotError`` is this class)."""
+
+
 class BagWriteError(ZrosError):
     """A bag cannot be created or written (the folder exists, a bad split setting...)."""
 

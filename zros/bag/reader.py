@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
+from zros.bag.columns.addresses import column_series, series_columns
 from zros.bag.columns.align import Columns, align
 from zros.bag.columns.extract import dataframe, extract, structured
 from zros.bag.errors import BagError
@@ -206,17 +207,27 @@ class Bag(Closing):
         ``fields`` are paths such as ``pose.pose.position.x`` (default: every numeric field).
         The ``time`` column holds the receive times (int64 ns). Arrays of fixed length, and
         sequences whose length is the same in every message, become 2-D arrays; other sequences
-        become object arrays of 1-D arrays.
+        become object arrays of 1-D arrays. ``zros plot``'s addresses work too: a whole address
+        as ``topic`` (``'/odom/pose/pose/position/x'``), or fields with slashes
+        (``'pose/pose/position/x'``); an element (``'position[0]'`` or ``'position/0'``) is the
+        column ``position[0]``.
         """
-        connections = self._connections([topic])
-        return extract(
+        fields = None if fields is None else list(fields)  # read twice
+        topic_types = {name: info.type_name for name, info in self.topics.items()}
+        topic, plain, series = column_series(
+            topic, fields, topic_types, lambda name, _: self.message_class(name), self.path.name
+        )
+        found = extract(
             self.source,
             self.types,
-            connections,
-            fields,
+            self._connections([topic]),
+            plain,
             start=_nanoseconds(start),
             end=_nanoseconds(end),
         )
+        if not series:
+            return found
+        return series_columns(found, series, list(fields or ()))
 
     def to_numpy(
         self,

@@ -12,12 +12,14 @@ when a figure is made, not with this package. Without a window, figures are plai
 
 from __future__ import annotations
 
-from zros.plot.addresses import PlotError, Series, moving_average, resolve
+from zros.bag.columns.addresses import Series, resolve
 from zros.plot.bag_plot import bag
+from zros.plot.errors import PlotError
 from zros.plot.graph_data import Box, GraphModel, Layout, Route, Vertex
 from zros.plot.graph_layout import layout_graph
 from zros.plot.graph_picture import draw_graph, graph, graph_model, to_dot
 from zros.plot.live_plot import LivePlot, live
+from zros.plot.smoothing import moving_average
 
 __all__ = [
     'Box',

@@ -11,7 +11,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.plot.addresses import PlotError, Series, resolve, split_address
+from zros.bag.columns.addresses import Series, topic_series
+from zros.plot.errors import PlotError
 from zros.plot.figure import SeriesFigure
 
 # matplotlib loads when a figure is made, zros.bag (type registry, rosbags) when a bag is read
@@ -26,12 +27,9 @@ def bag_series(recording: Bag, addresses: Sequence[str]) -> list[Series]:
     topic_types = {name: info.type_name for name, info in recording.topics.items()}
     series: list[Series] = []
     for address in addresses:
-        if not split_address(address, list(topic_types)):
-            raise PlotError(
-                f'{address}: no topic of {recording.path.name} starts this address; it has: '
-                + (', '.join(topic_types) or 'no topics')
-            )
-        series += resolve(address, topic_types, lambda topic, _: recording.message_class(topic))
+        series += topic_series(
+            address, topic_types, lambda name, _: recording.message_class(name), recording.path.name
+        )
     return series
 
 

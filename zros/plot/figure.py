@@ -12,7 +12,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from zros.plot.addresses import Series, moving_average
+from zros.bag.columns.addresses import Series
+from zros.plot.smoothing import moving_average
 
 if TYPE_CHECKING:
     import numpy.typing as npt

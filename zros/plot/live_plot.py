@@ -20,8 +20,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from zros.bag.columns.addresses import Series, resolve, split_address
 from zros.closing import Closing
-from zros.plot.addresses import PlotError, Series, resolve, split_address
+from zros.plot.errors import PlotError
 from zros.plot.figure import SeriesFigure, can_show
 from zros.qos import QoS, Reliability
 
@@ -56,11 +57,11 @@ class SeriesStats:
 class LivePlot(Closing):
     """A plot of numeric fields of live topics (a context manager).
 
-    ``addresses`` are ``/topic/field/path`` strings (see :mod:`zros.plot.addresses`); topics must
-    appear on the network within ``wait`` seconds. ``window`` is the width of the time axis in
-    seconds (None: everything since the start), ``filter`` the length of a moving average drawn
-    over each line. :meth:`start` spins ``node`` on a thread of its own until :meth:`stop`;
-    :meth:`update` puts the data received so far into the figure.
+    ``addresses`` are ``/topic/field/path`` strings (see :mod:`zros.bag.columns.addresses`);
+    topics must appear on the network within ``wait`` seconds. ``window`` is the width of the
+    time axis in seconds (None: everything since the start), ``filter`` the length of a moving
+    average drawn over each line. :meth:`start` spins ``node`` on a thread of its own until
+    :meth:`stop`; :meth:`update` puts the data received so far into the figure.
     """
 
     def __init__(

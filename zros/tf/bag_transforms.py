@@ -62,7 +62,10 @@ def _read(bag: Bag, topics: tuple[str, ...], rejections: checks.Rejections) -> l
     for raw in bag.raw_messages(present):
         topic = raw.connection.topic
         static = _is_static(topic)
-        authority = f'{topic} (connection {raw.connection.id} of {bag.path.name})'
+        # a ROS 1 publisher's node, as view_frames names it; ROS 2 records none: the connection
+        authority = raw.connection.caller_id or (
+            f'{topic} (connection {raw.connection.id} of {bag.path.name})'
+        )
         message = decode(raw)
         for transform in message.transforms if message is not None else ():
             header = transform.header

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import struct
 import sys
 from pathlib import Path
@@ -382,3 +383,51 @@ def test_messages_read_one_by_one_are_batched_by_count_and_bytes(tmp_path: Path)
     assert sizes == [3, 3, 3, 0]  # 30 bytes reach 25 before 4 messages
     messages = iter([RawMessage(connection, stamp, bytes(10)) for stamp in range(9)])
     assert [len(extract._take(messages, 2, 1 << 20)) for _ in range(5)] == [2, 2, 2, 2, 1]
+
+
+def test_slash_addresses_as_zros_plot_takes_them(testdata: Path) -> None:
+    from zros.bag import AddressError
+    from zros.plot import PlotError
+
+    with Bag(testdata / 'ros2' / 'tf_nav2_mcap') as bag:
+        dotted = bag.columns('/odom', ['pose.pose.position.x', 'pose.covariance'])
+        whole = bag.columns('/odom/pose/pose/position/x')  # topic /odom, field pose.pose.position.x
+        assert list(whole) == ['time', 'pose.pose.position.x']
+        np.testing.assert_array_equal(whole['pose.pose.position.x'], dotted['pose.pose.position.x'])
+        np.testing.assert_array_equal(whole['time'], dotted['time'])
+        assert list(bag.columns('/odom/pose/pose/position')) == [
+            'time', 'pose.pose.position.x', 'pose.pose.position.y', 'pose.pose.position.z',
+        ]  # fmt: skip
+        mixed = bag.columns(
+            '/odom', ['pose/pose/position/x', 'twist.twist.linear.x', 'pose/covariance[3]',
+                      'pose/covariance/35'],
+        )  # fmt: skip
+        assert set(mixed) == {
+            'time', 'pose.pose.position.x', 'twist.twist.linear.x', 'pose.covariance[3]',
+            'pose.covariance[35]',
+        }  # fmt: skip
+        np.testing.assert_array_equal(mixed['pose.covariance[3]'], dotted['pose.covariance'][:, 3])
+        np.testing.assert_array_equal(
+            mixed['pose.covariance[35]'], dotted['pose.covariance'][:, 35]
+        )
+        frame = bag.to_dataframe('/odom/pose/covariance[0]')
+        assert list(frame.columns) == ['time', 'pose.covariance[0]']
+        assert len(frame) == bag.topics['/odom'].count
+        assert bag.to_numpy('/odom/pose/pose/position/x').dtype.names == (
+            'time', 'pose.pose.position.x',
+        )  # fmt: skip
+        # the errors of zros plot
+        for address, message in [
+            ('/odom/pose/pose/speed', "pose.pose has no field 'speed' (it has: position, orient"),
+            ('/odom/pose/covariance', 'pose.covariance is an array: plot an element, e.g. /odom'),
+            ('/odom/child_frame_id', 'child_frame_id is a string, not a number'),
+            ('/odom/pose/covariance[36]', 'pose.covariance has 36 elements, not 37'),
+        ]:
+            with pytest.raises(AddressError, match=f'^{re.escape(address)}: {re.escape(message)}'):
+                bag.columns(address)
+        with pytest.raises(PlotError, match=r"^/odom/twist/speed: twist has no field 'speed'"):
+            bag.columns('/odom', ['twist/speed'])
+        with pytest.raises(AddressError, match='give fields only with a topic name'):
+            bag.columns('/odom/pose', ['position.x'])
+        with pytest.raises(BagError, match='no topic /nothing/x in the recording'):
+            bag.columns('/nothing/x')

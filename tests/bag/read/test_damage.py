@@ -367,6 +367,10 @@ def test_ros1_connection_whose_definition_does_not_parse_fails_only_its_topic(
         assert len(bag.columns('/a')['time']) == 100
         [skipped] = bag.skipped
     assert (skipped.topic, skipped.lost) == ('/c', 10)
+    first = min(
+        offset for offset, _, found in _ros1_chunks(path) if any(t == '/c' for t, _ in found)
+    )
+    assert skipped.where == f'byte {first}'  # the first chunk of its messages
     assert 'zros_test/msg/Broken' in skipped.reason and '\n' not in skipped.reason
     with pytest.raises(BagError, match='/c'):
         Bag(path, strict=True)

@@ -95,6 +95,11 @@ def test_sorting_and_every_recording(testdata: Path) -> None:
     assert split.message_count == 6074
     ros1 = info(testdata / 'ros1' / 'fake_sensors_sample.bag')
     assert ros1.storage_id == 'rosbag1'
+    # recorded as ROS 1 serialization, whatever zros converts it to on reading
+    assert {t.serialization for t in ros1.topics} == {'ros1'}
+    assert str(ros1).count('Serialization Format: ros1') == 2
+    for name in ('tf_example_db3', 'tf_nav2_mcap'):
+        assert {t.serialization for t in info(testdata / 'ros2' / name).topics} == {'cdr'}
     assert {t.name: t.count for t in ros1.topics} == {
         '/my_magnetic_field': 10,
         '/my_temperature': 10,

@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from tests.bag.makebags import make_points_mcap
+from tests.bag.makebags import make_points_mcap, make_schema_mcap
 from tests.bag.reference import RECORDINGS, raw_messages, to_plain
 from zros.bag import Bag, BagError, Connection, open_source
 from zros.bag.read import source
@@ -428,3 +428,36 @@ def test_a_chunk_index_failing_midway_hands_over_to_rosbags_without_loss_or_repe
         got = [(m.timestamp, bytes(m.data)) for m in source.messages()]
     assert 0 < given[0] < len(expected)
     assert got == expected
+
+
+def test_a_schema_encoding_no_ros_reader_reads_is_no_damage(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import logging
+
+    from zros.bag import UndecodedMessage
+
+    thing, text = b'\x00\x01\x00\x00abcd', b'\x00\x01\x00\x00\x02\x00\x00\x00a\x00'
+    path = make_schema_mcap(
+        tmp_path / 'unknown.mcap',
+        [
+            ('/thing', 'pkg/msg/Thing', 'unknown', b'whatever'),
+            ('/chatter', 'std_msgs/msg/String', 'ros2msg', b'string data'),
+        ],
+        [row for n in range(3) for row in ((0, n, thing), (1, n, text))],
+    )
+    with caplog.at_level(logging.DEBUG, 'zros.bag'), Bag(path) as bag:
+        found = list(bag.messages())
+        assert bag.skipped == []
+    warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert len(warnings) == 1, warnings  # not "do not open as complete MCAP … (no summary)"
+    assert (
+        "/thing) has its definition in schema encoding 'unknown', which zros does not read"
+        in (warnings[0])
+    )
+    things = [message for topic, _, message in found if topic == '/thing']
+    assert len(things) == 3 and all(isinstance(m, UndecodedMessage) for m in things)
+    assert things[0].data == b'\x00\x01\x00\x00abcd'
+    assert [m.data for topic, _, m in found if topic == '/chatter'] == ['a'] * 3
+    with Bag(path) as bag, pytest.raises(BagError, match="schema encoding 'unknown'"):
+        bag.columns('/thing')

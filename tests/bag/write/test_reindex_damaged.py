@@ -5,6 +5,7 @@ says how many messages could not be kept."""
 from __future__ import annotations
 
 import shutil
+import struct
 from pathlib import Path
 
 import pytest
@@ -147,6 +148,35 @@ def test_reindex_drops_a_ros1_chunk_that_does_not_decompress(tmp_path: Path) -> 
     with Reader(path) as reader:
         got = sorted((c.topic, t) for c, t, _ in reader.messages())
     assert got == sorted(set(whole) - set(lost))
+
+
+@pytest.mark.parametrize('cut', [False, True])
+def test_a_ros1_message_that_does_not_convert_counts_the_same_in_reader_and_reindex(
+    tmp_path: Path, cut: bool
+) -> None:
+    path = make_ros1_bag(tmp_path / 'r.bag', 300)
+    chunks = _ros1_chunks(path)
+    data = bytearray(path.read_bytes())
+    text = b'message 150 ' * 3
+    at = data.index(struct.pack('<L', len(text)) + text)
+    data[at : at + 4] = struct.pack('<L', 0x7FFFFFFF)  # its string's length: the record parses
+    if cut:  # and the index at the end gone: the bag is scanned
+        data = data[: chunks[-1][1]]
+    path.write_bytes(bytes(data))
+    (chunk,) = [offset for offset, end, _ in chunks if offset < at < end]
+    with Bag(path) as bag:
+        kept = sum(1 for _ in bag.raw_messages())
+        skipped = [s for s in bag.skipped if s.lost > 0]
+    assert kept == 599
+    assert [(s.where, s.topic, s.lost) for s in skipped] == [(f'byte {chunk}', '/a', 1)]
+    assert 'does not convert' in skipped[0].reason
+    [report] = reindex(path).files
+    assert (report.action, report.message_count) == ('rewritten', kept)
+    assert chunk in report.damaged
+    if not cut:
+        assert report.lost_messages == 1
+    with Bag(path) as bag:  # the rewritten bag reads whole
+        assert bag.skipped == [] and sum(1 for _ in bag.raw_messages()) == kept
 
 
 def test_reindex_refuses_what_is_no_ros1_bag(tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ from zros.bag.errors import PlayerError
 from zros.bag.read.types import how_to_define
 from zros.cdr import TypeRegistry
 from zros.errors import ZrosError
-from zros.qos import Durability, History, QoS, Reliability
+from zros.qos import Congestion, Durability, History, QoS, Reliability
 
 if TYPE_CHECKING:
     from zros.bag.read.source import Connection
@@ -19,18 +19,25 @@ if TYPE_CHECKING:
 
 def playback_qos(offered: Iterable[QoS]) -> QoS:
     """The publisher QoS for a topic from its recorded offers: latched (transient local) and
-    best effort only when every offer was, as deep as the deepest; ROS 2's default without."""
+    best effort only when every offer was, as deep as the deepest; ROS 2's default without.
+
+    Reliable publishers block on a full link rather than drop (Zenoh congestion control): a
+    player is not a control loop, and a burst (express ``/tf`` above all: 2 messages queued per
+    priority) would otherwise lose messages whenever the link's thread is late by 1 ms.
+    """
     offers = list(offered)
     if not offers:
-        return QoS(10)
+        return QoS(10, congestion=Congestion.BLOCK)
     keep_all = all(q.keep_all for q in offers)
+    reliable = any(q.reliable for q in offers)
     return QoS(
         max(q.depth for q in offers),
-        Reliability.BEST_EFFORT if all(not q.reliable for q in offers) else Reliability.RELIABLE,
+        Reliability.RELIABLE if reliable else Reliability.BEST_EFFORT,
         Durability.TRANSIENT_LOCAL
         if all(q.transient_local for q in offers)
         else Durability.VOLATILE,
         History.KEEP_ALL if keep_all else History.KEEP_LAST,
+        congestion=Congestion.BLOCK if reliable else None,
     )
 
 

@@ -156,7 +156,8 @@ def info(path: str | Path) -> BagInfo:
             grouped.setdefault((connection.topic, connection.type_name), []).append(connection)
         for (topic, type_name), group in grouped.items():
             count = sum(c.count for c in group)
-            serialization = group[0].serialization
+            # a ROS 1 bag's messages are read as CDR, but recorded (and shown) as ros1
+            serialization = 'ros1' if source.storage_id == 'rosbag1' else group[0].serialization
             if _is_service_event(group[0]):
                 service = topic[: -len(_EVENT_TOPIC)]
                 entry = Entry(service, type_name[: -len('_Event')], count, serialization)

@@ -290,6 +290,8 @@ class RecoveredMcap(Recovered):
         #: where the messages lie: (first time, last time, start byte, end byte) of each
         #: chunk, or run of messages outside chunks, that holds some
         self.units: list[tuple[int, int, int, int]] = []
+        #: the schema encodings no ROS reader reads (neither ros2msg nor ros2idl), by channel id
+        self.unknown_encodings: dict[int, str] = {}
 
     def _records(self, scan: LinearScan) -> Iterator[McapRecord]:
         yield from scan.records()
@@ -330,6 +332,8 @@ class RecoveredMcap(Recovered):
         for channel in channels.values():
             schema = schemas.get(channel.schema_id)
             form = _FORMATS.get(schema.encoding, 'NONE') if schema else 'NONE'
+            if schema and schema.encoding and schema.encoding not in _FORMATS:
+                self.unknown_encodings[channel.id] = schema.encoding
             text = schema.data.decode('utf-8', 'replace') if schema else ''
             self.connections.append(
                 Connection(

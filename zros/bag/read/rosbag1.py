@@ -44,8 +44,6 @@ class Rosbag1Source(Source):
         self._native: dict[int, NativeConnection] = {}
 
     def open(self) -> None:
-        from rosbags.typesys import Stores, get_types_from_msg, get_typestore  # noqa: PLC0415 (lazy: rosbags, import time)
-
         from zros.bag.read.rosbag1_index import IndexedBag1  # noqa: PLC0415 (lazy: rosbags, import time)
 
         reader: IndexedBag1 | ScannedBag1 = IndexedBag1(self.path)
@@ -70,18 +68,7 @@ class Rosbag1Source(Source):
         self.files = [self.path]
         self.storage_id = 'rosbag1'
         self.ros_distro = None
-        types: Typesdict = {}
-        broken: dict[int, str] = {}
-        for item in reader.connections:
-            try:
-                types.update(get_types_from_msg(item.msgdef.data, item.msgtype))
-            except Exception as exc:  # a damaged connection record: only its topic fails
-                broken[item.id] = f'cannot read the definition of {item.msgtype}: {why(exc)}'
-        # the ROS 2 header: rosbags' ROS 1 to CDR conversion drops seq
-        header = 'std_msgs/msg/Header'
-        types[header] = get_typestore(Stores.ROS2_JAZZY).fielddefs[header]
-        store = get_typestore(Stores.EMPTY)
-        store.register(types)
+        store, broken = ros1_typestore(reader.connections)
         self._store = store
         for item in reader.connections:
             try:
@@ -98,6 +85,7 @@ class Rosbag1Source(Source):
                 serialization='cdr',
                 count=item.msgcount,
                 qos=_ros1_qos(item.ext),
+                caller_id=getattr(item.ext, 'callerid', None) or '',
             )
             self.connections.append(connection)
             self._native[connection.id] = item
@@ -106,8 +94,9 @@ class Rosbag1Source(Source):
             self.start_ns = reader.start_time
             self.end_ns = reader.end_time - 1
         self._broken = broken
-        for cid, reason in broken.items():
-            self._damaged(0, {cid: getattr(self._by_native(cid), 'count', -1)}, reason)
+        for cid, reason in broken.items():  # where: the first chunk of its messages
+            lost = {cid: getattr(self._by_native(cid), 'count', -1)}
+            self._damaged(reader.first_chunk.get(cid, 0), lost, reason)
         if isinstance(reader, ScannedBag1):
             for offset, lost, reason in reader.losses:
                 self._damaged(offset, lost, reason)
@@ -154,9 +143,29 @@ class Rosbag1Source(Source):
                 converted = convert(data, item.msgtype)
             except Exception as exc:  # flipped bytes in the message: anything from rosbags
                 reason = f'the message at {timestamp} does not convert: {why(exc)}'
-                self._damaged(0, {item.id: 1}, reason)
+                self._damaged(reader.position, {item.id: 1}, reason)
                 continue
             yield RawMessage(by_native[item.id], timestamp, converted)
+
+
+def ros1_typestore(connections: list[NativeConnection]) -> tuple[Typestore, dict[int, str]]:
+    """The types of ROS 1 connections, to convert their messages to CDR (with ROS 2's header:
+    rosbags' conversion drops ``seq``), and why those whose definitions do not parse fail (by
+    connection id)."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore  # noqa: PLC0415 (lazy: rosbags, import time)
+
+    types: Typesdict = {}
+    broken: dict[int, str] = {}
+    for item in connections:
+        try:
+            types.update(get_types_from_msg(item.msgdef.data, item.msgtype))
+        except Exception as exc:  # a damaged connection record: only its topic fails
+            broken[item.id] = f'cannot read the definition of {item.msgtype}: {why(exc)}'
+    header = 'std_msgs/msg/Header'
+    types[header] = get_typestore(Stores.ROS2_JAZZY).fielddefs[header]
+    store = get_typestore(Stores.EMPTY)
+    store.register(types)
+    return store, broken
 
 
 def _ros1_qos(ext: object) -> str:

@@ -28,6 +28,12 @@ class IndexedBag1(Reader):
             counts.update(info.connection_counts)
         self.connections = [c._replace(msgcount=counts[c.id]) for c in self.connections]
         self.infos = {info.pos: info for info in self.chunk_infos}  #: chunk summaries by position
+        #: the byte offset of the first chunk holding messages of each connection id
+        self.first_chunk: dict[int, int] = {}
+        for info in sorted(self.chunk_infos, key=lambda info: info.pos):
+            for cid in info.connection_counts:
+                self.first_chunk.setdefault(cid, info.pos)
+        self.position = 0  #: the byte offset of the chunk of the message a read handed on last
 
     def read_index_data(self, pos: int, indexes: dict[int, list[IndexData]]) -> None:
         """Read (and so check) the index record at the stream's position; keep nothing."""

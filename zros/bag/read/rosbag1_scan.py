@@ -91,6 +91,7 @@ def indexed_messages(
         except Exception as exc:  # flipped bytes: anything from struct, rosbags, a lookup
             damaged(position, {cid: 1}, f'the record at byte {offset} of the chunk: {why(exc)}')
             continue
+        reader.position = position
         yield connection, time, data
 
 
@@ -176,6 +177,10 @@ class ScannedBag1(Recovered):
         #: the chunks with messages: (first time, last time, byte offset), read again by a read
         self._chunks: list[tuple[int, int, int]] = []
         self._cut = -1  #: the byte offset of a last chunk the file's end cuts short
+        #: the byte offset of the chunk of the message a read handed on last
+        self.position = 0
+        #: the byte offset of the first chunk holding messages of each connection id
+        self.first_chunk: dict[int, int] = {}
 
     def open(self) -> None:
         """Read every record that can be read."""
@@ -241,7 +246,7 @@ class ScannedBag1(Recovered):
                 self.connections.append(_connection(self, cid, *pair, counts.get(cid, 0)))
             except Exception as exc:  # a damaged connection record: its messages are lost
                 reason = f'the record of connection {cid}: {why(exc)}'
-                self.losses.append((0, {-1: counts.get(cid, 0)}, reason))
+                self.losses.append((self.first_chunk.get(cid, 0), {-1: counts.get(cid, 0)}, reason))
 
     def _add(self, at: int, messages: list[tuple[int, int, bytes]], counts: dict[int, int]) -> None:
         """Count the messages read from the chunk at byte ``at``; remember where it lies."""
@@ -253,6 +258,7 @@ class ScannedBag1(Recovered):
         self.start_time, self.end_time = min(self.start_time, first), max(self.end_time, last + 1)
         for _, cid, _ in messages:
             counts[cid] = counts.get(cid, 0) + 1
+            self.first_chunk.setdefault(cid, at)
 
     def _read_cut(
         self, stream: BinaryIO, at: int, size: int, headers: dict[int, tuple[Header, Header]]
@@ -342,7 +348,8 @@ class ScannedBag1(Recovered):
                     if cid in by_id and within(time, start, stop)
                 ]
 
-            for time, _, _, cid, data in merged((first, read(at)) for first, _, at in chunks):
+            for time, at, _, cid, data in merged((first, read(at)) for first, _, at in chunks):
+                self.position = at
                 yield by_id[cid], time, data
 
 

@@ -124,6 +124,7 @@ class Rosbag2Source(Source):
         if not paths:
             raise BagError(self.path, f'not a ROS 2 bag folder: {reason} and no .mcap or .db3 file')
         notes = []
+        whole = 0  #: complete MCAP files rosbags refused
         for path in paths:
             storage: StorageReader = (
                 Sqlite3Reader(path) if path.suffix == '.db3' else McapReader(path)
@@ -151,6 +152,13 @@ class Rosbag2Source(Source):
                         ) from None
                     notes.append(f'{path.name}: no complete record, skipped')
                     continue
+                if not recovered.stopped_at and not recovered.skipped:
+                    # whole (a schema encoding rosbags does not know): no damage to tell
+                    _log.debug('%s reads whole record by record', path)
+                    whole += 1
+                    self._closers.append(storage.close)
+                    self._streams.append(_Stream(storage))
+                    continue
                 count = recovered.metadata.message_count if recovered.metadata else 0
                 notes.append(
                     f'{path.name}: {count} messages up to its last '
@@ -164,7 +172,7 @@ class Rosbag2Source(Source):
         self._build_connections([])
         if notes or self.path.is_dir():  # how it is read, before what reading it lost
             # a folder of one complete file reads as that file: no warning on every open
-            level = logging.WARNING if notes or len(paths) > 1 else logging.DEBUG
+            level = logging.WARNING if notes or len(paths) - whole > 1 else logging.DEBUG
             _log.log(
                 level, '%s: %s: read file by file%s', self.path, reason,
                 ''.join('; ' + n for n in notes),
@@ -246,7 +254,9 @@ class Rosbag2Source(Source):
                 for entry in getattr(stream.reader, 'msgtypes', []):
                     if entry.get('name') == service and entry.get('msgdef'):
                         return entry['msgdef'], entry.get('encoding') or 'ros2msg'
-        return '', ''
+        # a schema encoding no ROS reader reads: said as it is (types.py says it is unread)
+        unknown = getattr(item.owner, 'unknown_encodings', {}).get(item.id)
+        return (item.msgdef.data, unknown) if unknown else ('', '')
 
     def _messages(self, ids: set[int], start: int | None, end: int | None) -> Iterator[RawMessage]:
         iterators = []

@@ -30,7 +30,8 @@ class Connection:
     ``type_name`` is normalised to ``pkg/msg/Type`` (legacy ``pkg/Type`` names are expanded);
     ``definition`` is the embedded definition text in ``definition_format`` (``ros2msg``,
     ``ros2idl``, or ``''`` when the recording has none); ``qos`` is the offered QoS profiles as
-    rosbag2 writes them in ``metadata.yaml`` (version 8), or ``''``.
+    rosbag2 writes them in ``metadata.yaml`` (version 8), or ``''``; ``caller_id`` is the node
+    that published (a ROS 1 connection header's ``callerid``; ``''`` where none is recorded).
     """
 
     id: int
@@ -41,6 +42,7 @@ class Connection:
     serialization: str
     count: int
     qos: str
+    caller_id: str = ''
 
 
 @dataclass(frozen=True)

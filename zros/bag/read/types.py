@@ -140,7 +140,7 @@ class BagTypes:
     def _register(self, connection: Connection) -> bool:
         """Register a connection's embedded definition; False when it has none that parses."""
         name, text, form = connection.type_name, connection.definition, connection.definition_format
-        if not form:
+        if form not in _READ_FORMATS:  # none, or an encoding no ROS reader reads
             return False
         origin = f'{self.path} ({connection.topic})'
         try:
@@ -214,9 +214,9 @@ class BagTypes:
             name = connection.type_name
             raise BagError(
                 self.path,
-                f'topic {connection.topic} has type {name}, which has no definition in the '
-                f'recording and none zros knows, so no fields (Bag.messages gives its messages '
-                f'undecoded); {how_to_define(name)}',
+                f'topic {connection.topic} has type {name}, which has {_nowhere(connection)}, '
+                f'so no fields (Bag.messages gives its messages undecoded); '
+                f'{how_to_define(name)}',
             )
         return choice.classes[choice.current][0]
 
@@ -228,7 +228,7 @@ class BagTypes:
         """
         choice = self._choice(message.connection)
         if not choice.classes:
-            return self._undecoded(message)
+            return self._undecoded(message, _nowhere(message.connection))
         cls = choice.classes[choice.current][0]
         try:
             return decode(cls, message.data, True)
@@ -274,9 +274,7 @@ class BagTypes:
             )
             return None
 
-    def _undecoded(
-        self, message: RawMessage, found: str = 'no definition in the recording and none zros knows'
-    ) -> Message:
+    def _undecoded(self, message: RawMessage, found: str) -> Message:
         name = message.connection.type_name
         if name not in self._warned:
             self._warned.add(name)
@@ -291,6 +289,21 @@ class BagTypes:
             )
         data = message.data
         return UndecodedMessage.of_type(name)(data if isinstance(data, bytes) else bytes(data))
+
+
+#: the definition formats zros reads (MCAP schema encodings, rosbag2's type encodings)
+_READ_FORMATS = ('ros2msg', 'ros2idl')
+
+
+def _nowhere(connection: Connection) -> str:
+    """What a connection whose type has no definition has instead, as a phrase."""
+    form = connection.definition_format
+    if form and form not in _READ_FORMATS:
+        return (
+            f'its definition in schema encoding {form!r}, which zros does not read (it reads '
+            f'{" and ".join(_READ_FORMATS)}), and none zros knows'
+        )
+    return 'no definition in the recording and none zros knows'
 
 
 def _definitions_differ(bag: TypeRegistry, standard: TypeRegistry, name: str) -> bool:

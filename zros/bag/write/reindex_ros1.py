@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from zros.bag.errors import BagError
-from zros.bag.read.rosbag1_scan import ScannedBag1, indexed_messages
+from zros.bag.read.rosbag1 import ros1_typestore
+from zros.bag.read.rosbag1_scan import ScannedBag1, indexed_messages, why
 from zros.bag.read.source_base import describe_error
 from zros.bag.write.replace import lost_words, replacing, temporary_of
 
@@ -58,17 +59,32 @@ class _Readable:
         return list(reader.connections)
 
     def messages(self) -> Iterator[tuple[Connection, int, bytes]]:
-        """Every message that reads, in time order (losses are added to ``losses``)."""
+        """Every message that reads and converts as the reader converts it, in time order
+        (losses are added to ``losses``): the rewritten bag reads whole."""
+        reader: IndexedBag1 | ScannedBag1
         if self.scanned is not None:
-            return self.scanned.messages()
-        assert self.indexed is not None
-        return indexed_messages(
-            self.indexed,
-            self.indexed.connections,
-            None,
-            None,
-            lambda offset, lost, why: self.losses.append((offset, lost, why)),
-        )
+            reader = self.scanned
+            found = self.scanned.messages()
+        else:
+            assert self.indexed is not None
+            reader = self.indexed
+            found = indexed_messages(
+                self.indexed,
+                self.indexed.connections,
+                None,
+                None,
+                lambda offset, lost, why: self.losses.append((offset, lost, why)),
+            )
+        store, broken = ros1_typestore(self.connections)  # a broken type's messages are kept
+        for connection, stamp, data in found:
+            if connection.id not in broken:
+                try:
+                    store.ros1_to_cdr(data, connection.msgtype)
+                except Exception as exc:  # flipped bytes in the message: anything from rosbags
+                    reason = f'the message at {stamp} does not convert: {why(exc)}'
+                    self.losses.append((reader.position, {connection.id: 1}, reason))
+                    continue
+            yield connection, stamp, data
 
     def close(self) -> None:
         if self.indexed is not None:

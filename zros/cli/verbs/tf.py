@@ -90,8 +90,10 @@ def format_transform(transform: Message, digits: int = 3) -> str:
 
     rpy = euler_from_quaternion((q.x, q.y, q.z, q.w))
     matrix = rotation_matrix((q.x, q.y, q.z, q.w))
+    # a chain of static transforms has no time: tf2_echo prints 'At time 0.0' (sec.nanosec)
+    at = f'{stamp.sec}.{stamp.nanosec:09d}' if stamp.sec or stamp.nanosec else '0.0'
     lines = [
-        f'At time {stamp.sec}.{stamp.nanosec:09d}',
+        f'At time {at}',
         f'- Translation: {row((t.x, t.y, t.z))}',
         f'- Rotation: in Quaternion (xyzw) {row((q.x, q.y, q.z, q.w))}',
         f'- Rotation: in RPY (radian) {row(rpy)}',

@@ -1,18 +1,19 @@
-"""Plot addresses (``/imu/linear_acceleration/x``): which topic, which field, which element.
+"""Field addresses (``/imu/linear_acceleration/x``): which topic, which field, which element.
 
 An address is a topic name followed by a field path, both with slashes, as rqt_plot takes
 them. Where the topic ends is not written down: :func:`resolve` tries the known topics that are
 prefixes of the address, longest first, and keeps the first whose message type has the rest as
 a field. A field that is a message stands for its numeric fields (``/imu/linear_acceleration``
 is ``x``, ``y`` and ``z``; a whole topic leaves out its ``header``); an element of an array is
-``name[i]`` or ``name/i`` (``/joint_states/position[0]``).
+``name[i]`` or ``name/i`` (``/joint_states/position[0]``). ``zros plot`` and ``Bag.columns``
+take the same addresses.
 """
 
 from __future__ import annotations
 
 import keyword
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, SupportsFloat
 
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
 
     from zros.cdr import Message
 
-from zros.errors import ZrosError
+from zros.bag.errors import AddressError
 
 #: ROS primitive types that plot as numbers
 NUMERIC = frozenset({
@@ -32,10 +33,6 @@ NUMERIC = frozenset({
 })  # fmt: skip
 _TYPE = re.compile(r'^(?P<base>[^\[<]+)(?:<=\d+)?(?P<array>\[(?P<bound><=)?(?P<size>\d*)\])?$')
 _INDEXED = re.compile(r'^(?P<name>.*?)\[(?P<index>\d+)\]$')
-
-
-class PlotError(ZrosError, ValueError):
-    """An address that names no numeric field, a topic that is absent, a file with no data."""
 
 
 @dataclass(frozen=True)
@@ -79,11 +76,11 @@ class Series:
         index = self.index
         if column.dtype != object:
             if index >= column.shape[1]:
-                raise PlotError(self._too_short({column.shape[1]}))
+                raise AddressError(self._too_short({column.shape[1]}))
             return np.asarray(column[:, index], dtype=np.float64)
         lengths = {len(row) for row in column}
         if lengths and index >= max(lengths):
-            raise PlotError(self._too_short(lengths))
+            raise AddressError(self._too_short(lengths))
         return np.array([row[index] if index < len(row) else np.nan for row in column], np.float64)
 
     def _too_short(self, lengths: set[int]) -> str:
@@ -148,7 +145,7 @@ def field_series(
 ) -> list[Series]:
     """The series ``field`` names in messages of ``cls`` (``/``- or ``.``-separated).
 
-    Raises :class:`PlotError` saying why when the field is absent or not numeric.
+    Raises :class:`AddressError` saying why when the field is absent or not numeric.
     """
     instance = cls()
     parts = _split_parts(field)
@@ -158,43 +155,45 @@ def field_series(
         if part not in types:
             where = '.'.join(path) or type_name
             known = ', '.join(types) or 'no fields'
-            raise PlotError(f'{address}: {where} has no field {part!r} (it has: {known})')
+            raise AddressError(f'{address}: {where} has no field {part!r} (it has: {known})')
         base, size = _parse_type(types[part])
         path.append(part)
         rest = parts[position + 1 :]
         dotted = '.'.join(path)
         if size is not None:
             if base not in NUMERIC:
-                raise PlotError(
+                raise AddressError(
                     f'{address}: {dotted} is an array of {base}; only numeric fields and '
                     'elements of numeric arrays plot'
                 )
             if not rest or not rest[0].isdigit():
                 example = f'{topic}/{"/".join(path)}[0]'
-                raise PlotError(f'{address}: {dotted} is an array: plot an element, e.g. {example}')
+                raise AddressError(
+                    f'{address}: {dotted} is an array: plot an element, e.g. {example}'
+                )
             index = int(rest[0])
             if size >= 0 and index >= size:
-                raise PlotError(f'{address}: {dotted} has {size} elements, not {index + 1}')
+                raise AddressError(f'{address}: {dotted} has {size} elements, not {index + 1}')
             if rest[1:]:
-                raise PlotError(f'{address}: {dotted}[{index}] is a number, it has no fields')
+                raise AddressError(f'{address}: {dotted}[{index}] is a number, it has no fields')
             return [Series(address, topic, type_name, dotted, index)]
         if base in NUMERIC:
             if rest:
-                raise PlotError(f'{address}: {dotted} is a number, it has no field {rest[0]!r}')
+                raise AddressError(f'{address}: {dotted} is a number, it has no field {rest[0]!r}')
             return [Series(address, topic, type_name, dotted)]
         if '/' not in base:
-            raise PlotError(f'{address}: {dotted} is a {base}, not a number')
+            raise AddressError(f'{address}: {dotted} is a {base}, not a number')
         instance = getattr(instance, _attribute(part))
     leaves = _leaves(instance, '.'.join(path) + '.' if path else '', skip_header=not path)
     if not leaves:
-        raise PlotError(f'{address}: {".".join(path) or type_name} has no numeric fields')
+        raise AddressError(f'{address}: {".".join(path) or type_name} has no numeric fields')
     return [Series(f'{topic}/{leaf.replace(".", "/")}', topic, type_name, leaf) for leaf in leaves]
 
 
 def split_address(address: str, topics: Sequence[str]) -> list[tuple[str, str]]:
     """The ways to read ``address`` as (known topic, field path), longest topic first."""
     if not address.startswith('/'):
-        raise PlotError(
+        raise AddressError(
             f'{address}: an address starts with the topic, e.g. /imu/angular_velocity/z'
         )
     address = address.rstrip('/')
@@ -218,36 +217,88 @@ def resolve(
 
     ``message_class(topic, type_name)`` gives the class of a topic's messages. Tries every known
     topic that prefixes the address, longest first; the first whose type has the rest as a
-    numeric field wins. Raises :class:`PlotError` naming the problem otherwise.
+    numeric field wins. Raises :class:`AddressError` naming the problem otherwise.
     """
     candidates = split_address(address, list(topic_types))
     if not candidates:
-        raise PlotError(f'{address}: no known topic starts this address')
-    first_error: PlotError | None = None
+        raise AddressError(f'{address}: no known topic starts this address')
+    first_error: AddressError | None = None
     for topic, field in candidates:
         type_name = topic_types[topic]
         try:
             return field_series(address, topic, type_name, field, message_class(topic, type_name))
-        except PlotError as exc:
+        except AddressError as exc:
             first_error = first_error or exc
     assert first_error is not None
     raise first_error
 
 
-def moving_average(values: npt.NDArray[np.float64], length: int) -> npt.NDArray[np.float64]:
-    """The mean of each value and the ``length - 1`` before it (fewer at the start).
+def topic_series(
+    address: str,
+    topic_types: Mapping[str, str],
+    message_class: Callable[[str, str], Callable[[], Message]],
+    where: str,
+) -> list[Series]:
+    """:func:`resolve`, with an error naming the topics of ``where`` (a recording) when no
+    topic starts the address."""
+    if not split_address(address, list(topic_types)):
+        raise AddressError(
+            f'{address}: no topic of {where} starts this address; it has: '
+            + (', '.join(topic_types) or 'no topics')
+        )
+    return resolve(address, topic_types, message_class)
 
-    The filter of the rosR tutorial: causal, so a live line never changes behind its head.
-    NaNs (missing elements) are left out of the means.
+
+def is_address(text: str) -> bool:
+    """Whether a field is written as an address (slashes, ``[i]``) rather than dotted."""
+    return '/' in text or '[' in text
+
+
+def column_series(
+    topic: str,
+    fields: Iterable[str] | None,
+    topic_types: Mapping[str, str],
+    message_class: Callable[[str, str], Callable[[], Message]],
+    where: str,
+) -> tuple[str, list[str] | None, list[Series]]:
+    """What ``Bag.columns(topic, fields)`` reads, either written as an address: the topic, the
+    dotted fields to extract (None: all) and the series the addresses name.
+
+    ``topic`` may be a whole address (``/odom/pose/pose/position/x``; ``fields`` then None), a
+    field ``pose/pose/position/x`` or ``position[0]`` / ``position/0``; dotted fields pass as
+    they are. Raises :class:`AddressError` as ``zros plot`` does.
     """
-    if length < 1:
-        raise ValueError(f'a moving average needs a length of 1 or more, not {length}')
-    values = np.asarray(values, dtype=np.float64)
-    present = ~np.isnan(values)
-    sums = np.cumsum(np.insert(np.where(present, values, 0.0), 0, 0.0))
-    counts = np.cumsum(np.insert(present.astype(np.int64), 0, 0))
-    ends = np.arange(1, len(values) + 1)
-    starts = np.maximum(ends - length, 0)
-    taken = counts[ends] - counts[starts]
-    with np.errstate(invalid='ignore', divide='ignore'):
-        return np.where(taken > 0, (sums[ends] - sums[starts]) / np.maximum(taken, 1), np.nan)
+    series: list[Series] = []
+    if topic not in topic_types and split_address(topic, list(topic_types)):
+        if fields is not None:
+            raise AddressError(
+                f'{topic}: an address names its fields; give fields only with a topic name'
+            )
+        series = topic_series(topic, topic_types, message_class, where)
+        topic = series[0].topic
+    elif fields is not None and topic in topic_types:
+        fields = list(fields)
+        cls = message_class(topic, topic_types[topic])
+        for field in fields:
+            if is_address(field):
+                address = f'{topic}/{field.lstrip("/")}'
+                series += field_series(address, topic, topic_types[topic], field, cls)
+        fields = [f for f in fields if not is_address(f)]
+    if not series:
+        return topic, None if fields is None else list(fields), []
+    return topic, list(dict.fromkeys([*(fields or []), *(s.field for s in series)])), series
+
+
+def series_columns(
+    columns: dict[str, npt.NDArray[np.generic[object]]], series: list[Series], plain: list[str]
+) -> dict[str, npt.NDArray[np.generic[object]]]:
+    """The columns read for :func:`column_series`, an element as ``name[i]`` (float64, NaN
+    where a message has fewer) in place of its whole array unless ``plain`` asked for it."""
+    found = dict(columns)
+    elements = [one for one in series if one.index is not None]
+    for one in elements:
+        found[f'{one.field}[{one.index}]'] = one.column(columns)
+    for one in elements:
+        if one.field not in plain:
+            found.pop(one.field, None)
+    return found
