@@ -45,6 +45,7 @@ class NodeOptions(SessionOptions, total=False):
     wire: str | None
     domain_id: int | None
     immediate_callbacks: bool
+    use_global_arguments: bool
 
 
 class NodeKeywords(NodeOptions, total=False):
@@ -82,6 +83,40 @@ def parameter_overrides(
     return overrides
 
 
+_global_args: RosArgs | None = None
+
+
+def set_global_arguments(argv: Sequence[str] | None) -> None:
+    """Make ``argv``'s ``--ros-args`` apply to every node made from now on (rclpy's global
+    arguments, which ``zros.init`` sets; None: none). A malformed ``-p`` or ``-r``, an unreadable
+    ``--params-file`` or a value that is not YAML raises here, before any node is made."""
+    global _global_args  # noqa: PLW0603
+    if argv is None:
+        _global_args = None
+        return
+    ros_args = parse_ros_args(argv)
+    for path in ros_args.params_files:
+        load_file(path)
+    for name, text in ros_args.parameters.items():
+        parse_override(f'{name}:={text}')
+    if ros_args.log_level is not None:
+        parse_level(ros_args.log_level)
+    _global_args = ros_args
+
+
+def merge_global(own: RosArgs, use_global_arguments: bool) -> tuple[RosArgs, RosArgs]:
+    """(global, own) ``--ros-args`` of a node: its own remappings match first, as in rcl."""
+    shared = _global_args if use_global_arguments and _global_args is not None else RosArgs()
+    remapping = Remapping(
+        own.remapping.rules + shared.remapping.rules,
+        own.remapping.node_name or shared.remapping.node_name,
+        own.remapping.namespace or shared.remapping.namespace,
+    )
+    return shared, RosArgs(
+        remapping, own.parameters, own.params_files, own.log_level or shared.log_level, own.rest
+    )
+
+
 @dataclass(frozen=True)
 class NodeSettings:
     """A node's names, parameter overrides, clock, threshold and wire, from its arguments,
@@ -113,10 +148,12 @@ class NodeSettings:
         parameters: Mapping[str, ParamValue] | None,
         params_file: PathLike | Sequence[PathLike] | None,
         wire: str | None,
+        use_global_arguments: bool = True,
     ) -> NodeSettings:
-        """The settings of ``Node(...)``; the command line's win over the arguments'."""
+        """The settings of ``Node(...)``; the command line's win over the arguments', the node's
+        own ``args`` over the global ones of ``zros.init``."""
         remapping = Remapping.parse(remap or ())
-        ros_args = parse_ros_args(args or ())
+        shared, ros_args = merge_global(parse_ros_args(args or ()), use_global_arguments)
         remapping = Remapping(
             remapping.rules + ros_args.remapping.rules,
             ros_args.remapping.node_name or remapping.node_name,
@@ -127,7 +164,8 @@ class NodeSettings:
         validate_node_name(name)
         validate_namespace(namespace)
         fqn = namespace.rstrip('/') + '/' + name
-        overrides = parameter_overrides(fqn, parameters, params_file, ros_args)
+        overrides = parameter_overrides(fqn, parameters, params_file, shared)
+        overrides = parameter_overrides(fqn, overrides, None, ros_args)
         if use_sim_time is None:
             if 'use_sim_time' in overrides:
                 use_sim_time = overrides['use_sim_time'] is True
