@@ -46,6 +46,7 @@ from zros.runtime.signal import (
     main_thread_raises,
     start_listener_thread,
 )
+from zros.runtime.timeouts import UNSET, Unset, either_timeout
 from zros.transport import TransportConfig, close_default_transport, default_transport
 from zros.wire import session_config
 
@@ -185,12 +186,25 @@ def ok() -> bool:
     return _pending is not None and not interrupted()
 
 
-def spin_once(timeout: float | None = 0.0) -> int:
+def spin_once(
+    node: Node | float | None = None,
+    timeout: float | Unset | None = UNSET,
+    *,
+    timeout_sec: float | Unset | None = UNSET,
+) -> int:
     """Run the default node's due callbacks and timers (rosR: ``ros.SpinOnce``).
 
-    Waits up to ``timeout`` seconds for something to run; returns how many ran.
+    Waits up to ``timeout`` seconds (default 0) for something to run; returns how many ran.
+    ``zros.spin_once(node, timeout_sec=t)`` is rclpy's: that node's, and without a timeout it
+    waits until something runs, as rclpy's does.
     """
-    return default_node().spin_once(timeout)
+    if node is not None and not isinstance(node, Node):  # zros.spin_once(0.1): the timeout
+        if timeout is not UNSET:
+            raise TypeError('zros.spin_once takes (node, timeout) or (timeout), not two timeouts')
+        node, timeout = None, node
+    wait = either_timeout(timeout, timeout_sec, 0.0 if node is None else None)
+    node = default_node() if node is None else node
+    return node.spin_once(wait)
 
 
 def spin(node: Node | float | None = None, timeout: float | None = None) -> None:

@@ -18,7 +18,7 @@ from zros.keyexpr.names import Remapping
 from zros.node.factories import EntityFactories
 from zros.node.graph_methods import GraphMethods
 from zros.node.parameter_methods import ParameterMethods
-from zros.node.settings import NodeSettings, PathLike, node_transport
+from zros.node.settings import NodeSettings, PathLike, check_keywords, node_transport
 from zros.params import Parameter, ParameterStore, ParamValue
 from zros.params.server import ParameterServer
 from zros.pubsub.rosout import RosoutSink
@@ -96,6 +96,7 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         use_global_arguments: bool = True,
         **settings: Unpack[SessionOptions],
     ) -> None:
+        check_keywords(settings)
         options = NodeSettings.parse(
             name, namespace, remap=remap, args=args, use_sim_time=use_sim_time,
             log_level=log_level, parameters=parameters, params_file=params_file, wire=wire,

@@ -58,6 +58,29 @@ class NodeKeywords(NodeOptions, total=False):
     bridge_namespace: str | None
 
 
+#: rclpy's keywords of ``Node`` that zros spells otherwise
+RCLPY_KEYWORDS = {
+    'parameter_overrides': "parameters={'name': value}",
+    'automatically_declare_parameters_from_overrides': 'allow_undeclared_parameters=True',
+    'cli_args': 'args=[...]',
+}
+
+
+def check_keywords(settings: Mapping[str, object]) -> None:
+    """TypeError naming ``Node`` and its keywords for one it does not take (the leftovers would
+    otherwise reach ``TransportConfig`` and be reported as its)."""
+    unknown = sorted(set(settings) - set(SessionOptions.__annotations__))
+    if not unknown:
+        return
+    hints = [f'for {key} write {RCLPY_KEYWORDS[key]}' for key in unknown if key in RCLPY_KEYWORDS]
+    hint = f" (rclpy's: {'; '.join(hints)})" if hints else ''
+    which = 'unexpected keyword arguments' if len(unknown) > 1 else 'an unexpected keyword argument'
+    raise TypeError(
+        f'Node() got {which} {", ".join(map(repr, unknown))}{hint}; '
+        f'it takes name, namespace and {", ".join(sorted(NodeKeywords.__annotations__))}'
+    )
+
+
 def parameter_overrides(
     node_fqn: str,
     parameters: Mapping[str, ParamValue] | None,
