@@ -1,7 +1,8 @@
 """Service clients: a call is a Zenoh query, waited for on the caller's thread.
 
-``call`` waits on Zenoh's reply channel directly, so it works with or without spinning and
-never deadlocks inside a callback; ``call_async`` resolves a future that is also awaitable.
+``call`` waits on Zenoh's reply channel directly, so it works whether or not the caller's node
+spins; the server's node must spin, so a call inside a callback of the node that serves it times
+out (the error says why). ``call_async`` resolves a future that is also awaitable.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from zros.services.errors import (
     ServiceTimeoutError,
     ServiceUnavailableError,
 )
+from zros.services.server import unanswered_here
 from zros.services.service_entity import ServiceEntity
 from zros.transport.zenoh_qos import PRIORITY
 
@@ -172,6 +174,8 @@ class Client(ServiceEntity):
         if reply is None:
             raise self._unavailable()
         outcome = self._outcome(reply, started, timeout, sent)
+        if isinstance(outcome, ServiceTimeoutError):
+            raise ServiceTimeoutError(f'{outcome}{unanswered_here(self.name, self.key)}')
         if isinstance(outcome, ServiceError):
             raise outcome
         return outcome
