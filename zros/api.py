@@ -187,7 +187,7 @@ def ok() -> bool:
 
 
 def spin_once(
-    node: Node | float | None = None,
+    node: Node | float | Unset | None = UNSET,
     timeout: float | Unset | None = UNSET,
     *,
     timeout_sec: float | Unset | None = UNSET,
@@ -198,13 +198,15 @@ def spin_once(
     ``zros.spin_once(node, timeout_sec=t)`` is rclpy's: that node's, and without a timeout it
     waits until something runs, as rclpy's does.
     """
-    if node is not None and not isinstance(node, Node):  # zros.spin_once(0.1): the timeout
+    target: Node | None = None
+    if isinstance(node, Node):
+        target = node
+    elif node is not UNSET:  # zros.spin_once(0.1) (or None): the timeout
         if timeout is not UNSET:
             raise TypeError('zros.spin_once takes (node, timeout) or (timeout), not two timeouts')
-        node, timeout = None, node
-    wait = either_timeout(timeout, timeout_sec, 0.0 if node is None else None)
-    node = default_node() if node is None else node
-    return node.spin_once(wait)
+        timeout = node
+    wait = either_timeout(timeout, timeout_sec, 0.0 if target is None else None)
+    return (default_node() if target is None else target).spin_once(wait)
 
 
 def spin(node: Node | float | None = None, timeout: float | None = None) -> None:
