@@ -153,3 +153,70 @@ def test_parameter_client_takes_the_node_as_a_keyword(
         zros.ParameterClient('/driver', 2.0)
     with pytest.raises(TypeError, match=r'ParameterClient takes \(node_name, node=None'):
         zros.ParameterClient(tool, '/driver', node=tool)
+
+
+ROS_ARGS = ['--ros-args', '-p', 'speed:=2.5', '-r', '__ns:=/bot', '-r', 'chatter:=talk']
+
+
+def test_init_arguments_apply_to_every_node_as_rclpys_global_arguments(
+    zros_router: Router, zros_node: Callable[..., Node]
+) -> None:
+    zros.init(args=['talker.py', *ROS_ARGS], connect=zros_router.endpoint, handle_sigint=False)
+    try:
+        talker = zros.Node('talker')
+        assert talker.get_fully_qualified_name() == '/bot/talker'
+        assert talker.declare_parameter('speed', 1.0) == 2.5
+        assert talker.resolve_name('chatter') == '/bot/talk'
+        # a node's own arguments go on top of the global ones
+        own = zros.Node('own', args=['--ros-args', '-p', 'speed:=3.0', '-r', 'chatter:=mine'])
+        assert own.get_fully_qualified_name() == '/bot/own'
+        assert own.declare_parameter('speed', 1.0) == 3.0
+        assert own.resolve_name('chatter') == '/bot/mine'
+        plain = zros.Node('plain', use_global_arguments=False)
+        assert plain.get_fully_qualified_name() == '/plain'
+        assert plain.resolve_name('chatter') == '/chatter'
+    finally:
+        zros.shutdown()
+    after = zros_node('after')
+    assert after.get_fully_qualified_name() == '/after'
+    assert after.declare_parameter('speed', 1.0) == 1.0
+
+
+def test_init_without_args_reads_sys_argv_and_skips_the_programs_own(
+    zros_router: Router, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    argv = ['talker.py', '-p', 'input.txt', '--verbose', *ROS_ARGS, '--', '-r', 'x']
+    monkeypatch.setattr('sys.argv', argv)
+    node = zros.init('talker', connect=zros_router.endpoint, handle_sigint=False)
+    try:
+        assert node.get_fully_qualified_name() == '/bot/talker'
+        assert node.declare_parameter('speed', 1.0) == 2.5
+        assert zros.Node('second').resolve_name('chatter') == '/bot/talk'
+    finally:
+        zros.shutdown()
+
+
+@pytest.mark.parametrize(
+    ('args', 'error', 'match'),
+    [
+        (['--ros-args', '-p', 'speed'], ValueError, 'name:=value'),
+        (['--ros-args', '-p', 'x:=[1,'], zros.ParameterError, 'not valid YAML'),
+        (['--ros-args', '--params-file', '/no/such.yaml'], zros.ParameterError, 'cannot read'),
+        (['--ros-args', '-r', 'chatter'], ValueError, 'from:=to'),
+        (['--ros-args', '--log-level', 'loud'], ValueError, 'loud'),
+    ],
+)
+def test_init_refuses_malformed_ros_arguments_and_leaves_nothing_behind(
+    zros_router: Router,
+    zros_node: Callable[..., Node],
+    args: list[str],
+    error: type[Exception],
+    match: str,
+) -> None:
+    try:
+        with pytest.raises(error, match=match):
+            zros.init(args=args, connect=zros_router.endpoint, handle_sigint=False)
+    finally:
+        zros.shutdown()  # zros.init without the fix accepted them
+    assert not zros.ok()
+    assert zros_node('fine').get_fully_qualified_name() == '/fine'

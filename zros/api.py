@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import enum
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -22,6 +23,7 @@ from typing import TYPE_CHECKING, overload
 
 from zros.errors import ZrosError
 from zros.node import Node
+from zros.node.settings import set_global_arguments
 from zros.params import (
     ParameterClient,
     ParameterError,
@@ -44,6 +46,7 @@ from zros.runtime.signal import (
     main_thread_raises,
     start_listener_thread,
 )
+from zros.runtime.timeouts import UNSET, Unset, either_timeout
 from zros.transport import TransportConfig, close_default_transport, default_transport
 from zros.wire import session_config
 
@@ -115,6 +118,10 @@ def init(
     ``zros.Node`` objects shows only its own nodes in the graph. With ``handle_sigint`` (the
     default, main thread only) the first Ctrl-C makes ``ok()`` false so a ``while zros.ok()``
     loop ends cleanly; a second one raises KeyboardInterrupt.
+
+    The ``--ros-args`` of ``args`` (``sys.argv`` when None, as rclpy reads it) apply to every
+    node made until ``shutdown()``, a node's own ``args=`` on top; arguments outside
+    ``--ros-args`` are the program's and ignored. A malformed one raises here.
     """
     global _default, _pending, _previous_handler  # noqa: PLW0603
     with _lock:
@@ -124,6 +131,7 @@ def init(
                 f'zros.init was already called{where}; '
                 'call zros.shutdown() first, or create more nodes with zros.Node(...)'
             )
+        set_global_arguments(sys.argv if args is None else args)
         clear_interrupt()
         if name is None and (connect is not None or config is not None):
             # open the process's session now: the user's own Nodes use it too
@@ -131,14 +139,18 @@ def init(
             default_transport(config)
             connect = None
         keywords: NodeKeywords = {
-            'connect': connect, 'config': config, 'args': args,
+            'connect': connect, 'config': config, 'args': None,  # init's are the global ones
             'bridge_namespace': bridge_namespace, **options,
         }  # fmt: skip
 
         def make(node_name: str) -> Node:
             return Node(node_name, namespace, **keywords)
 
-        made = make(name) if name is not None else None  # a failure leaves nothing behind
+        try:
+            made = make(name) if name is not None else None  # a failure leaves nothing behind
+        except BaseException:
+            set_global_arguments(None)
+            raise
         _pending = make
         set_default_node_factory(default_node)
         if made is not None:
@@ -174,12 +186,27 @@ def ok() -> bool:
     return _pending is not None and not interrupted()
 
 
-def spin_once(timeout: float | None = 0.0) -> int:
+def spin_once(
+    node: Node | float | Unset | None = UNSET,
+    timeout: float | Unset | None = UNSET,
+    *,
+    timeout_sec: float | Unset | None = UNSET,
+) -> int:
     """Run the default node's due callbacks and timers (rosR: ``ros.SpinOnce``).
 
-    Waits up to ``timeout`` seconds for something to run; returns how many ran.
+    Waits up to ``timeout`` seconds (default 0) for something to run; returns how many ran.
+    ``zros.spin_once(node, timeout_sec=t)`` is rclpy's: that node's, and without a timeout it
+    waits until something runs, as rclpy's does.
     """
-    return default_node().spin_once(timeout)
+    target: Node | None = None
+    if isinstance(node, Node):
+        target = node
+    elif node is not UNSET:  # zros.spin_once(0.1) (or None): the timeout
+        if timeout is not UNSET:
+            raise TypeError('zros.spin_once takes (node, timeout) or (timeout), not two timeouts')
+        timeout = node
+    wait = either_timeout(timeout, timeout_sec, 0.0 if target is None else None)
+    return (default_node() if target is None else target).spin_once(wait)
 
 
 def spin(node: Node | float | None = None, timeout: float | None = None) -> None:
@@ -198,6 +225,7 @@ def shutdown() -> None:
     global _default, _pending, _previous_handler  # noqa: PLW0603
     with _lock:
         _pending = None
+        set_global_arguments(None)
         set_default_node_factory(None)
         _clients.clear()  # parameter clients of the default node
         if _default is not None:

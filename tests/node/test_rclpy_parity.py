@@ -173,3 +173,70 @@ def test_init_without_a_name_makes_the_default_node_when_needed(zros_router: Rou
     finally:
         zros.shutdown()
     assert not zros.ok()
+
+
+ADD = 'example_interfaces/srv/AddTwoInts'
+FIBONACCI = 'example_interfaces/action/Fibonacci'
+
+
+def test_waits_and_calls_take_rclpys_timeout_sec(zros_node: Callable[..., Node]) -> None:
+    server = zros_node('server', immediate_callbacks=True)  # answers without spinning
+    caller = zros_node('caller')
+    client = caller.create_client(ADD, '/add')
+    actions = caller.create_action_client(FIBONACCI, '/fibonacci')
+    assert not client.wait_for_service(timeout_sec=0.05)
+    assert not actions.wait_for_server(timeout_sec=0.05)
+    add = zros.get_type(ADD)
+    server.create_service(ADD, '/add', lambda request: add.Response(sum=request.a + request.b))
+    server.create_action_server(FIBONACCI, '/fibonacci', lambda goal: None)  # no goal comes
+    assert client.wait_for_service(timeout_sec=30.0)
+    assert actions.wait_for_server(timeout_sec=30.0)
+    assert client.call(a=1, b=2, timeout_sec=30.0).sum == 3
+    for both in (
+        lambda: client.wait_for_service(1.0, timeout_sec=1.0),
+        lambda: actions.wait_for_server(1.0, timeout_sec=1.0),
+        lambda: client.call(a=1, timeout=1.0, timeout_sec=1.0),
+    ):
+        with pytest.raises(TypeError, match="give timeout= or rclpy's timeout_sec=, not both"):
+            both()
+
+
+def test_module_spin_once_takes_a_node_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('spun')
+    ticks: list[int] = []
+    node.create_timer(0.01, lambda: ticks.append(1))
+    # each returns after one run (or a wake-up of the node): the node's timer is what runs
+    assert wait_for(lambda: zros.spin_once(node, timeout_sec=30.0) == 1)
+    assert wait_for(lambda: zros.spin_once(node) == 1)  # rclpy's default: until one runs
+    assert wait_for(lambda: zros.spin_once(node, 30.0) == 1) and len(ticks) >= 3
+    with pytest.raises(TypeError, match='not both'):
+        zros.spin_once(node, 1.0, timeout_sec=1.0)
+    with pytest.raises(TypeError, match='not two timeouts'):
+        zros.spin_once(0.1, 0.2)
+
+
+def test_module_spin_once_takes_timeout_sec_on_the_default_node(zros_router: Router) -> None:
+    zros.init('default', connect=zros_router.endpoint, handle_sigint=False)
+    try:
+        ticks: list[int] = []
+        zros.default_node().create_timer(0.01, lambda: ticks.append(1))
+        assert wait_for(lambda: zros.spin_once(timeout_sec=0.05) == 1)
+        assert wait_for(lambda: zros.spin_once(0.05) == 1)
+        assert zros.spin_once() in (0, 1)  # zros's default timeout: 0, no wait
+    finally:
+        zros.shutdown()
+
+
+def test_an_unknown_node_keyword_names_node_and_its_keywords() -> None:
+    # it reached TransportConfig, which reported it as its own
+    with pytest.raises(
+        TypeError,
+        match=r"Node\(\) got an unexpected keyword argument 'parameter_overrides' "
+        r"\(rclpy's: for parameter_overrides write parameters=\{'name': value\}\); "
+        r'it takes name, namespace and allow_undeclared_parameters, args, .*use_sim_time',
+    ):
+        zros.Node('x', parameter_overrides=[])  # type: ignore[call-arg]
+    with pytest.raises(
+        TypeError, match=r"unexpected keyword arguments 'bogus', 'cli_args' .*args="
+    ):
+        zros.Node('x', cli_args=[], bogus=1)  # type: ignore[call-arg]

@@ -9,6 +9,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
+import numpy as np
 import pytest
 
 import zros
@@ -37,6 +38,28 @@ def test_time_and_duration_arithmetic() -> None:
     assert stamp < later and sorted([later, stamp]) == [stamp, later]
     with pytest.raises(TypeError):
         stamp + stamp  # type: ignore[operator]
+
+
+def test_time_and_duration_take_rclpys_keywords() -> None:
+    assert Duration(seconds=1.5) == Duration(1_500_000_000) == Duration.from_seconds(1.5)
+    assert Duration(seconds=1, nanoseconds=5) == Duration(1_000_000_005)
+    assert Time(seconds=2, nanoseconds=7).nanoseconds == 2_000_000_007
+    assert Time(nanoseconds=3) == Time(3)
+    assert Duration(np.int64(4)) == Duration(4)  # numpy integers are integers
+    assert Time(seconds=1.5) + Duration(seconds=0.5) == Time(seconds=2)
+
+
+@pytest.mark.parametrize('kind', [Time, Duration])
+@pytest.mark.parametrize('value', [0.5, 1.0, np.float64(2.5), '5'])
+def test_time_and_duration_refuse_float_nanoseconds_at_once(
+    kind: type[Time | Duration], value: object
+) -> None:
+    # rclpy's habit Duration(0.5) was 0 ns, silently; Time + it failed later with a format error
+    name = kind.__name__
+    with pytest.raises(TypeError, match=rf'{name}\(\) takes integer nanoseconds.*seconds='):
+        kind(value)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match='integer nanoseconds'):
+        kind(nanoseconds=value)  # type: ignore[arg-type]
 
 
 def test_time_now_follows_the_wall_clock(zros_node: Callable[..., Node]) -> None:

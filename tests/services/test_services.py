@@ -155,6 +155,51 @@ def test_no_server_and_timeout_are_different_errors(zros_node: Callable[..., Nod
     assert isinstance(ServiceTimeoutError('x'), TimeoutError)
 
 
+def test_a_call_inside_a_callback_of_its_own_server_says_why_it_times_out(
+    zros_node: Callable[..., Node],
+) -> None:
+    node = zros_node('selfcall')
+    node.create_service(ADD, 'self_add', add)
+    client = node.create_client(ADD, 'self_add')
+    assert client.wait_for_service()
+    errors: list[str] = []
+    answers: list[int] = []
+
+    def tick() -> None:
+        timer.cancel()
+        with pytest.raises(ServiceTimeoutError) as caught:
+            client.call(a=1, b=2, timeout=0.3)
+        errors.append(str(caught.value))
+        # what the error advises works: the answer comes once this callback returns
+        client.call_async(a=1, b=2).add_done_callback(lambda f: answers.append(f.result().sum))
+
+    timer = node.create_timer(0.01, tick)
+    assert wait_for(lambda: node.spin_once(0.05) >= 0 and answers == [3])
+    assert errors == [
+        '/self_add did not reply within 0.3 s; its server is node /selfcall, and this call '
+        'waits inside a callback of that node, so the handler cannot run until the callback '
+        'returns: use call_async() and take the response in a done callback, or serve it from '
+        'a node spun on another thread (or made with immediate_callbacks=True)'
+    ]
+
+
+def test_a_call_to_a_server_of_this_process_nobody_spins_says_so(
+    zros_node: Callable[..., Node],
+) -> None:
+    server, caller = zros_node('deaf'), zros_node('caller')
+    server.create_service(ADD, '/deaf_add', add)
+    client = caller.create_client(ADD, '/deaf_add')
+    assert client.wait_for_service()
+    with pytest.raises(
+        ServiceTimeoutError,
+        match=r'/deaf_add did not reply within 0\.3 s; its server, node /deaf of this process, '
+        r'holds the request unanswered: nobody spins that node',
+    ):
+        client.call(a=1, b=2, timeout=0.3)
+    with spinning(server):  # spun, it answers
+        assert client.call(a=1, b=2).sum == 3
+
+
 def test_a_handler_that_raises(
     zros_node: Callable[..., Node], caplog: pytest.LogCaptureFixture
 ) -> None:

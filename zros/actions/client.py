@@ -35,6 +35,7 @@ from zros.runtime.clock import Time
 from zros.runtime.defaults import NodeLike
 from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal
+from zros.runtime.timeouts import UNSET, Unset, either_timeout
 from zros.services import Client, ServiceError
 
 _log = logging.getLogger('zros')
@@ -188,8 +189,12 @@ class ActionClient(ActionEntity):
         """Whether the goal, result and cancel services of a server are all reachable."""
         return all(service.service_is_ready() for service in self._services)
 
-    def wait_for_server(self, timeout: float | None = 5.0) -> bool:
-        """Wait until ``server_is_ready()``; returns whether it became so in time."""
+    def wait_for_server(
+        self, timeout: float | None = 5.0, *, timeout_sec: float | Unset | None = UNSET
+    ) -> bool:
+        """Wait until ``server_is_ready()``; returns whether it became so in time.
+        ``timeout_sec`` is rclpy's spelling of ``timeout``."""
+        timeout = either_timeout(timeout, timeout_sec, 5.0)
         deadline = None if timeout is None else time.monotonic() + timeout
         for service in self._services:
             remaining = None if deadline is None else max(0.0, deadline - time.monotonic())

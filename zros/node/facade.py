@@ -18,7 +18,7 @@ from zros.keyexpr.names import Remapping
 from zros.node.factories import EntityFactories
 from zros.node.graph_methods import GraphMethods
 from zros.node.parameter_methods import ParameterMethods
-from zros.node.settings import NodeSettings, PathLike, node_transport
+from zros.node.settings import NodeSettings, PathLike, check_keywords, node_transport
 from zros.params import Parameter, ParameterStore, ParamValue
 from zros.params.server import ParameterServer
 from zros.pubsub.rosout import RosoutSink
@@ -44,10 +44,11 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
     ``bridge_namespace`` is the ``namespace`` setting of the zenoh-bridge-ros2dds to reach, which
     prefixes every Zenoh key; by default the namespace the bridges present report (``/`` when
     none answers at creation). ``args`` takes a command line with ``--ros-args`` (remappings
-    ``-r from:=to``, ``__node``, ``__ns``, ``-p use_sim_time:=true``, ``--log-level``). Without
-    ``transport``, the node uses the process's session, opened from ``connect``/``config``, the
-    other settings of ``TransportConfig.create`` (``mode``, ``tls``, ``user``, ``password``, ...)
-    or the environment (see ``zros.transport``).
+    ``-r from:=to``, ``__node``, ``__ns``, ``-p use_sim_time:=true``, ``--log-level``), applied on
+    top of the command line of ``zros.init`` (rclpy's global arguments) unless
+    ``use_global_arguments`` is false. Without ``transport``, the node uses the process's
+    session, opened from ``connect``/``config``, the other settings of ``TransportConfig.create``
+    (``mode``, ``tls``, ``user``, ``password``, ...) or the environment (see ``zros.transport``).
 
     ``use_sim_time`` (also ``ZROS_USE_SIM_TIME=1``) makes the node's clock, timers and rates
     follow ``/clock``. ``log_level`` (also ``ZROS_LOG_LEVEL``) is the threshold of its logger;
@@ -92,11 +93,14 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         wire: str | None = None,
         domain_id: int | None = None,
         immediate_callbacks: bool = False,
+        use_global_arguments: bool = True,
         **settings: Unpack[SessionOptions],
     ) -> None:
+        check_keywords(settings)
         options = NodeSettings.parse(
             name, namespace, remap=remap, args=args, use_sim_time=use_sim_time,
             log_level=log_level, parameters=parameters, params_file=params_file, wire=wire,
+            use_global_arguments=use_global_arguments,
         )  # fmt: skip
         self.name, self.namespace = options.name, options.namespace
         self.remapping: Remapping = options.remapping

@@ -45,6 +45,7 @@ class NodeOptions(SessionOptions, total=False):
     wire: str | None
     domain_id: int | None
     immediate_callbacks: bool
+    use_global_arguments: bool
 
 
 class NodeKeywords(NodeOptions, total=False):
@@ -55,6 +56,29 @@ class NodeKeywords(NodeOptions, total=False):
     config: TransportConfig | None
     args: Sequence[str] | None
     bridge_namespace: str | None
+
+
+#: rclpy's keywords of ``Node`` that zros spells otherwise
+RCLPY_KEYWORDS = {
+    'parameter_overrides': "parameters={'name': value}",
+    'automatically_declare_parameters_from_overrides': 'allow_undeclared_parameters=True',
+    'cli_args': 'args=[...]',
+}
+
+
+def check_keywords(settings: Mapping[str, object]) -> None:
+    """TypeError naming ``Node`` and its keywords for one it does not take (the leftovers would
+    otherwise reach ``TransportConfig`` and be reported as its)."""
+    unknown = sorted(set(settings) - set(SessionOptions.__annotations__))
+    if not unknown:
+        return
+    hints = [f'for {key} write {RCLPY_KEYWORDS[key]}' for key in unknown if key in RCLPY_KEYWORDS]
+    hint = f" (rclpy's: {'; '.join(hints)})" if hints else ''
+    which = 'unexpected keyword arguments' if len(unknown) > 1 else 'an unexpected keyword argument'
+    raise TypeError(
+        f'Node() got {which} {", ".join(map(repr, unknown))}{hint}; '
+        f'it takes name, namespace and {", ".join(sorted(NodeKeywords.__annotations__))}'
+    )
 
 
 def parameter_overrides(
@@ -80,6 +104,40 @@ def parameter_overrides(
             continue  # -p other_node:name:=value
         overrides[parameter] = parse_override(f'{parameter}:={text}')[1]
     return overrides
+
+
+_global_args: RosArgs | None = None
+
+
+def set_global_arguments(argv: Sequence[str] | None) -> None:
+    """Make ``argv``'s ``--ros-args`` apply to every node made from now on (rclpy's global
+    arguments, which ``zros.init`` sets; None: none). A malformed ``-p`` or ``-r``, an unreadable
+    ``--params-file`` or a value that is not YAML raises here, before any node is made."""
+    global _global_args  # noqa: PLW0603
+    if argv is None:
+        _global_args = None
+        return
+    ros_args = parse_ros_args(argv)
+    for path in ros_args.params_files:
+        load_file(path)
+    for name, text in ros_args.parameters.items():
+        parse_override(f'{name}:={text}')
+    if ros_args.log_level is not None:
+        parse_level(ros_args.log_level)
+    _global_args = ros_args
+
+
+def merge_global(own: RosArgs, use_global_arguments: bool) -> tuple[RosArgs, RosArgs]:
+    """(global, own) ``--ros-args`` of a node: its own remappings match first, as in rcl."""
+    shared = _global_args if use_global_arguments and _global_args is not None else RosArgs()
+    remapping = Remapping(
+        own.remapping.rules + shared.remapping.rules,
+        own.remapping.node_name or shared.remapping.node_name,
+        own.remapping.namespace or shared.remapping.namespace,
+    )
+    return shared, RosArgs(
+        remapping, own.parameters, own.params_files, own.log_level or shared.log_level, own.rest
+    )
 
 
 @dataclass(frozen=True)
@@ -113,10 +171,12 @@ class NodeSettings:
         parameters: Mapping[str, ParamValue] | None,
         params_file: PathLike | Sequence[PathLike] | None,
         wire: str | None,
+        use_global_arguments: bool = True,
     ) -> NodeSettings:
-        """The settings of ``Node(...)``; the command line's win over the arguments'."""
+        """The settings of ``Node(...)``; the command line's win over the arguments', the node's
+        own ``args`` over the global ones of ``zros.init``."""
         remapping = Remapping.parse(remap or ())
-        ros_args = parse_ros_args(args or ())
+        shared, ros_args = merge_global(parse_ros_args(args or ()), use_global_arguments)
         remapping = Remapping(
             remapping.rules + ros_args.remapping.rules,
             ros_args.remapping.node_name or remapping.node_name,
@@ -127,7 +187,8 @@ class NodeSettings:
         validate_node_name(name)
         validate_namespace(namespace)
         fqn = namespace.rstrip('/') + '/' + name
-        overrides = parameter_overrides(fqn, parameters, params_file, ros_args)
+        overrides = parameter_overrides(fqn, parameters, params_file, shared)
+        overrides = parameter_overrides(fqn, overrides, None, ros_args)
         if use_sim_time is None:
             if 'use_sim_time' in overrides:
                 use_sim_time = overrides['use_sim_time'] is True

@@ -60,7 +60,7 @@ class ParameterClient:
         client = self._clients[service]
         wait = self.timeout if timeout is None else timeout
         try:
-            response: Message = client.call(None, wait, **fields)
+            response: Message = client.call(client.Request(**fields), wait)
             return response
         except ServiceUnavailableError:
             raise NodeNotFoundError(

@@ -8,6 +8,7 @@ they stop and jumps when they jump. Timers and rates of the node follow that clo
 from __future__ import annotations
 
 import datetime
+import operator
 import os
 import threading
 import time
@@ -25,11 +26,32 @@ def _nanoseconds(seconds: float) -> int:
     return round(seconds * _NS)
 
 
-@dataclass(frozen=True, order=True)
-class Duration:
-    """A span of ROS time, in integer nanoseconds (negative spans are allowed)."""
+def _total(kind: str, nanoseconds: int, seconds: float) -> int:
+    """The integer nanoseconds of ``kind(nanoseconds, seconds=)``; a float as nanoseconds (an
+    rclpy habit, ``Duration(0.5)``) would be a silent 0, so it raises."""
+    if type(nanoseconds) is not int:
+        try:
+            nanoseconds = operator.index(nanoseconds)
+        except TypeError:
+            raise TypeError(
+                f'{kind}() takes integer nanoseconds, not {nanoseconds!r}: '
+                f'for seconds write {kind}(seconds={nanoseconds!r}) '
+                f'or {kind}.from_seconds({nanoseconds!r})'
+            ) from None
+    if seconds:
+        return nanoseconds + _nanoseconds(seconds)
+    return nanoseconds
 
-    nanoseconds: int = 0
+
+@dataclass(frozen=True, order=True, init=False)
+class Duration:
+    """A span of ROS time, in integer nanoseconds (negative spans are allowed):
+    ``Duration(1_500_000_000)``, or rclpy's ``Duration(seconds=1, nanoseconds=500_000_000)``."""
+
+    nanoseconds: int
+
+    def __init__(self, nanoseconds: int = 0, *, seconds: float = 0) -> None:
+        object.__setattr__(self, 'nanoseconds', _total('Duration', nanoseconds, seconds))
 
     @classmethod
     def from_seconds(cls, seconds: float) -> Duration:
@@ -79,11 +101,15 @@ class Duration:
         return f'Duration({self.seconds:.9f} s)'
 
 
-@dataclass(frozen=True, order=True)
+@dataclass(frozen=True, order=True, init=False)
 class Time:
-    """A ROS time stamp, in integer nanoseconds since the epoch (or since sim time 0)."""
+    """A ROS time stamp, in integer nanoseconds since the epoch (or since sim time 0):
+    ``Time(1_500_000_000)``, or rclpy's ``Time(seconds=1, nanoseconds=500_000_000)``."""
 
-    nanoseconds: int = 0
+    nanoseconds: int
+
+    def __init__(self, nanoseconds: int = 0, *, seconds: float = 0) -> None:
+        object.__setattr__(self, 'nanoseconds', _total('Time', nanoseconds, seconds))
 
     @classmethod
     def from_seconds(cls, seconds: float) -> Time:

@@ -81,6 +81,8 @@ class Executor:
         self._async_wakers: list[Callable[[], None]] = []
         self._woken = False  #: wake() was called: a waiting run_once returns even with no work
         self.stopped = False
+        #: the thread running this executor's callbacks now (None: none), for diagnostics
+        self.callback_thread: int | None = None
         self._spin_loop: asyncio.AbstractEventLoop | None = None  #: the loop of spin_async
         self._own_loop: asyncio.AbstractEventLoop | None = None  #: async callbacks otherwise
         self._loop_lock = threading.Lock()
@@ -167,12 +169,16 @@ class Executor:
         """Run the ready work, then the due timers; returns how many callbacks ran."""
         ready = self._ready
         done = 0
-        while ready:
-            work = ready.popleft()
-            work.scheduled = False
-            done += work.run()
-        if self._timers:
-            done += self._run_timers()
+        outer, self.callback_thread = self.callback_thread, threading.get_ident()
+        try:
+            while ready:
+                work = ready.popleft()
+                work.scheduled = False
+                done += work.run()
+            if self._timers:
+                done += self._run_timers()
+        finally:
+            self.callback_thread = outer
         return done
 
     def run_once(self, timeout: float | None) -> int:

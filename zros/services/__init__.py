@@ -3,7 +3,8 @@
 Payloads are a CDR header and the request or response body (the bridge adds and strips the DDS
 request id). A server answers each query exactly once; handlers run on the thread that spins the
 node (async handlers on its event loop). A client's ``call`` waits on Zenoh's reply channel
-directly, so it works with or without spinning and never deadlocks inside a callback.
+directly, so the caller's node needs no spinning; the server's does (a call inside a callback of
+the node that serves it times out, with an error that says why).
 """
 
 from zros.runtime.futures import ServiceFuture

@@ -1,7 +1,8 @@
 """Service clients: a call is a Zenoh query, waited for on the caller's thread.
 
-``call`` waits on Zenoh's reply channel directly, so it works with or without spinning and
-never deadlocks inside a callback; ``call_async`` resolves a future that is also awaitable.
+``call`` waits on Zenoh's reply channel directly, so it works whether or not the caller's node
+spins; the server's node must spin, so a call inside a callback of the node that serves it times
+out (the error says why). ``call_async`` resolves a future that is also awaitable.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from zros.qos import SERVICE_PRIORITY
 from zros.runtime.defaults import NodeLike
 from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal, raises_on_interrupt
+from zros.runtime.timeouts import UNSET, Unset, either_timeout
 from zros.services.errors import (
     ERROR_PREFIX,
     ServiceCallError,
@@ -28,6 +30,7 @@ from zros.services.errors import (
     ServiceTimeoutError,
     ServiceUnavailableError,
 )
+from zros.services.server import unanswered_here
 from zros.services.service_entity import ServiceEntity
 from zros.transport.zenoh_qos import PRIORITY
 
@@ -83,9 +86,12 @@ class Client(ServiceEntity):
             status = self._querier.matching_status  # a MatchingStatus: the stub says bool
             return bool(status.matching)  # type: ignore[attr-defined]  # see above
 
-    def wait_for_service(self, timeout: float | None = 5.0) -> bool:
+    def wait_for_service(
+        self, timeout: float | None = 5.0, *, timeout_sec: float | Unset | None = UNSET
+    ) -> bool:
         """Wait until a server is reachable; returns whether one showed up in time (False once
-        closed, and after Ctrl-C)."""
+        closed, and after Ctrl-C). ``timeout_sec`` is rclpy's spelling of ``timeout``."""
+        timeout = either_timeout(timeout, timeout_sec, 5.0)
         self._matching.wait_for(lambda: self._closed or self.service_is_ready(), timeout)
         return not self._closed and self.service_is_ready()
 
@@ -144,11 +150,17 @@ class Client(ServiceEntity):
         )
 
     def call(
-        self, request: Message | None = None, timeout: float | None = None, **fields: object
+        self,
+        request: Message | None = None,
+        timeout: float | None = None,
+        *,
+        timeout_sec: float | Unset | None = UNSET,
+        **fields: object,
     ) -> Message:
         """Call the service and return its response (see the class docstring for errors);
-        Ctrl-C raises KeyboardInterrupt."""
+        Ctrl-C raises KeyboardInterrupt. ``timeout_sec`` is rclpy's spelling of ``timeout``."""
         data = self._request(request, fields)
+        timeout = either_timeout(timeout, timeout_sec, None)
         timeout = self.timeout if timeout is None else timeout
         started = time.monotonic()
         sent = self._wire.request_attachment()
@@ -162,6 +174,8 @@ class Client(ServiceEntity):
         if reply is None:
             raise self._unavailable()
         outcome = self._outcome(reply, started, timeout, sent)
+        if isinstance(outcome, ServiceTimeoutError):
+            raise ServiceTimeoutError(f'{outcome}{unanswered_here(self.name, self.key)}')
         if isinstance(outcome, ServiceError):
             raise outcome
         return outcome

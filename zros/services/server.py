@@ -12,7 +12,9 @@ import collections
 import concurrent.futures
 import inspect
 import logging
+import threading
 import time
+import weakref
 from collections.abc import Callable, Coroutine
 from typing import cast
 
@@ -52,6 +54,34 @@ def _takes_response(handler: ServiceHandler) -> bool:
         if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) and p.default is p.empty
     ]
     return len(positional) >= 2 or any(p.kind is p.VAR_POSITIONAL for p in parameters)
+
+
+#: the servers of this process, to explain a call that one of them left unanswered
+_served: weakref.WeakSet[Service] = weakref.WeakSet()
+
+
+def unanswered_here(name: str, key: str) -> str:
+    """Why a server of this process holds a request to ``name`` unanswered ('' if none does):
+    the node serving it is not spinning, or it is the caller's own node, busy with the callback
+    that waits for the answer (rclpy deadlocks there too)."""
+    caller = threading.get_ident()
+    for server in list(_served):
+        if server.name != name or server.key != key or not server._pending or not server._handler:
+            continue
+        node = server.context.fully_qualified_name
+        if server.context.executor.callback_thread == caller:
+            return (
+                f'; its server is node {node}, and this call waits inside a callback of that '
+                'node, so the handler cannot run until the callback returns: use call_async() '
+                'and take the response in a done callback, or serve it from a node spun on '
+                'another thread (or made with immediate_callbacks=True)'
+            )
+        return (
+            f'; its server, node {node} of this process, holds the request unanswered: nobody '
+            'spins that node, or its callbacks are busy (spin it on a thread of its own, or '
+            'make it with immediate_callbacks=True)'
+        )
+    return ''
 
 
 class Service(ServiceEntity):
@@ -107,6 +137,7 @@ class Service(ServiceEntity):
         self._requests = wire.requests(self.name, ERROR_PREFIX)
         self._serve(wire, self._on_query)
         self._announce()
+        _served.add(self)
 
     # --- on Zenoh's thread -------------------------------------------------------------------
 
