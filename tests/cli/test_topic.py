@@ -136,6 +136,38 @@ def test_echo_abbreviates_arrays_and_strings(cli: Cli, talker: Callable[..., Any
     assert short == 'data: xxxxx...\n---\n'
 
 
+def test_echo_truncates_long_values_at_128_like_ros2(cli: Cli, zros_node: Node) -> None:
+    # a 640x480 rgb8 image printed in full was 921,613 lines (43 s); ros2 cuts at 128 items
+    node = zros_node('camera')
+    node.create_publisher('sensor_msgs/msg/Image', '/image', 'latched').write(
+        zros.Message(
+            'sensor_msgs/msg/Image', height=480, width=640, encoding='rgb8', step=1920,
+            data=bytes(640 * 480 * 3), header={'frame_id': 'f' * 200},
+        )
+    )  # fmt: skip
+    started = time.monotonic()
+    result = cli.run('topic', 'echo', '/image', '--once')
+    assert result.returncode == 0, result.stderr
+    assert time.monotonic() - started < 30
+    lines = result.stdout.splitlines()
+    data = lines.index('data:')
+    assert lines[data + 1 : data + 3] == ['- 0', '- 0']
+    assert lines[data + 129 :] == ["- '...'", '---']
+    assert f'  frame_id: {"f" * 128}...' in lines
+    short = cli.run('topic', 'echo', '/image', '--once', '--field', 'data', '-l', '5').stdout
+    assert short == '- 0\n' * 5 + "- '...'\n---\n"
+    frame = cli.run('topic', 'echo', '/image', '--once', '--field', 'header.frame_id').stdout
+    assert frame == f'{"f" * 128}...\n---\n'
+    csv = cli.run('topic', 'echo', '/image', '--once', '--csv', '--truncate-length', '2').stdout
+    assert csv == '0,0,ff...,480,640,rg...,0,1920,0,0,...\n'
+    for full in ('-f', '--full-length'):
+        whole = cli.run('topic', 'echo', '/image', '--once', '--field', 'header.frame_id', full)
+        assert whole.stdout == f'{"f" * 200}\n---\n'
+    negative = cli.run('topic', 'echo', '/image', '--truncate-length', '-1')
+    assert negative.returncode == 2
+    assert 'must be 0 or more, not -1' in negative.stderr
+
+
 def test_echo_receives_a_latched_message(cli: Cli, zros_node: Node) -> None:
     node = zros_node('static')
     node.create_publisher('std_msgs/msg/String', '/map_name', 'latched').write(

@@ -33,6 +33,8 @@ if TYPE_CHECKING:
 
 #: what lists the topics, named when a mistyped one matches none
 LIST = 'zros topic list'
+#: where ``topic echo`` cuts arrays, bytes and strings unless ``--full-length`` (as ros2)
+TRUNCATE = 128
 
 
 def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
@@ -109,7 +111,8 @@ def echo(args: argparse.Namespace) -> int:
     from zros.cdr.message import Message
     from zros.cli.message_text import message_to_csv, message_to_yaml, select, value_to_yaml
 
-    options = {'truncate': args.truncate_length, 'no_arr': args.no_arr, 'no_str': args.no_str}
+    truncate = None if args.full_length else args.truncate_length
+    options = {'truncate': truncate, 'no_arr': args.no_arr, 'no_str': args.no_str}
 
     def text_of(message: Message) -> str:
         value: object = message
@@ -221,7 +224,13 @@ def add_parser(
     parser.add_argument('--no-arr', action='store_true', help='abbreviate arrays')
     parser.add_argument('--no-str', action='store_true', help='abbreviate strings')
     parser.add_argument('--flow-style', action='store_true', help='arrays on one line')
-    parser.add_argument('--truncate-length', type=int, metavar='N', help='cut long values')
+    parser.add_argument(
+        '-l', '--truncate-length', type=_count, default=TRUNCATE, metavar='N',
+        help=f'cut arrays, bytes and strings after N items, marked ... (default {TRUNCATE})',
+    )  # fmt: skip
+    parser.add_argument(
+        '-f', '--full-length', action='store_true', help='print arrays and strings in full'
+    )
     parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
     _add_max_age(parser)
     add_wait_option(parser, 'topic')
@@ -265,6 +274,17 @@ def add_parser(
             _add_max_age(parser)
         parser.add_argument('--period', type=float, default=1.0, help='seconds between reports')
         parser.add_argument('--count', type=int, default=0, help='exit after N reports')
+
+
+def _count(text: str) -> int:
+    """An argparse type: a whole number >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f'must be 0 or more, not {text}')
+    return value
 
 
 def _seconds(text: str) -> float:
