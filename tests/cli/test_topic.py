@@ -215,6 +215,44 @@ def test_pub_at_a_rate_and_latched(cli: Cli, zros_node: Node) -> None:
     latched.process.terminate()
 
 
+def test_pub_stamps_header_auto_and_time_now_anew_each_message(cli: Cli, zros_node: Node) -> None:
+    # as ros2 topic pub: {header: auto} is a Header stamped now, {stamp: now} a Time of now
+    node = zros_node('listener')
+    poses: list[Any] = []
+    headers: list[Any] = []
+    markers: list[Any] = []
+    node.create_subscription('geometry_msgs/msg/PoseStamped', '/pose', poses.append)
+    node.create_subscription('std_msgs/msg/Header', '/header', headers.append)
+    node.create_subscription('visualization_msgs/msg/MarkerArray', '/markers', markers.append)
+    with spinning(node):
+        before = time.time()
+        for topic, type_name, values in (
+            ('/pose', 'geometry_msgs/msg/PoseStamped', '{header: auto, pose: {position: {x: 1}}}'),
+            ('/header', 'std_msgs/msg/Header', '{stamp: now, frame_id: auto}'),
+            ('/markers', 'visualization_msgs/msg/MarkerArray',
+             '{markers: [{header: auto}, {header: {stamp: now, frame_id: map}}]}'),
+        ):  # fmt: skip
+            result = cli.run('topic', 'pub', topic, type_name, values, '-r', '20', '-t', '3',
+                             '-w', '1')  # fmt: skip
+            assert result.returncode == 0, result.stderr
+        assert wait_for(lambda: len(poses) == len(headers) == len(markers) == 3, 10)
+        after = time.time()
+
+    def seconds(stamp: Any) -> float:
+        return float(stamp.sec + stamp.nanosec * 1e-9)
+
+    pose_stamps = [seconds(p.header.stamp) for p in poses]
+    assert all(before <= t <= after for t in pose_stamps), (before, pose_stamps, after)
+    assert pose_stamps == sorted(set(pose_stamps))  # each message stamped anew
+    assert [(p.header.frame_id, p.pose.position.x) for p in poses] == [('', 1.0)] * 3
+    assert [h.frame_id for h in headers] == ['auto'] * 3  # only a Header field expands 'auto'
+    assert all(before <= seconds(h.stamp) <= after for h in headers)
+    for array in markers:
+        first, second = array.markers
+        assert (first.header.frame_id, second.header.frame_id) == ('', 'map')
+        assert before <= seconds(first.header.stamp) == seconds(second.header.stamp) <= after
+
+
 def test_pub_rejects_bad_values_before_publishing(cli: Cli) -> None:
     # mistakes in what was typed are usage errors (exit 2), one line naming the field
     for type_name, values, expected in (

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from zros.cli.shared import (
     DISCOVERY,
@@ -152,9 +152,59 @@ def echo(args: argparse.Namespace) -> int:
     return 0
 
 
+#: where ``pub`` puts the time: a path of field names and sequence indexes to a Time field
+StampPath = tuple[str | int, ...]
+
+
+def _expand_stamps(cls: type[Message], values: dict[str, object]) -> list[StampPath]:
+    """Take ``header: auto`` (a std_msgs/Header field) and ``stamp: now`` (a
+    builtin_interfaces/Time field) out of ``values`` as ``ros2 topic pub`` does: an empty
+    message in their place, and the paths of the Time fields to set to now at each publish."""
+    from zros.cdr.message import definition_of
+
+    paths: list[StampPath] = []
+
+    def walk(cls: type[Message], values: dict[str, object], path: StampPath) -> None:
+        types = {field.name: field.type for field in definition_of(cls).fields}
+        for name, value in values.items():
+            field_type = types.get(name)
+            if field_type is None or not field_type.is_nested:
+                continue  # from_dict names a wrong field
+            if field_type.is_scalar:
+                if field_type.base == 'std_msgs/msg/Header' and value == 'auto':
+                    values[name] = {}
+                    paths.append((*path, name, 'stamp'))
+                elif field_type.base == 'builtin_interfaces/msg/Time' and value == 'now':
+                    values[name] = {}
+                    paths.append((*path, name))
+                elif isinstance(value, dict):
+                    walk(message_class(field_type.base), value, (*path, name))
+            elif isinstance(value, list):
+                element = message_class(field_type.base)
+                for index, item in enumerate(value):
+                    if isinstance(item, dict):
+                        walk(element, item, (*path, name, index))
+
+    walk(cls, values, ())
+    return paths
+
+
+def _stamp(message: Message, paths: list[StampPath], now: Message) -> None:
+    """Set the Time fields at ``paths`` (from :func:`_expand_stamps`) to ``now``."""
+    for path in paths:
+        owner: object = message
+        for step in path[:-1]:
+            owner = (
+                cast('list[object]', owner)[step] if isinstance(step, int) else getattr(owner, step)
+            )
+        setattr(owner, str(path[-1]), now)
+
+
 def pub(args: argparse.Namespace) -> int:
     cls = message_class(args.type)
-    message = build_message(cls, parse_values(args.values))
+    values = parse_values(args.values)
+    stamps = _expand_stamps(cls, values)
+    message = build_message(cls, values)
     with open_node(args) as node:
         require_advertised_type(node, 'topics', args.topic, cls.__msgtype__)
         qos = (LATCHED if args.latched else DEFAULT).with_(
@@ -177,6 +227,8 @@ def pub(args: argparse.Namespace) -> int:
         try:
             while node.ok():
                 sent += 1
+                if stamps:
+                    _stamp(message, stamps, node.now().to_msg())
                 out(f'publishing #{sent}: {message!r}')
                 out()
                 publisher.write(message)
@@ -238,7 +290,10 @@ def add_parser(
     parser = add_verb(verbs, 'pub', 'publish messages on a topic', pub)
     parser.add_argument('topic')
     parser.add_argument('type')
-    parser.add_argument('values', nargs='?', help='YAML, e.g. "{data: hello}"')
+    parser.add_argument(
+        'values', nargs='?',
+        help='YAML, e.g. "{data: hello}"; "{header: auto}" and "{stamp: now}" stamp each message',
+    )  # fmt: skip
     parser.add_argument('-r', '--rate', type=float, default=1.0, help='Hz (default 1; 0: no wait)')
     parser.add_argument('-1', '--once', action='store_true', help='publish once and exit')
     parser.add_argument('-t', '--times', type=int, default=0, help='publish N times and exit')
