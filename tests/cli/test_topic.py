@@ -253,6 +253,49 @@ def test_pub_stamps_header_auto_and_time_now_anew_each_message(cli: Cli, zros_no
         assert before <= seconds(first.header.stamp) == seconds(second.header.stamp) <= after
 
 
+def test_pub_once_waits_for_a_subscriber_unless_w_0_like_ros2(cli: Cli, zros_node: Node) -> None:
+    # ros2 topic pub: -1 and -t wait for 1 matching subscription (-w N for N), without end
+    # unless --max-wait-time-secs; -w 0 does not wait at all
+    waiting = cli.start('topic', 'pub', '/late', 'std_msgs/msg/Int32', '{data: 4}', '-1')
+    waiting.wait_line(lambda line: line == 'Waiting for at least 1 matching subscription(s)...')
+    node = zros_node('listener')
+    received: list[Any] = []
+    node.create_subscription('std_msgs/msg/Int32', '/late', received.append)
+    with spinning(node):
+        code, _ = waiting.finish()
+        assert code == 0, waiting.errors.text()
+        assert wait_for(lambda: received, 10)
+    assert [m.data for m in received] == [4]
+
+    def fastest(*args: str) -> float:  # the fastest of three runs: load on the machine varies
+        times = []
+        for _ in range(3):
+            started = time.monotonic()
+            result = cli.run(*args)
+            times.append(time.monotonic() - started)
+            assert result.returncode == 0, result.stderr
+        return min(times)
+
+    # a command that opens a node, asks the graph and ends, as pub does without waiting
+    baseline = fastest('topic', 'find', 'std_msgs/msg/Int32')
+    unwaited = fastest(
+        'topic', 'pub', '/nobody', 'std_msgs/msg/Int32', '{data: 1}', '-1', '-w', '0'
+    )
+    assert unwaited < baseline + 0.8, (unwaited, baseline)  # it was baseline + 1.3 s
+
+    timed_out = cli.run('topic', 'pub', '/nobody', 'std_msgs/msg/Int32', '{data: 1}', '-t', '2',
+                        '--max-wait-time-secs', '0.3')  # fmt: skip
+    assert timed_out.returncode == 1
+    assert timed_out.stderr == (
+        'zros: error: no subscriber matched /nobody within 0.3 s (waited for 1, found 0)\n'
+    )
+    assert 'publishing' not in timed_out.stdout
+    useless = cli.run('topic', 'pub', '/nobody', 'std_msgs/msg/Int32', '{data: 1}', '-w', '0',
+                      '--max-wait-time-secs', '1')  # fmt: skip
+    assert useless.returncode == 2
+    assert '--max-wait-time-secs needs a subscriber to wait for' in useless.stderr
+
+
 def test_pub_rejects_bad_values_before_publishing(cli: Cli) -> None:
     # mistakes in what was typed are usage errors (exit 2), one line naming the field
     for type_name, values, expected in (
@@ -348,7 +391,16 @@ def test_pub_sends_with_the_priority_and_congestion_asked(cli: Cli, zros_router:
     chosen_options = ('--priority', 'background', '--no-express', '--congestion', 'block')
     for topic, options in (('/a', ()), ('/b', chosen_options)):
         result = cli.run(
-            'topic', 'pub', topic, 'std_msgs/msg/Int32', '{data: 1}', '--once', *options
+            # -w 0: the router's taps are no ROS subscribers for --once to wait for
+            'topic',
+            'pub',
+            topic,
+            'std_msgs/msg/Int32',
+            '{data: 1}',
+            '--once',
+            '-w',
+            '0',
+            *options,
         )
         assert result.returncode == 0, result.stderr
     assert wait_for(lambda: len(samples) == 2, 10)

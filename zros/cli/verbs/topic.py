@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, cast
 from zros.cli.shared import (
     DISCOVERY,
     CommandError,
+    UsageError,
     add_verb,
     add_verbs,
     add_wait_option,
@@ -30,6 +31,7 @@ if TYPE_CHECKING:
     from zros.cdr import Message
     from zros.graph import Endpoint
     from zros.node import Node
+    from zros.pubsub.publisher import Publisher
 
 #: what lists the topics, named when a mistyped one matches none
 LIST = 'zros topic list'
@@ -200,29 +202,53 @@ def _stamp(message: Message, paths: list[StampPath], now: Message) -> None:
         setattr(owner, str(path[-1]), now)
 
 
+def _wait_for_subscribers(
+    node: Node, publisher: Publisher, wanted: int, timeout: float | None
+) -> bool:
+    """Wait until ``wanted`` subscribers of the publisher's topic show in the graph (saying so
+    each second, as ros2) and one matches the publisher, for ever unless ``timeout``; whether
+    they did (False after Ctrl-C)."""
+    deadline = None if timeout is None else time.monotonic() + timeout
+
+    def found() -> int:
+        return len(_publishers_and_subscribers(node, publisher.topic)[1])
+
+    while found() < wanted:
+        if not node.ok():
+            return False
+        remaining = 1.0 if deadline is None else deadline - time.monotonic()
+        if remaining <= 0:
+            raise CommandError(
+                f'no subscriber matched {publisher.topic} within {timeout:g} s '
+                f'(waited for {wanted}, found {found()})'
+            )
+        out(f'Waiting for at least {wanted} matching subscription(s)...')
+        node.graph.wait_until(lambda: found() >= wanted, min(remaining, 1.0))
+    # the graph shows them a moment before Zenoh routes to them: a put before would be lost
+    return publisher.wait_for_subscribers(DISCOVERY) or node.ok()
+
+
 def pub(args: argparse.Namespace) -> int:
     cls = message_class(args.type)
     values = parse_values(args.values)
     stamps = _expand_stamps(cls, values)
     message = build_message(cls, values)
+    times = 1 if args.once else args.times
+    wanted = args.wait_matching_subscriptions
+    if wanted is None:  # as ros2: one when it sends a number of messages (not when latched)
+        wanted = int(times != 0 and not args.latched)
+    if args.max_wait_time_secs is not None and not wanted:
+        raise UsageError('--max-wait-time-secs needs a subscriber to wait for (-w N, -1 or -t)')
     with open_node(args) as node:
         require_advertised_type(node, 'topics', args.topic, cls.__msgtype__)
         qos = (LATCHED if args.latched else DEFAULT).with_(
             priority=args.priority, express=args.express, congestion=args.congestion
         )
         publisher = node.create_publisher(cls, args.topic, qos=qos)
-        if args.wait_matching_subscriptions:
-            deadline = time.monotonic() + 30
-            while len(_publishers_and_subscribers(node, args.topic)[1]) < (
-                args.wait_matching_subscriptions
-            ):
-                if time.monotonic() > deadline:
-                    raise CommandError('no subscriber matched within 30 s')
-                node.graph.wait_until(lambda: False, 0.1)
-        publisher.wait_for_subscribers(1.0)
+        if wanted and not _wait_for_subscribers(node, publisher, wanted, args.max_wait_time_secs):
+            return 0  # Ctrl-C
         out('publisher: beginning loop')
         rate = node.create_rate(args.rate) if args.rate > 0 else None
-        times = 1 if args.once else args.times
         sent = 0
         try:
             while node.ok():
@@ -300,7 +326,14 @@ def add_parser(
     parser.add_argument('--latched', action='store_true', help='transient local, like /tf_static')
     parser.add_argument('--keep-alive', type=float, default=1.0, metavar='S',
                         help='with --latched: seconds to stay for late subscribers')  # fmt: skip
-    parser.add_argument('-w', '--wait-matching-subscriptions', type=int, default=0, metavar='N')
+    parser.add_argument(
+        '-w', '--wait-matching-subscriptions', type=_count, metavar='N',
+        help='wait for N subscribers first (default: 1 with -1 or -t unless --latched, else 0)',
+    )  # fmt: skip
+    parser.add_argument(
+        '--max-wait-time-secs', type=_seconds, metavar='S',
+        help='fail if they do not show within S seconds (default: wait for ever)',
+    )  # fmt: skip
     parser.add_argument(
         '--priority', choices=[p.name.lower() for p in Priority],
         help="Zenoh's priority (default: by topic and type, docs/qos.md)",
