@@ -28,7 +28,7 @@ def timed(cli: Cli, *args: str) -> tuple[float, int, str]:
 def test_mistyped_topics_suggest_the_closest(cli: Cli, zros_node: Node) -> None:
     talker = zros_node('talker')
     talker.create_publisher('std_msgs/msg/String', '/chatter', 10)
-    for verb in ('echo', 'hz', 'bw', 'info'):
+    for verb in ('echo', 'hz', 'bw', 'info', 'type'):
         elapsed, code, stderr = timed(cli, 'topic', verb, '/chater')
         assert (code, stderr) == (
             1,

@@ -97,8 +97,7 @@ def info(args: argparse.Namespace) -> int:
 
 def topic_type(args: argparse.Namespace) -> int:
     with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        out(graph_topic_type(node, args.topic, 0))
+        out(graph_topic_type(node, args.topic, None))  # a name not found: the closest
     return 0
 
 
