@@ -300,12 +300,18 @@ def message_to_csv(
 
 def select(message: Message, path: str) -> object:
     """The value at a dotted path (``pose.position``), for ``--field``."""
+    from zros.cdr.errors import FieldError
+
     value: object = message
-    for part in path.strip('.').split('.'):
-        if not part:
-            continue
-        if not isinstance(value, Message) or part not in value.__slots__:
-            where = getattr(value, '__msgtype__', type(value).__name__)
-            raise KeyError(f"--field {path}: '{part}' is not a field of {where}")
+    parts = [part for part in path.split('.') if part]
+    for index, part in enumerate(parts):
+        if not isinstance(value, Message):
+            raise KeyError(f"--field {path}: '{part}' is not a field of {type(value).__name__}")
+        if part not in value.__slots__:
+            names = tuple(field.name for field in definition_of(type(value)).fields)
+            error = FieldError.unknown(value.__msgtype__, part, names)  # "did you mean"
+            if index:
+                error = error.inside(message.__msgtype__, '.'.join(parts[:index]))
+            raise KeyError(f'--field {path}: {error}')
         value = getattr(value, part)
     return value

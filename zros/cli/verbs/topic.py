@@ -115,13 +115,14 @@ def echo(args: argparse.Namespace) -> int:
     truncate = None if args.full_length else args.truncate_length
     options = {'truncate': truncate, 'no_arr': args.no_arr, 'no_str': args.no_str}
 
+    def selected(message: Message) -> object:
+        try:
+            return select(message, args.field) if args.field else message
+        except KeyError as exc:
+            raise CommandError(str(exc.args[0])) from None
+
     def text_of(message: Message) -> str:
-        value: object = message
-        if args.field:
-            try:
-                value = select(message, args.field)
-            except KeyError as exc:
-                raise CommandError(str(exc.args[0])) from None
+        value = selected(message)
         if args.csv:
             return message_to_csv(value, **options) if isinstance(value, Message) else str(value)
         if isinstance(value, Message):
@@ -130,6 +131,7 @@ def echo(args: argparse.Namespace) -> int:
 
     with open_node(args) as node:
         type_name = subscription_type(node, args.topic, args.type, args.wait)
+        selected(node.registry.get_class(type_name)())  # a wrong --field fails before a message
         publishers = _publishers_and_subscribers(node, args.topic)[0]
         latched = bool(publishers) and all(
             p.qos is not None and p.qos.transient_local for p in publishers
