@@ -287,7 +287,7 @@ def test_pub_once_waits_for_a_subscriber_unless_w_0_like_ros2(cli: Cli, zros_nod
                         '--max-wait-time-secs', '0.3')  # fmt: skip
     assert timed_out.returncode == 1
     assert timed_out.stderr == (
-        'zros: error: no subscriber matched /nobody within 0.3 s (waited for 1, found 0)\n'
+        'zros: error: /nobody: 0 of the 1 subscriber(s) waited for showed within 0.3 s\n'
     )
     assert 'publishing' not in timed_out.stdout
     useless = cli.run('topic', 'pub', '/nobody', 'std_msgs/msg/Int32', '{data: 1}', '-w', '0',

@@ -220,8 +220,8 @@ def _wait_for_subscribers(
         remaining = 1.0 if deadline is None else deadline - time.monotonic()
         if remaining <= 0:
             raise CommandError(
-                f'no subscriber matched {publisher.topic} within {timeout:g} s '
-                f'(waited for {wanted}, found {found()})'
+                f'{publisher.topic}: {found()} of the {wanted} subscriber(s) waited for showed '
+                f'within {timeout:g} s'
             )
         out(f'Waiting for at least {wanted} matching subscription(s)...')
         node.graph.wait_until(lambda: found() >= wanted, min(remaining, 1.0))
