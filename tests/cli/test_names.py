@@ -9,6 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import zros
 from tests.cli.conftest import Cli
 from zros.testing import spinning
 
@@ -28,7 +29,7 @@ def timed(cli: Cli, *args: str) -> tuple[float, int, str]:
 def test_mistyped_topics_suggest_the_closest(cli: Cli, zros_node: Node) -> None:
     talker = zros_node('talker')
     talker.create_publisher('std_msgs/msg/String', '/chatter', 10)
-    for verb in ('echo', 'hz', 'bw', 'info'):
+    for verb in ('echo', 'hz', 'bw', 'info', 'type'):
         elapsed, code, stderr = timed(cli, 'topic', verb, '/chater')
         assert (code, stderr) == (
             1,
@@ -38,6 +39,29 @@ def test_mistyped_topics_suggest_the_closest(cli: Cli, zros_node: Node) -> None:
     _, code, stderr = timed(cli, 'topic', 'echo', '/nothing_like_it')
     assert code == 1
     assert stderr.endswith(': zros topic list shows them\n')
+
+
+def test_mistyped_echo_field_suggests_the_closest_at_once(cli: Cli, zros_node: Node) -> None:
+    talker = zros_node('talker')
+    pose = zros.Message('geometry_msgs/msg/PoseStamped', pose={'position': {'x': 1.0}})
+    talker.create_publisher('geometry_msgs/msg/PoseStamped', '/pose', 'latched').write(pose)
+    talker.create_publisher('geometry_msgs/msg/PoseStamped', '/quiet', 10)  # sends nothing
+    for topic in ('/pose', '/quiet'):  # the field is checked before any message arrives
+        elapsed, code, stderr = timed(cli, 'topic', 'echo', topic, '--field', 'pose.positon')
+        assert (code, stderr) == (
+            1,
+            'zros: error: --field pose.positon: geometry_msgs/msg/PoseStamped has no field '
+            "'pose.positon' (did you mean 'pose.position'? fields of geometry_msgs/msg/Pose: "
+            'position, orientation)\n',
+        ), topic
+        assert elapsed < FAST, topic
+    _, code, stderr = timed(cli, 'topic', 'echo', '/quiet', '--field', 'header.stamp.sec.x')
+    assert (code, stderr) == (
+        1,
+        "zros: error: --field header.stamp.sec.x: 'x' is not a field of int\n",
+    )
+    right = cli.run('topic', 'echo', '/pose', '--once', '--field', 'pose.position.x')
+    assert right.stdout == '1.0\n---\n'
 
 
 def test_wait_keeps_waiting_for_the_topic(cli: Cli) -> None:

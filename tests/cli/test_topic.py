@@ -136,6 +136,38 @@ def test_echo_abbreviates_arrays_and_strings(cli: Cli, talker: Callable[..., Any
     assert short == 'data: xxxxx...\n---\n'
 
 
+def test_echo_truncates_long_values_at_128_like_ros2(cli: Cli, zros_node: Node) -> None:
+    # a 640x480 rgb8 image printed in full was 921,613 lines (43 s); ros2 cuts at 128 items
+    node = zros_node('camera')
+    node.create_publisher('sensor_msgs/msg/Image', '/image', 'latched').write(
+        zros.Message(
+            'sensor_msgs/msg/Image', height=480, width=640, encoding='rgb8', step=1920,
+            data=bytes(640 * 480 * 3), header={'frame_id': 'f' * 200},
+        )
+    )  # fmt: skip
+    started = time.monotonic()
+    result = cli.run('topic', 'echo', '/image', '--once')
+    assert result.returncode == 0, result.stderr
+    assert time.monotonic() - started < 30
+    lines = result.stdout.splitlines()
+    data = lines.index('data:')
+    assert lines[data + 1 : data + 3] == ['- 0', '- 0']
+    assert lines[data + 129 :] == ["- '...'", '---']
+    assert f'  frame_id: {"f" * 128}...' in lines
+    short = cli.run('topic', 'echo', '/image', '--once', '--field', 'data', '-l', '5').stdout
+    assert short == '- 0\n' * 5 + "- '...'\n---\n"
+    frame = cli.run('topic', 'echo', '/image', '--once', '--field', 'header.frame_id').stdout
+    assert frame == f'{"f" * 128}...\n---\n'
+    csv = cli.run('topic', 'echo', '/image', '--once', '--csv', '--truncate-length', '2').stdout
+    assert csv == '0,0,ff...,480,640,rg...,0,1920,0,0,...\n'
+    for full in ('-f', '--full-length'):
+        whole = cli.run('topic', 'echo', '/image', '--once', '--field', 'header.frame_id', full)
+        assert whole.stdout == f'{"f" * 200}\n---\n'
+    negative = cli.run('topic', 'echo', '/image', '--truncate-length', '-1')
+    assert negative.returncode == 2
+    assert 'must be 0 or more, not -1' in negative.stderr
+
+
 def test_echo_receives_a_latched_message(cli: Cli, zros_node: Node) -> None:
     node = zros_node('static')
     node.create_publisher('std_msgs/msg/String', '/map_name', 'latched').write(
@@ -181,6 +213,87 @@ def test_pub_at_a_rate_and_latched(cli: Cli, zros_node: Node) -> None:
     got = late.create_subscription('std_msgs/msg/Int32', '/level', qos='latched')
     assert got.wait_for_message(timeout=10).data == 3
     latched.process.terminate()
+
+
+def test_pub_stamps_header_auto_and_time_now_anew_each_message(cli: Cli, zros_node: Node) -> None:
+    # as ros2 topic pub: {header: auto} is a Header stamped now, {stamp: now} a Time of now
+    node = zros_node('listener')
+    poses: list[Any] = []
+    headers: list[Any] = []
+    markers: list[Any] = []
+    node.create_subscription('geometry_msgs/msg/PoseStamped', '/pose', poses.append)
+    node.create_subscription('std_msgs/msg/Header', '/header', headers.append)
+    node.create_subscription('visualization_msgs/msg/MarkerArray', '/markers', markers.append)
+    with spinning(node):
+        before = time.time()
+        for topic, type_name, values in (
+            ('/pose', 'geometry_msgs/msg/PoseStamped', '{header: auto, pose: {position: {x: 1}}}'),
+            ('/header', 'std_msgs/msg/Header', '{stamp: now, frame_id: auto}'),
+            ('/markers', 'visualization_msgs/msg/MarkerArray',
+             '{markers: [{header: auto}, {header: {stamp: now, frame_id: map}}]}'),
+        ):  # fmt: skip
+            result = cli.run('topic', 'pub', topic, type_name, values, '-r', '20', '-t', '3',
+                             '-w', '1')  # fmt: skip
+            assert result.returncode == 0, result.stderr
+        assert wait_for(lambda: len(poses) == len(headers) == len(markers) == 3, 10)
+        after = time.time()
+
+    def seconds(stamp: Any) -> float:
+        return float(stamp.sec + stamp.nanosec * 1e-9)
+
+    pose_stamps = [seconds(p.header.stamp) for p in poses]
+    assert all(before <= t <= after for t in pose_stamps), (before, pose_stamps, after)
+    assert pose_stamps == sorted(set(pose_stamps))  # each message stamped anew
+    assert [(p.header.frame_id, p.pose.position.x) for p in poses] == [('', 1.0)] * 3
+    assert [h.frame_id for h in headers] == ['auto'] * 3  # only a Header field expands 'auto'
+    assert all(before <= seconds(h.stamp) <= after for h in headers)
+    for array in markers:
+        first, second = array.markers
+        assert (first.header.frame_id, second.header.frame_id) == ('', 'map')
+        assert before <= seconds(first.header.stamp) == seconds(second.header.stamp) <= after
+
+
+def test_pub_once_waits_for_a_subscriber_unless_w_0_like_ros2(cli: Cli, zros_node: Node) -> None:
+    # ros2 topic pub: -1 and -t wait for 1 matching subscription (-w N for N), without end
+    # unless --max-wait-time-secs; -w 0 does not wait at all
+    waiting = cli.start('topic', 'pub', '/late', 'std_msgs/msg/Int32', '{data: 4}', '-1')
+    waiting.wait_line(lambda line: line == 'Waiting for at least 1 matching subscription(s)...')
+    node = zros_node('listener')
+    received: list[Any] = []
+    node.create_subscription('std_msgs/msg/Int32', '/late', received.append)
+    with spinning(node):
+        code, _ = waiting.finish()
+        assert code == 0, waiting.errors.text()
+        assert wait_for(lambda: received, 10)
+    assert [m.data for m in received] == [4]
+
+    def fastest(*args: str) -> float:  # the fastest of three runs: load on the machine varies
+        times = []
+        for _ in range(3):
+            started = time.monotonic()
+            result = cli.run(*args)
+            times.append(time.monotonic() - started)
+            assert result.returncode == 0, result.stderr
+        return min(times)
+
+    # a command that opens a node, asks the graph and ends, as pub does without waiting
+    baseline = fastest('topic', 'find', 'std_msgs/msg/Int32')
+    unwaited = fastest(
+        'topic', 'pub', '/nobody', 'std_msgs/msg/Int32', '{data: 1}', '-1', '-w', '0'
+    )
+    assert unwaited < baseline + 0.8, (unwaited, baseline)  # it was baseline + 1.3 s
+
+    timed_out = cli.run('topic', 'pub', '/nobody', 'std_msgs/msg/Int32', '{data: 1}', '-t', '2',
+                        '--max-wait-time-secs', '0.3')  # fmt: skip
+    assert timed_out.returncode == 1
+    assert timed_out.stderr == (
+        'zros: error: /nobody: 0 of the 1 subscriber(s) waited for showed within 0.3 s\n'
+    )
+    assert 'publishing' not in timed_out.stdout
+    useless = cli.run('topic', 'pub', '/nobody', 'std_msgs/msg/Int32', '{data: 1}', '-w', '0',
+                      '--max-wait-time-secs', '1')  # fmt: skip
+    assert useless.returncode == 2
+    assert '--max-wait-time-secs needs a subscriber to wait for' in useless.stderr
 
 
 def test_pub_rejects_bad_values_before_publishing(cli: Cli) -> None:
@@ -278,7 +391,16 @@ def test_pub_sends_with_the_priority_and_congestion_asked(cli: Cli, zros_router:
     chosen_options = ('--priority', 'background', '--no-express', '--congestion', 'block')
     for topic, options in (('/a', ()), ('/b', chosen_options)):
         result = cli.run(
-            'topic', 'pub', topic, 'std_msgs/msg/Int32', '{data: 1}', '--once', *options
+            # -w 0: the router's taps are no ROS subscribers for --once to wait for
+            'topic',
+            'pub',
+            topic,
+            'std_msgs/msg/Int32',
+            '{data: 1}',
+            '--once',
+            '-w',
+            '0',
+            *options,
         )
         assert result.returncode == 0, result.stderr
     assert wait_for(lambda: len(samples) == 2, 10)

@@ -8,6 +8,7 @@ with ruamel.yaml (a zros dependency): block style, fields in definition order, f
 from __future__ import annotations
 
 import io
+import itertools
 import math
 import operator
 import sys
@@ -69,6 +70,18 @@ def _byte_text(value: object, csv: bool) -> str:
     return repr(data) if csv else ''.join(chr(c) for c in data)
 
 
+def _cut(value: Collection[object], truncate: int | None) -> tuple[list[object], bool]:
+    """The first ``truncate`` items of a sequence as a list (all when ``None``), and whether
+    some were left off; only those kept are converted (a camera image has millions)."""
+    import numpy as np
+
+    if truncate is None or len(value) <= truncate:
+        return (value.tolist() if isinstance(value, np.ndarray) else list(value)), False
+    if isinstance(value, np.ndarray):
+        return value[:truncate].tolist(), True
+    return list(itertools.islice(value, truncate)), True
+
+
 def _plain(
     value: object,
     field_type: FieldType | None,
@@ -83,10 +96,7 @@ def _plain(
             raise TypeError(f'an array field holds {type(value).__name__}')
         if no_arr:
             return _abbreviate(value, field_type)
-        items = value.tolist() if isinstance(value, np.ndarray) else list(value)
-        cut = truncate is not None and len(items) > truncate
-        if cut:
-            items = items[:truncate]
+        items, cut = _cut(value, truncate)
         converted = [
             _byte_text(item, csv) if is_byte else _plain(item, field_type.element, options)
             for item in items
@@ -106,7 +116,9 @@ def _plain(
     if isinstance(value, Message):
         return _fields(value, options)
     if isinstance(value, (bytes, bytearray, np.ndarray, list, tuple)):  # a --field selection
-        return [_plain(element, None, options) for element in list(value)]
+        items, cut = _cut(value, truncate)
+        converted = [_plain(element, None, options) for element in items]
+        return [*converted, '...'] if cut else converted
     return cast('PlainValue', value)  # a bool, int, float (or None) field
 
 
@@ -288,12 +300,18 @@ def message_to_csv(
 
 def select(message: Message, path: str) -> object:
     """The value at a dotted path (``pose.position``), for ``--field``."""
+    from zros.cdr.errors import FieldError
+
     value: object = message
-    for part in path.strip('.').split('.'):
-        if not part:
-            continue
-        if not isinstance(value, Message) or part not in value.__slots__:
-            where = getattr(value, '__msgtype__', type(value).__name__)
-            raise KeyError(f"--field {path}: '{part}' is not a field of {where}")
+    parts = [part for part in path.split('.') if part]
+    for index, part in enumerate(parts):
+        if not isinstance(value, Message):
+            raise KeyError(f"--field {path}: '{part}' is not a field of {type(value).__name__}")
+        if part not in value.__slots__:
+            names = tuple(field.name for field in definition_of(type(value)).fields)
+            error = FieldError.unknown(value.__msgtype__, part, names)  # "did you mean"
+            if index:
+                error = error.inside(message.__msgtype__, '.'.join(parts[:index]))
+            raise KeyError(f'--field {path}: {error}')
         value = getattr(value, part)
     return value

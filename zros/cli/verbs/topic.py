@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from zros.cli.shared import (
     DISCOVERY,
     CommandError,
+    UsageError,
     add_verb,
     add_verbs,
     add_wait_option,
@@ -30,9 +31,12 @@ if TYPE_CHECKING:
     from zros.cdr import Message
     from zros.graph import Endpoint
     from zros.node import Node
+    from zros.pubsub.publisher import Publisher
 
 #: what lists the topics, named when a mistyped one matches none
 LIST = 'zros topic list'
+#: where ``topic echo`` cuts arrays, bytes and strings unless ``--full-length`` (as ros2)
+TRUNCATE = 128
 
 
 def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
@@ -93,8 +97,7 @@ def info(args: argparse.Namespace) -> int:
 
 def topic_type(args: argparse.Namespace) -> int:
     with open_node(args) as node:
-        node.graph.refresh(DISCOVERY)
-        out(graph_topic_type(node, args.topic, 0))
+        out(graph_topic_type(node, args.topic, None))  # a name not found: the closest
     return 0
 
 
@@ -109,15 +112,17 @@ def echo(args: argparse.Namespace) -> int:
     from zros.cdr.message import Message
     from zros.cli.message_text import message_to_csv, message_to_yaml, select, value_to_yaml
 
-    options = {'truncate': args.truncate_length, 'no_arr': args.no_arr, 'no_str': args.no_str}
+    truncate = None if args.full_length else args.truncate_length
+    options = {'truncate': truncate, 'no_arr': args.no_arr, 'no_str': args.no_str}
+
+    def selected(message: Message) -> object:
+        try:
+            return select(message, args.field) if args.field else message
+        except KeyError as exc:
+            raise CommandError(str(exc.args[0])) from None
 
     def text_of(message: Message) -> str:
-        value: object = message
-        if args.field:
-            try:
-                value = select(message, args.field)
-            except KeyError as exc:
-                raise CommandError(str(exc.args[0])) from None
+        value = selected(message)
         if args.csv:
             return message_to_csv(value, **options) if isinstance(value, Message) else str(value)
         if isinstance(value, Message):
@@ -126,6 +131,7 @@ def echo(args: argparse.Namespace) -> int:
 
     with open_node(args) as node:
         type_name = subscription_type(node, args.topic, args.type, args.wait)
+        selected(node.registry.get_class(type_name)())  # a wrong --field fails before a message
         publishers = _publishers_and_subscribers(node, args.topic)[0]
         latched = bool(publishers) and all(
             p.qos is not None and p.qos.transient_local for p in publishers
@@ -149,31 +155,107 @@ def echo(args: argparse.Namespace) -> int:
     return 0
 
 
+#: where ``pub`` puts the time: a path of field names and sequence indexes to a Time field
+StampPath = tuple[str | int, ...]
+
+
+def _expand_stamps(cls: type[Message], values: dict[str, object]) -> list[StampPath]:
+    """Take ``header: auto`` (a std_msgs/Header field) and ``stamp: now`` (a
+    builtin_interfaces/Time field) out of ``values`` as ``ros2 topic pub`` does: an empty
+    message in their place, and the paths of the Time fields to set to now at each publish."""
+    from zros.cdr.message import definition_of
+
+    paths: list[StampPath] = []
+
+    def walk(cls: type[Message], values: dict[str, object], path: StampPath) -> None:
+        types = {field.name: field.type for field in definition_of(cls).fields}
+        for name, value in values.items():
+            field_type = types.get(name)
+            if field_type is None or not field_type.is_nested:
+                continue  # from_dict names a wrong field
+            if field_type.is_scalar:
+                if field_type.base == 'std_msgs/msg/Header' and value == 'auto':
+                    values[name] = {}
+                    paths.append((*path, name, 'stamp'))
+                elif field_type.base == 'builtin_interfaces/msg/Time' and value == 'now':
+                    values[name] = {}
+                    paths.append((*path, name))
+                elif isinstance(value, dict):
+                    walk(message_class(field_type.base), value, (*path, name))
+            elif isinstance(value, list):
+                element = message_class(field_type.base)
+                for index, item in enumerate(value):
+                    if isinstance(item, dict):
+                        walk(element, item, (*path, name, index))
+
+    walk(cls, values, ())
+    return paths
+
+
+def _stamp(message: Message, paths: list[StampPath], now: Message) -> None:
+    """Set the Time fields at ``paths`` (from :func:`_expand_stamps`) to ``now``."""
+    for path in paths:
+        owner: object = message
+        for step in path[:-1]:
+            owner = (
+                cast('list[object]', owner)[step] if isinstance(step, int) else getattr(owner, step)
+            )
+        setattr(owner, str(path[-1]), now)
+
+
+def _wait_for_subscribers(
+    node: Node, publisher: Publisher, wanted: int, timeout: float | None
+) -> bool:
+    """Wait until ``wanted`` subscribers of the publisher's topic show in the graph (saying so
+    each second, as ros2) and one matches the publisher, for ever unless ``timeout``; whether
+    they did (False after Ctrl-C)."""
+    deadline = None if timeout is None else time.monotonic() + timeout
+
+    def found() -> int:
+        return len(_publishers_and_subscribers(node, publisher.topic)[1])
+
+    while found() < wanted:
+        if not node.ok():
+            return False
+        remaining = 1.0 if deadline is None else deadline - time.monotonic()
+        if remaining <= 0:
+            raise CommandError(
+                f'{publisher.topic}: {found()} of the {wanted} subscriber(s) waited for showed '
+                f'within {timeout:g} s'
+            )
+        out(f'Waiting for at least {wanted} matching subscription(s)...')
+        node.graph.wait_until(lambda: found() >= wanted, min(remaining, 1.0))
+    # the graph shows them a moment before Zenoh routes to them: a put before would be lost
+    return publisher.wait_for_subscribers(DISCOVERY) or node.ok()
+
+
 def pub(args: argparse.Namespace) -> int:
     cls = message_class(args.type)
-    message = build_message(cls, parse_values(args.values))
+    values = parse_values(args.values)
+    stamps = _expand_stamps(cls, values)
+    message = build_message(cls, values)
+    times = 1 if args.once else args.times
+    wanted = args.wait_matching_subscriptions
+    if wanted is None:  # as ros2: one when it sends a number of messages (not when latched)
+        wanted = int(times != 0 and not args.latched)
+    if args.max_wait_time_secs is not None and not wanted:
+        raise UsageError('--max-wait-time-secs needs a subscriber to wait for (-w N, -1 or -t)')
     with open_node(args) as node:
         require_advertised_type(node, 'topics', args.topic, cls.__msgtype__)
         qos = (LATCHED if args.latched else DEFAULT).with_(
             priority=args.priority, express=args.express, congestion=args.congestion
         )
         publisher = node.create_publisher(cls, args.topic, qos=qos)
-        if args.wait_matching_subscriptions:
-            deadline = time.monotonic() + 30
-            while len(_publishers_and_subscribers(node, args.topic)[1]) < (
-                args.wait_matching_subscriptions
-            ):
-                if time.monotonic() > deadline:
-                    raise CommandError('no subscriber matched within 30 s')
-                node.graph.wait_until(lambda: False, 0.1)
-        publisher.wait_for_subscribers(1.0)
+        if wanted and not _wait_for_subscribers(node, publisher, wanted, args.max_wait_time_secs):
+            return 0  # Ctrl-C
         out('publisher: beginning loop')
         rate = node.create_rate(args.rate) if args.rate > 0 else None
-        times = 1 if args.once else args.times
         sent = 0
         try:
             while node.ok():
                 sent += 1
+                if stamps:
+                    _stamp(message, stamps, node.now().to_msg())
                 out(f'publishing #{sent}: {message!r}')
                 out()
                 publisher.write(message)
@@ -221,7 +303,13 @@ def add_parser(
     parser.add_argument('--no-arr', action='store_true', help='abbreviate arrays')
     parser.add_argument('--no-str', action='store_true', help='abbreviate strings')
     parser.add_argument('--flow-style', action='store_true', help='arrays on one line')
-    parser.add_argument('--truncate-length', type=int, metavar='N', help='cut long values')
+    parser.add_argument(
+        '-l', '--truncate-length', type=_count, default=TRUNCATE, metavar='N',
+        help=f'cut arrays, bytes and strings after N items, marked ... (default {TRUNCATE})',
+    )  # fmt: skip
+    parser.add_argument(
+        '-f', '--full-length', action='store_true', help='print arrays and strings in full'
+    )
     parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
     _add_max_age(parser)
     add_wait_option(parser, 'topic')
@@ -229,14 +317,24 @@ def add_parser(
     parser = add_verb(verbs, 'pub', 'publish messages on a topic', pub)
     parser.add_argument('topic')
     parser.add_argument('type')
-    parser.add_argument('values', nargs='?', help='YAML, e.g. "{data: hello}"')
+    parser.add_argument(
+        'values', nargs='?',
+        help='YAML, e.g. "{data: hello}"; "{header: auto}" and "{stamp: now}" stamp each message',
+    )  # fmt: skip
     parser.add_argument('-r', '--rate', type=float, default=1.0, help='Hz (default 1; 0: no wait)')
     parser.add_argument('-1', '--once', action='store_true', help='publish once and exit')
     parser.add_argument('-t', '--times', type=int, default=0, help='publish N times and exit')
     parser.add_argument('--latched', action='store_true', help='transient local, like /tf_static')
     parser.add_argument('--keep-alive', type=float, default=1.0, metavar='S',
                         help='with --latched: seconds to stay for late subscribers')  # fmt: skip
-    parser.add_argument('-w', '--wait-matching-subscriptions', type=int, default=0, metavar='N')
+    parser.add_argument(
+        '-w', '--wait-matching-subscriptions', type=_count, metavar='N',
+        help='wait for N subscribers first (default: 1 with -1 or -t unless --latched, else 0)',
+    )  # fmt: skip
+    parser.add_argument(
+        '--max-wait-time-secs', type=_seconds, metavar='S',
+        help='fail if they do not show within S seconds (default: wait for ever)',
+    )  # fmt: skip
     parser.add_argument(
         '--priority', choices=[p.name.lower() for p in Priority],
         help="Zenoh's priority (default: by topic and type, docs/qos.md)",
@@ -265,6 +363,17 @@ def add_parser(
             _add_max_age(parser)
         parser.add_argument('--period', type=float, default=1.0, help='seconds between reports')
         parser.add_argument('--count', type=int, default=0, help='exit after N reports')
+
+
+def _count(text: str) -> int:
+    """An argparse type: a whole number >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f'must be 0 or more, not {text}')
+    return value
 
 
 def _seconds(text: str) -> float:
