@@ -249,13 +249,18 @@ def test_bw_reports_message_sizes(cli: Cli, talker: Callable[..., Any]) -> None:
     assert running.finish()[0] == 0
 
 
-def test_hz_says_no_new_messages_once_the_publisher_stops(cli: Cli, zros_node: Node) -> None:
+@pytest.mark.parametrize(('verb', 'report'), [('hz', 'average rate:'), ('delay', 'average delay:')])
+def test_hz_and_delay_say_no_new_messages_once_the_publisher_stops(
+    cli: Cli, zros_node: Node, verb: str, report: str
+) -> None:
     talker = zros_node('talker')
-    publisher = talker.create_publisher('std_msgs/msg/Int32', '/stopping')
-    running = cli.start('topic', 'hz', '/stopping', '--period', '0.3')
-    with publishing(talker, publisher, zros.Message('std_msgs/msg/Int32', data=1)):
-        running.wait_line(lambda line: line.startswith('average rate:'))
-    # not the last window over and over, as ros2 topic hz
+    publisher = talker.create_publisher('geometry_msgs/msg/PointStamped', '/stopping')
+    message = publisher.msg_type()
+    message.header.stamp = talker.now().to_msg()
+    running = cli.start('topic', verb, '/stopping', '--period', '0.3')
+    with publishing(talker, publisher, message):
+        running.wait_line(lambda line: line.startswith(report))
+    # not the last window over and over, as ros2 topic hz and delay
     running.wait_line(lambda line: line == 'no new messages', 10)
 
 

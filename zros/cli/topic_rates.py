@@ -177,14 +177,17 @@ def delay(args: argparse.Namespace) -> int:
         if 'header' not in message_class(type_name).__slots__:
             raise CommandError(f'{type_name} has no header: its delay cannot be measured')
         delays: deque[float] = deque(maxlen=args.window)
+        arrived = [0, 0]  # messages in all, and at the last report
 
         def on_message(message: Message) -> None:
             delays.append((node.now() - Time.from_msg(message.header.stamp)).seconds)
+            arrived[0] += 1
 
         node.create_subscription(type_name, args.topic, on_message, qos='sensor_data')
 
         def report() -> bool:
-            if not delays:
+            fresh, arrived[1] = arrived[0] != arrived[1], arrived[0]
+            if not delays or not fresh:  # as ros2's: not the last window again
                 out('no new messages')
                 return False
             values = list(delays)
