@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 from collections.abc import Callable
 from typing import Any
 
@@ -63,6 +64,35 @@ def test_service_list_type_find_call(cli: Cli, zros_node: Node) -> None:
         'requester: making request: example_interfaces.srv.AddTwoInts_Request(a=2, b=40)\n\n'
         'response:\nexample_interfaces.srv.AddTwoInts_Response(sum=42)\n\n'
     )
+
+
+def test_service_call_repeats_at_its_rate_until_ctrl_c(cli: Cli, zros_node: Node) -> None:
+    server = zros_node('adder', enable_rosout=False, start_parameter_services=False)
+    calls: list[int] = []
+
+    def add(request: Any) -> Any:
+        calls.append(request.a)
+        return adder.Response(sum=request.a + request.b)
+
+    adder = server.create_service(ADD, '/add_two_ints', add)
+    with spinning(server):
+        # as ros2's -r: calls at RATE Hz until Ctrl-C, which ends it as echo's (0)
+        running = cli.start('service', 'call', '/add_two_ints', ADD, '{a: 2, b: 40}', '-r', '20')
+        for _ in range(3):
+            running.wait_line(
+                lambda line: line == 'example_interfaces.srv.AddTwoInts_Response(sum=42)'
+            )
+        running.process.send_signal(signal.SIGINT)
+        code, _ = running.finish(10)
+        assert code == 0, running.errors.text()
+        assert 'Traceback' not in running.errors.text()
+        assert len(calls) >= 3
+        # --times (zros's own) stops after that many calls
+        counted = cli.run(
+            'service', 'call', '/add_two_ints', ADD, '{a: 1}', '-r', '50', '--times', '4'
+        )
+    assert counted.returncode == 0, counted.stderr
+    assert counted.stdout.count('response:') == 4
 
 
 def test_service_call_failures(cli: Cli, zros_node: Node) -> None:

@@ -160,3 +160,27 @@ def test_unknown_node(cli: Cli) -> None:
         1,
         'zros: error: node /ghost does not appear on the network: zros node list shows them\n',
     )
+
+
+def test_list_goes_on_past_a_node_that_does_not_answer(
+    cli: Cli, zros_node: Node, driver: Any
+) -> None:
+    # parameter services that never answer: the node never spins (a ROS node stuck in a callback)
+    stuck = zros_node('a_stuck', enable_rosout=False, start_parameter_services=False)
+    for service in ('get_parameters', 'list_parameters', 'get_parameter_types'):
+        kind = ''.join(word.title() for word in service.split('_'))
+        stuck.create_service(f'rcl_interfaces/srv/{kind}', f'~/{service}', lambda r: None)
+    listing = cli.run('param', 'list', '--timeout', '1')
+    # as ros2's: an error for that node on stderr, the others listed, exit 0
+    assert listing.returncode == 0, listing.stderr
+    assert (
+        listing.stderr == 'zros: error: node /a_stuck did not answer list_parameters within 1 s\n'
+    )
+    lines = listing.stdout.splitlines()
+    assert '/a_stuck:' not in lines
+    assert lines[0] == '/robot/driver:'
+    assert '  speed' in lines
+    # a node named on the command line still fails the command
+    alone = cli.run('param', 'list', '/a_stuck', '--timeout', '1')
+    assert alone.returncode == 1
+    assert 'did not answer list_parameters' in alone.stderr

@@ -13,7 +13,7 @@ import pytest
 import zenoh
 
 import zros
-from tests.cli.conftest import Cli
+from tests.cli.conftest import Cli, publishing
 from zros.testing import spinning, wait_for
 from zros.transport import Router
 
@@ -360,6 +360,43 @@ def test_bw_reports_message_sizes(cli: Cli, talker: Callable[..., Any]) -> None:
     # 2000 bytes of data, sequence lengths and the 4-byte CDR header
     assert sizes.strip() == 'Message size mean: 2.02 KB min: 2.02 KB max: 2.02 KB'
     assert running.finish()[0] == 0
+
+
+@pytest.mark.parametrize(('verb', 'report'), [('hz', 'average rate:'), ('delay', 'average delay:')])
+def test_hz_and_delay_say_no_new_messages_once_the_publisher_stops(
+    cli: Cli, zros_node: Node, verb: str, report: str
+) -> None:
+    talker = zros_node('talker')
+    publisher = talker.create_publisher('geometry_msgs/msg/PointStamped', '/stopping')
+    message = publisher.msg_type()
+    message.header.stamp = talker.now().to_msg()
+    running = cli.start('topic', verb, '/stopping', '--period', '0.3')
+    with publishing(talker, publisher, message):
+        running.wait_line(lambda line: line.startswith(report))
+    # not the last window over and over, as ros2 topic hz and delay
+    running.wait_line(lambda line: line == 'no new messages', 10)
+
+
+def _bytes_per_second(line: str) -> float:
+    value, unit = line.split()[:2]
+    return float(value) * {'B/s': 1, 'KB/s': 1e3, 'MB/s': 1e6}[unit]
+
+
+def test_bw_decays_once_the_publisher_stops(cli: Cli, zros_node: Node) -> None:
+    talker = zros_node('talker')
+    publisher = talker.create_publisher('std_msgs/msg/UInt8MultiArray', '/stopping')
+    message = zros.Message('std_msgs/msg/UInt8MultiArray', data=bytes(2000))
+    running = cli.start('topic', 'bw', '/stopping', '--period', '0.3')
+    with publishing(talker, publisher, message):
+        running.wait_line(lambda line: line.endswith(' messages'))
+    # the first report after the stop may still count the last messages; from the next on
+    # the rate falls, as ros2 topic bw's (divided by the time up to now)
+    running.wait_line(lambda line: line.endswith(' messages'))
+    rates = [
+        _bytes_per_second(running.wait_line(lambda line: line.endswith(' messages'), 10))
+        for _ in range(2)
+    ]
+    assert rates[1] < rates[0], rates
 
 
 def test_delay_from_header_stamps(cli: Cli, talker: Callable[..., Any]) -> None:

@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterator
 import pytest
 
 import zros
-from tests.support.processes import Script
+from tests.support.processes import Script, sleeping
 from zros.node import Node
 from zros.testing import wait_for
 from zros.transport import Router
@@ -240,3 +240,36 @@ def test_an_unknown_node_keyword_names_node_and_its_keywords() -> None:
         TypeError, match=r"unexpected keyword arguments 'bogus', 'cli_args' .*args="
     ):
         zros.Node('x', cli_args=[], bogus=1)  # type: ignore[call-arg]
+
+
+LOOPS = {
+    'spin': 'node.spin(timeout=0.5)',
+    'spin_once': 'node.spin_once(timeout=0.5)',
+    'rate': 'rate.sleep()',
+}
+
+
+@pytest.mark.parametrize('loop', LOOPS)
+def test_ctrl_c_ends_a_while_ok_loop_without_init(
+    loop: str, zros_router: Router, scripts: list[Script]
+) -> None:
+    # as with zros.init's handler: Ctrl-C ends the wait and ok() turns false
+    code = (
+        'import zros\n'
+        "node = zros.Node('looping')\n"
+        'rate = node.create_rate(10)\n'
+        "print('looping', flush=True)\n"
+        'while node.ok():\n'
+        f'    {LOOPS[loop]}\n'
+        "print('left the loop', node.ok(), flush=True)\n"
+        'node.destroy()\n'
+    )
+    scripts.append(Script(code, zros_router))
+    script = scripts[-1]
+    script.expect('looping', 30)
+    assert wait_for(lambda: sleeping(script.process.pid), 10)
+    script.process.send_signal(signal.SIGINT)
+    assert script.expect('left the loop', 10)[1] == 'left the loop False'
+    assert script.process.wait(10) == 0
+    errors = script.stop()
+    assert 'Traceback' not in errors, errors

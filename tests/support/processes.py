@@ -9,6 +9,7 @@ import sys
 import textwrap
 import threading
 import time
+from pathlib import Path
 
 from tests.support.streams import Drained
 from zros.transport import Router
@@ -69,3 +70,10 @@ class Script:
             self.process.kill()
         self.process.wait(30)
         return self._errors.text()
+
+
+def sleeping(pid: int) -> bool:
+    """Whether the main thread of process ``pid`` sleeps (blocked in a wait, not running): a
+    signal sent now lands in that wait."""
+    stat = Path(f'/proc/{pid}/stat').read_text()
+    return stat.rsplit(')', 1)[1].split()[0] == 'S'

@@ -35,6 +35,7 @@ class _Window:
         self.sizes: deque[int] = deque(maxlen=size)
         self.lock = threading.Lock()
         self.total = 0
+        self._reported = 0  #: ``total`` at the last :meth:`take`
 
     def add(self, size: int) -> None:
         """Count one message of ``size`` bytes, arrived now."""
@@ -43,6 +44,13 @@ class _Window:
             self.times.append(now)
             self.sizes.append(size)
             self.total += 1
+
+    def take(self) -> tuple[list[float], list[int], bool]:
+        """The window's arrival times and sizes, and whether any came since the last take."""
+        with self.lock:
+            fresh = self.total != self._reported
+            self._reported = self.total
+            return list(self.times), list(self.sizes), fresh
 
 
 def _measuring_subscription(
@@ -107,9 +115,8 @@ def hz(args: argparse.Namespace) -> int:
         close = _measuring_subscription(node, args, window)
 
         def report() -> bool:
-            with window.lock:
-                times = list(window.times)
-            if len(times) < 2:
+            times, _, fresh = window.take()
+            if len(times) < 2 or not fresh:  # as ros2's: not the last window again
                 out('no new messages')
                 return False
             gaps = [b - a for a, b in itertools.pairwise(times)]
@@ -143,12 +150,12 @@ def bw(args: argparse.Namespace) -> int:
         out(f'Subscribed to [{node.resolve_name(args.topic)}]')
 
         def report() -> bool:
-            with window.lock:
-                times, sizes = list(window.times), list(window.sizes)
+            times, sizes, _ = window.take()
             if len(times) < 2:
                 return False
-            span = max(times[-1] - times[0], 1e-9)
-            rate = sum(sizes[1:]) / span
+            # as ros2's: up to now, so the rate decays once the publisher stops
+            span = max(time.monotonic() - times[0], 1e-9)
+            rate = sum(sizes) / span
             out(f'{_size(rate)}/s from {len(sizes)} messages')
             out(
                 f'\tMessage size mean: {_size(statistics.fmean(sizes))} min: {_size(min(sizes))} '
@@ -170,14 +177,17 @@ def delay(args: argparse.Namespace) -> int:
         if 'header' not in message_class(type_name).__slots__:
             raise CommandError(f'{type_name} has no header: its delay cannot be measured')
         delays: deque[float] = deque(maxlen=args.window)
+        arrived = [0, 0]  # messages in all, and at the last report
 
         def on_message(message: Message) -> None:
             delays.append((node.now() - Time.from_msg(message.header.stamp)).seconds)
+            arrived[0] += 1
 
         node.create_subscription(type_name, args.topic, on_message, qos='sensor_data')
 
         def report() -> bool:
-            if not delays:
+            fresh, arrived[1] = arrived[0] != arrived[1], arrived[0]
+            if not delays or not fresh:  # as ros2's: not the last window again
                 out('no new messages')
                 return False
             values = list(delays)

@@ -25,6 +25,7 @@ from zros.pubsub.rosout import RosoutSink
 from zros.runtime.clock import Clock, SimClock, Time
 from zros.runtime.clock_feed import ClockSubscription
 from zros.runtime.context import NodeContext
+from zros.runtime.executor import shut_down_on_ctrl_c
 from zros.runtime.logger import Logger, logger_name
 from zros.transport import Transport, TransportConfig
 from zros.wire import KeyScheme, Wire, open_wire
@@ -212,29 +213,45 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
     # --- spinning ------------------------------------------------------------------------
 
     def ok(self) -> bool:
-        """True until the node is destroyed or the process got Ctrl-C (after ``zros.init``)."""
+        """True until the node is destroyed or the process got Ctrl-C."""
         return self.context.ok()
+
+    # Ctrl-C without zros.init's handler raises KeyboardInterrupt where the spin waits: each spin
+    # ends and shuts down as that handler does, so a `while node.ok()` loop ends as with it
 
     def spin_once(self, timeout: float | None = 0.0) -> int:
         """Run due callbacks and timers, waiting up to ``timeout`` seconds for one; returns how
-        many ran. ``timeout=None`` waits until something runs."""
-        return self.context.executor.run_once(timeout)
+        many ran. ``timeout=None`` waits until something runs. Ctrl-C ends it (0) and makes
+        ``ok()`` false, with or without ``zros.init``."""
+        try:
+            return self.context.executor.run_once(timeout)
+        except KeyboardInterrupt:
+            shut_down_on_ctrl_c()
+            return 0
 
     def spin(self, timeout: float | None = None) -> None:
         """Run callbacks and timers until the node stops being ok (or ``timeout`` seconds); Ctrl-C
-        ends it and it returns, with or without ``zros.init``."""
+        ends it and makes ``ok()`` false, with or without ``zros.init``."""
         try:
             self.context.executor.spin(timeout)
-        except KeyboardInterrupt:  # no zros.init handler: Python raised it; end as init's does
-            return
+        except KeyboardInterrupt:
+            shut_down_on_ctrl_c()
 
     def spin_until_clock(self, deadline: int) -> None:
-        """Run callbacks and timers until the node clock's timer base reaches ``deadline``."""
-        self.context.executor.spin_until_clock(self.clock, deadline)
+        """Run callbacks and timers until the node clock's timer base reaches ``deadline`` (or
+        Ctrl-C, as :meth:`spin`)."""
+        try:
+            self.context.executor.spin_until_clock(self.clock, deadline)
+        except KeyboardInterrupt:
+            shut_down_on_ctrl_c()
 
     def spin_until(self, deadline: float) -> None:
-        """Run callbacks and timers until ``time.monotonic()`` reaches ``deadline``."""
-        self.context.executor.spin_until(deadline)
+        """Run callbacks and timers until ``time.monotonic()`` reaches ``deadline`` (or Ctrl-C,
+        as :meth:`spin`)."""
+        try:
+            self.context.executor.spin_until(deadline)
+        except KeyboardInterrupt:
+            shut_down_on_ctrl_c()
 
     async def spin_async(self) -> None:
         """Run callbacks and timers on the asyncio loop until the node stops being ok."""

@@ -74,7 +74,7 @@ class NodeContext:
         return self._closed
 
     def ok(self) -> bool:
-        """True until the node is destroyed or the process got Ctrl-C (after ``zros.init``)."""
+        """True until the node is destroyed or the process got Ctrl-C."""
         return not (self._closed or interrupted())
 
     def check_open(self) -> None:

@@ -20,7 +20,7 @@ from collections.abc import Callable, Coroutine
 from typing import Protocol, TypeVar
 
 from zros.runtime.clock import Clock
-from zros.runtime.signal import Signal, interrupt_flag
+from zros.runtime.signal import Signal, interrupt, interrupt_flag
 
 T = TypeVar('T')
 _log = logging.getLogger('zros')
@@ -31,6 +31,13 @@ def wake_all() -> None:
     """Make every node's waiting spin return (after Ctrl-C)."""
     for executor in list(_executors):
         executor.wake()
+
+
+def shut_down_on_ctrl_c() -> None:
+    """What the first Ctrl-C does under ``zros.init``'s handler, for a spin that Python's own
+    KeyboardInterrupt ended (no ``zros.init``): ``ok()`` turns false and every wait ends."""
+    interrupt()
+    wake_all()
 
 
 class Work:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
@@ -23,10 +24,13 @@ from zros.cli.shared import (
 from zros.errors import command_line_text
 
 if TYPE_CHECKING:
+    from zros.actions.client import ClientGoalHandle
     from zros.cdr import Message
 
 #: after the result, callbacks still arriving within this many seconds of each other run
 FEEDBACK_SETTLE = 0.2
+#: how long Ctrl-C waits for the server to answer the goal's cancel
+CANCEL_WAIT = 5.0
 
 
 def _indented(text: str, spaces: int = 4) -> str:
@@ -59,6 +63,28 @@ def info(args: argparse.Namespace) -> int:
                 owner = end.node or f'(bridge {end.zid})'
                 out(f'    {owner} [{end.type_name}]' if args.show_types else f'    {owner}')
     return 0
+
+
+def _cancel(handle: ClientGoalHandle) -> int:
+    """Ctrl-C during a goal: cancel it as ros2 does, waiting briefly for the server's answer
+    (a second Ctrl-C ends the wait); exit code 130."""
+    from zros.runtime.signal import clear_interrupt
+    from zros.services import ServiceError
+
+    if handle.status.terminal:
+        return 130
+    out('Canceling goal...')
+    clear_interrupt()  # the Ctrl-C ended every wait of the node's: let the cancel's be awaited
+    try:
+        canceled = handle.cancel(timeout=CANCEL_WAIT)
+    except ServiceError as exc:
+        print(f'zros: error: cannot cancel the goal: {command_line_text(exc)}', file=sys.stderr)
+        return 130
+    if canceled:
+        out('Goal canceled.')
+    else:
+        print('zros: error: the server did not cancel the goal', file=sys.stderr)
+    return 130
 
 
 def send_goal(args: argparse.Namespace) -> int:
@@ -101,17 +127,17 @@ def send_goal(args: argparse.Namespace) -> int:
         out(f'Goal accepted with ID: {handle.goal_id.hex()}')
         out()
         try:
-            while not handle.done:
-                node.spin(timeout=0.1)  # runs the feedback callback here
+            while not handle.done and node.ok():
+                node.spin(timeout=0.1)  # runs the feedback callback here; Ctrl-C ends it
             # feedback and result travel apart: feedback sent before the result may still be
             # on its way to the callback; print what comes until a quiet spell
-            while node.spin_once(FEEDBACK_SETTLE):
+            while node.ok() and node.spin_once(FEEDBACK_SETTLE):
                 pass
+            if not node.ok():
+                raise KeyboardInterrupt  # a spin ended on Ctrl-C
             result = handle.result(0)
         except KeyboardInterrupt:
-            out('Canceling goal...')
-            handle.cancel(timeout=5.0)
-            return 130
+            return _cancel(handle)
         out('Result:')
         out(_indented(message_to_yaml(result)))
         out()

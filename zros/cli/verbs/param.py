@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -21,7 +22,7 @@ from zros.cli.shared import (
     out,
     unknown_name,
 )
-from zros.errors import command_line_text
+from zros.errors import ZrosError, command_line_text
 
 if TYPE_CHECKING:
     from zros.node import Node
@@ -77,11 +78,18 @@ def list_parameters(args: argparse.Namespace) -> int:
             node.graph.refresh(DISCOVERY)
             targets = _parameter_nodes(node)
         for target in targets:
-            client = _client(node, target, args.timeout, args.wait)
-            names = sorted(client.list_parameters(args.prefixes or ()))
+            try:
+                client = _client(node, target, args.timeout, args.wait)
+                names = sorted(client.list_parameters(args.prefixes or ()))
+                kinds = client.get_parameter_types(names) if args.param_type and names else {}
+            except (ZrosError, CommandError) as exc:
+                if args.node:
+                    raise
+                # as ros2's: one node that does not answer does not hide the others (exit 0)
+                print(f'zros: error: {command_line_text(exc)}', file=sys.stderr)
+                continue
             if not args.node:
                 out(f'{target}:')
-            kinds = client.get_parameter_types(names) if args.param_type and names else {}
             for name in names:
                 suffix = f' (type: {kinds[name].ros_name})' if args.param_type else ''
                 out(f'  {name}{suffix}')
@@ -243,7 +251,13 @@ def add_parser(
         add_connection_options(sub)
         return sub
 
-    sub = verb('list', 'the parameters of a node, or of every node', list_parameters, True)
+    sub = verb(
+        'list',
+        'the parameters of a node, or of every node (one that does not answer: an error on '
+        'stderr, the others still listed)',
+        list_parameters,
+        True,
+    )
     sub.add_argument('--param-prefixes', dest='prefixes', nargs='*', default=[])
     sub.add_argument('--param-type', action='store_true', help='with their types')
     sub = verb('get', "a parameter's value", get)

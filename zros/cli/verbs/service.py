@@ -25,7 +25,9 @@ from zros.cli.shared import (
 from zros.errors import command_line_text
 
 if TYPE_CHECKING:
+    from zros.cdr import Message
     from zros.cdr.interfaces import ServiceType
+    from zros.services import Client
 
 
 def _service_type(type_name: str) -> ServiceType:
@@ -51,9 +53,6 @@ def find(args: argparse.Namespace) -> int:
 
 
 def call(args: argparse.Namespace) -> int:
-    from zros.cli.message_text import message_to_yaml
-    from zros.services import ServiceError
-
     srv = _service_type(args.type)
     values = parse_values(args.values)
     with open_node(args) as node:
@@ -70,23 +69,41 @@ def call(args: argparse.Namespace) -> int:
                     f'no server for {client.name} [{srv.__srvtype__}] appeared within {wait:g} s'
                 )
         rate = node.create_rate(args.rate) if args.rate else None
-        for index in range(args.times or 1 if rate else 1):
-            out(f'requester: making request: {request!r}')
-            out()
-            started = time.monotonic()
-            try:
-                response = client.call(request)
-            except ServiceError as exc:
-                raise CommandError(command_line_text(exc)) from None
-            elapsed = time.monotonic() - started
-            out('response:')
-            out(message_to_yaml(response).rstrip('\n') if args.yaml else repr(response))
-            if args.verbose:
-                out(f'(answered in {elapsed * 1000:.1f} ms)')
-            out()
-            if rate is not None and index + 1 < (args.times or 1):
+        times = args.times if rate is not None else 1  # 0: until Ctrl-C, as ros2's -r
+        made = 0
+        try:
+            while True:
+                _call_once(client, request, args)
+                made += 1
+                if (times and made >= times) or rate is None:
+                    return 0
                 rate.sleep()
-    return 0
+                if not node.ok():
+                    raise KeyboardInterrupt  # Ctrl-C ended the sleep
+        except KeyboardInterrupt:
+            if times:  # interrupted before the calls asked for were made: 130
+                raise
+            return 0  # repeating until Ctrl-C, as echo
+
+
+def _call_once(client: Client, request: Message, args: argparse.Namespace) -> None:
+    """One call of ``zros service call``, printed as ros2's."""
+    from zros.cli.message_text import message_to_yaml
+    from zros.services import ServiceError
+
+    out(f'requester: making request: {request!r}')
+    out()
+    started = time.monotonic()
+    try:
+        response = client.call(request)
+    except ServiceError as exc:
+        raise CommandError(command_line_text(exc)) from None
+    elapsed = time.monotonic() - started
+    out('response:')
+    out(message_to_yaml(response).rstrip('\n') if args.yaml else repr(response))
+    if args.verbose:
+        out(f'(answered in {elapsed * 1000:.1f} ms)')
+    out()
 
 
 def add_parser(
@@ -102,8 +119,15 @@ def add_parser(
     sub.add_argument('service', help='e.g. /add_two_ints')
     sub.add_argument('type', help='e.g. example_interfaces/srv/AddTwoInts')
     sub.add_argument('values', nargs='?', help='the request as YAML, e.g. "{a: 1, b: 2}"')
-    sub.add_argument('-r', '--rate', type=float, default=0.0, help='repeat at this rate (Hz)')
-    sub.add_argument('--times', type=int, default=0, help='with --rate: how many calls')
+    sub.add_argument(
+        '-r', '--rate', type=float, default=0.0, help='repeat at this rate (Hz) until Ctrl-C'
+    )
+    sub.add_argument(
+        '--times',
+        type=int,
+        default=0,
+        help="with --rate: stop after this many calls (zros's own; default: until Ctrl-C)",
+    )
     sub.add_argument('--yaml', action='store_true', help='print the response as YAML')
     sub.add_argument('--timeout', type=float, default=10.0, help='seconds for each reply')
     add_wait_option(sub, 'service')
