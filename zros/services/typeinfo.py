@@ -8,8 +8,9 @@ default values) and, where the server has them, the definition files' text.
 
 zros uses it both ways: :func:`learn_type` asks the nodes publishing a topic for a type zros
 cannot resolve (the CLI does that before it reports an unknown type), and
-:class:`TypeDescriptionService` answers for the types of a zros node's own entities, so that a
-node playing a bag serves the bag's definitions (``zros bag play`` does).
+:class:`TypeDescriptionService` answers for the types of a zros node's own entities: every node
+starts one (:class:`NodeTypes`) when it first uses a type that is not standard, so the types it
+registers at run time, finds in files or plays from a bag are described.
 """
 
 from __future__ import annotations
