@@ -10,7 +10,7 @@ from zros.cdr import Message
 from zros.cdr.hashing import type_hash
 from zros.cdr.registry import TypeRegistry
 from zros.node import Node
-from zros.services import Client
+from zros.services import Client, typeinfo
 from zros.services.typeinfo import (
     SERVICE_TYPE,
     TypeDescriptionService,
@@ -94,6 +94,16 @@ def describe(client: Client, name: str, type_hash: str = '') -> Message:
     return client.call(type_name=name, type_hash=type_hash, include_type_sources=True)
 
 
+def status_publisher(make: Callable[..., Node], **options: object) -> tuple[Node, TypeRegistry]:
+    """A node ``custom_pub`` publishing ``/status`` of STATUS, registered at run time in its
+    registry (the user's report)."""
+    registry = own_registry()
+    registry.register_text(STATUS, STATUS_TEXT)
+    node = make('custom_pub', registry=registry, **options)
+    node.create_publisher(STATUS, '/status', 10)
+    return node, registry
+
+
 def test_a_node_serves_its_types_once_it_uses_a_custom_one(
     zros_node: Callable[..., Node],
 ) -> None:
@@ -124,10 +134,7 @@ def test_a_node_serves_its_types_once_it_uses_a_custom_one(
 def test_hostile_requests_get_a_failure_and_the_node_keeps_answering(
     zros_node: Callable[..., Node],
 ) -> None:
-    registry = own_registry()
-    registry.register_text(STATUS, STATUS_TEXT)
-    node = zros_node('custom_pub', registry=registry)
-    node.create_publisher(STATUS, '/status', 10)
+    _, registry = status_publisher(zros_node)
     client = zros_node('cli').create_client(SERVICE_TYPE, '/custom_pub/get_type_description')
     assert client.wait_for_service(10)
     unknown = describe(client, 'my_robot_msgs/msg/Nope')
@@ -149,10 +156,34 @@ def test_hostile_requests_get_a_failure_and_the_node_keeps_answering(
 def test_start_type_description_service_false_serves_nothing(
     zros_node: Callable[..., Node],
 ) -> None:
-    registry = own_registry()
-    registry.register_text(STATUS, STATUS_TEXT)
-    node = zros_node('custom_pub', registry=registry, start_type_description_service=False)
-    node.create_publisher(STATUS, '/status', 10)
+    node, _ = status_publisher(zros_node, start_type_description_service=False)
     assert not serves_types(node)
     learner = zros_node('cli', registry=own_registry())
     assert learn_type(learner, STATUS, [('/custom_pub', None)], timeout=0.5) is None
+
+
+def test_a_description_that_fails_is_answered_not_raised(
+    zros_node: Callable[..., Node], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def broken(registry: TypeRegistry, name: str) -> None:
+        raise RuntimeError('no description')
+
+    monkeypatch.setattr(typeinfo, 'type_description', broken)
+    status_publisher(zros_node)
+    client = zros_node('cli').create_client(SERVICE_TYPE, '/custom_pub/get_type_description')
+    assert client.wait_for_service(10)
+    answer = describe(client, STATUS)
+    assert not answer.successful
+    assert answer.failure_reason == f"'{STATUS}' failed: no description"
+
+
+def test_a_player_style_service_refuses_malformed_names(zros_node: Callable[..., Node]) -> None:
+    # everything=True (a bag player's) looks names up in the node's registry
+    server = TypeDescriptionService(zros_node('player'))
+    client = zros_node('cli').create_client(SERVICE_TYPE, '/player/get_type_description')
+    assert client.wait_for_service(10)
+    for bad in ['', '/', 'not a name', 'pkg/msg/', 'pkg/weird/Kind', 'x' * 5000]:
+        answer = describe(client, bad)
+        assert not answer.successful and 'is not a type of this node' in answer.failure_reason
+    assert describe(client, 'std_msgs/msg/String').successful
+    server.close()
