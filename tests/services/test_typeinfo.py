@@ -187,3 +187,22 @@ def test_a_player_style_service_refuses_malformed_names(zros_node: Callable[...,
         assert not answer.successful and 'is not a type of this node' in answer.failure_reason
     assert describe(client, 'std_msgs/msg/String').successful
     server.close()
+
+
+def test_services_and_actions_of_custom_types_are_described(
+    zros_node: Callable[..., Node],
+) -> None:
+    registry = own_registry()
+    registry.register_text('my_robot_msgs/srv/Reset', 'bool hard\n---\nbool ok\n')
+    registry.register_text(
+        'my_robot_msgs/action/Dock', 'int32 bay\n---\nbool ok\n---\nfloat32 left\n'
+    )
+    node = zros_node('robot', registry=registry)
+    node.create_service('my_robot_msgs/srv/Reset', '/reset', lambda request: None)
+    node.create_action_server('my_robot_msgs/action/Dock', '/dock', lambda handle: None)
+    client = zros_node('cli').create_client(SERVICE_TYPE, '/robot/get_type_description')
+    assert client.wait_for_service(10)
+    for name in ['my_robot_msgs/srv/Reset', 'my_robot_msgs/action/Dock']:
+        answer = describe(client, name, type_hash(registry, name))
+        assert answer.successful, answer.failure_reason
+        assert answer.type_description.type_description.type_name == name
