@@ -12,13 +12,17 @@ pytest.importorskip(
     'rclpy', reason='rclpy (ROS 2 Jazzy from PyPI, the "interop" extra) is not importable'
 )
 
+from typing import Any
+
 from rclpy.serialization import serialize_message
 
 from tests.interop import rig
 from tests.interop.conftest import Interop
-from tests.interop.rclpy_support import make_registry, to_rclpy
+from tests.interop.rclpy_support import SHARE, make_registry, to_rclpy
+from zros.cdr.hashing import type_hash
 from zros.cdr.registry import TypeRegistry
 from zros.cli.shared import known_type
+from zros.services.typeinfo import SERVICE_TYPE
 
 TIMEOUT = 30.0
 NAME = 'test_msgs/msg/BasicTypes'  # in the wheels, not in the rosbags typestore
@@ -45,3 +49,37 @@ def test_zros_learns_an_rclpy_publishers_type(interop: Interop) -> None:
             break
     assert received is not None
     assert received.int32_value == -7 and received.float64_value == 2.5
+
+
+STATUS = 'my_robot_msgs/msg/Status'
+
+
+def test_rclpy_asks_a_zros_node_for_its_custom_type(interop: Interop) -> None:
+    from rclpy.serialization import deserialize_message
+    from type_description_interfaces.srv import GetTypeDescription
+
+    registry = TypeRegistry('jazzy', paths=[SHARE], ament=False)
+    registry.register_text(STATUS, 'string mode\nfloat64 battery\nint32[] errors\n')
+    node = interop.node('custom_pub_td', registry=registry)
+    node.create_publisher(STATUS, interop.topic('status'), 10)
+    service = '/custom_pub_td/get_type_description'
+
+    def ask(name: str, type_hash: str) -> Any:
+        request = GetTypeDescription.Request(
+            type_name=name, type_hash=type_hash, include_type_sources=True
+        )
+        reply = interop.ros.call_service(
+            service, SERVICE_TYPE, bytes(serialize_message(request)), TIMEOUT
+        )
+        return deserialize_message(reply, GetTypeDescription.Response)
+
+    described = ask(STATUS, type_hash(registry, STATUS))
+    assert described.successful, described.failure_reason
+    assert described.type_description.type_description.type_name == STATUS
+    fields = described.type_description.type_description.fields
+    assert [f.name for f in fields] == ['mode', 'battery', 'errors']
+    assert [s.raw_file_contents for s in described.type_sources] == [
+        'string mode\nfloat64 battery\nint32[] errors\n'
+    ]
+    refused = ask(STATUS, 'RIHS01_' + '0' * 64)
+    assert not refused.successful and 'has the hash' in refused.failure_reason

@@ -89,7 +89,9 @@ _ACTIONS: dict[str, tuple[_Fields, _Fields, _Fields]] = {
     ),
 }
 
-_ORIGIN = 'zros built-in definition'
+#: the origin of built-in definitions
+BUILTIN_ORIGIN = 'zros built-in definition'
+_ORIGIN = BUILTIN_ORIGIN
 
 
 def _text(*sections: _Fields) -> str:

@@ -17,7 +17,7 @@ from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from zros.cdr.builtin import SHIPPED_PACKAGES, builtin_definition, builtin_names
+from zros.cdr.builtin import BUILTIN_ORIGIN, SHIPPED_PACKAGES, builtin_definition, builtin_names
 from zros.cdr.classes import Decoder, build_message_class, compiled_decoder
 from zros.cdr.errors import UnknownTypeError
 from zros.cdr.interfaces import ActionType, ServiceType
@@ -34,7 +34,7 @@ from zros.cdr.model import (
     type_name_candidates,
 )
 from zros.cdr.parser import parse_definition, parse_message_bundle
-from zros.cdr.typestore import from_rosbags
+from zros.cdr.typestore import TYPESTORE_ORIGIN, from_rosbags
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -288,6 +288,19 @@ class TypeRegistry:
             for service in services:
                 self._definitions[service.name] = service
                 self._add_derived(service)
+
+    def standard(self, name: str) -> bool:
+        """Whether ``name`` is one of the distro's typestore or zros's built-in types (every
+        ROS 2 install has it), not one found in files or registered at run time."""
+        found = self._definitions.get(name)
+        if found is not None and found.origin in (BUILTIN_ORIGIN, TYPESTORE_ORIGIN):
+            return True  # without loading the typestore
+        return name in builtin_names() or name in self.typestore.fielddefs
+
+    def parent(self, name: str) -> str | None:
+        """The service or action a part's name belongs to (``pkg/action/A_SendGoal``:
+        ``pkg/action/A``), or None."""
+        return self._parent_of(name)
 
     def _parent_of(self, name: str) -> str | None:
         package, kind, short = split_type_name(name)

@@ -25,6 +25,10 @@ _TYPESTORE_DEFAULTS: dict[tuple[str, str], tuple[float | int, str | None]] = {
 }
 
 
+#: the origin of definitions from the rosbags typestore
+TYPESTORE_ORIGIN = 'rosbags typestore'
+
+
 def from_rosbags(name: str, fielddefs: tuple[Constdefs, Fielddefs]) -> MessageDef:
     """Convert one rosbags typestore entry to a MessageDef."""
     from rosbags.interfaces import Nodetype  # rosbags loads on first use: start-up stays fast  # noqa: PLC0415 (lazy: rosbags, import time)
@@ -57,4 +61,4 @@ def from_rosbags(name: str, fielddefs: tuple[Constdefs, Fielddefs]) -> MessageDe
         fields.append(Field(fname, ftype, default))
     if len(fields) == 1 and fields[0].name == PLACEHOLDER_FIELD:
         fields = []
-    return MessageDef(name, tuple(fields), constants, 'rosbags typestore')
+    return MessageDef(name, tuple(fields), constants, TYPESTORE_ORIGIN)

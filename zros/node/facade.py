@@ -27,6 +27,7 @@ from zros.runtime.clock_feed import ClockSubscription
 from zros.runtime.context import NodeContext
 from zros.runtime.executor import shut_down_on_ctrl_c
 from zros.runtime.logger import Logger, logger_name
+from zros.services.typeinfo import NodeTypes
 from zros.transport import Transport, TransportConfig
 from zros.wire import KeyScheme, Wire, open_wire
 
@@ -60,6 +61,11 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
     ``allow_undeclared_parameters`` those are declared at once and clients may set new names.
     ``start_parameter_services`` serves them to ROS tools.
 
+    ``start_type_description_service`` (rclpy's name) serves ``~/get_type_description`` for the
+    types of the node's entities, started when one first uses a type that is not standard
+    (registered at run time, found in files), so that ``zros topic echo`` and ROS tools elsewhere
+    learn it.
+
     ``wire`` picks the key scheme: ``'bridge'`` (zenoh-bridge-ros2dds, the default) or
     ``'rmw_zenoh'`` (ROS 2 nodes running rmw_zenoh, no bridge), also from ``ZROS_WIRE``; under
     rmw_zenoh ``domain_id`` (default ``ROS_DOMAIN_ID``, else 0) is the ROS domain. The node's
@@ -91,6 +97,7 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         params_file: PathLike | Sequence[PathLike] | None = None,
         allow_undeclared_parameters: bool = False,
         start_parameter_services: bool = True,
+        start_type_description_service: bool = True,
         wire: str | None = None,
         domain_id: int | None = None,
         immediate_callbacks: bool = False,
@@ -125,6 +132,8 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
             wire=node_wire, registry=self.registry, clock=self.clock,
             immediate_callbacks=immediate_callbacks,
         )  # fmt: skip
+        if start_type_description_service:
+            self.context.type_used = NodeTypes(self)
         sink = RosoutSink(self, options.log_level, enable_rosout)
         self._logger = Logger(logger_name(self.name, self.namespace), sink)
         self._clock_feed: ClockSubscription | None = None

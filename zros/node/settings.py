@@ -42,6 +42,7 @@ class NodeOptions(SessionOptions, total=False):
     params_file: PathLike | Sequence[PathLike] | None
     allow_undeclared_parameters: bool
     start_parameter_services: bool
+    start_type_description_service: bool
     wire: str | None
     domain_id: int | None
     immediate_callbacks: bool

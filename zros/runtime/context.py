@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Protocol
 
 from zros.keyexpr.names import Remapping, expand
@@ -57,6 +58,9 @@ class NodeContext:
         self._entities: list[Closable] = []
         self._lock = threading.Lock()
         self._closed = False
+        #: told ``(type name, registry)`` by each entity the node places (the node's
+        #: ``~/get_type_description`` learns its types from it); None: nobody listens
+        self.type_used: Callable[[str, TypeRegistry], None] | None = None
 
     @property
     def fully_qualified_name(self) -> str:

@@ -119,6 +119,8 @@ class Entity:
             kind, name, type_name, registry, qos=qos, announce=announce, owned=owned
         )
         self._tokens += wire.tokens
+        if owned and self.context.type_used is not None:
+            self.context.type_used(type_name, registry)
         if own:
             self.key = wire.key
             self.gid = wire.gid

@@ -8,13 +8,15 @@ default values) and, where the server has them, the definition files' text.
 
 zros uses it both ways: :func:`learn_type` asks the nodes publishing a topic for a type zros
 cannot resolve (the CLI does that before it reports an unknown type), and
-:class:`TypeDescriptionService` answers for the types of a zros node's own entities, so that a
-node playing a bag serves the bag's definitions (``zros bag play`` does).
+:class:`TypeDescriptionService` answers for the types of a zros node's own entities: every node
+starts one (:class:`NodeTypes`) when it first uses a type that is not standard, so the types it
+registers at run time, finds in files or plays from a bag are described.
 """
 
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
@@ -34,6 +36,11 @@ if TYPE_CHECKING:
 SERVICE_TYPE = 'type_description_interfaces/srv/GetTypeDescription'
 SERVICE_NAME = 'get_type_description'
 
+#: longest type name looked up (ROS names are far shorter); longer ones are refused
+MAX_NAME = 1024
+#: characters of a request's name quoted back in a failure
+SHOWN = 100
+
 _log = logging.getLogger('zros.typeinfo')
 
 
@@ -46,40 +53,56 @@ class TypeDescriptionService:
     text (comments included) as ``type_sources``.
     """
 
-    def __init__(self, node: NodeLike) -> None:
+    def __init__(self, node: NodeLike, *, everything: bool = True) -> None:
         self.node = node
+        #: also describe what the node's registry resolves, not only the types added
+        self.everything = everything
         self._registry = node.context.registry
-        self._classes: dict[str, type[Message]] = {}
+        self._registries: dict[str, TypeRegistry] = {}
         self._service: Service = Service(
             f'~/{SERVICE_NAME}', SERVICE_TYPE, self._answer, node=node, inline=lambda: True
         )
 
     def add(self, cls: type[Message]) -> None:
         """Describe ``cls``'s type from the registry that built it (a bag's, say)."""
-        self._classes[cls.__msgtype__] = cls
+        self.add_type(cls.__msgtype__, registry_of(cls))
+
+    def add_type(self, type_name: str, registry: TypeRegistry) -> None:
+        """Describe ``type_name`` from ``registry``."""
+        self._registries[type_name] = registry
 
     def _registry_for(self, type_name: str) -> TypeRegistry | None:
-        cls = self._classes.get(type_name)
-        if cls is not None:
-            return registry_of(cls)
+        found = self._registries.get(type_name)
+        if found is not None or not self.everything:
+            return found
         registry = self._registry
         try:
             registry.definition(type_name)
-        except (UnknownTypeError, ZrosError):
+        except (UnknownTypeError, ZrosError, ValueError):
             return None
         return registry
 
     def _answer(self, request: Message) -> Message:
+        try:
+            return self._describe(request)
+        except Exception as exc:  # a request the checks above missed: answered, never raised
+            _log.debug('describing %.200r failed', request.type_name, exc_info=True)
+            return self._service.Response(
+                successful=False, failure_reason=f'{_shown(request.type_name)} failed: {exc}'
+            )
+
+    def _describe(self, request: Message) -> Message:
         response = self._service.Response
         name = request.type_name
-        registry = self._registry_for(name)
+        registry = self._registry_for(name) if len(name) <= MAX_NAME else None
         if registry is None:
-            return response(successful=False, failure_reason=f'{name} is unknown to this node')
+            reason = f'{_shown(name)} is not a type of this node'
+            return response(successful=False, failure_reason=reason)
         ours = type_hash(registry, name)
         if request.type_hash and request.type_hash != ours:
             return response(
                 successful=False,
-                failure_reason=f'{name} has the hash {ours} here, not {request.type_hash}',
+                failure_reason=f'{name} has the hash {ours} here, not {_shown(request.type_hash)}',
             )
         description = type_description(registry, name)
         sources = []
@@ -96,6 +119,49 @@ class TypeDescriptionService:
     def close(self) -> None:
         """Stop serving."""
         self._service.close()
+
+
+class NodeTypes:
+    """A node's ``~/get_type_description``, started when one of its entities first uses a type
+    that is not standard (one found in files or registered at run time): nodes with standard
+    types only add nothing to the graph. Once started it describes every type the node's
+    entities used (standard ones too, as ROS 2 nodes do), and nothing else.
+
+    Set as the node context's ``type_used``, so it runs while an entity is being made.
+    """
+
+    def __init__(self, node: NodeLike) -> None:
+        self.node = node
+        self._used: dict[str, TypeRegistry] = {}
+        self._lock = threading.RLock()
+        self.service: TypeDescriptionService | None = None
+
+    def __call__(self, type_name: str, registry: TypeRegistry) -> None:
+        if type_name == SERVICE_TYPE or type_name in self._used:
+            return
+        try:
+            if registry.find(type_name) is None:
+                return  # a tap on a type nobody here knows
+        except (ZrosError, ValueError):
+            return
+        with self._lock:
+            names = [type_name]
+            parent = registry.parent(type_name)  # an action's parts name the action
+            if parent is not None:
+                names.append(parent)
+            for name in names:
+                self._used[name] = registry
+                if self.service is not None:
+                    self.service.add_type(name, registry)
+            if self.service is None and not registry.standard(type_name):
+                self.service = TypeDescriptionService(self.node, everything=False)
+                for name, used in self._used.items():
+                    self.service.add_type(name, used)
+
+
+def _shown(text: str) -> str:
+    """``text`` cut short for a reply (a request may carry a huge name)."""
+    return repr(text) if len(text) <= SHOWN else repr(text[:SHOWN]) + f'... ({len(text)} chars)'
 
 
 def _sources(registry: TypeRegistry, description: TypeDescription) -> Iterable[dict[str, str]]:
@@ -172,6 +238,7 @@ def learn_type(
 __all__ = [
     'SERVICE_NAME',
     'SERVICE_TYPE',
+    'NodeTypes',
     'TypeDescriptionService',
     'learn_type',
     'register_description',

@@ -190,7 +190,7 @@ class Player(Closing):
         serve their types: ``zros topic echo`` (and ROS tools) learn them from the player."""
         self._types: TypeDescriptionService | None = None
         own = [p.msg_type for p in publishers if registry_of(p.msg_type) is not self.node.registry]
-        if own:
+        if own and self.node.context.type_used is None:  # else the node serves them already
             self._types = TypeDescriptionService(self.node)
             for cls in own:
                 self._types.add(cls)
