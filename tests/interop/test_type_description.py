@@ -21,8 +21,9 @@ from tests.interop.conftest import Interop
 from tests.interop.rclpy_support import SHARE, make_registry, to_rclpy
 from zros.cdr.hashing import type_hash
 from zros.cdr.registry import TypeRegistry
-from zros.cli.shared import known_type
+from zros.cli.shared import CommandError, known_type
 from zros.services.typeinfo import SERVICE_TYPE
+from zros.testing import wait_for
 
 TIMEOUT = 30.0
 NAME = 'test_msgs/msg/BasicTypes'  # in the wheels, not in the rosbags typestore
@@ -36,7 +37,14 @@ def test_zros_learns_an_rclpy_publishers_type(interop: Interop) -> None:
     node = interop.node('cli', registry=TypeRegistry('jazzy', paths=[], ament=False))
     assert node.registry.find(NAME) is None
     assert node.graph.wait_until(lambda: node.count_publishers(topic) > 0, TIMEOUT)
-    assert known_type(node, topic, NAME) == NAME
+
+    def learned() -> bool:
+        try:
+            return known_type(node, topic, NAME) == NAME
+        except CommandError:  # the graph showed the publisher before its node's service
+            return False
+
+    assert wait_for(learned, TIMEOUT)
     learned = node.registry.definition(NAME)
     assert [f.name for f in learned.fields] == [f.name for f in known.definition(NAME).fields]
     subscription = node.create_subscription(NAME, topic)
