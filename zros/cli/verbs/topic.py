@@ -6,6 +6,7 @@ import argparse
 import time
 from typing import TYPE_CHECKING, cast
 
+from zros.cli.qos_options import add_qos_options, chosen_qos
 from zros.cli.shared import (
     DISCOVERY,
     CommandError,
@@ -25,7 +26,7 @@ from zros.cli.shared import (
     unknown_name,
 )
 from zros.cli.topic_rates import bw, delay, hz
-from zros.qos import DEFAULT, LATCHED, Congestion, Priority, as_qos
+from zros.qos import DEFAULT, LATCHED, Congestion, Priority, QoS
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -37,6 +38,8 @@ if TYPE_CHECKING:
 LIST = 'zros topic list'
 #: where ``topic echo`` cuts arrays, bytes and strings unless ``--full-length`` (as ros2)
 TRUNCATE = 128
+#: what ``topic echo`` subscribes with unless told (deep: a burst is not lost to the terminal)
+ECHO_QOS = QoS(100)
 
 
 def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
@@ -133,10 +136,8 @@ def echo(args: argparse.Namespace) -> int:
         type_name = subscription_type(node, args.topic, args.type, args.wait)
         selected(node.registry.get_class(type_name)())  # a wrong --field fails before a message
         publishers = _publishers_and_subscribers(node, args.topic)[0]
-        latched = bool(publishers) and all(
-            p.qos is not None and p.qos.transient_local for p in publishers
-        )
-        qos = as_qos('latched' if latched else args.qos_depth).with_(lifespan=args.max_age)
+        offered = [p.qos for p in publishers if p.qos is not None]
+        qos = chosen_qos(args, ECHO_QOS, offered).with_(lifespan=args.max_age)
         subscriber = node.create_subscription(type_name, args.topic, qos=qos)
         printed = 0
         try:
@@ -242,7 +243,7 @@ def pub(args: argparse.Namespace) -> int:
         raise UsageError('--max-wait-time-secs needs a subscriber to wait for (-w N, -1 or -t)')
     with open_node(args) as node:
         require_advertised_type(node, 'topics', args.topic, cls.__msgtype__)
-        qos = (LATCHED if args.latched else DEFAULT).with_(
+        qos = chosen_qos(args, LATCHED if args.latched else DEFAULT, None).with_(
             priority=args.priority, express=args.express, congestion=args.congestion
         )
         publisher = node.create_publisher(cls, args.topic, qos=qos)
@@ -265,9 +266,9 @@ def pub(args: argparse.Namespace) -> int:
                     rate.sleep()
         except KeyboardInterrupt:
             pass
-        if args.once or args.latched:
+        if args.once or qos.transient_local:
             # give late subscribers of a latched topic, and the network, a moment
-            node.spin(timeout=0.3 if not args.latched else args.keep_alive)
+            node.spin(timeout=0.3 if not qos.transient_local else args.keep_alive)
     return 0
 
 
@@ -310,7 +311,10 @@ def add_parser(
     parser.add_argument(
         '-f', '--full-length', action='store_true', help='print arrays and strings in full'
     )
-    parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
+    add_qos_options(
+        parser, 'subscribe',
+        f'depth {ECHO_QOS.depth}; reliability and durability not given match the publishers',
+    )  # fmt: skip
     _add_max_age(parser)
     add_wait_option(parser, 'topic')
 
@@ -326,7 +330,10 @@ def add_parser(
     parser.add_argument('-t', '--times', type=int, default=0, help='publish N times and exit')
     parser.add_argument('--latched', action='store_true', help='transient local, like /tf_static')
     parser.add_argument('--keep-alive', type=float, default=1.0, metavar='S',
-                        help='with --latched: seconds to stay for late subscribers')  # fmt: skip
+                        help='latched: seconds to stay for late subscribers')  # fmt: skip
+    add_qos_options(
+        parser, 'publish', 'reliable, volatile, depth 10; --latched: transient local, depth 1'
+    )
     parser.add_argument(
         '-w', '--wait-matching-subscriptions', type=_count, metavar='N',
         help='wait for N subscribers first (default: 1 with -1 or -t unless --latched, else 0)',

@@ -1,0 +1,60 @@
+"""The ros2 CLI options a ROS 2 user reaches for first: QoS, counts, hidden names, proto."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from tests.cli.conftest import Cli
+from zros.qos import Durability, History, QoS, Reliability
+from zros.testing import wait_for
+
+Node = Callable[..., Any]
+
+
+def _endpoint_qos(node: Any, topic: str, publishers: bool) -> QoS | None:
+    key = node.scheme.key(topic)
+    ends = (node.graph.publishers if publishers else node.graph.subscribers)(key)
+    return ends[0].qos if ends else None
+
+
+def test_pub_and_echo_take_ros2_qos_options(cli: Cli, zros_node: Node) -> None:
+    observer = zros_node('observer')
+    pub = cli.start(
+        'topic', 'pub', '/qos', 'std_msgs/msg/Int32', '{data: 7}', '-r', '20',
+        '--qos-profile', 'sensor_data', '--qos-depth', '3', '--qos-durability', 'transient_local',
+    )  # fmt: skip
+    assert wait_for(lambda: _endpoint_qos(observer, '/qos', True) is not None, 30)
+    assert _endpoint_qos(observer, '/qos', True) == QoS(
+        3, Reliability.BEST_EFFORT, Durability.TRANSIENT_LOCAL
+    )
+    echo = cli.start(
+        'topic', 'echo', '/qos', '--qos-history', 'keep_all', '--qos-reliability', 'reliable',
+    )  # fmt: skip
+    echo.wait_line(lambda line: line == 'data: 7')
+    # durability not given: matched to the (transient local) publisher, as ros2's echo does
+    assert _endpoint_qos(observer, '/qos', False) == QoS(
+        100, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, History.KEEP_ALL
+    )
+    for running in (echo, pub):
+        running.process.terminate()
+        running.finish()
+    profile = cli.start('topic', 'echo', '/qos2', 'std_msgs/msg/Int32', '--wait',
+                        '--qos-profile', 'parameters')  # fmt: skip
+    assert wait_for(lambda: _endpoint_qos(observer, '/qos2', False) is not None, 30)
+    assert _endpoint_qos(observer, '/qos2', False) == QoS(1000)
+    profile.process.terminate()
+    profile.finish()
+
+
+def test_qos_options_refuse_what_ros2_refuses(cli: Cli) -> None:
+    for option, value in (('--qos-profile', 'fast'), ('--qos-depth', '0'),
+                          ('--qos-reliability', 'sometimes')):  # fmt: skip
+        result = cli.run('topic', 'pub', '/x', 'std_msgs/msg/Int32', '{}', option, value)
+        assert result.returncode == 2, result.stderr
+        assert option in result.stderr
+    keep_all = cli.run(
+        'topic', 'pub', '/x', 'std_msgs/msg/Int32', '{}', '-1', '-w', '0',
+        '--qos-history', 'keep_all', '--qos-depth', '5',
+    )  # fmt: skip
+    assert keep_all.returncode == 0, keep_all.stderr
