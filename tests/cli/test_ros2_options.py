@@ -6,6 +6,7 @@ from collections.abc import Callable
 from typing import Any
 
 from tests.cli.conftest import Cli
+from tests.cli.test_graph_verbs import fibonacci
 from zros.qos import Durability, History, QoS, Reliability
 from zros.testing import wait_for
 
@@ -58,3 +59,52 @@ def test_qos_options_refuse_what_ros2_refuses(cli: Cli) -> None:
         '--qos-history', 'keep_all', '--qos-depth', '5',
     )  # fmt: skip
     assert keep_all.returncode == 0, keep_all.stderr
+
+
+def test_list_and_find_count_and_hide_hidden_names_like_ros2(cli: Cli, zros_node: Node) -> None:
+    node = zros_node('lister')
+    node.create_publisher('std_msgs/msg/String', '/seen', 10)
+    node.create_publisher('std_msgs/msg/String', '/_hidden/chatter', 10)
+    node.create_service('std_srvs/srv/Trigger', '/reset', lambda req, res: res)
+    node.create_service('std_srvs/srv/Trigger', '/_secret', lambda req, res: res)
+    zros_node('_hidden_node')
+
+    def lines(*args: str) -> list[str]:
+        result = cli.run(*args)
+        assert result.returncode == 0, result.stderr
+        return result.stdout.splitlines()
+
+    topics = lines('topic', 'list')
+    assert '/seen' in topics and '/_hidden/chatter' not in topics
+    every = lines('topic', 'list', '--include-hidden-topics')
+    assert '/_hidden/chatter' in every
+    assert lines('topic', 'list', '-c') == [str(len(topics))]
+    assert lines('topic', 'list', '--count-topics', '--include-hidden-topics') == [str(len(every))]
+    assert lines('topic', 'find', 'std_msgs/msg/String') == ['/seen']
+    assert lines('topic', 'find', 'std_msgs/msg/String', '-c') == ['1']
+    assert lines('topic', 'find', 'std_msgs/msg/String', '-c', '--include-hidden-topics') == ['2']
+
+    services = lines('service', 'list')
+    assert '/reset' in services and '/_secret' not in services
+    assert '/_secret' in lines('service', 'list', '--include-hidden-services')
+    assert lines('service', 'list', '--count-services') == [str(len(services))]
+    assert lines('service', 'find', 'std_srvs/srv/Trigger', '-c') == ['1']
+    assert lines('service', 'find', 'std_srvs/srv/Trigger', '--include-hidden-services') == [
+        '/_secret',
+        '/reset',
+    ]
+
+    nodes = lines('node', 'list')
+    assert '/lister' in nodes and '/_hidden_node' not in nodes
+    assert '/_hidden_node' in lines('node', 'list', '-a')
+    assert lines('node', 'list', '--all', '-c') == [str(len(nodes) + 1)]
+
+
+def test_action_list_counts(cli: Cli, zros_node: Node) -> None:
+    node = zros_node('actor')
+    node.create_action_server('example_interfaces/action/Fibonacci', '/fibonacci', fibonacci)
+    node.create_action_server('example_interfaces/action/Fibonacci', '/fib2', fibonacci)
+    result = cli.run('action', 'list', '-c')
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == '2\n'
+    assert cli.run('action', 'list', '--count-actions').stdout == '2\n'

@@ -11,12 +11,14 @@ from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     UsageError,
+    add_listing_options,
     add_verb,
     add_verbs,
     add_wait_option,
     build_message,
     find_names,
     graph_topic_type,
+    listed,
     message_class,
     open_node,
     out,
@@ -53,7 +55,10 @@ def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint],
 def list_topics(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         node.graph.refresh(DISCOVERY)
-        topics = node.graph.topics(node.scheme.namespace)
+        topics = listed(args, node.graph.topics(node.scheme.namespace))
+        if args.count:
+            out(str(len(topics)))
+            return 0
         if args.verbose:
             for title, kind in (('Published topics', 0), ('Subscribed topics', 1)):
                 out(f'{title}:')
@@ -283,6 +288,7 @@ def add_parser(
     listing = add_verb(verbs, 'list', 'list the topics on the network', list_topics)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
     listing.add_argument('-v', '--verbose', action='store_true', help='publishers, subscribers')
+    add_listing_options(listing, 'topics')
 
     parser = add_verb(verbs, 'info', 'type and endpoints of a topic', info)
     parser.add_argument('topic')
@@ -293,6 +299,7 @@ def add_parser(
 
     parser = add_verb(verbs, 'find', 'the topics of a type', find)
     parser.add_argument('type')
+    add_listing_options(parser, 'topics')
 
     parser = add_verb(verbs, 'echo', 'print the messages of a topic', echo)
     parser.add_argument('topic')
