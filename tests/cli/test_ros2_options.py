@@ -108,3 +108,24 @@ def test_action_list_counts(cli: Cli, zros_node: Node) -> None:
     assert result.returncode == 0, result.stderr
     assert result.stdout == '2\n'
     assert cli.run('action', 'list', '--count-actions').stdout == '2\n'
+
+
+def test_interface_proto_prints_the_default_message_as_ros2(cli: Cli) -> None:
+    twist = cli.run('interface', 'proto', 'geometry_msgs/msg/Twist')
+    assert twist.returncode == 0, twist.stderr
+    assert twist.stdout == (
+        '"linear:\n  x: 0.0\n  y: 0.0\n  z: 0.0\nangular:\n  x: 0.0\n  y: 0.0\n  z: 0.0\n"\n'
+    )
+    # a service: its request; an action: its goal; --no-quotes: as ros2, the YAML and a blank line
+    assert cli.run('interface', 'proto', 'std_srvs/srv/SetBool', '--no-quotes').stdout == (
+        'data: false\n\n'
+    )
+    assert cli.run('interface', 'proto', 'example_interfaces/action/Fibonacci').stdout == (
+        '"order: 0\n"\n'
+    )
+    assert cli.run('interface', 'proto', 'std_msgs/msg/Empty').stdout == '"{}\n"\n'
+    header = cli.run('interface', 'proto', 'std_msgs/msg/Header', '--no-quotes').stdout
+    assert header == "stamp:\n  sec: 0\n  nanosec: 0\nframe_id: ''\n\n"
+    unknown = cli.run('interface', 'proto', 'nope/msg/X')
+    assert unknown.returncode == 1
+    assert "unknown ROS type 'nope/msg/X'" in unknown.stderr
