@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import ast
+import threading
+import time
+from collections.abc import Callable, Iterator
 from typing import Any
 
+import pytest
+
+import zros
 from tests.cli.conftest import Cli
 from tests.cli.test_graph_verbs import fibonacci
 from zros.qos import Durability, History, QoS, Reliability
@@ -129,3 +135,106 @@ def test_interface_proto_prints_the_default_message_as_ros2(cli: Cli) -> None:
     unknown = cli.run('interface', 'proto', 'nope/msg/X')
     assert unknown.returncode == 1
     assert "unknown ROS type 'nope/msg/X'" in unknown.stderr
+
+
+@pytest.fixture
+def counter(zros_node: Node) -> Iterator[Callable[[str], None]]:
+    """``start(wire)``: a node on that wire publishing Int32 0, 1, 2... on /count at 50 Hz."""
+    stop = threading.Event()
+    threads: list[threading.Thread] = []
+
+    def start(wire: str) -> None:
+        node = zros_node('counter', wire=wire)
+        publisher = node.create_publisher('std_msgs/msg/Int32', '/count', 10)
+
+        def loop() -> None:
+            rate = node.create_rate(50)
+            number = 0
+            while not stop.is_set():
+                publisher.write(zros.Message('std_msgs/msg/Int32', data=number))
+                number += 1
+                rate.sleep()
+
+        threads.append(threading.Thread(target=loop, daemon=True))
+        threads[-1].start()
+
+    yield start
+    stop.set()
+    for thread in threads:
+        thread.join(5)
+
+
+def test_echo_filter_evaluates_an_expression_on_m_like_ros2(
+    cli: Cli, counter: Callable[[str], None]
+) -> None:
+    counter('bridge')
+    odd = cli.run('topic', 'echo', '/count', '--count', '3', '--filter', 'm.data % 2 == 1')
+    assert odd.returncode == 0, odd.stderr
+    numbers = [int(line.split(': ')[1]) for line in odd.stdout.splitlines() if line != '---']
+    assert len(numbers) == 3 and all(n % 2 == 1 for n in numbers)
+    # on the field --field selects, as ros2
+    field = cli.run('topic', 'echo', '/count', '--once', '--field', 'data', '--filter', 'm > 10')
+    assert field.returncode == 0, field.stderr
+    assert int(field.stdout.splitlines()[0]) > 10
+    syntax = cli.run('topic', 'echo', '/count', '--once', '--filter', 'm.data >')
+    assert syntax.returncode == 2
+    assert "--filter 'm.data >' is not a Python expression" in syntax.stderr
+    failing = cli.run('topic', 'echo', '/count', '--once', '--filter', 'm.nope')
+    assert failing.returncode == 1
+    assert "--filter 'm.nope' failed on a message: AttributeError" in failing.stderr
+
+
+@pytest.mark.parametrize('wire', ['bridge', 'rmw_zenoh'])
+def test_echo_raw_and_message_info_like_ros2(
+    cli: Cli, counter: Callable[[str], None], wire: str
+) -> None:
+    counter(wire)
+    env = {'ZROS_WIRE': wire}
+    raw = cli.run('topic', 'echo', '/count', '--raw', '--once', env=env)
+    assert raw.returncode == 0, raw.stderr
+    data, end = raw.stdout.splitlines()
+    assert end == '---'
+    payload = ast.literal_eval(data)  # the bytes' repr, as ros2 prints them
+    assert payload[:4] == b'\x00\x01\x00\x00' and len(payload) == 8  # CDR LE header, an int32
+
+    before = time.time_ns()
+    info = cli.run('topic', 'echo', '/count', '--once', '-i', env=env)
+    assert info.returncode == 0, info.stderr
+    lines = info.stdout.splitlines()
+    assert [line.split(':')[0] for line in lines[:5]] == [
+        'publication_sequence_number',
+        'received_timestamp',
+        'reception_sequence_number',
+        'source_timestamp',
+        '---',
+    ]
+    values = {line.split(': ')[0]: int(line.split(': ')[1]) for line in lines[:4]}
+    assert before < values['source_timestamp'] <= values['received_timestamp'] < time.time_ns()
+    assert values['reception_sequence_number'] == 1
+    # rmw_zenoh's attachment numbers the publisher's messages; the bridge's keys carry none
+    assert (values['publication_sequence_number'] > 0) == (wire == 'rmw_zenoh')
+    assert lines[5].startswith('data: ') and lines[6] == '---'
+
+    csv = cli.run('topic', 'echo', '/count', '--once', '-i', '--csv', env=env)
+    fields = csv.stdout.strip().split(',')
+    assert len(fields) == 5 and fields[3] == '1'
+    both = cli.run('topic', 'echo', '/count', '--once', '-i', '--raw', env=env).stdout
+    head, shown, data_title = both.splitlines()[:3]
+    assert head == '---Got new message, message info:---'
+    assert list(ast.literal_eval(shown)) == [
+        'source_timestamp',
+        'received_timestamp',
+        'publication_sequence_number',
+        'reception_sequence_number',
+    ]
+    assert data_title == '---Message data:---'
+
+
+def test_echo_raw_refuses_what_it_cannot_do(cli: Cli, counter: Callable[[str], None]) -> None:
+    counter('bridge')
+    field = cli.run('topic', 'echo', '/count', '--raw', '--field', 'data')
+    assert field.returncode == 2
+    assert '--raw prints the whole message as bytes: no --field' in field.stderr
+    aged = cli.run('topic', 'echo', '/count', '-i', '--max-age', '1')
+    assert aged.returncode == 2
+    assert '--max-age does not combine with --raw or --include-message-info' in aged.stderr
