@@ -100,6 +100,8 @@ def test_list_and_find_count_and_hide_hidden_names_like_ros2(cli: Cli, zros_node
         '/reset',
     ]
 
+    # under heavy load a `node list` has been seen to miss every node (before -a, too)
+    assert wait_for(lambda: '/lister' in lines('node', 'list'), 30)
     nodes = lines('node', 'list')
     assert '/lister' in nodes and '/_hidden_node' not in nodes
     assert '/_hidden_node' in lines('node', 'list', '-a')
