@@ -52,6 +52,14 @@ def test_pub_and_echo_take_ros2_qos_options(cli: Cli, zros_node: Node) -> None:
     assert _endpoint_qos(observer, '/qos2', False) == QoS(1000)
     profile.process.terminate()
     profile.finish()
+    latched = cli.start('topic', 'pub', '/qos3', 'std_msgs/msg/Int32', '{data: 1}', '--latched',
+                        '--qos-profile', 'sensor_data')  # fmt: skip
+    assert wait_for(lambda: _endpoint_qos(observer, '/qos3', True) is not None, 30)
+    assert _endpoint_qos(observer, '/qos3', True) == QoS(
+        5, Reliability.BEST_EFFORT, Durability.TRANSIENT_LOCAL
+    )
+    latched.process.terminate()
+    latched.finish()
 
 
 def test_qos_options_refuse_what_ros2_refuses(cli: Cli) -> None:

@@ -31,7 +31,7 @@ from zros.cli.shared import (
     unknown_name,
 )
 from zros.cli.topic_rates import bw, delay, hz
-from zros.qos import DEFAULT, LATCHED, Congestion, Priority, QoS
+from zros.qos import DEFAULT, LATCHED, Congestion, Durability, Priority, QoS
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -321,6 +321,8 @@ def pub(args: argparse.Namespace) -> int:
         qos = chosen_qos(args, LATCHED if args.latched else DEFAULT, None).with_(
             priority=args.priority, express=args.express, congestion=args.congestion
         )
+        if args.latched and args.qos_durability is None:  # over --qos-profile's too
+            qos = qos.with_(durability=Durability.TRANSIENT_LOCAL)
         publisher = node.create_publisher(cls, args.topic, qos=qos)
         if wanted and not _wait_for_subscribers(node, publisher, wanted, args.max_wait_time_secs):
             return 0  # Ctrl-C
