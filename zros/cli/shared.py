@@ -167,10 +167,40 @@ def names_on_graph(node: Node, kind: str) -> dict[str, list[str]]:
     return names
 
 
+def add_listing_options(parser: argparse.ArgumentParser, kind: str, hidden: bool = True) -> None:
+    """ros2's ``-c/--count-<kind>`` and (``hidden``) ``--include-hidden-<kind>`` of a verb
+    listing the ``kind`` (topics, services...); :func:`listed` applies them."""
+    parser.add_argument(
+        '-c',
+        f'--count-{kind}',
+        dest='count',
+        action='store_true',
+        help=f'only the number of {kind}',
+    )
+    if hidden:
+        parser.add_argument(
+            f'--include-hidden-{kind}', dest='include_hidden', action='store_true',
+            help=f'{kind} with a name part starting with _ too (hidden by default, as ros2)',
+        )  # fmt: skip
+
+
+def listed(args: argparse.Namespace, names: dict[str, list[str]]) -> dict[str, list[str]]:
+    """``names`` without the hidden ones unless ``--include-hidden-...``."""
+    from zros.pubsub.taps import is_hidden
+
+    if getattr(args, 'include_hidden', True):
+        return names
+    return {name: types for name, types in names.items() if not is_hidden(name)}
+
+
 def list_names(args: argparse.Namespace, kind: str) -> int:
-    """``zros <kind> list [-t]``."""
+    """``zros <kind> list [-t] [-c]``."""
     with open_node(args) as node:
-        for name, types in names_on_graph(node, kind).items():
+        names = listed(args, names_on_graph(node, kind))
+        if args.count:
+            out(str(len(names)))
+            return 0
+        for name, types in names.items():
             out(f'{name} [{", ".join(types)}]' if args.show_types else name)
     return 0
 
@@ -188,11 +218,12 @@ def print_types(args: argparse.Namespace, kind: str, name: str) -> int:
 
 
 def find_names(args: argparse.Namespace, kind: str, type_name: str) -> int:
-    """``zros <kind> find TYPE``: the names announced with that type."""
+    """``zros <kind> find TYPE [-c]``: the names announced with that type."""
     with open_node(args) as node:
-        for name, types in names_on_graph(node, kind).items():
-            if type_name in types:
-                out(name)
+        found = [n for n, types in listed(args, names_on_graph(node, kind)).items()
+                 if type_name in types]  # fmt: skip
+        for line in [str(len(found))] if args.count else found:
+            out(line)
     return 0
 
 

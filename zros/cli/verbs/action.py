@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 from zros.cli.shared import (
     WAIT,
     CommandError,
+    add_listing_options,
     add_verb,
     add_verbs,
     add_wait_option,
@@ -152,6 +153,7 @@ def add_parser(
 
     listing = add_verb(verbs, 'list', 'list the actions on the network', list_actions)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
+    add_listing_options(listing, 'actions', hidden=False)
     add_verb(verbs, 'type', 'the type of an action', action_type).add_argument('action')
     sub = add_verb(verbs, 'info', 'the clients and servers of an action', info)
     sub.add_argument('action')

@@ -1,4 +1,4 @@
-"""``zros interface``: list, packages, package, show (as ``ros2 interface``)."""
+"""``zros interface``: list, packages, package, show, proto (as ``ros2 interface``)."""
 
 from __future__ import annotations
 
@@ -49,6 +49,26 @@ def show(args: argparse.Namespace) -> int:
 
         sys.stdout.write(f'# {type_hash(registry, definition.name)}\n')
     sys.stdout.flush()
+    return 0
+
+
+def proto(args: argparse.Namespace) -> int:
+    """Print the default message of a type as YAML, in double quotes unless ``--no-quotes``, as
+    ``ros2 interface proto`` does (a service: its request; an action: its goal), to edit into
+    ``zros topic pub`` values."""
+    from zros.cdr import default_registry
+    from zros.cdr.interfaces import ActionType, ServiceType
+    from zros.cli.message_text import message_to_yaml
+
+    found = default_registry().get_type(args.type)
+    if isinstance(found, ServiceType):
+        message = found.Request()
+    elif isinstance(found, ActionType):
+        message = found.Goal()
+    else:
+        message = found()
+    text = message_to_yaml(message)
+    out(text if args.no_quotes else f'"{text}"')
     return 0
 
 
@@ -107,6 +127,10 @@ def add_parser(
         '--all', action='store_true', help='the bag format: the text, then each dependency'
     )
     show_parser.set_defaults(run=show)
+    prototype = verbs.add_parser('proto', help="a type's default message as YAML (as ros2)")
+    prototype.add_argument('type', help='e.g. geometry_msgs/msg/Twist (a service: its request)')
+    prototype.add_argument('--no-quotes', action='store_true', help='without the outer quotes')
+    prototype.set_defaults(run=proto)
     listing = verbs.add_parser('list', help='list the types zros can resolve')
     listing.add_argument('pattern', nargs='?', default='', help='only names containing this')
     listing.add_argument('-m', '--only-msgs', action='store_true')

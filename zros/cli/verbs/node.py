@@ -39,7 +39,7 @@ def _others(node: Node) -> list[str]:
 def list_nodes(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         node.graph.refresh(DISCOVERY)
-        names = _others(node)
+        names = [n for n in _others(node) if args.all or not n.rsplit('/', 1)[-1].startswith('_')]
         if args.count_nodes:
             out(str(len(names)))
             return 0
@@ -81,6 +81,9 @@ def add_parser(
     verbs = add_verbs(commands, 'node', help_line)
     listing = verbs.add_parser('list', help='list the nodes on the network')
     listing.add_argument('-c', '--count-nodes', action='store_true', help='only their number')
+    listing.add_argument(
+        '-a', '--all', action='store_true', help='hidden nodes (a name starting with _) too'
+    )
     listing.set_defaults(run=list_nodes)
     add_connection_options(listing)
     detail = verbs.add_parser('info', help="a node's publishers, subscribers, services, actions")

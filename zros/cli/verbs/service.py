@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 from zros.cli.shared import (
     WAIT,
     CommandError,
+    add_listing_options,
     add_verb,
     add_verbs,
     add_wait_option,
@@ -113,8 +114,11 @@ def add_parser(
 
     listing = add_verb(verbs, 'list', 'list the services on the network', list_services)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
+    add_listing_options(listing, 'services')
     add_verb(verbs, 'type', 'the type of a service', service_type).add_argument('service')
-    add_verb(verbs, 'find', 'the services of a type', find).add_argument('type')
+    finding = add_verb(verbs, 'find', 'the services of a type', find)
+    finding.add_argument('type')
+    add_listing_options(finding, 'services')
     sub = add_verb(verbs, 'call', 'call a service and print the response', call)
     sub.add_argument('service', help='e.g. /add_two_ints')
     sub.add_argument('type', help='e.g. example_interfaces/srv/AddTwoInts')

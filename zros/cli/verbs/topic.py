@@ -3,19 +3,25 @@
 from __future__ import annotations
 
 import argparse
+import builtins
+import sys
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, cast
 
+from zros.cli.qos_options import add_qos_options, chosen_qos
 from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     UsageError,
+    add_listing_options,
     add_verb,
     add_verbs,
     add_wait_option,
     build_message,
     find_names,
     graph_topic_type,
+    listed,
     message_class,
     open_node,
     out,
@@ -25,7 +31,7 @@ from zros.cli.shared import (
     unknown_name,
 )
 from zros.cli.topic_rates import bw, delay, hz
-from zros.qos import DEFAULT, LATCHED, Congestion, Priority, as_qos
+from zros.qos import DEFAULT, LATCHED, Congestion, Durability, Priority, QoS
 
 if TYPE_CHECKING:
     from zros.cdr import Message
@@ -37,6 +43,8 @@ if TYPE_CHECKING:
 LIST = 'zros topic list'
 #: where ``topic echo`` cuts arrays, bytes and strings unless ``--full-length`` (as ros2)
 TRUNCATE = 128
+#: what ``topic echo`` subscribes with unless told (deep: a burst is not lost to the terminal)
+ECHO_QOS = QoS(100)
 
 
 def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint], list[Endpoint]]:
@@ -50,7 +58,10 @@ def _publishers_and_subscribers(node: Node, topic: str) -> tuple[list[Endpoint],
 def list_topics(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         node.graph.refresh(DISCOVERY)
-        topics = node.graph.topics(node.scheme.namespace)
+        topics = listed(args, node.graph.topics(node.scheme.namespace))
+        if args.count:
+            out(str(len(topics)))
+            return 0
         if args.verbose:
             for title, kind in (('Published topics', 0), ('Subscribed topics', 1)):
                 out(f'{title}:')
@@ -108,12 +119,42 @@ def find(args: argparse.Namespace) -> int:
 # --- echo and pub ----------------------------------------------------------------------------
 
 
+def _filter(expression: str | None) -> Callable[[object], bool] | None:
+    """ros2's ``--filter``: a Python expression on ``m``, evaluated (as ros2 does) on each
+    message; a syntax error is a usage error, an expression failing on a message fails."""
+    if expression is None:
+        return None
+    try:
+        code = compile(expression, '--filter', 'eval')
+    except SyntaxError as exc:
+        raise UsageError(f'--filter {expression!r} is not a Python expression: {exc.msg}') from None
+
+    def check(m: object) -> bool:
+        try:
+            return bool(eval(code, {'__builtins__': builtins}, {'m': m}))  # as ros2's
+        except Exception as exc:  # the user's expression: any error
+            name = type(exc).__name__
+            raise CommandError(
+                f'--filter {expression!r} failed on a message: {name}: {exc}'
+            ) from None
+
+    return check
+
+
 def echo(args: argparse.Namespace) -> int:
-    from zros.cdr.message import Message
+    from zros.cdr import CdrError
+    from zros.cdr.message import Message, decode
+    from zros.cli.echo_tap import EchoTap
     from zros.cli.message_text import message_to_csv, message_to_yaml, select, value_to_yaml
 
     truncate = None if args.full_length else args.truncate_length
     options = {'truncate': truncate, 'no_arr': args.no_arr, 'no_str': args.no_str}
+    keep = _filter(args.filter_expr)
+    tapped = args.raw or args.include_message_info
+    if args.raw and args.field:
+        raise UsageError('--raw prints the whole message as bytes: no --field')
+    if tapped and args.max_age is not None:
+        raise UsageError('--max-age does not combine with --raw or --include-message-info')
 
     def selected(message: Message) -> object:
         try:
@@ -121,32 +162,67 @@ def echo(args: argparse.Namespace) -> int:
         except KeyError as exc:
             raise CommandError(str(exc.args[0])) from None
 
-    def text_of(message: Message) -> str:
-        value = selected(message)
+    def text_of(value: object) -> str:
         if args.csv:
             return message_to_csv(value, **options) if isinstance(value, Message) else str(value)
         if isinstance(value, Message):
             return message_to_yaml(value, flow_style=args.flow_style, **options)
         return value_to_yaml(value, flow_style=args.flow_style, **options)
 
+    def show(value: object, info: dict[str, int] | None) -> None:
+        if isinstance(value, bytes):  # --raw, as ros2 prints the bytes
+            if info is not None:
+                out('---Got new message, message info:---')
+                out(str(info))
+                out('---Message data:---')
+            out(repr(value))
+            out('---')
+        elif args.csv:
+            prefix = '' if info is None else ','.join(map(str, info.values())) + ','
+            out(prefix + text_of(value).rstrip('\n'))
+        else:
+            if info is not None:  # as ros2's yaml.dump: sorted keys
+                out('\n'.join(f'{key}: {info[key]}' for key in sorted(info)))
+                out('---')
+            out(text_of(value).rstrip('\n'))
+            out('---')
+
     with open_node(args) as node:
         type_name = subscription_type(node, args.topic, args.type, args.wait)
-        selected(node.registry.get_class(type_name)())  # a wrong --field fails before a message
+        cls = node.registry.get_class(type_name)
+        selected(cls())  # a wrong --field fails before a message
         publishers = _publishers_and_subscribers(node, args.topic)[0]
-        latched = bool(publishers) and all(
-            p.qos is not None and p.qos.transient_local for p in publishers
-        )
-        qos = as_qos('latched' if latched else args.qos_depth).with_(lifespan=args.max_age)
-        subscriber = node.create_subscription(type_name, args.topic, qos=qos)
+        offered = [p.qos for p in publishers if p.qos is not None]
+        qos = chosen_qos(args, ECHO_QOS, offered).with_(lifespan=args.max_age)
+        if tapped:
+            tap = EchoTap(node, args.topic, type_name, qos)
+
+            def receive() -> tuple[object, dict[str, int] | None] | None:
+                got = tap.next(0.5)
+                if got is None:
+                    return None
+                data, info = got[0], got[1] if args.include_message_info else None
+                if args.raw:
+                    return data, info
+                try:
+                    return selected(decode(cls, data)), info
+                except CdrError as exc:
+                    print(f'zros: a message does not decode as {type_name}: {exc}', file=sys.stderr)
+                    return None
+        else:
+            subscriber = node.create_subscription(type_name, args.topic, qos=qos)
+
+            def receive() -> tuple[object, dict[str, int] | None] | None:
+                message = subscriber.wait_for_message(timeout=0.5)
+                return None if message is None else (selected(message), None)
+
         printed = 0
         try:
             while node.ok():
-                message = subscriber.wait_for_message(timeout=0.5)
-                if message is None:
+                got = receive()
+                if got is None or (keep is not None and not keep(got[0])):
                     continue
-                out(text_of(message).rstrip('\n'))
-                if not args.csv:
-                    out('---')
+                show(*got)
                 printed += 1
                 if args.once or (args.count and printed >= args.count):
                     break
@@ -242,9 +318,11 @@ def pub(args: argparse.Namespace) -> int:
         raise UsageError('--max-wait-time-secs needs a subscriber to wait for (-w N, -1 or -t)')
     with open_node(args) as node:
         require_advertised_type(node, 'topics', args.topic, cls.__msgtype__)
-        qos = (LATCHED if args.latched else DEFAULT).with_(
+        qos = chosen_qos(args, LATCHED if args.latched else DEFAULT, None).with_(
             priority=args.priority, express=args.express, congestion=args.congestion
         )
+        if args.latched and args.qos_durability is None:  # over --qos-profile's too
+            qos = qos.with_(durability=Durability.TRANSIENT_LOCAL)
         publisher = node.create_publisher(cls, args.topic, qos=qos)
         if wanted and not _wait_for_subscribers(node, publisher, wanted, args.max_wait_time_secs):
             return 0  # Ctrl-C
@@ -265,9 +343,9 @@ def pub(args: argparse.Namespace) -> int:
                     rate.sleep()
         except KeyboardInterrupt:
             pass
-        if args.once or args.latched:
+        if args.once or qos.transient_local:
             # give late subscribers of a latched topic, and the network, a moment
-            node.spin(timeout=0.3 if not args.latched else args.keep_alive)
+            node.spin(timeout=0.3 if not qos.transient_local else args.keep_alive)
     return 0
 
 
@@ -282,6 +360,7 @@ def add_parser(
     listing = add_verb(verbs, 'list', 'list the topics on the network', list_topics)
     listing.add_argument('-t', '--show-types', action='store_true', help='with their types')
     listing.add_argument('-v', '--verbose', action='store_true', help='publishers, subscribers')
+    add_listing_options(listing, 'topics')
 
     parser = add_verb(verbs, 'info', 'type and endpoints of a topic', info)
     parser.add_argument('topic')
@@ -292,6 +371,7 @@ def add_parser(
 
     parser = add_verb(verbs, 'find', 'the topics of a type', find)
     parser.add_argument('type')
+    add_listing_options(parser, 'topics')
 
     parser = add_verb(verbs, 'echo', 'print the messages of a topic', echo)
     parser.add_argument('topic')
@@ -304,13 +384,28 @@ def add_parser(
     parser.add_argument('--no-str', action='store_true', help='abbreviate strings')
     parser.add_argument('--flow-style', action='store_true', help='arrays on one line')
     parser.add_argument(
+        '--filter', dest='filter_expr', metavar='EXPR',
+        help='print only messages for which this Python expression on m (the message, or the '
+        'field of --field) is true, e.g. "m.data > 3"; evaluated as Python, as ros2 does: '
+        'never pass text you do not trust',
+    )  # fmt: skip
+    parser.add_argument('--raw', action='store_true', help='print the CDR bytes, as ros2')
+    parser.add_argument(
+        '-i', '--include-message-info', action='store_true',
+        help="each message's info first (as ros2: source and received timestamps, in ns, the "
+        "publisher's sequence number, 0 when the wire carries none, and the count here)",
+    )  # fmt: skip
+    parser.add_argument(
         '-l', '--truncate-length', type=_count, default=TRUNCATE, metavar='N',
         help=f'cut arrays, bytes and strings after N items, marked ... (default {TRUNCATE})',
     )  # fmt: skip
     parser.add_argument(
         '-f', '--full-length', action='store_true', help='print arrays and strings in full'
     )
-    parser.add_argument('--qos-depth', type=int, default=100, metavar='N')
+    add_qos_options(
+        parser, 'subscribe',
+        f'depth {ECHO_QOS.depth}; reliability and durability not given match the publishers',
+    )  # fmt: skip
     _add_max_age(parser)
     add_wait_option(parser, 'topic')
 
@@ -326,7 +421,10 @@ def add_parser(
     parser.add_argument('-t', '--times', type=int, default=0, help='publish N times and exit')
     parser.add_argument('--latched', action='store_true', help='transient local, like /tf_static')
     parser.add_argument('--keep-alive', type=float, default=1.0, metavar='S',
-                        help='with --latched: seconds to stay for late subscribers')  # fmt: skip
+                        help='latched: seconds to stay for late subscribers')  # fmt: skip
+    add_qos_options(
+        parser, 'publish', 'reliable, volatile, depth 10; --latched: transient local, depth 1'
+    )
     parser.add_argument(
         '-w', '--wait-matching-subscriptions', type=_count, metavar='N',
         help='wait for N subscribers first (default: 1 with -1 or -t unless --latched, else 0)',
