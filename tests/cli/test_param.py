@@ -208,3 +208,15 @@ def test_set_reads_the_value_as_ros2_param_set(cli: Cli, zros_node: Node) -> Non
             continue
         assert (result.returncode, result.stdout) == (0, 'Set parameter successful\n'), text
         assert node.get_parameter(name) == expected
+
+
+def test_an_integer_for_a_double_is_refused_both_ways(cli: Cli, driver: Any) -> None:
+    """ROS's rule on both paths: ``param set`` and the node's own ``set_parameter`` refuse 2 for a
+    double and say what to write."""
+    refused = cli.run('param', 'set', '/robot/driver', 'speed', '2')
+    assert refused.returncode == 1
+    assert refused.stdout.endswith('speed is a double: write 2.0\n')
+    local = driver.set_parameters({'speed': 2})
+    assert not local[0].successful
+    assert local[0].reason.endswith('speed is a double: write 2.0')
+    assert driver.get_parameter('speed') == 1.5
