@@ -184,3 +184,39 @@ def test_list_goes_on_past_a_node_that_does_not_answer(
     alone = cli.run('param', 'list', '/a_stuck', '--timeout', '1')
     assert alone.returncode == 1
     assert 'did not answer list_parameters' in alone.stderr
+
+
+def test_set_reads_the_value_as_ros2_param_set(cli: Cli, zros_node: Node) -> None:
+    """YAML 1.1 as PyYAML reads it (``y`` is a string), not rcl's file rules; ``[]`` empties an
+    array of the parameter's type; a list of mixed types is the text itself."""
+    node = zros_node('lists', '/robot', enable_rosout=False)
+    node.declare_parameter('names', ['a'])
+    node.declare_parameter('gains', [1.0, 2.0])
+    node.declare_parameter('label', 'x')
+    for name, text, expected in (
+        ('names', '[x, y]', ['x', 'y']),
+        ('names', '[n, yes]', None),
+        ('gains', '[]', []),
+        ('label', '[1, b]', '[1, b]'),
+        ('label', '"5"', '5'),
+        ('label', '1e3', '1e3'),
+    ):
+        result = cli.run('param', 'set', '/robot/lists', name, text)
+        if expected is None:  # [n, yes] holds a string and a bool: the text, refused as a string
+            assert result.returncode == 1
+            assert 'string_array' in result.stdout and '-p' not in result.stdout
+            continue
+        assert (result.returncode, result.stdout) == (0, 'Set parameter successful\n'), text
+        assert node.get_parameter(name) == expected
+
+
+def test_an_integer_for_a_double_is_refused_both_ways(cli: Cli, driver: Any) -> None:
+    """ROS's rule on both paths: ``param set`` and the node's own ``set_parameter`` refuse 2 for a
+    double and say what to write."""
+    refused = cli.run('param', 'set', '/robot/driver', 'speed', '2')
+    assert refused.returncode == 1
+    assert refused.stdout.endswith('speed is a double: write 2.0\n')
+    local = driver.set_parameters({'speed': 2})
+    assert not local[0].successful
+    assert local[0].reason.endswith('speed is a double: write 2.0')
+    assert driver.get_parameter('speed') == 1.5

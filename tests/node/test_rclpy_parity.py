@@ -273,3 +273,17 @@ def test_ctrl_c_ends_a_while_ok_loop_without_init(
     assert script.process.wait(10) == 0
     errors = script.stop()
     assert 'Traceback' not in errors, errors
+
+
+def test_spin_once_timeout_sec_and_get_parameter_or(zros_node: Callable[..., Node]) -> None:
+    """rclpy's spellings: ``node.spin_once(timeout_sec=)`` and ``get_parameter_or``."""
+    node = zros_node('parity_or')
+    ran: list[int] = []
+    node.create_timer(0.01, lambda: ran.append(1))
+    assert wait_for(lambda: node.spin_once(timeout_sec=1.0) > 0, timeout=10.0)
+    with pytest.raises(TypeError, match='not both'):
+        node.spin_once(0.5, timeout_sec=1.0)
+    node.declare_parameter('speed', 1.5)
+    assert node.get_parameter_or('speed', 9.0) == 1.5
+    assert node.get_parameter_or('missing', 9.0) == 9.0
+    assert node.get_parameter_or('missing') is None

@@ -159,3 +159,29 @@ def test_a_dump_loads_back_to_the_same_values() -> None:
     back = values_for(parse_file_text(text), '/robot/driver')
     assert back == values
     assert all(type(back[k]) is type(v) for k, v in values.items())
+
+
+@pytest.mark.parametrize(
+    'text',
+    ['y', 'n', 'yes', 'Off', '1e3', '1.0e3', '1.5e+3', '010', '0x1f', '-0x1f', '0b101', '1_000',
+     '1:30', '1:30.5', '.inf', '-.Inf', '.nan', '-.5', '~', 'null', '', '2001-12-14', '[x, y]',
+     '[]', '[1, 2.0]', '[true, 1]', '[.inf]', '{a: 1}', '"5"', 'a: b', '1.', '0o17', '+12',
+     '0.5', '[1,', 'hello world'],
+)  # fmt: skip
+def test_set_value_types_as_ros2_param_set(text: str) -> None:
+    """``ros2 param set`` types its value with PyYAML's ``safe_load``: the same type here."""
+    yaml = pytest.importorskip('yaml')
+    from zros.params.files import set_value
+
+    try:
+        loaded = yaml.safe_load(text)
+    except yaml.YAMLError:
+        loaded = text
+    if isinstance(loaded, list):
+        kinds = [k for k in (bool, int, float, str) if all(isinstance(v, k) for v in loaded)]
+        expected = [kinds[0](v) for v in loaded] if kinds else text
+    elif isinstance(loaded, (bool, int, float, str)):
+        expected = loaded
+    else:
+        expected = text
+    assert repr(set_value(text)) == repr(expected)

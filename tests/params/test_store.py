@@ -79,7 +79,12 @@ def test_static_typing_and_the_reasons_ros_tools_show() -> None:
     store.declare('speed', 0.5)
     store.declare('count', 3)
     store.declare('mode', 'fast', read_only=True)
-    assert store.set('speed', 2) and store.get('speed') == 2.0  # an int is a fine double
+    assert store.set('speed', 2.0) and store.get('speed') == 2.0
+    assert store.set('speed', 2) == SetResult(  # ROS's rule, as ros2 param set meets it
+        False,
+        'Wrong parameter type, parameter {speed} is of type {double}, setting it to {integer} '
+        'is not allowed. speed is a double: write 2.0',
+    )
     result = store.set('count', 'three')
     assert result == SetResult(
         False,

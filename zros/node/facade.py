@@ -27,6 +27,7 @@ from zros.runtime.clock_feed import ClockSubscription
 from zros.runtime.context import NodeContext
 from zros.runtime.executor import shut_down_on_ctrl_c
 from zros.runtime.logger import Logger, logger_name
+from zros.runtime.timeouts import UNSET, Unset, either_timeout
 from zros.services.typeinfo import NodeTypes
 from zros.transport import Transport, TransportConfig
 from zros.wire import KeyScheme, Wire, open_wire
@@ -228,12 +229,15 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
     # Ctrl-C without zros.init's handler raises KeyboardInterrupt where the spin waits: each spin
     # ends and shuts down as that handler does, so a `while node.ok()` loop ends as with it
 
-    def spin_once(self, timeout: float | None = 0.0) -> int:
-        """Run due callbacks and timers, waiting up to ``timeout`` seconds for one; returns how
-        many ran. ``timeout=None`` waits until something runs. Ctrl-C ends it (0) and makes
-        ``ok()`` false, with or without ``zros.init``."""
+    def spin_once(
+        self, timeout: float | None = 0.0, *, timeout_sec: float | Unset | None = UNSET
+    ) -> int:
+        """Run due callbacks and timers, waiting up to ``timeout`` (or rclpy's ``timeout_sec``)
+        seconds for one; returns how many ran. ``None`` waits until something runs. Ctrl-C ends
+        it (0) and makes ``ok()`` false, with or without ``zros.init``."""
+        wait = either_timeout(timeout, timeout_sec, 0.0)
         try:
-            return self.context.executor.run_once(timeout)
+            return self.context.executor.run_once(wait)
         except KeyboardInterrupt:
             shut_down_on_ctrl_c()
             return 0

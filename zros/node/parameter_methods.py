@@ -57,6 +57,11 @@ class ParameterMethods:
         """A parameter's value; ParameterNotDeclaredError for an unknown name."""
         return self.parameters.get(name)
 
+    def get_parameter_or(self, name: str, alternative_value: ParamValue = None) -> ParamValue:
+        """A parameter's value, or ``alternative_value`` when it is not declared (rclpy's name;
+        rclpy returns a Parameter, zros the value as ``get_parameter`` does)."""
+        return self.parameters.get(name) if self.parameters.has(name) else alternative_value
+
     def set_parameter(self, name: str, value: ParamValue) -> None:
         """Set a parameter; raises ParameterError with the reason when it is refused."""
         result = self.parameters.set(name, value)

@@ -216,6 +216,82 @@ def parse_override(text: str) -> tuple[str, ParamValue]:
     return name, _value(node, f'-p {name}')
 
 
+# ``ros2 param set`` reads its value with PyYAML (YAML 1.1), not with rcl's rules: only these
+# spellings are booleans (``y`` is a string), a float needs a dot (``1e3`` is a string)
+_SET_TRUE = {'yes', 'Yes', 'YES', 'true', 'True', 'TRUE', 'on', 'On', 'ON'}
+_SET_FALSE = {'no', 'No', 'NO', 'false', 'False', 'FALSE', 'off', 'Off', 'OFF'}
+_SET_NULL = {'', '~', 'null', 'Null', 'NULL'}
+_SET_INTEGER = re.compile(
+    r'[-+]?(?:0b[01_]+|0x[0-9a-fA-F_]+|0[0-7_]+|0|[1-9][0-9_]*(?::[0-5]?[0-9])*)'
+)
+_SET_FLOAT = re.compile(
+    r'[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9_]+(?:[eE][-+][0-9]+)?'
+    r'|[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*'
+)
+_NOT_A_VALUE = object()  # null, a mapping, a date...: what no parameter type holds
+
+
+def _sexagesimal(text: str, number: type[int] | type[float]) -> int | float:
+    total: int | float = 0
+    for part in text.split(':'):
+        total = total * 60 + number(part)
+    return total
+
+
+def _set_scalar(text: str, quoted: bool) -> object:
+    if quoted:
+        return text
+    if text in _SET_TRUE or text in _SET_FALSE:
+        return text in _SET_TRUE
+    if text in _SET_NULL:
+        return _NOT_A_VALUE
+    sign = -1 if text.startswith('-') else 1
+    digits = text.lstrip('+-').replace('_', '')
+    if _SET_INTEGER.fullmatch(text):
+        if ':' in digits:
+            return sign * _sexagesimal(digits, int)
+        base = {'0b': 2, '0x': 16}.get(digits[:2], 8 if digits[:1] == '0' and digits != '0' else 10)
+        return sign * int(digits[2:] if base in (2, 16) else digits, base)
+    if _SET_FLOAT.fullmatch(text):
+        return sign * (_sexagesimal(digits, float) if ':' in digits else float(digits))
+    if _YAML_SPECIAL.fullmatch(text):
+        return scalar(text, quoted=False)
+    return text
+
+
+def set_value(text: str) -> ParamValue:
+    """A ``param set`` value, typed as ``ros2 param set`` types it: YAML 1.1 scalars (``y`` and
+    ``1e3`` are strings), a list of one type is an array (``[]`` an empty one, whose type the
+    parameter decides), and anything else (a mixed list, a mapping, text YAML cannot read) is
+    the text itself as a string."""
+    from ruamel.yaml.error import YAMLError  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
+    from ruamel.yaml.nodes import ScalarNode, SequenceNode  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
+
+    try:
+        node = _yaml().compose(text)
+    except YAMLError:
+        return text
+
+    def read(item: object) -> object:
+        if isinstance(item, ScalarNode) and item.tag != 'tag:yaml.org,2002:binary':
+            return _set_scalar(item.value, quoted=item.style in ("'", '"', '|', '>'))
+        return _NOT_A_VALUE
+
+    if isinstance(node, SequenceNode):
+        items = [read(item) for item in node.value]
+        for kind, array in (
+            (bool, ParameterType.BOOL_ARRAY),
+            (int, ParameterType.INTEGER_ARRAY),  # a bool is an int, as in Python
+            (float, ParameterType.DOUBLE_ARRAY),
+            (str, ParameterType.STRING_ARRAY),
+        ):
+            if all(isinstance(item, kind) for item in items):
+                return normalize(items, array)
+        return text
+    value = read(node) if node is not None else _NOT_A_VALUE
+    return value if isinstance(value, (bool, int, float, str)) else text
+
+
 # --- writing -----------------------------------------------------------------------------------
 
 

@@ -303,6 +303,9 @@ class ParameterStore:
         expected = descriptor.type if not descriptor.dynamic_typing else ParameterType.NOT_SET
         try:
             kind = kind_hint if kind_hint is not None else infer_type(value, expected)
+            if kind_hint is None and _integers(value):  # ROS's rule: no int for a double
+                kind = ParameterType.INTEGER if kind is ParameterType.DOUBLE else kind
+                kind = ParameterType.INTEGER_ARRAY if kind is ParameterType.DOUBLE_ARRAY else kind
             value = normalize(value, kind)
         except (ParameterError, TypeError, ValueError) as exc:
             return Parameter(name, value), f"parameter '{name}': {exc}", ''
@@ -326,6 +329,7 @@ class ParameterStore:
                 (
                     f'Wrong parameter type, parameter {{{name}}} is of type '
                     f'{{{expected.ros_name}}}, setting it to {{{kind.ros_name}}} is not allowed.'
+                    + _write_double(name, value, expected, kind)
                 ),
                 '',
             )
@@ -394,3 +398,20 @@ class ParameterStore:
 
     def __repr__(self) -> str:
         return f'<zros parameters of {self.node_name}: {len(self._entries)}>'
+
+
+def _integers(value: object) -> bool:
+    """Whether ``value`` is an int or a non-empty list of ints (not bools)."""
+    items = value if isinstance(value, list) and value else [value]
+    return all(isinstance(item, int) and not isinstance(item, bool) for item in items)
+
+
+def _write_double(
+    name: str, value: ParamValue, expected: ParameterType, kind: ParameterType
+) -> str:
+    """`` speed is a double: write 2.0`` when an integer was given for a double."""
+    if (expected, kind) == (ParameterType.DOUBLE, ParameterType.INTEGER):
+        return f' {name} is a double: write {float(value)!r}'  # type: ignore[arg-type]
+    if (expected, kind) == (ParameterType.DOUBLE_ARRAY, ParameterType.INTEGER_ARRAY):
+        return f' {name} is a double_array: write {[float(v) for v in value]!r}'  # type: ignore[union-attr]
+    return ''

@@ -121,16 +121,18 @@ def get(args: argparse.Namespace) -> int:
 
 
 def set_parameter(args: argparse.Namespace) -> int:
-    from zros.params.errors import ParameterError
-    from zros.params.files import parse_override
+    from zros.params.descriptor import Parameter
+    from zros.params.files import set_value
+    from zros.params.values import ParameterType
 
-    try:
-        _, value = parse_override(f'{args.name}:={args.value}')
-    except ParameterError as exc:
-        raise CommandError(command_line_text(exc)) from None
+    value = set_value(args.value)
     with open_node(args) as node:
         client = _client(node, args.node, args.timeout, args.wait)
-        (result,) = client.set_parameters({args.name: value})
+        kind = None
+        if value == []:  # an empty array of the parameter's type (ros2 sends a bool array)
+            declared = client.get_parameter_types([args.name])[args.name]
+            kind = declared if declared.is_array else ParameterType.BOOL_ARRAY
+        (result,) = client.set_parameters([Parameter(args.name, value, kind)])
         if not result:
             hint = _closest_parameters(client, args.name)
             out(f'Setting parameter failed: {result.reason}{hint}')
