@@ -66,21 +66,10 @@ def unanswered_here(name: str, key: str) -> str:
     that waits for the answer (rclpy deadlocks there too)."""
     caller = threading.get_ident()
     for server in list(_served):
-        if server.name != name or server.key != key or not server._pending or not server._handler:
-            continue
-        node = server.context.fully_qualified_name
-        if server.context.executor.callback_thread == caller:
-            return (
-                f'; its server is node {node}, and this call waits inside a callback of that '
-                'node, so the handler cannot run until the callback returns: use call_async() '
-                'and take the response in a done callback, or serve it from a node spun on '
-                'another thread (or made with immediate_callbacks=True)'
-            )
-        return (
-            f'; its server, node {node} of this process, holds the request unanswered: nobody '
-            'spins that node, or its callbacks are busy (spin it on a thread of its own, or '
-            'make it with immediate_callbacks=True)'
-        )
+        if server.name == name and server.key == key:
+            reason = server.why_unanswered(caller)
+            if reason:
+                return reason
     return ''
 
 
@@ -247,6 +236,25 @@ class Service(ServiceEntity):
             self._reply(query, response, arrived)
 
         self.context.executor.run_coroutine(coroutine).add_done_callback(finished)
+
+    def why_unanswered(self, caller: int) -> str:
+        """Why this server holds a request unanswered, for a call from thread ``caller`` that
+        timed out ('' when it holds none, or is polled: the program takes requests itself)."""
+        if not self._pending or self._handler is None:
+            return ''
+        node = self.context.fully_qualified_name
+        if self.context.executor.callback_thread == caller:
+            return (
+                f'; its server is node {node}, and this call waits inside a callback of that '
+                'node, so the handler cannot run until the callback returns: use call_async() '
+                'and take the response in a done callback, or serve it from a node spun on '
+                'another thread (or made with immediate_callbacks=True)'
+            )
+        return (
+            f'; its server, node {node} of this process, holds the request unanswered: nobody '
+            'spins that node, or its callbacks are busy (spin it on a thread of its own, or '
+            'make it with immediate_callbacks=True)'
+        )
 
     # --- polling (rosR style) ------------------------------------------------------------------
 
