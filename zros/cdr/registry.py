@@ -259,7 +259,7 @@ class TypeRegistry:
                 return self._definitions[name]
             found = self._load(name)
             if found is None:
-                parent = self._parent_of(name)
+                parent = self.parent(name)
                 if parent is not None and self.find(parent) is not None:
                     return self._definitions.get(name)
                 return None
@@ -300,9 +300,6 @@ class TypeRegistry:
     def parent(self, name: str) -> str | None:
         """The service or action a part's name belongs to (``pkg/action/A_SendGoal``:
         ``pkg/action/A``), or None."""
-        return self._parent_of(name)
-
-    def _parent_of(self, name: str) -> str | None:
         package, kind, short = split_type_name(name)
         suffixes = _ACTION_SUFFIXES if kind == 'action' else _SERVICE_SUFFIXES
         for suffix in suffixes:
@@ -320,7 +317,7 @@ class TypeRegistry:
                 found = self.find(candidate)
                 if isinstance(found, MessageDef):
                     return found
-                parent = self._parent_of(candidate)
+                parent = self.parent(candidate)
                 found_parent = parent is not None and self.find(parent) is not None
                 if found_parent and candidate in self._messages:
                     return self._messages[candidate]
@@ -402,7 +399,7 @@ class TypeRegistry:
                 return self.get_service(candidate)
             if isinstance(found, ActionDef):
                 return self.get_action(candidate)
-            if isinstance(found, MessageDef) or self._parent_of(candidate) is not None:
+            if isinstance(found, MessageDef) or self.parent(candidate) is not None:
                 try:
                     return self.get_class(candidate)
                 except UnknownTypeError:
