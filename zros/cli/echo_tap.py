@@ -3,8 +3,7 @@ its CDR bytes and what ros2 calls its message info."""
 
 from __future__ import annotations
 
-import contextlib
-import queue
+import collections
 import threading
 import time
 from typing import TYPE_CHECKING
@@ -34,33 +33,30 @@ class EchoTap:
     def __init__(self, node: Node, topic: str, type_name: str, qos: QoS) -> None:
         from zros.pubsub.taps import RawTap
 
-        self._samples: queue.Queue[tuple[Sample, int, int]] = queue.Queue(max(qos.depth, 1))
-        self._lock = threading.Lock()
+        # keep last: a full deque drops its oldest
+        self._samples: collections.deque[tuple[Sample, int, int]] = collections.deque(
+            maxlen=max(qos.depth, 1)
+        )
+        self._arrival = threading.Condition()
         self._received = 0
         self._tap = RawTap(node, topic, type_name, qos=qos, key=None, callback=self._arrived)
 
     def _arrived(self, sample: Sample) -> None:
         now = time.time_ns()
-        with self._lock:  # one delivery thread, but Zenoh's for transient local too
+        with self._arrival:  # one delivery thread, but Zenoh's for transient local too
             self._received += 1
-            entry = (sample, now, self._received)
-            while True:
-                try:
-                    self._samples.put_nowait(entry)
-                    return
-                except queue.Full:
-                    with contextlib.suppress(queue.Empty):  # keep last: the oldest goes
-                        self._samples.get_nowait()
+            self._samples.append((sample, now, self._received))
+            self._arrival.notify()
 
     def next(self, timeout: float) -> tuple[bytes, dict[str, int]] | None:
         """The CDR bytes and message info of the next sample; None after ``timeout`` s."""
         from zros.pubsub.taps import publish_time
         from zros.wire import read_attachment
 
-        try:
-            sample, received, number = self._samples.get(timeout=timeout)
-        except queue.Empty:
-            return None
+        with self._arrival:
+            if not self._arrival.wait_for(lambda: self._samples, timeout):
+                return None
+            sample, received, number = self._samples.popleft()
         attachment = read_attachment(sample) if sample.attachment is not None else None
         values = (
             publish_time(sample, received),
