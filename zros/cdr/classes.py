@@ -93,20 +93,9 @@ class _Codecs:
                     variants[key] = self.decoder(key[1], key[0] == 'm')
             return variants[key](view, strict)
 
-        def memory_first(view: Buffer, strict: bool) -> Message:
-            # the entry's decoder of memoryviews, compiled on the first one: the entry then
-            # calls it directly
-            with self.source.lock:
-                if 'view' not in variants:
-                    variants['view'] = codegen.generate_decoder(
-                        self, definition, '<', True, False, fallback=other
-                    )
-                    codegen.replace_reference(entry, memory_first, variants['view'])
-            return variants['view'](view, strict)
-
         definition = cls._definition
         entry = codegen.generate_decoder(
-            self, definition, '<', False, False, fallback=other, memory_decoder=memory_first
+            self, definition, '<', False, False, fallback=other, memoryviews=True
         )
         entry.__zros_entry__ = True  # type: ignore[attr-defined]  # a marker on the function
         cls._cdr_decode = entry  # type: ignore[method-assign,assignment]  # the compiled decoder replaces the stub

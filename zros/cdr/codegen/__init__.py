@@ -22,13 +22,12 @@ from zros.cdr.codegen.decoder import generate_decoder
 from zros.cdr.codegen.encoder import generate_encoder
 from zros.cdr.codegen.methods import generate_methods
 from zros.cdr.codegen.ops import Context
-from zros.cdr.codegen.program import replace_reference, source_of
+from zros.cdr.codegen.program import source_of
 
 __all__ = [
     'Context',
     'generate_decoder',
     'generate_encoder',
     'generate_methods',
-    'replace_reference',
     'source_of',
 ]

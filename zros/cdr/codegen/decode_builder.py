@@ -88,6 +88,9 @@ class DecoderBuilder:
         #: the fallback of a decoder that checks the header itself, while its first run of
         #: fixed fields (which then reads the header too) is still to come
         self.header_fallback: str | None = None
+        #: in a decoder of a private ``bytes`` copy, texts longer than this decode from a
+        #: memoryview of it (one pass over the text instead of a slice's copy and a decode)
+        self.long_text: int | None = None
         self.loops = LoopStates(lambda loop, start: self.dry_emit(loop.body, start))
 
     # emission
@@ -296,6 +299,12 @@ class DecoderBuilder:
                 src.add(f"{op.ref} = str(buf[{at}:e], 'utf-8')")
             elif self.memory and self.source == 'buf':  # 40 ns faster than str(view, 'utf-8')
                 src.add(f'{op.ref} = buf[{at}:e].tobytes().decode()')
+            elif self.long_text is not None:
+                mv = src.ref(memoryview, 'mv')
+                with src.block(f'if {op.count} > {self.long_text}:'):
+                    src.add(f"{op.ref} = str({mv}({self.source})[{at}:e], 'utf-8')")
+                with src.block('else:'):
+                    src.add(f'{op.ref} = {self.source}[{at}:e].decode()')
             else:
                 src.add(f'{op.ref} = {self.source}[{at}:e].decode()')
             if op.bound:

@@ -25,9 +25,10 @@ from zros.cdr.model import Buffer, MessageDef
 if TYPE_CHECKING:
     from zros.cdr.message import Message
 
-#: a memoryview of a message without arrays is copied to ``bytes`` up to this size: the copy
-#: costs less than decoding text from memoryview slices (no array of the result views the copy)
-COPY_TEXT_BELOW = 4096
+#: a memoryview of a message without arrays is copied to ``bytes`` whole (a copy costs less than
+#: slices of the view, and no array of the result views it); a text longer than this many bytes
+#: then decodes from a memoryview of the copy, which saves the slice's second copy
+LONG_TEXT = 16384
 
 
 def _all_ops(ops: list[Op]) -> Iterator[Op]:
@@ -61,7 +62,7 @@ def generate_decoder(
     trace: bool,
     *,
     fallback: Callable[[Buffer, bool], Message] | None = None,
-    memory_decoder: Callable[[Buffer, bool], Message] | None = None,
+    memoryviews: bool = False,
 ) -> Callable[[Buffer, bool], Message]:
     """The function ``decode(buf, strict) -> message`` for the body after a valid header.
 
@@ -73,10 +74,9 @@ def generate_decoder(
     With a ``fallback`` it checks the header itself: it decodes the little-endian header
     ``00 01`` and hands the rest to ``fallback(buf, strict)``; data shorter than the header
     raises IndexError. A ``memory`` one takes memoryviews of any format then (the fallback gets
-    those it cannot read). The other decodes ``bytes`` and ``bytearray``, and with a
-    ``memory_decoder`` memoryviews too: inline, or for a type without arrays copied to bytes
-    when small and handed to ``memory_decoder`` when not; without one, it hands them to the
-    fallback.
+    those it cannot read). The other decodes ``bytes`` and ``bytearray``, and with
+    ``memoryviews`` memoryviews too, in a second copy of its body: from the view, or for a type
+    without arrays from a ``bytes`` copy of it; without, it hands them to the fallback.
     """
     builder = DecoderBuilder(ctx, endian, memory, trace)
     src = builder.src
@@ -125,13 +125,13 @@ def generate_decoder(
         with src.block('except Exception:'):
             src.add(f'return {other}(buf, strict)')
 
-    if not memory and memory_decoder is not None:
-        if indexes and not views:
-            to = src.ref(memory_decoder, 'mem')
+    if not memory and memoryviews:
+        if indexes and not views:  # tobytes reads views of any format and shape
             with src.block('if type(buf) is memoryview:'):
-                # len counts items, not bytes, for other formats: a bound, not the size
-                src.add(f'if len(buf) > {COPY_TEXT_BELOW}: return {to}(buf, strict)')
                 src.add('buf = buf.tobytes()')
+                copied = DecoderBuilder(ctx, endian, False, False, src)
+                copied.long_text = LONG_TEXT
+                header_and_body(copied)
         else:  # the memoryview decoder inline: a call costs 120 ns
             with src.block('if type(buf) is memoryview:'):
                 checked_body(DecoderBuilder(ctx, endian, True, False, src))

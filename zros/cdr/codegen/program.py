@@ -118,16 +118,6 @@ class Program:
         return function
 
 
-def replace_reference(function: Generated, old: object, new: object) -> None:
-    """Make a compiled ``function`` refer to ``new`` where its source referred to ``old`` (its
-    objects are bound in closure cells, which stay writable)."""
-    for cell in function.__closure__ or ():
-        if cell.cell_contents is old:
-            cell.cell_contents = new
-            return
-    raise ValueError(f'{function.__name__} does not refer to {old!r}')
-
-
 def path_literal(path: str) -> str:
     """A field path as a Python literal (an f-string when it holds loop indexes)."""
     return 'f' + repr(path) if '{' in path else repr(path)
