@@ -28,6 +28,7 @@ _LAZY = {
     'ok': ('zros.api', 'ok'),
     'spin_once': ('zros.api', 'spin_once'),
     'spin': ('zros.api', 'spin'),
+    'spin_until_future_complete': ('zros.api', 'spin_until_future_complete'),
     'shutdown': ('zros.api', 'shutdown'),
     'default_node': ('zros.api', 'default_node'),
     'NotInitializedError': ('zros.runtime.defaults', 'NotInitializedError'),
@@ -112,6 +113,7 @@ if TYPE_CHECKING:
         shutdown,
         spin,
         spin_once,
+        spin_until_future_complete,
         time_now,
         warn,
     )
@@ -256,6 +258,7 @@ __all__ = [
     'shutdown',
     'spin',
     'spin_once',
+    'spin_until_future_complete',
     'start_router',
     'time_now',
     'type_hash',

@@ -250,6 +250,17 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         except KeyboardInterrupt:
             shut_down_on_ctrl_c()
 
+    def spin_until_future_complete(
+        self, future: concurrent.futures.Future[T], timeout_sec: float | None = None
+    ) -> None:
+        """Run callbacks and timers until ``future`` (of ``call_async``, ``send_goal_async``...)
+        is done or ``timeout_sec`` seconds pass (None or negative: no limit), as rclpy's
+        ``spin_until_future_complete``; Ctrl-C ends it as :meth:`spin`."""
+        try:
+            self.context.executor.spin_until_future_complete(future, timeout_sec)
+        except KeyboardInterrupt:
+            shut_down_on_ctrl_c()
+
     def spin_until_clock(self, deadline: int) -> None:
         """Run callbacks and timers until the node clock's timer base reaches ``deadline`` (or
         Ctrl-C, as :meth:`spin`)."""
