@@ -3,8 +3,15 @@
 from __future__ import annotations
 
 from zros.deprecation import deprecated
+from zros.errors import ZrosError
 from zros.graph import Graph, graph_of
+from zros.keyexpr.kinds import EntityKind
+from zros.keyexpr.names import join
 from zros.runtime.context import NodeContext
+
+
+class NodeNameNonExistentError(ZrosError, LookupError):
+    """The node asked about is not in the graph (rclpy's name)."""
 
 
 class GraphMethods:
@@ -23,6 +30,45 @@ class GraphMethods:
     def get_topic_names_and_types(self) -> list[tuple[str, list[str]]]:
         """Every topic on the network with its types, as rclpy lists them."""
         return list(self.graph.topics(self.context.wire.namespace).items())
+
+    def get_service_names_and_types(self) -> list[tuple[str, list[str]]]:
+        """Every service on the network (servers or clients announced) with its types."""
+        return list(self.graph.services(self.context.wire.namespace).items())
+
+    def _names_by_node(
+        self, kinds: tuple[EntityKind, ...], node_name: str, node_namespace: str
+    ) -> list[tuple[str, list[str]]]:
+        node = join(node_namespace, node_name)
+        graph = self.graph
+        if node not in graph.nodes():
+            raise NodeNameNonExistentError(f'node {node} is not in the graph')
+        return list(graph.node_names(node, kinds, self.context.wire.namespace).items())
+
+    def get_publisher_names_and_types_by_node(
+        self, node_name: str, node_namespace: str
+    ) -> list[tuple[str, list[str]]]:
+        """The topics a node publishes, with their types (rclpy's; NodeNameNonExistentError
+        when the node is not in the graph). A ROS node behind a bridge shows none: the bridge
+        does not say which node owns what."""
+        return self._names_by_node((EntityKind.PUBLISHER,), node_name, node_namespace)
+
+    def get_subscriber_names_and_types_by_node(
+        self, node_name: str, node_namespace: str
+    ) -> list[tuple[str, list[str]]]:
+        """The topics a node subscribes to, as :meth:`get_publisher_names_and_types_by_node`."""
+        return self._names_by_node((EntityKind.SUBSCRIBER,), node_name, node_namespace)
+
+    def get_service_names_and_types_by_node(
+        self, node_name: str, node_namespace: str
+    ) -> list[tuple[str, list[str]]]:
+        """The services a node serves, as :meth:`get_publisher_names_and_types_by_node`."""
+        return self._names_by_node((EntityKind.SERVICE_SERVER,), node_name, node_namespace)
+
+    def get_client_names_and_types_by_node(
+        self, node_name: str, node_namespace: str
+    ) -> list[tuple[str, list[str]]]:
+        """The services a node calls, as :meth:`get_publisher_names_and_types_by_node`."""
+        return self._names_by_node((EntityKind.SERVICE_CLIENT,), node_name, node_namespace)
 
     def get_node_names(self) -> list[str]:
         """zros nodes by name, and each bridge's node (ROS nodes hide behind it)."""
