@@ -3,14 +3,16 @@ Ctrl-C ends cleanly, and ``zros.init(args=...)`` adding no node of its own to th
 
 from __future__ import annotations
 
+import concurrent.futures
 import signal
+import time
 from collections.abc import Callable, Iterator
 
 import pytest
 
 import zros
 from tests.support.processes import Script, sleeping
-from zros.node import Node
+from zros.node import Node, NodeNameNonExistentError
 from zros.testing import wait_for
 from zros.transport import Router
 
@@ -287,3 +289,127 @@ def test_spin_once_timeout_sec_and_get_parameter_or(zros_node: Callable[..., Nod
     assert node.get_parameter_or('speed', 9.0) == 1.5
     assert node.get_parameter_or('missing', 9.0) == 9.0
     assert node.get_parameter_or('missing') is None
+
+
+def test_spin_until_future_complete_runs_the_node_until_the_answer(
+    zros_node: Callable[..., Node],
+) -> None:
+    """rclpy's ``spin_until_future_complete``: the node's own service answers while it spins."""
+    node = zros_node('waiter')
+    add = zros.get_type(ADD)
+    node.create_service(ADD, '/sum', lambda request: add.Response(sum=request.a + request.b))
+    client = node.create_client(ADD, '/sum')
+    assert client.wait_for_service(timeout_sec=30.0)
+    future = client.call_async(add.Request(a=2, b=3))
+    started = time.monotonic()
+    zros.spin_until_future_complete(node, future, timeout_sec=30.0)
+    # the answer (from Zenoh's thread) woke the spin: it did not wait out its timeout
+    assert future.done() and time.monotonic() - started < 20.0
+    assert future.result().sum == 5
+    # the same on the node's executor, and with rclpy's executor= naming that executor
+    future = client.call_async(add.Request(a=4, b=4))
+    node.context.executor.spin_until_future_complete(future, 30.0)
+    assert future.result().sum == 8
+    future = client.call_async(add.Request(a=1, b=1))
+    zros.spin_until_future_complete(node, future, executor=node.context.executor)
+    assert future.result().sum == 2
+
+
+def test_spin_until_future_complete_ends_at_its_timeout(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('patient')
+    ticks: list[int] = []
+    node.create_timer(0.01, lambda: ticks.append(1))
+    never: concurrent.futures.Future[int] = concurrent.futures.Future()
+    zros.spin_until_future_complete(node, never, timeout_sec=0.3)
+    assert not never.done() and ticks  # it ran the node's timer meanwhile
+    zros.spin_until_future_complete(node, never, timeout_sec=0)  # 0: what is due, no wait
+    done: concurrent.futures.Future[int] = concurrent.futures.Future()
+    done.set_result(1)
+    zros.spin_until_future_complete(node, done)  # no timeout, but done already
+    # another node's executor would not run this node: refused, as the error says
+    with pytest.raises(ValueError, match='runs on its own executor'):
+        zros.spin_until_future_complete(node, done, executor=zros_node('other').context.executor)
+
+
+def test_graph_names_and_types_by_node(zros_node: Callable[..., Node]) -> None:
+    # without parameter services (and their /parameter_events): the node's own entities only
+    owner = zros_node('owner', '/robot', start_parameter_services=False)
+    observer = zros_node('observer')
+    owner.create_publisher('std_msgs/msg/String', 'out', 10)
+    owner.create_subscription('std_msgs/msg/Int32', 'in', None, 10)
+    owner.create_service(ADD, 'add')
+    owner.create_client('std_srvs/srv/Trigger', '/trigger')
+    assert wait_for(
+        lambda: ('/trigger', ['std_srvs/srv/Trigger']) in observer.get_service_names_and_types(),
+        timeout=30.0,
+    )
+    assert ('/robot/add', [ADD]) in observer.get_service_names_and_types()
+    assert observer.get_publisher_names_and_types_by_node('owner', '/robot') == [
+        ('/robot/out', ['std_msgs/msg/String'])
+    ]
+    assert observer.get_subscriber_names_and_types_by_node('owner', '/robot') == [
+        ('/robot/in', ['std_msgs/msg/Int32'])
+    ]
+    assert observer.get_service_names_and_types_by_node('owner', '/robot') == [
+        ('/robot/add', [ADD])
+    ]
+    assert observer.get_client_names_and_types_by_node('owner', '/robot') == [
+        ('/trigger', ['std_srvs/srv/Trigger'])
+    ]
+    assert observer.get_publisher_names_and_types_by_node('observer', '/') == [
+        ('/parameter_events', ['rcl_interfaces/msg/ParameterEvent'])
+    ]
+    with pytest.raises(NodeNameNonExistentError, match='node /robot/nobody is not in the graph'):
+        observer.get_publisher_names_and_types_by_node('nobody', '/robot')
+
+
+def test_logger_takes_rclpys_filter_keywords(zros_node: Callable[..., Node]) -> None:
+    logger = zros_node('filtered').get_logger()
+    assert [logger.info('once', once=True) for _ in range(3)] == [True, False, False]
+    assert [logger.warn('skip', skip_first=True) for _ in range(3)] == [False, True, True]
+    throttled = [logger.info('tick', throttle_duration_sec=3600.0) for _ in range(3)]
+    assert throttled == [True, False, False]
+    # per call site, as rclpy's: two calls on one line are two sites
+    assert [(logger.info('a', once=True), logger.info('b', once=True)) for _ in range(2)] == [
+        (True, True),
+        (False, False),
+    ]
+    # rclpy's order: a throttled call does not count for skip_first
+    first = [logger.info('t', throttle_duration_sec=3600.0, skip_first=True) for _ in range(3)]
+    assert first == [False, False, False]
+    # a throttle on another clock: the node's sim clock, which stands still
+    sim = zros_node('still', use_sim_time=True)
+    on_sim = [
+        logger.info('sim', throttle_duration_sec=1.0, throttle_time_source_type=sim.get_clock())
+        for _ in range(2)
+    ]
+    assert on_sim == [True, False]
+    assert logger.info('zero', throttle_duration_sec=0.0) and logger.info('zero', throttle=None)
+    with pytest.raises(TypeError, match='not both'):
+        logger.info('both', throttle=1.0, throttle_duration_sec=1.0)
+
+
+def test_time_and_timer_answer_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    assert zros.Time(seconds=3, nanoseconds=25).seconds_nanoseconds() == (3, 25)
+    assert zros.Time(-1).seconds_nanoseconds() == (-1, 999_999_999)
+    node = zros_node('timed')
+    ticks: list[int] = []
+    timer = node.create_timer(3600.0, lambda: ticks.append(1))
+    assert timer.timer_period_ns == 3600 * 10**9
+    assert not timer.is_ready() and not timer.is_canceled()
+    left = timer.time_until_next_call()
+    assert left is not None and 3500 * 10**9 < left <= 3600 * 10**9
+    assert 0 <= timer.time_since_last_call() < 100 * 10**9
+    fast = node.create_timer(0.001, lambda: ticks.append(2))
+    assert wait_for(fast.is_ready)
+    left = fast.time_until_next_call()
+    assert left is not None and left <= 0  # overdue: the next spin runs it
+    assert node.spin_once() >= 1 and 2 in ticks
+    fast.timer_period_ns = 3600 * 10**9
+    assert fast.timer_period_ns == 3600 * 10**9 and fast.period == 3600.0
+    assert wait_for(lambda: not fast.is_ready())  # the call due ran; the next is an hour away
+    with pytest.raises(ValueError, match='period must be positive'):
+        fast.timer_period_ns = 0
+    timer.cancel()
+    assert timer.is_canceled() and not timer.is_ready()
+    assert timer.time_until_next_call() is None
