@@ -58,6 +58,7 @@ _LAZY = {
     'param_get': ('zros.api', 'param_get'),
     'param_type': ('zros.api', 'param_type'),
     'param_delete': ('zros.api', 'param_delete'),
+    'Parameter': ('zros.params.rclpy_style', 'Parameter'),
     'ParameterError': ('zros.params', 'ParameterError'),
     'ParameterNotDeclaredError': ('zros.params', 'ParameterNotDeclaredError'),
     'ParameterType': ('zros.params', 'ParameterType'),
@@ -140,6 +141,7 @@ if TYPE_CHECKING:
         ParameterType,
         SetResult,
     )
+    from zros.params.rclpy_style import Parameter
     from zros.pubsub import Publisher, Subscriber
     from zros.qos import Congestion, Durability, History, Priority, QoS, Reliability
     from zros.runtime.clock import Duration, Time
@@ -216,6 +218,7 @@ __all__ = [
     'Message',
     'Node',
     'NotInitializedError',
+    'Parameter',
     'ParameterClient',
     'ParameterError',
     'ParameterNotDeclaredError',

@@ -12,6 +12,7 @@ import pytest
 
 import zros
 from tests.support.processes import Script, sleeping
+from zros import Parameter
 from zros.node import Node, NodeNameNonExistentError
 from zros.testing import wait_for
 from zros.transport import Router
@@ -413,3 +414,59 @@ def test_time_and_timer_answer_as_rclpys(zros_node: Callable[..., Node]) -> None
     timer.cancel()
     assert timer.is_canceled() and not timer.is_ready()
     assert timer.time_until_next_call() is None
+
+
+def test_rclpys_parameter_objects(zros_node: Callable[..., Node]) -> None:
+    """``zros.Parameter`` as rclpy builds it, taken where rclpy's node takes one."""
+    node = zros_node('configured')
+    assert node.declare_parameters(
+        '', [('speed', 1.5), ('mode', 'fast'), ('limit', Parameter.Type.INTEGER)]
+    ) == [
+        Parameter('speed', Parameter.Type.DOUBLE, 1.5),
+        Parameter('mode', value='fast'),
+        Parameter('limit', Parameter.Type.NOT_SET),
+    ]
+    # declared by type only: no value yet, and only an integer may be set
+    assert not node.set_parameters([Parameter('limit', value='high')])[0]
+    assert node.set_parameters([Parameter('limit', value=5)])[0]
+    ranged = zros.Descriptor(integer_range=(0, 10, 1))
+    (level,) = node.declare_parameters('arm', [('level', 3, ranged)])
+    assert (level.name, level.value, level.type_) == ('arm.level', 3, Parameter.Type.INTEGER)
+    assert node.declare_parameters([Parameter('gain', value=2.0)]) == {'gain': 2.0}
+    seen: list[tuple[str, object, zros.ParameterType]] = []
+
+    def check(changes: list[zros.params.Parameter]) -> bool:
+        seen.extend((change.name, change.value, change.type_) for change in changes)
+        return all(change.type_ == Parameter.Type.DOUBLE for change in changes)
+
+    node.add_on_set_parameters_callback(check)
+    results = node.set_parameters(
+        [Parameter('speed', Parameter.Type.DOUBLE, 2.5), Parameter('mode', value='slow')]
+    )
+    assert [result.successful for result in results] == [True, False]
+    assert seen == [('speed', 2.5, Parameter.Type.DOUBLE), ('mode', 'slow', Parameter.Type.STRING)]
+    # get_parameter keeps returning the value (zros's promise, docs/mapping.md)
+    assert node.get_parameter('speed') == 2.5 and node.get_parameter('mode') == 'fast'
+    # all or none: the refused one keeps the other from being set
+    assert not node.set_parameters_atomically(
+        [Parameter('gain', value=3.0), Parameter('mode', value='x')]
+    )
+    assert node.get_parameter('gain') == 2.0
+    assert node.set_parameters_atomically([Parameter('gain', value=4.0)])
+    assert node.get_parameter('gain') == 4.0
+    # a value that does not agree with its type, or a type that is not one, as rclpy says
+    with pytest.raises(ValueError, match="Type INTEGER and value 'a' do not agree"):
+        Parameter('x', Parameter.Type.INTEGER, 'a')
+    with pytest.raises(TypeError, match=r'not 2.0 \(a value goes as value=.*value=2.0\)'):
+        Parameter('x', 2.0)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="parameter 'x': dict is not a parameter type"):
+        Parameter('x', value={})
+    with pytest.raises(TypeError, match='takes a namespace first'):
+        node.declare_parameters({'a': 1}, [('b', 2)])  # type: ignore[call-overload]
+    with pytest.raises(TypeError, match='needs the parameters'):
+        node.declare_parameters('ns')  # type: ignore[call-overload]
+    # rclpy's byte array (a list of one-byte bytes) and its message form
+    assert Parameter('raw', value=[b'a', b'b']).value == b'ab'
+    message_class = zros.get_type('rcl_interfaces/msg/Parameter')
+    message = message_class(name='n', value={'type': 2, 'integer_value': 7})
+    assert Parameter.from_parameter_msg(message) == Parameter('n', value=7)

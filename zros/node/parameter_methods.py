@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, overload
 
 from zros.params import (
     Descriptor,
@@ -12,13 +12,27 @@ from zros.params import (
     ParameterClient,
     ParameterError,
     ParameterStore,
+    ParameterType,
     ParamValue,
     SetResult,
 )
+from zros.params.rclpy_style import Parameter as RclpyParameter
 from zros.runtime.context import NodeContext
 
 if TYPE_CHECKING:
+    from typing import TypeAlias
+
     from typing_extensions import Unpack
+
+    from zros.cdr import Message
+
+    #: an entry of rclpy's ``declare_parameters``: (name,), (name, value or type), (name,
+    #: value, descriptor)
+    DeclareTuple: TypeAlias = (
+        tuple[str]
+        | tuple[str, ParamValue | ParameterType]
+        | tuple[str, ParamValue | ParameterType, Descriptor | Message | None]
+    )
 
 
 class ParameterMethods:
@@ -45,9 +59,63 @@ class ParameterMethods:
             name, value, descriptor, ignore_override=ignore_override, **fields
         )
 
-    def declare_parameters(self, values: Mapping[str, ParamValue]) -> dict[str, ParamValue]:
-        """Declare several parameters with their defaults; returns their values."""
-        return {name: self.parameters.declare(name, value) for name, value in values.items()}
+    @overload
+    def declare_parameters(
+        self, values: Mapping[str, ParamValue] | Iterable[Parameter]
+    ) -> dict[str, ParamValue]: ...
+
+    @overload
+    def declare_parameters(
+        self,
+        values: str,
+        parameters: Sequence[DeclareTuple],
+        ignore_override: bool = False,
+    ) -> list[RclpyParameter]: ...
+
+    def declare_parameters(
+        self,
+        values: Mapping[str, ParamValue] | Iterable[Parameter] | str,
+        parameters: Sequence[DeclareTuple] | None = None,
+        ignore_override: bool = False,
+    ) -> dict[str, ParamValue] | list[RclpyParameter]:
+        """Declare several parameters with their defaults (a mapping, or Parameters); returns
+        their values by name.
+
+        rclpy's form, ``declare_parameters(namespace, [(name, value[, descriptor]), ...])``,
+        prefixes each name with ``namespace.`` (none when empty) and returns
+        :class:`zros.Parameter` objects; a value may be a ``Parameter.Type`` (declared of that
+        type, with no value), a descriptor a :class:`Descriptor` or its message.
+        """
+        if not isinstance(values, str):
+            if parameters is not None:
+                raise TypeError('declare_parameters(namespace, parameters) takes a namespace first')
+            items = values.items() if isinstance(values, Mapping) else values
+            pairs = [(item.name, item.value) if isinstance(item, Parameter) else item
+                     for item in items]  # fmt: skip
+            return {name: self.parameters.declare(name, value) for name, value in pairs}
+        if parameters is None:
+            raise TypeError('declare_parameters(namespace, parameters) needs the parameters')
+        declared = []
+        for entry in parameters:
+            name = f'{values}.{entry[0]}' if values else entry[0]
+            value = entry[1] if len(entry) > 1 else None
+            described = entry[2] if len(entry) > 2 else None
+            fields: DescriptorFields = {}
+            if isinstance(value, ParameterType):
+                fields['type'], value = value, None
+            if described is not None and not isinstance(described, Descriptor):
+                described = Descriptor.from_message(described)
+            value = self.parameters.declare(
+                name, value, described, ignore_override=ignore_override, **fields
+            )
+            declared.append(RclpyParameter(name, self.parameters.type_of(name), value))
+        return declared
+
+    def set_parameters_atomically(
+        self, values: Mapping[str, ParamValue] | Iterable[Parameter]
+    ) -> SetResult:
+        """Set several parameters, all or none (rclpy's name)."""
+        return self.parameters.set_atomically(values)
 
     def has_parameter(self, name: str) -> bool:
         """Whether the node has declared ``name``."""
@@ -68,8 +136,11 @@ class ParameterMethods:
         if not result:
             raise ParameterError(result.reason)
 
-    def set_parameters(self, values: Mapping[str, ParamValue]) -> list[SetResult]:
-        """Set parameters one by one; a result for each."""
+    def set_parameters(
+        self, values: Mapping[str, ParamValue] | Iterable[Parameter]
+    ) -> list[SetResult]:
+        """Set parameters one by one (a mapping, or rclpy's list of :class:`zros.Parameter`);
+        a result for each."""
         return self.parameters.set_many(values)
 
     def undeclare_parameter(self, name: str) -> None:
