@@ -225,17 +225,20 @@ def spin_until_future_complete(
     node: Node,
     future: concurrent.futures.Future[T],
     executor: Executor | None = None,
-    timeout_sec: float | None = None,
+    timeout_sec: float | Unset | None = UNSET,
+    *,
+    timeout: float | Unset | None = UNSET,
 ) -> None:
-    """Spin ``node`` until ``future`` is done or ``timeout_sec`` seconds pass (None or negative:
-    no limit), as rclpy's. Each zros node has its executor: ``executor`` may only be that one
-    (``node.context.executor``); another raises ValueError, as it would not run ``node``."""
+    """Spin ``node`` until ``future`` is done or ``timeout_sec`` (or ``timeout``) seconds pass
+    (None or negative: no limit), as rclpy's. Each zros node has its executor: ``executor`` may
+    only be that one (``node.context.executor``); another raises ValueError, as it would not
+    run ``node``."""
     if executor is not None and executor is not node.context.executor:
         raise ValueError(
             f'a zros node runs on its own executor: pass executor=None (or '
             f'node.context.executor), not the executor of {executor.name!r}, to spin {node}'
         )
-    node.spin_until_future_complete(future, timeout_sec)
+    node.spin_until_future_complete(future, timeout, timeout_sec=timeout_sec)
 
 
 def shutdown() -> None:

@@ -324,6 +324,9 @@ def test_spin_until_future_complete_ends_at_its_timeout(zros_node: Callable[...,
     zros.spin_until_future_complete(node, never, timeout_sec=0.3)
     assert not never.done() and ticks  # it ran the node's timer meanwhile
     zros.spin_until_future_complete(node, never, timeout_sec=0)  # 0: what is due, no wait
+    node.spin_until_future_complete(never, timeout=0.01)  # zros's spelling, on the node
+    with pytest.raises(TypeError, match='not both'):
+        node.spin_until_future_complete(never, 1.0, timeout_sec=1.0)
     done: concurrent.futures.Future[int] = concurrent.futures.Future()
     done.set_result(1)
     zros.spin_until_future_complete(node, done)  # no timeout, but done already

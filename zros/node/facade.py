@@ -251,13 +251,18 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
             shut_down_on_ctrl_c()
 
     def spin_until_future_complete(
-        self, future: concurrent.futures.Future[T], timeout_sec: float | None = None
+        self,
+        future: concurrent.futures.Future[T],
+        timeout: float | Unset | None = UNSET,
+        *,
+        timeout_sec: float | Unset | None = UNSET,
     ) -> None:
         """Run callbacks and timers until ``future`` (of ``call_async``, ``send_goal_async``...)
-        is done or ``timeout_sec`` seconds pass (None or negative: no limit), as rclpy's
-        ``spin_until_future_complete``; Ctrl-C ends it as :meth:`spin`."""
+        is done or ``timeout`` (or rclpy's ``timeout_sec``) seconds pass (None or negative: no
+        limit), as rclpy's ``spin_until_future_complete``; Ctrl-C ends it as :meth:`spin`."""
+        wait = either_timeout(timeout, timeout_sec, None)
         try:
-            self.context.executor.spin_until_future_complete(future, timeout_sec)
+            self.context.executor.spin_until_future_complete(future, wait)
         except KeyboardInterrupt:
             shut_down_on_ctrl_c()
 
