@@ -473,3 +473,67 @@ def test_rclpys_parameter_objects(zros_node: Callable[..., Node]) -> None:
     message_class = zros.get_type('rcl_interfaces/msg/Parameter')
     message = message_class(name='n', value={'type': 2, 'integer_value': 7})
     assert Parameter.from_parameter_msg(message) == Parameter('n', value=7)
+
+
+def test_more_graph_names_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('mapper', '/robot', remap=['chatter:=/talk'])
+    observer = zros_node('observer')
+    assert node.resolve_topic_name('chatter') == '/talk'
+    assert node.resolve_topic_name('chatter', only_expand=True) == '/robot/chatter'
+    assert node.resolve_topic_name('~/state') == '/robot/mapper/state'
+    assert node.resolve_service_name('add') == '/robot/add'
+    assert node.resolve_service_name('~/add', only_expand=True) == '/robot/mapper/add'
+    with pytest.raises(zros.InvalidNameError):
+        node.resolve_service_name('bad name')
+    node.create_service(ADD, 'add')
+    observer.create_client(ADD, '/robot/add')
+    assert observer.wait_for_node('/robot/mapper', timeout=30.0)
+    assert observer.wait_for_node('observer', timeout=30.0)  # no leading /: at the root
+    assert not observer.wait_for_node('/robot/absent', timeout=0.05)
+    assert wait_for(lambda: observer.count_clients('/robot/add') == 1, timeout=30.0)
+    assert wait_for(lambda: observer.count_services('/robot/add') == 1, timeout=30.0)
+    assert node.count_services('add') == 1 and observer.count_services('/add') == 0
+    assert '/robot/mapper' in observer.get_fully_qualified_node_names()
+    names = observer.get_node_names_and_namespaces()
+    assert ('mapper', '/robot') in names and ('observer', '/') in names
+
+
+def test_more_parameter_names_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('described')
+    node.declare_parameter('level', 3, integer_range=(0, 10, 1), description='how high')
+    assert node.get_parameter_type('level') is Parameter.Type.INTEGER
+    assert node.get_parameter_types(['level', 'use_sim_time']) == [
+        Parameter.Type.INTEGER,
+        Parameter.Type.BOOL,
+    ]
+    (described,) = node.describe_parameters(['level'])
+    assert described == node.describe_parameter('level')
+    assert (described.name, described.description, described.integer_range) == (
+        'level',
+        'how high',
+        (0, 10, 1),
+    )
+    for ask in (node.get_parameter_type, node.describe_parameter):
+        with pytest.raises(zros.ParameterNotDeclaredError, match="'nope' is not declared"):
+            ask('nope')
+    loose = zros_node('loose', allow_undeclared_parameters=True)
+    assert loose.get_parameter_type('nope') is Parameter.Type.NOT_SET
+    assert loose.describe_parameter('nope').type is Parameter.Type.NOT_SET
+    # rclpy's handle: what add_ returns, remove_ takes
+    refuse = node.add_on_set_parameters_callback(lambda changes: False)
+    assert not node.set_parameters({'level': 4})[0]
+    node.remove_on_set_parameters_callback(refuse)
+    assert node.set_parameters({'level': 4})[0]
+    with pytest.raises(ValueError):
+        node.remove_on_set_parameters_callback(refuse)
+
+
+def test_logger_level_and_timer_destroy_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('leveled', log_level='warn')
+    logger = node.get_logger()
+    assert logger.get_effective_level() == 30
+    logger.set_level('debug')
+    assert logger.get_effective_level() == 10
+    timer = node.create_timer(3600.0, lambda: None)
+    timer.destroy()
+    assert timer.is_canceled() and not node.destroy_timer(timer)

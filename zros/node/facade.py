@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 from zros.cdr import TypeRegistry, default_registry
 from zros.closing import Closing
-from zros.keyexpr.names import Remapping
+from zros.keyexpr.names import Remapping, expand
 from zros.node.factories import EntityFactories
 from zros.node.graph_methods import GraphMethods
 from zros.node.parameter_methods import ParameterMethods
@@ -202,6 +202,18 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
     def resolve_name(self, name: str, kind: str = 'topic name') -> str:
         """The fully qualified form of a topic or service name, remappings applied."""
         return self.context.resolve_name(name, kind)
+
+    def resolve_topic_name(self, topic: str, *, only_expand: bool = False) -> str:
+        """rclpy's: the fully qualified topic name, remapped unless ``only_expand``."""
+        if only_expand:
+            return expand(topic, self.name, self.namespace)
+        return self.context.resolve_name(topic)
+
+    def resolve_service_name(self, service: str, *, only_expand: bool = False) -> str:
+        """rclpy's: the fully qualified service name, remapped unless ``only_expand``."""
+        if only_expand:
+            return expand(service, self.name, self.namespace, 'service name')
+        return self.context.resolve_name(service, 'service name')
 
     @property
     def use_sim_time(self) -> bool:

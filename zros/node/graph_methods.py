@@ -74,6 +74,36 @@ class GraphMethods:
         """zros nodes by name, and each bridge's node (ROS nodes hide behind it)."""
         return self.graph.nodes()
 
+    def get_fully_qualified_node_names(self) -> list[str]:
+        """``/namespace/name`` of each node in the graph (rclpy's; as :meth:`get_node_names`)."""
+        return self.graph.nodes()
+
+    def get_node_names_and_namespaces(self) -> list[tuple[str, str]]:
+        """``(name, namespace)`` of each node in the graph (rclpy's)."""
+        return [(name, namespace or '/') for namespace, _, name in
+                (node.rpartition('/') for node in self.graph.nodes())]  # fmt: skip
+
+    def wait_for_node(self, fully_qualified_node_name: str, timeout: float | None = 5.0) -> bool:
+        """Wait until the node (``/namespace/name``; a name without the leading ``/`` is at the
+        root) is in the graph; returns whether it was in time (rclpy's)."""
+        node = fully_qualified_node_name
+        node = node if node.startswith('/') else '/' + node
+        graph = self.graph
+        return graph.wait_until(lambda: node in graph.nodes(), timeout)
+
+    def _count_service_ends(self, service: str, kind: EntityKind) -> int:
+        name = self.context.resolve_name(service, 'service name')
+        namespace = self.context.wire.namespace
+        return sum(1 for e in self.graph.endpoints((kind,)) if e.ros_name(namespace) == name)
+
+    def count_services(self, service: str) -> int:
+        """How many servers of ``service`` are announced (rclpy's)."""
+        return self._count_service_ends(service, EntityKind.SERVICE_SERVER)
+
+    def count_clients(self, service: str) -> int:
+        """How many clients of ``service`` are announced (rclpy's)."""
+        return self._count_service_ends(service, EntityKind.SERVICE_CLIENT)
+
     def count_publishers(self, topic: str) -> int:
         """How many publishers are announced on ``topic``."""
         return len(self.graph.publishers(self._key(topic)))

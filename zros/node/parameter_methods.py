@@ -11,6 +11,7 @@ from zros.params import (
     Parameter,
     ParameterClient,
     ParameterError,
+    ParameterNotDeclaredError,
     ParameterStore,
     ParameterType,
     ParamValue,
@@ -125,6 +126,31 @@ class ParameterMethods:
         """A parameter's value; ParameterNotDeclaredError for an unknown name."""
         return self.parameters.get(name)
 
+    def get_parameter_type(self, name: str) -> ParameterType:
+        """The type of a parameter's value (rclpy's ``Parameter.Type``); NOT_SET for an
+        unknown name when undeclared ones are allowed, else ParameterNotDeclaredError."""
+        self._check_declared(name)
+        return self.parameters.type_of(name)
+
+    def get_parameter_types(self, names: Iterable[str]) -> list[ParameterType]:
+        """The types of several parameters, as :meth:`get_parameter_type`."""
+        return [self.get_parameter_type(name) for name in names]
+
+    def describe_parameter(self, name: str) -> Descriptor:
+        """A parameter's descriptor (rclpy's, as a :class:`Descriptor`: ranges are tuples);
+        an empty one for an unknown name when undeclared ones are allowed, else
+        ParameterNotDeclaredError."""
+        self._check_declared(name)
+        return self.parameters.describe(name)
+
+    def describe_parameters(self, names: Iterable[str]) -> list[Descriptor]:
+        """The descriptors of several parameters, as :meth:`describe_parameter`."""
+        return [self.describe_parameter(name) for name in names]
+
+    def _check_declared(self, name: str) -> None:
+        if not self.parameters.allow_undeclared and not self.parameters.has(name):
+            raise ParameterNotDeclaredError(f"parameter '{name}' is not declared")
+
     def get_parameter_or(self, name: str, alternative_value: ParamValue = None) -> ParamValue:
         """A parameter's value, or ``alternative_value`` when it is not declared (rclpy's name;
         rclpy returns a Parameter, zros the value as ``get_parameter`` does)."""
@@ -147,10 +173,20 @@ class ParameterMethods:
         """Remove a declared parameter (not a read-only one)."""
         self.parameters.undeclare(name)
 
-    def add_on_set_parameters_callback(self, callback: Callable[[list[Parameter]], object]) -> None:
+    def add_on_set_parameters_callback(
+        self, callback: Callable[[list[Parameter]], object]
+    ) -> Callable[[list[Parameter]], object]:
         """``callback(parameters)`` may refuse changes (return False, ``(False, reason)`` or a
-        SetResult); it runs where the node spins when the change comes from the network."""
-        self.parameters.add_on_set_callback(callback)
+        SetResult); it runs where the node spins when the change comes from the network.
+        Returns ``callback``, for :meth:`remove_on_set_parameters_callback`."""
+        return self.parameters.add_on_set_callback(callback)
+
+    def remove_on_set_parameters_callback(
+        self, callback: Callable[[list[Parameter]], object]
+    ) -> None:
+        """Stop calling a callback of :meth:`add_on_set_parameters_callback` (rclpy's);
+        ValueError if it is not one."""
+        self.parameters.remove_on_set_callback(callback)
 
     def parameter_client(self, node_name: str, timeout: float = 5.0) -> ParameterClient:
         """The parameters of another node (``/robot/driver``)."""

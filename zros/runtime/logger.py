@@ -204,6 +204,10 @@ class Logger:
             return self.sink.level
         return level_from_environment() or INFO
 
+    def get_effective_level(self) -> int:
+        """The threshold in force (rclpy's name for :attr:`level`)."""
+        return self.level
+
     def set_level(self, level: str | int) -> None:
         """Set the threshold: ``'debug'``...``'fatal'`` or a number."""
         self._level = parse_level(level)

@@ -146,6 +146,9 @@ class Timer:
             self._cancelled = True
             self._executor.remove_timer(self)
 
+    #: rclpy's ``Timer.destroy`` (``node.destroy_timer(timer)`` does the same)
+    destroy = cancel
+
 
 class Spinnable(Protocol):
     """A node, as a :class:`Rate` sees it."""
