@@ -231,6 +231,8 @@ class Executor:
         """Run callbacks and timers until ``future`` is done, ``timeout_sec`` seconds pass (None
         or negative: no limit; 0: one run of what is due) or not ``ok()``, as rclpy's
         executor does."""
+        if future.done():
+            return  # no done callback: its wake-up would end the next spin_once early
         future.add_done_callback(lambda _: self.wake())
         forever = timeout_sec is None or timeout_sec < 0
         deadline = time.monotonic() + (0.0 if timeout_sec is None else timeout_sec)
