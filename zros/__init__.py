@@ -28,6 +28,7 @@ _LAZY = {
     'ok': ('zros.api', 'ok'),
     'spin_once': ('zros.api', 'spin_once'),
     'spin': ('zros.api', 'spin'),
+    'spin_until_future_complete': ('zros.api', 'spin_until_future_complete'),
     'shutdown': ('zros.api', 'shutdown'),
     'default_node': ('zros.api', 'default_node'),
     'NotInitializedError': ('zros.runtime.defaults', 'NotInitializedError'),
@@ -57,6 +58,7 @@ _LAZY = {
     'param_get': ('zros.api', 'param_get'),
     'param_type': ('zros.api', 'param_type'),
     'param_delete': ('zros.api', 'param_delete'),
+    'Parameter': ('zros.params.rclpy_style', 'Parameter'),
     'ParameterError': ('zros.params', 'ParameterError'),
     'ParameterNotDeclaredError': ('zros.params', 'ParameterNotDeclaredError'),
     'ParameterType': ('zros.params', 'ParameterType'),
@@ -112,6 +114,7 @@ if TYPE_CHECKING:
         shutdown,
         spin,
         spin_once,
+        spin_until_future_complete,
         time_now,
         warn,
     )
@@ -138,6 +141,7 @@ if TYPE_CHECKING:
         ParameterType,
         SetResult,
     )
+    from zros.params.rclpy_style import Parameter
     from zros.pubsub import Publisher, Subscriber
     from zros.qos import Congestion, Durability, History, Priority, QoS, Reliability
     from zros.runtime.clock import Duration, Time
@@ -214,6 +218,7 @@ __all__ = [
     'Message',
     'Node',
     'NotInitializedError',
+    'Parameter',
     'ParameterClient',
     'ParameterError',
     'ParameterNotDeclaredError',
@@ -256,6 +261,7 @@ __all__ = [
     'shutdown',
     'spin',
     'spin_once',
+    'spin_until_future_complete',
     'start_router',
     'time_now',
     'type_hash',

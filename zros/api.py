@@ -12,6 +12,7 @@ while zros.ok():               # ros.OK (Ctrl-C makes it false)
 
 from __future__ import annotations
 
+import concurrent.futures
 import enum
 import signal
 import sys
@@ -19,7 +20,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from types import FrameType
-from typing import TYPE_CHECKING, overload
+from typing import TYPE_CHECKING, TypeVar, overload
 
 from zros.errors import ZrosError
 from zros.node import Node
@@ -37,7 +38,7 @@ from zros.runtime.defaults import (
     set_default_node,
     set_default_node_factory,
 )
-from zros.runtime.executor import wake_all
+from zros.runtime.executor import Executor, wake_all
 from zros.runtime.logger import DEBUG, ERROR, FATAL, INFO, WARN, Logger, LogOptions
 from zros.runtime.signal import (
     clear_interrupt,
@@ -55,6 +56,7 @@ if TYPE_CHECKING:
 
     from zros.node.settings import NodeKeywords, NodeOptions
 
+T = TypeVar('T')
 _default: Node | None = None
 #: makes the default node after ``zros.init()`` without a name, when first needed
 _pending: Callable[[str], Node] | None = None
@@ -217,6 +219,26 @@ def spin(node: Node | float | None = None, timeout: float | None = None) -> None
         timeout = node if timeout is None else timeout
         node = default_node()
     node.spin(timeout)
+
+
+def spin_until_future_complete(
+    node: Node,
+    future: concurrent.futures.Future[T],
+    executor: Executor | None = None,
+    timeout_sec: float | Unset | None = UNSET,
+    *,
+    timeout: float | Unset | None = UNSET,
+) -> None:
+    """Spin ``node`` until ``future`` is done or ``timeout_sec`` (or ``timeout``) seconds pass
+    (None or negative: no limit), as rclpy's. Each zros node has its executor: ``executor`` may
+    only be that one (``node.context.executor``); another raises ValueError, as it would not
+    run ``node``."""
+    if executor is not None and executor is not node.context.executor:
+        raise ValueError(
+            f'a zros node runs on its own executor: pass executor=None (or '
+            f'node.context.executor), not the executor of {executor.name!r}, to spin {node}'
+        )
+    node.spin_until_future_complete(future, timeout, timeout_sec=timeout_sec)
 
 
 def shutdown() -> None:

@@ -3,14 +3,17 @@ Ctrl-C ends cleanly, and ``zros.init(args=...)`` adding no node of its own to th
 
 from __future__ import annotations
 
+import concurrent.futures
 import signal
+import time
 from collections.abc import Callable, Iterator
 
 import pytest
 
 import zros
 from tests.support.processes import Script, sleeping
-from zros.node import Node
+from zros import Parameter
+from zros.node import Node, NodeNameNonExistentError
 from zros.testing import wait_for
 from zros.transport import Router
 
@@ -287,3 +290,250 @@ def test_spin_once_timeout_sec_and_get_parameter_or(zros_node: Callable[..., Nod
     assert node.get_parameter_or('speed', 9.0) == 1.5
     assert node.get_parameter_or('missing', 9.0) == 9.0
     assert node.get_parameter_or('missing') is None
+
+
+def test_spin_until_future_complete_runs_the_node_until_the_answer(
+    zros_node: Callable[..., Node],
+) -> None:
+    """rclpy's ``spin_until_future_complete``: the node's own service answers while it spins."""
+    node = zros_node('waiter')
+    add = zros.get_type(ADD)
+    node.create_service(ADD, '/sum', lambda request: add.Response(sum=request.a + request.b))
+    client = node.create_client(ADD, '/sum')
+    assert client.wait_for_service(timeout_sec=30.0)
+    future = client.call_async(add.Request(a=2, b=3))
+    started = time.monotonic()
+    zros.spin_until_future_complete(node, future, timeout_sec=30.0)
+    # the answer (from Zenoh's thread) woke the spin: it did not wait out its timeout
+    assert future.done() and time.monotonic() - started < 20.0
+    assert future.result().sum == 5
+    # the same on the node's executor, and with rclpy's executor= naming that executor
+    future = client.call_async(add.Request(a=4, b=4))
+    node.context.executor.spin_until_future_complete(future, 30.0)
+    assert future.result().sum == 8
+    future = client.call_async(add.Request(a=1, b=1))
+    zros.spin_until_future_complete(node, future, executor=node.context.executor)
+    assert future.result().sum == 2
+
+
+def test_spin_until_future_complete_ends_at_its_timeout(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('patient')
+    ticks: list[int] = []
+    node.create_timer(0.01, lambda: ticks.append(1))
+    never: concurrent.futures.Future[int] = concurrent.futures.Future()
+    zros.spin_until_future_complete(node, never, timeout_sec=0.3)
+    assert not never.done() and ticks  # it ran the node's timer meanwhile
+    zros.spin_until_future_complete(node, never, timeout_sec=0)  # 0: what is due, no wait
+    node.spin_until_future_complete(never, timeout=0.01)  # zros's spelling, on the node
+    with pytest.raises(TypeError, match='not both'):
+        node.spin_until_future_complete(never, 1.0, timeout_sec=1.0)
+    done: concurrent.futures.Future[int] = concurrent.futures.Future()
+    done.set_result(1)
+    zros.spin_until_future_complete(node, done)  # no timeout, but done already
+    # another node's executor would not run this node: refused, as the error says
+    with pytest.raises(ValueError, match='runs on its own executor'):
+        zros.spin_until_future_complete(node, done, executor=zros_node('other').context.executor)
+
+
+def test_graph_names_and_types_by_node(zros_node: Callable[..., Node]) -> None:
+    # without parameter services (and their /parameter_events): the node's own entities only
+    owner = zros_node('owner', '/robot', start_parameter_services=False)
+    observer = zros_node('observer')
+    owner.create_publisher('std_msgs/msg/String', 'out', 10)
+    owner.create_subscription('std_msgs/msg/Int32', 'in', None, 10)
+    owner.create_service(ADD, 'add')
+    owner.create_client('std_srvs/srv/Trigger', '/trigger')
+    assert wait_for(
+        lambda: ('/trigger', ['std_srvs/srv/Trigger']) in observer.get_service_names_and_types(),
+        timeout=30.0,
+    )
+    assert ('/robot/add', [ADD]) in observer.get_service_names_and_types()
+    assert observer.get_publisher_names_and_types_by_node('owner', '/robot') == [
+        ('/robot/out', ['std_msgs/msg/String'])
+    ]
+    assert observer.get_subscriber_names_and_types_by_node('owner', '/robot') == [
+        ('/robot/in', ['std_msgs/msg/Int32'])
+    ]
+    assert observer.get_service_names_and_types_by_node('owner', '/robot') == [
+        ('/robot/add', [ADD])
+    ]
+    assert observer.get_client_names_and_types_by_node('owner', '/robot') == [
+        ('/trigger', ['std_srvs/srv/Trigger'])
+    ]
+    assert observer.get_publisher_names_and_types_by_node('observer', '/') == [
+        ('/parameter_events', ['rcl_interfaces/msg/ParameterEvent'])
+    ]
+    with pytest.raises(NodeNameNonExistentError, match='node /robot/nobody is not in the graph'):
+        observer.get_publisher_names_and_types_by_node('nobody', '/robot')
+
+
+def test_logger_takes_rclpys_filter_keywords(zros_node: Callable[..., Node]) -> None:
+    logger = zros_node('filtered').get_logger()
+    assert [logger.info('once', once=True) for _ in range(3)] == [True, False, False]
+    assert [logger.warn('skip', skip_first=True) for _ in range(3)] == [False, True, True]
+    throttled = [logger.info('tick', throttle_duration_sec=3600.0) for _ in range(3)]
+    assert throttled == [True, False, False]
+    # per call site, as rclpy's: two calls on one line are two sites
+    assert [(logger.info('a', once=True), logger.info('b', once=True)) for _ in range(2)] == [
+        (True, True),
+        (False, False),
+    ]
+    # rclpy's order: a throttled call does not count for skip_first
+    first = [logger.info('t', throttle_duration_sec=3600.0, skip_first=True) for _ in range(3)]
+    assert first == [False, False, False]
+    # a throttle on another clock: the node's sim clock, which stands still
+    sim = zros_node('still', use_sim_time=True)
+    on_sim = [
+        logger.info('sim', throttle_duration_sec=1.0, throttle_time_source_type=sim.get_clock())
+        for _ in range(2)
+    ]
+    assert on_sim == [True, False]
+    assert logger.info('zero', throttle_duration_sec=0.0) and logger.info('zero', throttle=None)
+    with pytest.raises(TypeError, match='not both'):
+        logger.info('both', throttle=1.0, throttle_duration_sec=1.0)
+
+
+def test_time_and_timer_answer_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    assert zros.Time(seconds=3, nanoseconds=25).seconds_nanoseconds() == (3, 25)
+    assert zros.Time(-1).seconds_nanoseconds() == (-1, 999_999_999)
+    node = zros_node('timed')
+    ticks: list[int] = []
+    timer = node.create_timer(3600.0, lambda: ticks.append(1))
+    assert timer.timer_period_ns == 3600 * 10**9
+    assert not timer.is_ready() and not timer.is_canceled()
+    left = timer.time_until_next_call()
+    assert left is not None and 3500 * 10**9 < left <= 3600 * 10**9
+    assert 0 <= timer.time_since_last_call() < 100 * 10**9
+    fast = node.create_timer(0.001, lambda: ticks.append(2))
+    assert wait_for(fast.is_ready)
+    left = fast.time_until_next_call()
+    assert left is not None and left <= 0  # overdue: the next spin runs it
+    assert node.spin_once() >= 1 and 2 in ticks
+    fast.timer_period_ns = 3600 * 10**9
+    assert fast.timer_period_ns == 3600 * 10**9 and fast.period == 3600.0
+    assert wait_for(lambda: not fast.is_ready())  # the call due ran; the next is an hour away
+    with pytest.raises(ValueError, match='period must be positive'):
+        fast.timer_period_ns = 0
+    timer.cancel()
+    assert timer.is_canceled() and not timer.is_ready()
+    assert timer.time_until_next_call() is None
+
+
+def test_rclpys_parameter_objects(zros_node: Callable[..., Node]) -> None:
+    """``zros.Parameter`` as rclpy builds it, taken where rclpy's node takes one."""
+    node = zros_node('configured')
+    assert node.declare_parameters(
+        '', [('speed', 1.5), ('mode', 'fast'), ('limit', Parameter.Type.INTEGER)]
+    ) == [
+        Parameter('speed', Parameter.Type.DOUBLE, 1.5),
+        Parameter('mode', value='fast'),
+        Parameter('limit', Parameter.Type.NOT_SET),
+    ]
+    # declared by type only: no value yet, and only an integer may be set
+    assert not node.set_parameters([Parameter('limit', value='high')])[0]
+    assert node.set_parameters([Parameter('limit', value=5)])[0]
+    ranged = zros.Descriptor(integer_range=(0, 10, 1))
+    (level,) = node.declare_parameters('arm', [('level', 3, ranged)])
+    assert (level.name, level.value, level.type_) == ('arm.level', 3, Parameter.Type.INTEGER)
+    assert node.declare_parameters([Parameter('gain', value=2.0)]) == {'gain': 2.0}
+    seen: list[tuple[str, object, zros.ParameterType]] = []
+
+    def check(changes: list[zros.params.Parameter]) -> bool:
+        seen.extend((change.name, change.value, change.type_) for change in changes)
+        return all(change.type_ == Parameter.Type.DOUBLE for change in changes)
+
+    node.add_on_set_parameters_callback(check)
+    results = node.set_parameters(
+        [Parameter('speed', Parameter.Type.DOUBLE, 2.5), Parameter('mode', value='slow')]
+    )
+    assert [result.successful for result in results] == [True, False]
+    assert seen == [('speed', 2.5, Parameter.Type.DOUBLE), ('mode', 'slow', Parameter.Type.STRING)]
+    # get_parameter keeps returning the value (zros's promise, docs/mapping.md)
+    assert node.get_parameter('speed') == 2.5 and node.get_parameter('mode') == 'fast'
+    # all or none: the refused one keeps the other from being set
+    assert not node.set_parameters_atomically(
+        [Parameter('gain', value=3.0), Parameter('mode', value='x')]
+    )
+    assert node.get_parameter('gain') == 2.0
+    assert node.set_parameters_atomically([Parameter('gain', value=4.0)])
+    assert node.get_parameter('gain') == 4.0
+    # a value that does not agree with its type, or a type that is not one, as rclpy says
+    with pytest.raises(ValueError, match="Type INTEGER and value 'a' do not agree"):
+        Parameter('x', Parameter.Type.INTEGER, 'a')
+    with pytest.raises(TypeError, match=r'not 2.0 \(a value goes as value=.*value=2.0\)'):
+        Parameter('x', 2.0)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="parameter 'x': dict is not a parameter type"):
+        Parameter('x', value={})
+    with pytest.raises(TypeError, match='takes a namespace first'):
+        node.declare_parameters({'a': 1}, [('b', 2)])  # type: ignore[call-overload]
+    with pytest.raises(TypeError, match='needs the parameters'):
+        node.declare_parameters('ns')  # type: ignore[call-overload]
+    # rclpy's byte array (a list of one-byte bytes) and its message form
+    assert Parameter('raw', value=[b'a', b'b']).value == b'ab'
+    message_class = zros.get_type('rcl_interfaces/msg/Parameter')
+    message = message_class(name='n', value={'type': 2, 'integer_value': 7})
+    assert Parameter.from_parameter_msg(message) == Parameter('n', value=7)
+
+
+def test_more_graph_names_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('mapper', '/robot', remap=['chatter:=/talk'])
+    observer = zros_node('observer')
+    assert node.resolve_topic_name('chatter') == '/talk'
+    assert node.resolve_topic_name('chatter', only_expand=True) == '/robot/chatter'
+    assert node.resolve_topic_name('~/state') == '/robot/mapper/state'
+    assert node.resolve_service_name('add') == '/robot/add'
+    assert node.resolve_service_name('~/add', only_expand=True) == '/robot/mapper/add'
+    with pytest.raises(zros.InvalidNameError):
+        node.resolve_service_name('bad name')
+    node.create_service(ADD, 'add')
+    observer.create_client(ADD, '/robot/add')
+    assert observer.wait_for_node('/robot/mapper', timeout=30.0)
+    assert observer.wait_for_node('observer', timeout=30.0)  # no leading /: at the root
+    assert not observer.wait_for_node('/robot/absent', timeout=0.05)
+    assert wait_for(lambda: observer.count_clients('/robot/add') == 1, timeout=30.0)
+    assert wait_for(lambda: observer.count_services('/robot/add') == 1, timeout=30.0)
+    assert node.count_services('add') == 1 and observer.count_services('/add') == 0
+    assert '/robot/mapper' in observer.get_fully_qualified_node_names()
+    names = observer.get_node_names_and_namespaces()
+    assert ('mapper', '/robot') in names and ('observer', '/') in names
+
+
+def test_more_parameter_names_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('described')
+    node.declare_parameter('level', 3, integer_range=(0, 10, 1), description='how high')
+    assert node.get_parameter_type('level') is Parameter.Type.INTEGER
+    assert node.get_parameter_types(['level', 'use_sim_time']) == [
+        Parameter.Type.INTEGER,
+        Parameter.Type.BOOL,
+    ]
+    (described,) = node.describe_parameters(['level'])
+    assert described == node.describe_parameter('level')
+    assert (described.name, described.description, described.integer_range) == (
+        'level',
+        'how high',
+        (0, 10, 1),
+    )
+    for ask in (node.get_parameter_type, node.describe_parameter):
+        with pytest.raises(zros.ParameterNotDeclaredError, match="'nope' is not declared"):
+            ask('nope')
+    loose = zros_node('loose', allow_undeclared_parameters=True)
+    assert loose.get_parameter_type('nope') is Parameter.Type.NOT_SET
+    assert loose.describe_parameter('nope').type is Parameter.Type.NOT_SET
+    # rclpy's handle: what add_ returns, remove_ takes
+    refuse = node.add_on_set_parameters_callback(lambda changes: False)
+    assert not node.set_parameters({'level': 4})[0]
+    node.remove_on_set_parameters_callback(refuse)
+    assert node.set_parameters({'level': 4})[0]
+    with pytest.raises(ValueError):
+        node.remove_on_set_parameters_callback(refuse)
+
+
+def test_logger_level_and_timer_destroy_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('leveled', log_level='warn')
+    logger = node.get_logger()
+    assert logger.get_effective_level() == 30
+    logger.set_level('debug')
+    assert logger.get_effective_level() == 10
+    timer = node.create_timer(3600.0, lambda: None)
+    timer.destroy()
+    assert timer.is_canceled() and not node.destroy_timer(timer)

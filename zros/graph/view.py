@@ -140,11 +140,21 @@ class Graph:
         ]
         return sorted(result, key=lambda e: (e.key, e.kind.value, e.zid))
 
-    def _names(self, kinds: tuple[EntityKind, ...], namespace: str) -> dict[str, list[str]]:
+    def _names(
+        self, kinds: tuple[EntityKind, ...], namespace: str, node: str | None = None
+    ) -> dict[str, list[str]]:
         names: dict[str, set[str]] = {}
         for endpoint in self.endpoints(kinds):
-            names.setdefault(endpoint.ros_name(namespace), set()).add(endpoint.type_name)
+            if node is None or endpoint.node == node:
+                names.setdefault(endpoint.ros_name(namespace), set()).add(endpoint.type_name)
         return {name: sorted(types) for name, types in sorted(names.items())}
+
+    def node_names(
+        self, node_fqn: str, kinds: tuple[EntityKind, ...], namespace: str = '/'
+    ) -> dict[str, list[str]]:
+        """The names and types of a node's endpoints of ``kinds`` (zros and rmw_zenoh nodes:
+        a bridge does not say which ROS node owns what it announces)."""
+        return self._names(kinds, namespace, node_fqn)
 
     def topics(self, namespace: str = '/') -> dict[str, list[str]]:
         """Topic names (as seen through a bridge with ``namespace``) and their types."""

@@ -2,5 +2,6 @@
 subscribers, services, actions, timers and parameters."""
 
 from zros.node.facade import Node
+from zros.node.graph_methods import NodeNameNonExistentError
 
-__all__ = ['Node']
+__all__ = ['Node', 'NodeNameNonExistentError']

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 from zros.cdr import TypeRegistry, default_registry
 from zros.closing import Closing
-from zros.keyexpr.names import Remapping
+from zros.keyexpr.names import Remapping, expand
 from zros.node.factories import EntityFactories
 from zros.node.graph_methods import GraphMethods
 from zros.node.parameter_methods import ParameterMethods
@@ -203,6 +203,18 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         """The fully qualified form of a topic or service name, remappings applied."""
         return self.context.resolve_name(name, kind)
 
+    def resolve_topic_name(self, topic: str, *, only_expand: bool = False) -> str:
+        """rclpy's: the fully qualified topic name, remapped unless ``only_expand``."""
+        if only_expand:
+            return expand(topic, self.name, self.namespace)
+        return self.context.resolve_name(topic)
+
+    def resolve_service_name(self, service: str, *, only_expand: bool = False) -> str:
+        """rclpy's: the fully qualified service name, remapped unless ``only_expand``."""
+        if only_expand:
+            return expand(service, self.name, self.namespace, 'service name')
+        return self.context.resolve_name(service, 'service name')
+
     @property
     def use_sim_time(self) -> bool:
         """Whether the node's clock follows ``/clock``."""
@@ -247,6 +259,22 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         ends it and makes ``ok()`` false, with or without ``zros.init``."""
         try:
             self.context.executor.spin(timeout)
+        except KeyboardInterrupt:
+            shut_down_on_ctrl_c()
+
+    def spin_until_future_complete(
+        self,
+        future: concurrent.futures.Future[T],
+        timeout: float | Unset | None = UNSET,
+        *,
+        timeout_sec: float | Unset | None = UNSET,
+    ) -> None:
+        """Run callbacks and timers until ``future`` (of ``call_async``, ``send_goal_async``...)
+        is done or ``timeout`` (or rclpy's ``timeout_sec``) seconds pass (None or negative: no
+        limit), as rclpy's ``spin_until_future_complete``; Ctrl-C ends it as :meth:`spin`."""
+        wait = either_timeout(timeout, timeout_sec, None)
+        try:
+            self.context.executor.spin_until_future_complete(future, wait)
         except KeyboardInterrupt:
             shut_down_on_ctrl_c()
 

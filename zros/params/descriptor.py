@@ -3,14 +3,15 @@ ranges rclcpp checks), and the outcome of setting it."""
 
 from __future__ import annotations
 
+import builtins
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypedDict
+from typing import TYPE_CHECKING, ClassVar, TypedDict
 
 if TYPE_CHECKING:
     from zros.cdr import Message, TypeRegistry
 
-from zros.params.values import ParameterType, ParamValue
+from zros.params.values import ParameterType, ParamValue, infer_type
 
 
 class DescriptorFields(TypedDict, total=False):
@@ -27,11 +28,20 @@ class DescriptorFields(TypedDict, total=False):
 
 @dataclass(frozen=True)
 class Parameter:
-    """A parameter's name, value and type."""
+    """A parameter's name, value and type (what set callbacks get; :class:`zros.Parameter` is
+    the one rclpy code builds)."""
 
     name: str
     value: ParamValue
     type: ParameterType | None = None  #: None: inferred from the value
+
+    #: rclpy's ``Parameter.Type``: the same names and numbers
+    Type: ClassVar[builtins.type[ParameterType]] = ParameterType
+
+    @property
+    def type_(self) -> ParameterType:
+        """The type (rclpy's name): :attr:`type`, else the value's."""
+        return self.type if self.type is not None else infer_type(self.value)
 
 
 @dataclass(frozen=True)

@@ -136,6 +136,10 @@ class Time:
         """The nanoseconds past :attr:`sec` (``builtin_interfaces/Time.nanosec``)."""
         return self.nanoseconds % _NS
 
+    def seconds_nanoseconds(self) -> tuple[int, int]:
+        """``(sec, nanosec)``: whole seconds and the nanoseconds past them (rclpy's)."""
+        return self.sec, self.nanosec
+
     def __float__(self) -> float:
         return self.nanoseconds / _NS
 

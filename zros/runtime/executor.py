@@ -225,6 +225,23 @@ class Executor:
                 return
             self.run_once(remaining)
 
+    def spin_until_future_complete(
+        self, future: concurrent.futures.Future[T], timeout_sec: float | None = None
+    ) -> None:
+        """Run callbacks and timers until ``future`` is done, ``timeout_sec`` seconds pass (None
+        or negative: no limit; 0: one run of what is due) or not ``ok()``, as rclpy's
+        executor does."""
+        if future.done():
+            return  # no done callback: its wake-up would end the next spin_once early
+        future.add_done_callback(lambda _: self.wake())
+        forever = timeout_sec is None or timeout_sec < 0
+        deadline = time.monotonic() + (0.0 if timeout_sec is None else timeout_sec)
+        while self.ok() and not future.done():
+            remaining = None if forever else deadline - time.monotonic()
+            self.run_once(remaining)
+            if remaining is not None and time.monotonic() >= deadline:
+                return
+
     def spin_until_clock(self, clock: Clock, deadline: int) -> None:
         """Run callbacks and timers until the timer base of ``clock`` reaches ``deadline``."""
         while self.ok():

@@ -24,6 +24,8 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol, TypedDict
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
+    from zros.runtime.clock import Clock
+
 DEBUG, INFO, WARN, ERROR, FATAL = 10, 20, 30, 40, 50
 LEVELS = {'debug': DEBUG, 'info': INFO, 'warn': WARN, 'warning': WARN, 'error': ERROR,
           'fatal': FATAL, 'critical': FATAL}  # fmt: skip
@@ -39,6 +41,38 @@ class LogOptions(TypedDict, total=False):
     once: bool
     throttle: float | None
     skip_first: bool
+    throttle_duration_sec: float | None
+    throttle_time_source_type: Clock | None
+
+
+class _CallSite:
+    """What the filters of one log call site remember (rclpy keeps one such context per site)."""
+
+    __slots__ = ('last', 'logged', 'skipped')
+
+    def __init__(self) -> None:
+        self.last: int | None = None  #: nanoseconds of the last record throttle let through
+        self.skipped = False
+        self.logged = False
+
+    def passes(
+        self, once: bool, throttle: float | None, skip_first: bool, clock: Clock | None
+    ) -> bool:
+        """Whether this call logs; each filter in rclpy's order (throttle, skip_first, once)
+        counts the call only when the filters before it let it through, as rclpy's do."""
+        if throttle is not None:
+            now = time.monotonic_ns() if clock is None else clock.now().nanoseconds
+            if self.last is not None and now < self.last + throttle * 1e9:
+                return False
+            self.last = now
+        if skip_first and not self.skipped:
+            self.skipped = True
+            return False
+        if once:
+            if self.logged:
+                return False
+            self.logged = True
+        return True
 
 
 class RosoutRecord(NamedTuple):
@@ -159,8 +193,7 @@ class Logger:
         self.sink = sink  #: the node's /rosout, threshold and clock (None: console only)
         self._level = level
         self._py = _console().getChild(name)
-        self._seen: dict[tuple[str, int], float] = {}
-        self._counts: dict[tuple[str, int], int] = {}
+        self._sites: dict[tuple[str, int, int], _CallSite] = {}
 
     @property
     def level(self) -> int:
@@ -170,6 +203,10 @@ class Logger:
         if self.sink is not None:
             return self.sink.level
         return level_from_environment() or INFO
+
+    def get_effective_level(self) -> int:
+        """The threshold in force (rclpy's name for :attr:`level`)."""
+        return self.level
 
     def set_level(self, level: str | int) -> None:
         """Set the threshold: ``'debug'``...``'fatal'`` or a number."""
@@ -191,31 +228,33 @@ class Logger:
         once: bool = False,
         throttle: float | None = None,
         skip_first: bool = False,
+        throttle_duration_sec: float | None = None,
+        throttle_time_source_type: Clock | None = None,
         stacklevel: int = 1,
     ) -> bool:
         """Log ``message`` at ``level``; returns whether it was emitted.
 
-        ``once``: only the first time at this line. ``throttle``: at most once per that many
-        seconds at this line. ``skip_first``: not the first time at this line.
+        Per call site, as rclpy's logger: ``once``, only the first time; ``throttle`` (rclpy's
+        ``throttle_duration_sec``), at most once per that many seconds of the monotonic clock
+        (of ``throttle_time_source_type``, a clock such as ``node.get_clock()``, when given);
+        ``skip_first``, not the first time.
         """
+        if throttle_duration_sec is not None:
+            if throttle is not None:
+                raise TypeError("give throttle= or rclpy's throttle_duration_sec=, not both")
+            throttle = throttle_duration_sec or None  # rclpy: 0 throttles nothing
         severity = parse_level(level)
         if severity < self.level:
             return False
         frame = sys._getframe(stacklevel)
-        site = (frame.f_code.co_filename, frame.f_lineno)
         if once or throttle is not None or skip_first:
-            now = time.monotonic()
-            count = self._counts.get(site, 0)
-            self._counts[site] = count + 1
-            if once and count > 0:
+            # f_lasti tells apart two calls on one line, as rclpy's call sites do
+            site = (frame.f_code.co_filename, frame.f_lineno, frame.f_lasti)
+            state = self._sites.get(site)
+            if state is None:
+                state = self._sites[site] = _CallSite()
+            if not state.passes(once, throttle, skip_first, throttle_time_source_type):
                 return False
-            if skip_first and count == 0:
-                return False
-            if throttle is not None:
-                last = self._seen.get(site)
-                if last is not None and now - last < throttle:
-                    return False
-                self._seen[site] = now
         self._emit(severity, str(message), frame.f_code.co_filename, frame.f_code.co_name,
                    frame.f_lineno)  # fmt: skip
         return True

@@ -77,6 +77,41 @@ class Timer:
         """Whether :meth:`cancel` was called."""
         return self._cancelled
 
+    def is_canceled(self) -> bool:
+        """Whether :meth:`cancel` was called (rclpy's name)."""
+        return self._cancelled
+
+    @property
+    def timer_period_ns(self) -> int:
+        """The period in nanoseconds (rclpy's); setting it counts the periods after the call
+        now due."""
+        return self._period
+
+    @timer_period_ns.setter
+    def timer_period_ns(self, nanoseconds: int) -> None:
+        if not nanoseconds > 0:
+            raise ValueError(f'a period must be positive, got {nanoseconds!r} ns')
+        self._period = nanoseconds  # the call due keeps its time, as rcl's
+        self.period = nanoseconds / _NS
+
+    def is_ready(self) -> bool:
+        """Whether the timer is due (its callback runs at the next spin), as rclpy's."""
+        due = self.seconds_until_due()
+        return not self._cancelled and due is not None and due <= 0
+
+    def time_until_next_call(self) -> int | None:
+        """Nanoseconds of the node's clock until the timer is due (negative: overdue), None
+        once cancelled, as rclpy's."""
+        if self._cancelled:
+            return None
+        self.seconds_until_due()  # restarts the count when the clock jumped back or switched
+        return self._next - self.clock.timer_now()
+
+    def time_since_last_call(self) -> int:
+        """Nanoseconds of the node's clock since the callback last ran (or the timer started,
+        or was reset), as rclpy's."""
+        return self.clock.timer_now() - self._last
+
     def seconds_until_due(self) -> float | None:
         """Wall seconds until due (<= 0: due now; None: when the sim clock moves)."""
         now = self.clock.timer_now()
@@ -110,6 +145,9 @@ class Timer:
         if not self._cancelled:
             self._cancelled = True
             self._executor.remove_timer(self)
+
+    #: rclpy's ``Timer.destroy`` (``node.destroy_timer(timer)`` does the same)
+    destroy = cancel
 
 
 class Spinnable(Protocol):
