@@ -460,6 +460,10 @@ def test_rclpys_parameter_objects(zros_node: Callable[..., Node]) -> None:
     # a value that does not agree with its type, or a type that is not one, as rclpy says
     with pytest.raises(ValueError, match="Type INTEGER and value 'a' do not agree"):
         Parameter('x', Parameter.Type.INTEGER, 'a')
+    with pytest.raises(ValueError, match='Type DOUBLE and value 2 do not agree'):
+        Parameter('speed', Parameter.Type.DOUBLE, 2)  # an int for a double, refused as by rclpy
+    with pytest.raises(ValueError, match=r'Type DOUBLE_ARRAY and value \[1, 2\] do not agree'):
+        Parameter('gains', Parameter.Type.DOUBLE_ARRAY, [1, 2])
     with pytest.raises(TypeError, match=r'not 2.0 \(a value goes as value=.*value=2.0\)'):
         Parameter('x', 2.0)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="parameter 'x': dict is not a parameter type"):

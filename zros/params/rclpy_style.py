@@ -34,7 +34,7 @@ class Parameter(descriptor.Parameter):
                 f'type_ is a Parameter.Type, not {type_!r} (a value goes as value=, as rclpy has '
                 f'it: Parameter({name!r}, value={type_!r}))'
             )
-        elif kind is not type_:
+        elif kind is not type_ or _integers_for_doubles(value, type_):
             raise ValueError(f'Type {type_.name} and value {value!r} do not agree')
         object.__setattr__(self, 'name', name)
         object.__setattr__(self, 'value', normalize(value, type_))
@@ -48,3 +48,12 @@ class Parameter(descriptor.Parameter):
 
     def __repr__(self) -> str:
         return f'Parameter({self.name!r}, Parameter.Type.{self.type_.name}, {self.value!r})'
+
+
+def _integers_for_doubles(value: object, type_: ParameterType) -> bool:
+    """Whether ints were given for a double (rclpy refuses them, as zros's parameters do)."""
+    if type_ is ParameterType.DOUBLE:
+        return infer_type(value) is ParameterType.INTEGER
+    if type_ is ParameterType.DOUBLE_ARRAY:
+        return infer_type(value) is ParameterType.INTEGER_ARRAY
+    return False
