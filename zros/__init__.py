@@ -67,6 +67,7 @@ _LAZY = {
     'Client': ('zros.services', 'Client'),
     'ServiceError': ('zros.services', 'ServiceError'),
     'ServiceUnavailableError': ('zros.services', 'ServiceUnavailableError'),
+    'LinkLostError': ('zros.services', 'LinkLostError'),
     'ServiceTimeoutError': ('zros.services', 'ServiceTimeoutError'),
     'ServiceCallError': ('zros.services', 'ServiceCallError'),
     'Timer': ('zros.runtime.timers', 'Timer'),
@@ -146,6 +147,7 @@ if TYPE_CHECKING:
     from zros.runtime.timers import Rate, Timer
     from zros.services import (
         Client,
+        LinkLostError,
         Service,
         ServiceCallError,
         ServiceError,
@@ -210,6 +212,7 @@ __all__ = [
     'History',
     'InterfaceSyntaxError',
     'InvalidNameError',
+    'LinkLostError',
     'Logger',
     'Message',
     'Node',
