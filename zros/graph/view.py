@@ -187,6 +187,11 @@ class Graph:
         the bridges' ROS nodes."""
         return sorted(set().union(*(view.nodes() for view in self._views.values())))
 
+    def node_instances(self) -> list[str]:
+        """:meth:`nodes`, once per node: a name two nodes share is there twice (as ``ros2 node
+        list`` shows it). Two zros nodes of one name in one bridge-wire session are one."""
+        return sorted(name for view in self._views.values() for name in view.node_instances())
+
     def wires(self) -> list[str]:
         """The wire schemes present on the network: ``'bridge'`` (bridges, or zros nodes
         speaking to bridges) and ``'rmw_zenoh'`` (nodes running rmw_zenoh, zros ones included)."""
