@@ -9,19 +9,15 @@ from collections.abc import Iterator
 import pytest
 
 from tests.cli.conftest import ZROS, Cli
-from tests.support.router_process import CALL_TIMEOUT, FIB, TRIGGER, Rig, router_running
+from tests.support.router_process import CALL_TIMEOUT, FIB, TRIGGER, Rig, rig_running
 
 pytestmark = pytest.mark.skipif(ZROS is None, reason='the zros console script is not installed')
 
 
 @pytest.fixture
 def rig() -> Iterator[Rig]:
-    with router_running() as router:
-        rig = Rig(router)
-        try:
-            yield rig
-        finally:
-            rig.close()
+    with rig_running() as running:
+        yield running
 
 
 @pytest.mark.parametrize(

@@ -8,18 +8,14 @@ from collections.abc import Iterator
 import pytest
 
 import zros
-from tests.support.router_process import CALL_TIMEOUT, FIB, TRIGGER, Rig, router_running
+from tests.support.router_process import CALL_TIMEOUT, FIB, TRIGGER, Rig, rig_running
 from zros.testing import wait_for
 
 
 @pytest.fixture
 def rig() -> Iterator[Rig]:
-    with router_running() as router:
-        rig = Rig(router)
-        try:
-            yield rig
-        finally:
-            rig.close()
+    with rig_running() as running:
+        yield running
 
 
 def assert_link_lost(error: BaseException, rig: Rig) -> None:

@@ -110,3 +110,14 @@ class Rig:
         self.release.set()
         for transport in self.transports:
             transport.close()
+
+
+@contextmanager
+def rig_running() -> Iterator[Rig]:
+    """A :class:`Rig` on a router process of its own, closed (and the router killed) at the end."""
+    with router_running() as router:
+        rig = Rig(router)
+        try:
+            yield rig
+        finally:
+            rig.close()
