@@ -51,6 +51,9 @@ _CALLBACK_JOIN_TIMEOUT = 5.0
 #: seconds between warnings of a session that opened without reaching its router
 UNREACHED_WARNING_PERIOD = 10.0
 
+#: the warning of a lost link (a command whose error says so already filters it out)
+LINK_LOST = 'lost the link to %s %s; Zenoh reconnects by itself, entities stay declared'
+
 #: daemon threads of zros that call into Zenoh (goals' threads, say): the exit hook waits for them
 _joined_at_exit: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
 
@@ -204,11 +207,7 @@ class Transport(Closing):
                 self._links.add(zid)
             self._link_changed.notify_all()
         if lost and not self._closed:
-            _log.warning(
-                'lost the link to %s %s; Zenoh reconnects by itself, entities stay declared',
-                role,
-                zid,
-            )
+            _log.warning(LINK_LOST, role, zid)
         elif restored:
             _log.warning('link to %s %s is up again', role, zid)
 
