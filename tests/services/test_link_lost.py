@@ -8,8 +8,16 @@ from collections.abc import Iterator
 import pytest
 
 import zros
-from tests.support.router_process import CALL_TIMEOUT, FIB, TRIGGER, Rig, rig_running
+from tests.support.router_process import (
+    CALL_TIMEOUT,
+    FIB,
+    TRIGGER,
+    Rig,
+    free_endpoint,
+    rig_running,
+)
 from zros.testing import wait_for
+from zros.transport import Transport, TransportConfig
 
 
 @pytest.fixture
@@ -85,3 +93,39 @@ def test_calls_work_again_once_the_router_is_back(rig: Rig) -> None:
     rig.router.start()
     assert client.wait_for_service(CALL_TIMEOUT)
     assert client.call().success is False  # Trigger's default response
+
+
+def test_a_call_of_a_session_that_never_reached_its_router_fails_at_once() -> None:
+    endpoint = free_endpoint()  # closed: nothing listens there
+    config = TransportConfig.create(
+        connect=endpoint, mode='peer', listen=[], wait_for_router=False, shared_memory=False
+    )
+    with Transport(config) as transport:
+        node = zros.Node('alone', transport=transport)
+        client = node.create_client(TRIGGER, 'slow', timeout=CALL_TIMEOUT)
+        started = time.monotonic()
+        with pytest.raises(zros.LinkLostError) as raised:
+            client.call()
+        assert time.monotonic() - started < 1.0
+        assert str(raised.value) == (
+            f'cannot call /slow: the router at {endpoint} has not been reached yet '
+            '(Zenoh keeps trying)'
+        )
+
+
+def test_a_goal_whose_result_cannot_be_asked_fails_with_the_reason(
+    rig: Rig, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    client = rig.caller.create_action_client(FIB, 'fib')
+    assert client.wait_for_server(10)
+
+    def link_lost(*args: object, **kwargs: object) -> None:
+        raise zros.LinkLostError('cannot call /fib/_action/get_result: the link was lost')
+
+    # the link dropped between the goal's acceptance and the result's request
+    monkeypatch.setattr(client._get_result, 'call_async', link_lost)
+    rig.release.set()
+    handle = client.send_goal(order=3, timeout=CALL_TIMEOUT)
+    assert handle.accepted
+    with pytest.raises(zros.ActionError, match=r'no result for goal .*: cannot call /fib/_action'):
+        handle.result(CALL_TIMEOUT)
