@@ -69,6 +69,7 @@ _LAZY = {
     'Client': ('zros.services', 'Client'),
     'ServiceError': ('zros.services', 'ServiceError'),
     'ServiceUnavailableError': ('zros.services', 'ServiceUnavailableError'),
+    'LinkLostError': ('zros.services', 'LinkLostError'),
     'ServiceTimeoutError': ('zros.services', 'ServiceTimeoutError'),
     'ServiceCallError': ('zros.services', 'ServiceCallError'),
     'Timer': ('zros.runtime.timers', 'Timer'),
@@ -150,6 +151,7 @@ if TYPE_CHECKING:
     from zros.runtime.timers import Rate, Timer
     from zros.services import (
         Client,
+        LinkLostError,
         Service,
         ServiceCallError,
         ServiceError,
@@ -214,6 +216,7 @@ __all__ = [
     'History',
     'InterfaceSyntaxError',
     'InvalidNameError',
+    'LinkLostError',
     'Logger',
     'Message',
     'Node',

@@ -45,6 +45,28 @@ def test_node_list_and_info(cli: Cli, zros_node: Node) -> None:
     assert 'node /nobody does not appear on the network: zros node list shows' in unknown.stderr
 
 
+def test_node_list_shows_nodes_that_share_a_name_and_warns_once(cli: Cli, zros_node: Node) -> None:
+    zros_node('twin')
+    zros_node('twin')  # on a session of its own, as a second process would be
+    zros_node('single')
+
+    listing = cli.run('node', 'list')
+    assert listing.returncode == 0, listing.stderr
+    assert listing.stdout.split() == ['/single', '/twin', '/twin']
+    assert listing.stderr.count('zros: warning:') == 1
+    assert 'some nodes on the network share a full name' in listing.stderr
+    counted = cli.run('node', 'list', '-c')
+    assert counted.stdout == '3\n'
+    assert 'share a full name' in counted.stderr
+
+    info = cli.run('node', 'info', '/twin')
+    assert info.returncode == 0, info.stderr
+    assert info.stdout.splitlines()[0] == '/twin'
+    assert 'zros: warning: 2 nodes on the network are named /twin' in info.stderr
+    single = cli.run('node', 'info', '/single')
+    assert single.stderr == ''
+
+
 def test_service_list_type_find_call(cli: Cli, zros_node: Node) -> None:
     server = zros_node('adder', enable_rosout=False, start_parameter_services=False)
     adder = server.create_service(ADD, '/add_two_ints', lambda r: adder.Response(sum=r.a + r.b))

@@ -3,60 +3,22 @@
 from __future__ import annotations
 
 import logging
-import socket
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
 
 import pytest
 
 import zros
+from tests.support.router_process import RouterProcess, router_running
 from zros.graph import graph_of
 from zros.testing import wait_for
 from zros.transport import Transport, TransportConfig
 
-ROUTER = """
-import sys, threading
-from zros.transport import start_router
-router = start_router(sys.argv[1])
-print(router.endpoint, flush=True)
-threading.Event().wait()
-"""
-
-
-def free_endpoint() -> str:
-    with socket.socket() as probe:
-        probe.bind(('127.0.0.1', 0))
-        return f'tcp/127.0.0.1:{probe.getsockname()[1]}'
-
-
-class RouterProcess:
-    def __init__(self, endpoint: str) -> None:
-        self.endpoint = endpoint
-        self.process: subprocess.Popen[str] | None = None
-
-    def start(self) -> None:
-        self.process = subprocess.Popen(
-            [sys.executable, '-c', ROUTER, self.endpoint], stdout=subprocess.PIPE, text=True
-        )
-        assert self.process.stdout is not None
-        assert self.process.stdout.readline().strip() == self.endpoint
-
-    def kill(self) -> None:
-        if self.process is not None and self.process.poll() is None:
-            self.process.kill()
-            self.process.wait(10)
-
 
 @pytest.fixture
 def router_process() -> Iterator[RouterProcess]:
-    router = RouterProcess(free_endpoint())
-    router.start()
-    try:
+    with router_running() as router:
         yield router
-    finally:
-        router.kill()
 
 
 def test_traffic_resumes_after_the_router_restarts(

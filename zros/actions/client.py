@@ -312,6 +312,12 @@ class ActionClient(ActionEntity):
         request = self._get_result.Request()
         request.goal_id.uuid = handle.goal_id
 
+        def no_result(exc: ServiceError) -> None:
+            handle._result.settle(
+                ActionError(f'no result for goal {handle.goal_uuid} of {self.name}: {exc}')
+            )
+            handle._changed.notify()
+
         def on_result(future: concurrent.futures.Future[Message]) -> None:
             try:
                 response = future.result()
@@ -320,10 +326,7 @@ class ActionClient(ActionEntity):
                 handle._changed.notify()
                 return
             except ServiceError as exc:
-                handle._result.settle(
-                    ActionError(f'no result for goal {handle.goal_uuid} of {self.name}: {exc}')
-                )
-                handle._changed.notify()
+                no_result(exc)
                 return
             try:
                 status = GoalStatus(response.status)
@@ -342,7 +345,12 @@ class ActionClient(ActionEntity):
                     handle._result.settle(response.result)
             handle._changed.notify()
 
-        self._get_result.call_async(request, RESULT_TIMEOUT).add_done_callback(on_result)
+        try:
+            pending = self._get_result.call_async(request, RESULT_TIMEOUT)
+        except ServiceError as exc:  # the link dropped since the goal was accepted
+            no_result(exc)
+            return
+        pending.add_done_callback(on_result)
 
     def _cancel_goal(self, goal_id: bytes, timeout: float | None) -> Message:
         request = self._cancel.Request()

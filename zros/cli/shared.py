@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import logging
 import os
 import signal
 import sys
@@ -440,6 +441,20 @@ def byte_count(text: str) -> int:
             f'a size in bytes, as 33554432, 32MiB or 500kB, of at least 1 byte, not {text}'
         )
     return size
+
+
+class _TheErrorSaysIt(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        from zros.transport.session import LINK_LOST
+
+        return record.msg != LINK_LOST
+
+
+def errors_tell_of_lost_links() -> None:
+    """From now on (a command's calls or goals are under way) a lost link ends the command
+    with an error that says so: the transport's own warning of the loss, which may come a moment
+    before or after, would say it twice."""
+    logging.getLogger('zros.transport').addFilter(_TheErrorSaysIt())
 
 
 def out(text: str = '') -> None:

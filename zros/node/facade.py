@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 from zros.cdr import TypeRegistry, default_registry
 from zros.closing import Closing
+from zros.graph import graph_of
 from zros.keyexpr.names import Remapping, expand
 from zros.node.factories import EntityFactories
 from zros.node.graph_methods import GraphMethods
@@ -142,6 +143,7 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
         if options.use_sim_time:
             self._clock_feed = ClockSubscription(self, self.clock)
         self._node_token = node_wire.node_token
+        self._warn_if_name_taken()
         self.transport.declare_token(self._node_token)
         self.transport.on_close(self.destroy)
         self.parameters = ParameterStore(
@@ -227,6 +229,17 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
     def now(self) -> Time:
         """The node's current ROS time."""
         return self.clock.now()
+
+    def _warn_if_name_taken(self) -> None:
+        """Warn when the graph this session follows already shows a node of this name: as
+        rcl, zros does not refuse it, and it asks nothing of the network (a graph not made yet,
+        or one still filling, may not know the other node)."""
+        graph = graph_of.peek(self.transport)
+        if graph is not None and self.fully_qualified_name in graph.nodes():
+            self._logger.warn(
+                f'a node named {self.fully_qualified_name} is already on the network; both run, '
+                'but whatever reaches a node by name (parameters, node info) may reach either'
+            )
 
     def get_logger(self) -> Logger:
         """The node's logger (console, ``/rosout`` and Python's ``ros.<name>`` logger)."""

@@ -25,6 +25,7 @@ from zros.runtime.signal import Signal, raises_on_interrupt
 from zros.runtime.timeouts import UNSET, Unset, either_timeout
 from zros.services.errors import (
     ERROR_PREFIX,
+    LinkLostError,
     ServiceCallError,
     ServiceError,
     ServiceTimeoutError,
@@ -37,6 +38,9 @@ from zros.transport.zenoh_qos import PRIORITY
 #: seconds a call may still wait for its answer once no server matches any more (the answer
 #: may be in transit: declarations can overtake replies); then it ends as unavailable
 GONE_GRACE = 2.0
+#: seconds a call that ended without a reply, its server present when it was sent, waits to
+#: hear whether the link dropped: Zenoh ends such queries a moment before it reports the drop
+LINK_SETTLE = 1.0
 
 
 class Client(ServiceEntity):
@@ -65,9 +69,16 @@ class Client(ServiceEntity):
         super().__init__(node)
         self._wire = self._place_service(EntityKind.SERVICE_CLIENT, name, srv_type, announce)
         self.timeout = timeout
-        session = self.context.transport.session
+        self._transport = self.context.transport
+        session = self._transport.session
         self._get = session.get
         self._matching = Signal()
+        #: whether a server matched at the last matching event, how many came, and when the
+        #: last server went (a call that ended without a reply looks at them to tell a dropped
+        #: link from no server)
+        self._matched = False
+        self._match_events = 0
+        self._unmatched_at = -LINK_SETTLE
         #: calls in flight that Zenoh may never end: what ends each as unavailable
         self._calls: set[Callable[[], None]] = set()
         self._querier = session.declare_querier(self.key)
@@ -98,6 +109,9 @@ class Client(ServiceEntity):
     def _request(self, request: Message | None, fields: dict[str, object]) -> bytes:
         if self._closed:
             raise ServiceError(f'the client of {self.name} was closed')
+        problem = self._transport.link_problem()
+        if problem is not None and not self.service_is_ready():
+            raise LinkLostError(f'cannot call {self.name}: {problem}')
         if request is None:
             request = self.Request(**fields)
         elif fields:
@@ -143,6 +157,26 @@ class Client(ServiceEntity):
             return ServiceTimeoutError(f'{self.name} did not reply within {timeout:g} s')
         return ServiceCallError(f'{self.name} replied with an error: {text}')
 
+    def _link_may_have_dropped(self, matched: bool, events: int) -> bool:
+        """Whether a call sent when ``matched`` and ``events`` were the matching state, which
+        ended without a reply, may have lost its link: a server was there while it waited, or
+        went a moment before it was sent (Zenoh reports the servers behind a dropped link gone
+        before it reports the drop)."""
+        return (
+            matched
+            or self._match_events != events
+            or time.monotonic() - self._unmatched_at < LINK_SETTLE
+        )
+
+    def _no_reply(self, dropped: bool) -> ServiceUnavailableError:
+        """The error of a call that ended without a reply: the lost link when it dropped
+        (waiting up to LINK_SETTLE to hear of the drop when ``dropped`` says it may have)."""
+        if dropped and self._transport.wait_unlinked(LINK_SETTLE):
+            problem = self._transport.link_problem()
+            if problem is not None:
+                return LinkLostError(f'{self.name} got no reply: {problem}')
+        return self._unavailable()
+
     def _unavailable(self) -> ServiceUnavailableError:
         return ServiceUnavailableError(
             f'no server for {self.name} [{self.type_name}] is reachable (key {self.key!r}); '
@@ -164,6 +198,7 @@ class Client(ServiceEntity):
         timeout = self.timeout if timeout is None else timeout
         started = time.monotonic()
         sent = self._wire.request_attachment()
+        matched, events = self._matched, self._match_events
         if threading.current_thread() is threading.main_thread():
             # Zenoh's reply channel runs the signal handler, which raises in this block
             with raises_on_interrupt():
@@ -172,7 +207,7 @@ class Client(ServiceEntity):
         else:
             reply = self._first_reply(data, timeout, sent)
         if reply is None:
-            raise self._unavailable()
+            raise self._no_reply(self._link_may_have_dropped(matched, events))
         outcome = self._outcome(reply, started, timeout, sent)
         if isinstance(outcome, ServiceTimeoutError):
             raise ServiceTimeoutError(f'{outcome}{unanswered_here(self.name, self.key)}')
@@ -218,6 +253,7 @@ class Client(ServiceEntity):
         started = time.monotonic()
         executor = self.context.executor
         sent = self._wire.request_attachment()
+        matched, events = self._matched, self._match_events
 
         ended = threading.Lock()
 
@@ -237,9 +273,20 @@ class Client(ServiceEntity):
         def gone() -> None:
             end(self._gone)
 
+        def no_reply() -> None:  # on Zenoh's thread, which must not wait to hear of the link
+            if future.done() or not self._link_may_have_dropped(matched, events):
+                end(self._unavailable)
+            else:
+                waiter = threading.Thread(
+                    target=lambda: end(lambda: self._no_reply(True)),
+                    name='zros-call-link-check',
+                    daemon=True,
+                )
+                waiter.start()
+
         self._calls.add(gone)
         try:
-            self._send(data, timeout, Callback(on_reply, lambda: end(self._unavailable)), sent)
+            self._send(data, timeout, Callback(on_reply, no_reply), sent)
         except BaseException:
             self._calls.discard(gone)
             raise
@@ -247,9 +294,15 @@ class Client(ServiceEntity):
 
     def _on_matching(self, matching: bool) -> None:
         """The querier's matching status changed (on Zenoh's thread)."""
+        if self._matched and not matching:
+            self._unmatched_at = time.monotonic()
+        self._matched = matching
+        self._match_events += 1
         self._matching.notify()
         if not matching and self._calls:
-            check = threading.Timer(GONE_GRACE, self._end_calls_if_gone)
+            # a reply cannot be in transit over a link that is down: no grace then
+            grace = 0.0 if self._transport.link_problem() is not None else GONE_GRACE
+            check = threading.Timer(grace, self._end_calls_if_gone)
             check.daemon = True
             check.start()
 
@@ -263,6 +316,9 @@ class Client(ServiceEntity):
             gone()
 
     def _gone(self) -> ServiceUnavailableError:
+        problem = self._transport.link_problem()
+        if problem is not None:
+            return LinkLostError(f'{self.name} got no reply: {problem}')
         return ServiceUnavailableError(
             f'no server for {self.name} [{self.type_name}] answered: the server went away '
             'before it replied'

@@ -7,6 +7,7 @@ from typing import TypeVar
 from zros.cdr import TypeRegistry
 from zros.cdr.interfaces import ActionType, ServiceType
 from zros.errors import ZrosError
+from zros.transport.errors import TransportError
 
 #: what a zenoh-bridge-ros2dds waits for a reply by default (``queries_timeout.default``)
 BRIDGE_TIMEOUT = 5.0
@@ -22,6 +23,11 @@ class ServiceError(ZrosError):
 
 class ServiceUnavailableError(ServiceError):
     """No server answered: none exists for the service (or it went away during the call)."""
+
+
+class LinkLostError(ServiceUnavailableError, TransportError):
+    """The session has no link to its router: a call waiting when the link dropped, or made
+    while it is down, ends with this at once (Zenoh reconnects by itself)."""
 
 
 class ServiceTimeoutError(ServiceError, TimeoutError):

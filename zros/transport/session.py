@@ -51,6 +51,9 @@ _CALLBACK_JOIN_TIMEOUT = 5.0
 #: seconds between warnings of a session that opened without reaching its router
 UNREACHED_WARNING_PERIOD = 10.0
 
+#: the warning of a lost link (a command whose error says so already filters it out)
+LINK_LOST = 'lost the link to %s %s; Zenoh reconnects by itself, entities stay declared'
+
 #: daemon threads of zros that call into Zenoh (goals' threads, say): the exit hook waits for them
 _joined_at_exit: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
 
@@ -150,6 +153,7 @@ class Transport(Closing):
         self._close_callbacks: list[Callable[[], object]] = []
         self.links_lost = 0  #: how often a link to a router or peer went down
         self._links: set[str] = {str(z) for z in self.session.info.routers_zid()}
+        self._link_changed = threading.Condition()
         self._link_listener = self.session.info.declare_transport_events_listener(
             self._on_transport_event, history=False
         )
@@ -192,20 +196,39 @@ class Transport(Closing):
 
         zid = str(event.transport.zid)
         role = str(event.transport.whatami).split('.')[-1].lower()
-        if event.kind == zenoh.SampleKind.DELETE:
-            self._links.discard(zid)
-            if not self._closed:
-                self.links_lost += 1
-                _log.warning(
-                    'lost the link to %s %s; Zenoh reconnects by itself, entities stay declared',
-                    role,
-                    zid,
-                )
-        else:
-            restored = self.links_lost > 0 and zid not in self._links
-            self._links.add(zid)
-            if restored:
-                _log.warning('link to %s %s is up again', role, zid)
+        lost = event.kind == zenoh.SampleKind.DELETE
+        with self._link_changed:  # the count first: a waiter woken by the loss reads it
+            restored = not lost and self.links_lost > 0 and zid not in self._links
+            if lost:
+                if not self._closed:
+                    self.links_lost += 1
+                self._links.discard(zid)
+            else:
+                self._links.add(zid)
+            self._link_changed.notify_all()
+        if lost and not self._closed:
+            _log.warning(LINK_LOST, role, zid)
+        elif restored:
+            _log.warning('link to %s %s is up again', role, zid)
+
+    def link_problem(self) -> str | None:
+        """Why nothing can cross the network now: the session lost its last link (or, opened
+        with ``wait_for_router=False``, has not reached its router yet); None while a link is
+        up, and for a session that has never had to reach anything."""
+        if self._links or self._closed:
+            return None
+        where = f'the router at {self.config.describe()}'
+        if self.links_lost:
+            return f'the link to {where} was lost (zros reconnects when the router is back)'
+        if self.config.connect is not None and not self.config.wait_for_router:
+            return f'{where} has not been reached yet (Zenoh keeps trying)'
+        return None
+
+    def wait_unlinked(self, timeout: float) -> bool:
+        """Wait until the session has no link; returns whether it has none. Zenoh ends the
+        queries that crossed a link as the link drops, a moment before zros hears of the drop."""
+        with self._link_changed:
+            return self._link_changed.wait_for(lambda: not self._links, timeout)
 
     def declare_token(self, key: str) -> None:
         """Declare a liveliness token, or count one more user of a token already declared.

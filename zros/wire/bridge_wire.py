@@ -200,6 +200,12 @@ class BridgeTokens(TokenView):
             names = {fqn for _, fqn in self._nodes.values()}
             return names | {bridge.node_name for bridge in self._bridges.values()}
 
+    def node_instances(self) -> list[str]:
+        """Each zros node (one token per session and name), and each bridge's node."""
+        with self.lock:
+            names = [fqn for _, fqn in self._nodes.values()]
+            return sorted(names + [bridge.node_name for bridge in self._bridges.values()])
+
     def present(self) -> bool:
         """Bridges, or zros nodes speaking to bridges."""
         with self.lock:

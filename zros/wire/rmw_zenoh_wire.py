@@ -337,6 +337,12 @@ class RmwZenohTokens(TokenView):
             names = {node.fully_qualified_name for node in self._nodes.values()}
             return names | {e.node.fully_qualified_name for e in self._entities.values()}
 
+    def node_instances(self) -> list[str]:
+        """Each node (a session and node id), announced or only named by its entities."""
+        with self.lock:
+            nodes = set(self._nodes.values()) | {e.node for e in self._entities.values()}
+        return sorted(node.fully_qualified_name for node in nodes)
+
     def present(self) -> bool:
         """Any node or entity token."""
         with self.lock:

@@ -149,6 +149,11 @@ class TokenView(abc.ABC):
     def nodes(self) -> set[str]:
         """Fully qualified names of the nodes announced (or shown, as a bridge's)."""
 
+    def node_instances(self) -> list[str]:
+        """The fully qualified name of each node announced, once per node: two nodes that
+        share a name are there twice."""
+        return sorted(self.nodes())
+
     @abc.abstractmethod
     def present(self) -> bool:
         """Whether anything of the scheme is on the network."""

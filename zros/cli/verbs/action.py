@@ -14,6 +14,7 @@ from zros.cli.shared import (
     add_verbs,
     add_wait_option,
     build_message,
+    errors_tell_of_lost_links,
     list_names,
     open_node,
     out,
@@ -115,6 +116,7 @@ def send_goal(args: argparse.Namespace) -> int:
         out('Waiting for an action server to become available...')
         if not client.wait_for_server(wait):
             raise CommandError(f'no server for {client.name} appeared within {wait:g} s')
+        errors_tell_of_lost_links()
         out('Sending goal:')
         out(_indented(message_to_yaml(goal), 5))
         out()

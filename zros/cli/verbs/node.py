@@ -7,6 +7,7 @@ bridge shows its ROS entities as its own, so they appear under the bridge's node
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import TYPE_CHECKING
 
 from zros.cli.shared import (
@@ -32,14 +33,25 @@ _SECTIONS = (
 )
 
 
+#: what ``node list`` says (once, on stderr) when nodes share a name, as ``ros2 node list`` does
+SHARED_NAMES = (
+    'zros: warning: some nodes on the network share a full name (each is listed); '
+    'whatever reaches a node by name (parameters, node info) may reach either'
+)
+
+
 def _others(node: Node) -> list[str]:
-    return [name for name in node.graph.nodes() if name != node.fully_qualified_name]
+    """The nodes on the graph but the command's own, once per node (a shared name repeats)."""
+    own = node.fully_qualified_name
+    return [name for name in node.graph.node_instances() if name != own]
 
 
 def list_nodes(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         node.graph.refresh(DISCOVERY)
         names = [n for n in _others(node) if args.all or not n.rsplit('/', 1)[-1].startswith('_')]
+        if len(set(names)) < len(names):
+            print(SHARED_NAMES, file=sys.stderr)
         if args.count_nodes:
             out(str(len(names)))
             return 0
@@ -59,8 +71,15 @@ def info(args: argparse.Namespace) -> int:
     with open_node(args) as node:
         node.graph.refresh(DISCOVERY)
         name = node.resolve_name(args.node)
-        if name not in _others(node):
-            raise unknown_name('node', name, _others(node), 'zros node list')
+        others = _others(node)
+        if name not in others:
+            raise unknown_name('node', name, set(others), 'zros node list')
+        if others.count(name) > 1:
+            print(
+                f'zros: warning: {others.count(name)} nodes on the network are named {name}; '
+                'what follows is what they announce together',
+                file=sys.stderr,
+            )
         endpoints = _endpoints_of(node, name)
         out(name)
         for title, code in _SECTIONS:

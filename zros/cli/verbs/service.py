@@ -14,6 +14,7 @@ from zros.cli.shared import (
     add_verbs,
     add_wait_option,
     build_message,
+    errors_tell_of_lost_links,
     find_names,
     list_names,
     open_node,
@@ -69,6 +70,7 @@ def call(args: argparse.Namespace) -> int:
                 raise CommandError(
                     f'no server for {client.name} [{srv.__srvtype__}] appeared within {wait:g} s'
                 )
+        errors_tell_of_lost_links()
         rate = node.create_rate(args.rate) if args.rate else None
         times = args.times if rate is not None else 1  # 0: until Ctrl-C, as ros2's -r
         made = 0
