@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import gc
 import logging
 import time
+import weakref
 from collections.abc import Callable
 from datetime import datetime, timezone
 from functools import partial
@@ -520,3 +522,25 @@ def test_an_unannounced_raw_tap_hears_its_key_and_shows_nowhere(
         assert listener.graph.subscribers(listener.scheme.key('/quiet')) == []
     finally:
         tap.close()
+
+
+def test_destroyed_subscriptions_of_a_never_spun_node_are_released(
+    zros_node: Callable[..., Node],
+) -> None:
+    """A program that polls (never spins) and re-subscribes on a busy topic: each destroyed
+    subscription, with the messages it had queued, is freed at once, and the node's pending
+    work does not grow with the subscriptions it ever had."""
+    talker, listener = connected(zros_node)
+    pub = talker.create_publisher(String, '/chatter')
+
+    def churn_once() -> weakref.ref[object]:
+        sub = listener.create_subscription(String, '/chatter', lambda m: None, 10)
+        assert pub.wait_for_subscribers()
+        assert wait_for(lambda: pub.write(text('busy')) is None and sub.received > 0)
+        assert listener.destroy_subscription(sub)
+        return weakref.ref(sub)
+
+    freed = [churn_once() for _ in range(30)]
+    # Zenoh drops its handle of the last one on its own thread: a moment later
+    assert wait_for(lambda: gc.collect() >= 0 and all(ref() is None for ref in freed))
+    assert len(listener.context.executor._ready) == 0

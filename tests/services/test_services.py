@@ -401,6 +401,23 @@ def test_closing_a_server_answers_what_it_holds(zros_node: Callable[..., Node]) 
     assert wait_for(lambda: not client.service_is_ready())
 
 
+def test_closing_a_service_of_a_never_spun_node_drops_its_pending_work(
+    zros_node: Callable[..., Node],
+) -> None:
+    server, caller = zros_node('server'), zros_node('caller')
+    service = server.create_service(ADD, 'add', add)
+    client = caller.create_client(ADD, 'add')
+    assert client.wait_for_service()
+    future = client.call_async(a=1, b=1)
+    assert wait_for(lambda: service.received == 1)
+    pending = server.context.executor._ready
+    assert len(pending) == 1  # its callback waits for a spin that never comes
+    service.close()
+    with pytest.raises(ServiceCallError, match='the service /add closed'):
+        future.result(5)
+    assert len(pending) == 0  # nor does it hold the service any longer
+
+
 def test_a_flooded_server_refuses_beyond_its_limit(
     zros_node: Callable[..., Node], monkeypatch: pytest.MonkeyPatch
 ) -> None:

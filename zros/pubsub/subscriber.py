@@ -462,6 +462,7 @@ class Subscriber(Entity, Generic[T]):
         super().close()
 
     def _on_close(self) -> None:
+        self._executor.cancel(self._work)
         forget_types(self)
         if self._tail is not None:
             self._tail.close()

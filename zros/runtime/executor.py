@@ -111,6 +111,13 @@ class Executor:
             for waker in self._async_wakers:
                 waker()
 
+    def cancel(self, work: Work) -> None:
+        """Drop ``work`` for good (its entity closed): out of the queue, never queued again,
+        so a node that does not spin frees what it holds at once."""
+        work.scheduled = True  # schedule() skips it from now on
+        with contextlib.suppress(ValueError):  # not queued
+            self._ready.remove(work)
+
     def call_soon(self, function: Callable[[], object]) -> None:
         """Run ``function()`` on the spinning thread (thread-safe)."""
 

@@ -312,6 +312,7 @@ class Service(ServiceEntity):
         super().close()
 
     def _on_close(self) -> None:
+        self.context.executor.cancel(self._work)
         while self._pending:
             query, arrived = self._pending.popleft()
             self._fail(query, f'the service {self.name} closed', arrived, log=False)

@@ -152,6 +152,9 @@ class Transport(Closing):
         self._closed = False
         self._close_callbacks: list[Callable[[], object]] = []
         self.links_lost = 0  #: how often a link to a router or peer went down
+        self.outages = 0  #: how often the session lost its last link (see ``downtime``)
+        self._down_since: float | None = None
+        self._down_seconds = 0.0
         self._links: set[str] = {str(z) for z in self.session.info.routers_zid()}
         self._link_changed = threading.Condition()
         self._link_listener = self.session.info.declare_transport_events_listener(
@@ -191,6 +194,13 @@ class Transport(Closing):
         """Whether the session has a link to a router or peer right now."""
         return bool(self._links)
 
+    @property
+    def downtime(self) -> float:
+        """Seconds spent without any link after having one (the ``outages``), so far."""
+        down_since = self._down_since
+        ongoing = 0.0 if down_since is None else time.monotonic() - down_since
+        return self._down_seconds + ongoing
+
     def _on_transport_event(self, event: zenoh.TransportEvent) -> None:
         import zenoh  # noqa: PLC0415 (lazy: Zenoh, only for a session)
 
@@ -203,8 +213,15 @@ class Transport(Closing):
                 if not self._closed:
                     self.links_lost += 1
                 self._links.discard(zid)
+                if not self._closed and not self._links and self._down_since is None:
+                    self.outages += 1
+                    self._down_since = time.monotonic()
             else:
                 self._links.add(zid)
+                down_since = self._down_since
+                if down_since is not None:
+                    self._down_seconds += time.monotonic() - down_since
+                    self._down_since = None
             self._link_changed.notify_all()
         if lost and not self._closed:
             _log.warning(LINK_LOST, role, zid)

@@ -15,6 +15,7 @@ import pytest
 
 from tests.bag.write.test_record import bag_yaml, read_rosbags
 from tests.cli.conftest import ZROS, Cli
+from tests.support.router_process import RouterProcess, free_endpoint
 from zros.bag.progress import Progress
 from zros.testing import wait_for
 from zros.transport import Router
@@ -190,3 +191,31 @@ def test_progress_line_only_on_a_terminal() -> None:
     quiet.update('x', force=True)
     quiet.close()
     assert not quiet.enabled and pipe.getvalue() == ''
+
+
+def test_record_summary_reports_the_router_outages(tmp_path: Path) -> None:
+    """Messages published while the link is down are not in the bag: the summary says so."""
+    if ZROS is None:
+        pytest.skip('the zros console script is not installed in this environment')
+    router = RouterProcess(free_endpoint())
+    router.start()
+    cli = Cli(router.endpoint)
+    folder = tmp_path / 'gap'
+    try:
+        running = cli.start('bag', 'record', '-o', str(folder), '/chatter')
+        running.wait_line(lambda line: line.startswith('Recording to'))
+        router.kill()
+        assert wait_for(lambda: 'lost the link' in running.errors.text(), 30)
+        router.start()
+        assert wait_for(lambda: 'is up again' in running.errors.text(), 30)
+        running.process.send_signal(signal.SIGINT)
+        code, rest = running.finish()
+        assert code == 0, rest
+        assert 'the link to the router was down 1 time, ' in rest
+        assert 'messages published meanwhile are not in the bag' in rest
+    finally:
+        for started in cli.started:
+            if started.process.poll() is None:
+                started.process.kill()
+                started.process.wait(10)
+        router.kill()

@@ -85,6 +85,8 @@ def record(args: argparse.Namespace) -> int:
             on_topic=subscribed,
         )
         out(f'Recording to {recorder.path}')
+        transport = node.transport
+        outages, downtime = transport.outages, transport.downtime
         try:
             while not stop.wait(0.1) and recorder.error is None:
                 progress.update(
@@ -100,8 +102,19 @@ def record(args: argparse.Namespace) -> int:
             f'{counted(len(recorder.topics), "topic")} '
             f'into {counted(len(recorder.files), "file")} of {recorder.path}'
             + (f'; {recorder.dropped} dropped: writing fell behind' if recorder.dropped else '')
+            + _outages(transport.outages - outages, transport.downtime - downtime)
         )
     return 0
+
+
+def _outages(count: int, seconds: float) -> str:
+    """The summary's note of the link outages while recording (nothing without one)."""
+    if not count:
+        return ''
+    return (
+        f'; the link to the router was down {counted(count, "time")}, {seconds:.1f} s in all: '
+        'messages published meanwhile are not in the bag'
+    )
 
 
 # --- play --------------------------------------------------------------------------------------
