@@ -22,6 +22,7 @@ from zros.actions import (
     GoalStatus,
     ServerGoalHandle,
 )
+from zros.actions import client as action_client
 from zros.actions import server as action_server
 from zros.cdr import decode, encode
 from zros.node import Node
@@ -86,6 +87,27 @@ def test_a_goal_runs_with_feedback_and_status(pair: tuple[Node, Node]) -> None:
     assert feedback == []  # callbacks wait for the client node to spin
     assert wait_for(lambda: client_node.spin_once(0.05) == 0 and len(feedback) == 9)
     assert feedback[0] == [0, 1, 1] and feedback[-1] == list(result.sequence)
+
+
+def test_feedback_waiting_for_a_node_that_does_not_spin_keeps_the_newest(
+    pair: tuple[Node, Node],
+) -> None:
+    # as rclpy's feedback subscription (keep last 10): a client node that never spins holds
+    # the newest FEEDBACK_DEPTH callbacks, not one per feedback message ever received
+    server_node, client_node = pair
+    server_node.create_action_server(FIB, 'fibonacci', fibonacci)
+    client = client_node.create_action_client(FIB, 'fibonacci')
+    assert client.wait_for_server()
+    feedback: list[list[int]] = []
+    handle = client.send_goal(
+        order=40, feedback_callback=lambda f: feedback.append(list(f.sequence))
+    )
+    result = list(handle.result(timeout=DEADLINE).sequence)
+    assert wait_for(lambda: handle.feedback_count == 39)
+    assert wait_for(lambda: client_node.spin_once(0.05) == 0 and len(feedback) >= 10)
+    depth = action_client.FEEDBACK_DEPTH
+    assert [len(f) for f in feedback] == list(range(len(result) - depth + 1, len(result) + 1))
+    assert feedback[-1] == result
 
 
 def test_feedback_and_status_are_urgent_but_batched(pair: tuple[Node, Node]) -> None:

@@ -7,6 +7,7 @@ a ``feedback_callback`` runs on the thread that spins the node.
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures
 import logging
 import threading
@@ -33,6 +34,7 @@ from zros.keyexpr.kinds import EntityKind
 from zros.qos import Durability, QoS
 from zros.runtime.clock import Time
 from zros.runtime.defaults import NodeLike
+from zros.runtime.executor import Work
 from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal
 from zros.runtime.timeouts import UNSET, Unset, either_timeout
@@ -42,6 +44,10 @@ _log = logging.getLogger('zros')
 
 #: how long a client waits for a result by default: goals may run for hours
 RESULT_TIMEOUT = 30 * 24 * 3600.0
+
+#: feedback messages waiting for their callbacks, per client: the newest are kept, as rclpy's
+#: feedback subscription (keep last 10) keeps them, so a node that does not spin holds no more
+FEEDBACK_DEPTH = 10
 
 
 class ClientGoalHandle(GoalHandle):
@@ -150,6 +156,10 @@ class ActionClient(ActionEntity):
             weakref.WeakValueDictionary()
         )
         self._lock = threading.Lock()
+        self._feedback_due: collections.deque[tuple[Callable[[Message], object], Message]] = (
+            collections.deque(maxlen=FEEDBACK_DEPTH)
+        )
+        self._feedback_work = Work(self._run_feedback)
         part = f'{self.name}/_action/'
         parts = announce and wire.announces_action_parts()
         owner = self.node
@@ -217,8 +227,23 @@ class ActionClient(ActionEntity):
         handle.feedback_count += 1
         callback = handle._feedback_callback
         if callback is not None:
-            feedback = message.feedback
-            self.context.executor.call_soon(lambda: callback(feedback))
+            self._feedback_due.append((callback, message.feedback))
+            self.context.executor.queue(self._feedback_work)
+
+    def _run_feedback(self) -> int:
+        # on the spinning thread: the feedback callbacks due, oldest first
+        done = 0
+        while self._feedback_due:
+            try:
+                callback, feedback = self._feedback_due.popleft()
+            except IndexError:  # taken meanwhile (the client closed)
+                break
+            try:
+                callback(feedback)
+            except Exception:  # a user callback: logged, the executor goes on
+                _log.exception('feedback callback %r raised', callback)
+            done += 1
+        return done
 
     def _on_status(self, sample: Sample) -> None:
         try:
@@ -367,6 +392,8 @@ class ActionClient(ActionEntity):
     def close(self) -> None:
         """Withdraw the client; goals already sent keep running on the server."""
         super().close()
+        self.context.executor.cancel(self._feedback_work)
+        self._feedback_due.clear()
 
     def __repr__(self) -> str:
         return f'<zros ActionClient {self.name} [{self.type_name}]>'

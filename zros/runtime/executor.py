@@ -103,6 +103,11 @@ class Executor:
             if not self.stopped:
                 work.run()
             return
+        self.queue(work)
+
+    def queue(self, work: Work) -> None:
+        """Queue ``work`` unless already queued, to run where the node spins (also when
+        ``immediate``, as :meth:`call_soon`'s functions do)."""
         if not work.scheduled:
             work.scheduled = True
             self._ready.append(work)
