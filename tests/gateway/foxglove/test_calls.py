@@ -154,7 +154,8 @@ def test_a_type_other_than_the_topics_is_refused(
     received = _publish_until_received(client, channel, b'{"data": "hi"}', right)
     assert received.data == 'hi'
     assert {m.data for m in right.take()} <= {'hi'}  # no Int32 bytes read as a String
-    assert listener.count_publishers('/chatter') == 2  # the talker and the String channel
+    # the talker and the String channel
+    assert wait_for(lambda: listener.count_publishers('/chatter') == 2, TIMEOUT)
     assert dict(listener.get_topic_names_and_types())['/chatter'] == ['std_msgs/msg/String']
 
 
