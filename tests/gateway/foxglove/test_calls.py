@@ -130,6 +130,35 @@ def test_bad_client_data_never_reaches_the_graph(
     assert sub.take() == []  # nothing else came through
 
 
+def test_a_type_other_than_the_topics_is_refused(
+    gateway: Make, foxglove_client: Make, zros_node: Make
+) -> None:
+    """A client advertising Int32 on a String topic is told, and nothing it sends on that
+    channel reaches the graph; the topic's own type still goes through."""
+    talker = zros_node('talker')
+    talker.create_publisher('std_msgs/msg/String', '/chatter')
+    listener = zros_node('listener')
+    right = listener.create_subscription('std_msgs/msg/String', '/chatter', qos=100)
+    client: FoxgloveClient = foxglove_client(gateway().url)
+    client.channel('/chatter')  # the gateway knows the topic's type
+    start = client.mark()
+    refused = client.advertise('/chatter', 'json', 'std_msgs/msg/Int32')
+    _told(
+        client,
+        '/chatter: refused to publish std_msgs/msg/Int32, the topic has type std_msgs/msg/String',
+        start,
+    )
+    for n in range(20):
+        client.publish(refused, json.dumps({'data': n}).encode())
+    channel = client.advertise('/chatter', 'json', 'std_msgs/msg/String')
+    received = _publish_until_received(client, channel, b'{"data": "hi"}', right)
+    assert received.data == 'hi'
+    assert {m.data for m in right.take()} <= {'hi'}  # no Int32 bytes read as a String
+    # the talker and the String channel
+    assert wait_for(lambda: listener.count_publishers('/chatter') == 2, TIMEOUT)
+    assert dict(listener.get_topic_names_and_types())['/chatter'] == ['std_msgs/msg/String']
+
+
 def test_services_are_offered_and_called(
     gateway: Make, foxglove_client: Make, zros_node: Make
 ) -> None:

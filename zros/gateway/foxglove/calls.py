@@ -2,9 +2,10 @@
 
 A client channel (Teleop's Twist, a Publish panel) becomes a zros publisher on its topic, with
 the QoS of the topic's other publishers (ROS 2's default without), sending CDR as it comes
-(checked first: bad bytes never reach the graph) or JSON converted to CDR. Every service with a
-server on the graph is offered with its request and response schemas; a call goes through a
-zros service client.
+(checked first: bad bytes never reach the graph) or JSON converted to CDR. A type other than
+the one the topic's endpoints use is refused (any type goes on a topic without endpoints).
+Every service with a server on the graph is offered with its request and response schemas; a
+call goes through a zros service client.
 """
 
 from __future__ import annotations
@@ -90,6 +91,7 @@ class ClientChannels:
                     f'{topic}: unknown type {type_name} and no ros2msg schema'
                 ) from exc
             cls = self._client_type(topic, type_name, schema)
+        self._check_type(topic, cls.__msgtype__)
         qos = publisher_qos(self._offered_qos(topic))
         try:
             publisher = Publisher(topic, cls, qos, node=self._node)
@@ -103,6 +105,20 @@ class ClientChannels:
         if previous is not None:
             previous.publisher.close()
         _log.info('client %d publishes %s [%s] in %s', client, publisher.topic, type_name, encoding)
+
+    def _check_type(self, topic: str, type_name: str) -> None:
+        """Refuse a type other than the one the graph's endpoints on ``topic`` use (a bridge
+        to DDS keys by topic name only: its ROS nodes would get bytes of the wrong type). A
+        topic without endpoints takes any type."""
+        try:
+            name = self._node.resolve_name(topic)
+        except ZrosError:  # an invalid name: the publisher refuses it, with the reason
+            return
+        known = dict(self._node.get_topic_names_and_types()).get(name, [])
+        if known and type_name not in known:
+            raise GatewayError(
+                f'{name}: refused to publish {type_name}, the topic has type {", ".join(known)}'
+            )
 
     def _client_type(self, topic: str, type_name: str, schema: bytes) -> type[Message]:
         """The class of a type only a client's schema defines, in a registry of the clients'
