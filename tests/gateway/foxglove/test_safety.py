@@ -230,3 +230,61 @@ def test_clients_follow_a_bounded_number_of_parameters(
     )  # fmt: skip
     followed = [e for e in client.events[start:] if e['ev'] == 'parameterValues']
     assert all(p['name'] == '/pnode.b' for e in followed for p in e['parameters']), followed
+
+
+# --- the SDK's own log -------------------------------------------------------------------------
+
+
+def test_a_client_cannot_flood_the_log_through_the_sdk(
+    gateway: Make, foxglove_client: Make
+) -> None:
+    """The SDK logs an error per subscription to an unknown channel: 200 of them leave at most
+    a burst of lines, and the server goes on answering others."""
+    from zros.gateway.foxglove import sdk_logs
+
+    server = gateway()
+    client: FoxgloveClient = foxglove_client(server.url)
+    assert client.server_info()['name'] == 'zros'
+    told: list[logging.LogRecord] = []
+    capture = logging.Handler()
+    capture.emit = told.append  # type: ignore[method-assign]  # a handler that keeps records
+    root = logging.getLogger()  # where the SDK's records end up, unbounded before
+    root.addHandler(capture)
+    try:
+        start = client.mark()
+        for channel in range(10_000, 10_200):
+            client.send('subscribe', channelId=channel)
+        # the SDK answers each with a status, and disconnects a client whose statuses overflow
+        # its queue (DEFAULT_BACKLOG): the last status or the close ends the flood
+        client.wait(
+            lambda e: (
+                e['ev'] == 'close'
+                or (e['ev'] == 'status' and e['status']['message'].endswith(': 10199'))
+            ),
+            start=start,
+        )
+    finally:
+        root.removeHandler(capture)
+    unknown = [r for r in told if 'unknown channel' in r.getMessage()]
+    # (none when an earlier test of this process spent this period's burst)
+    assert len(unknown) <= sdk_logs.BURST, [r.getMessage() for r in unknown]
+    assert foxglove_client(server.url).server_info()['name'] == 'zros'
+
+
+def test_the_sdk_log_limit_tells_what_it_left_out() -> None:
+    from zros.gateway.foxglove.sdk_logs import LogLimit
+
+    now = [0.0]
+    limit = LogLimit(burst=2, period=10.0, clock=lambda: now[0])
+
+    def record(name: str = 'foxglove.websocket', level: int = logging.ERROR) -> logging.LogRecord:
+        return logging.LogRecord(name, level, __file__, 1, 'bad %s', ('op',), None)
+
+    assert [limit.filter(record()) for _ in range(5)] == [True, True, False, False, False]
+    assert limit.filter(record(level=logging.WARNING))  # each level and logger has its own
+    assert limit.filter(record('foxglove.other'))
+    now[0] = 10.0
+    told = record()
+    assert limit.filter(told)
+    assert told.getMessage() == 'bad op (3 more like it left out)'
+    assert limit.filter(record()) and not limit.filter(record())

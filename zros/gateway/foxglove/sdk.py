@@ -25,6 +25,7 @@ from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import FOXGLOVE_APP
 from zros.gateway.foxglove.front import CLIENT_BUFFER, private_loopback
 from zros.gateway.foxglove.front_process import FrontProcess
+from zros.gateway.foxglove.sdk_logs import bound_sdk_logs
 from zros.version import install_hint
 
 if TYPE_CHECKING:
@@ -124,6 +125,7 @@ class ServerOptions:
         GatewayError when either cannot listen."""
         foxglove = import_sdk()
         self.check()
+        bound_sdk_logs()
         listener = settings.pop('server_listener', None)
         listen = self._listen()
         host = private_loopback()
