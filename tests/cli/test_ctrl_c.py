@@ -1,5 +1,6 @@
 """Ctrl-C ends the long-running commands at once, as ros2's do: the measuring verbs exit 0,
-``action send_goal`` cancels its goal first and exits 130."""
+``action send_goal`` cancels its goal first and exits 130. SIGTERM (``docker stop``, systemd)
+ends them as Ctrl-C does."""
 
 from __future__ import annotations
 
@@ -20,22 +21,25 @@ FIB = 'example_interfaces/action/Fibonacci'
 REACTION = 3.0
 
 
-def interrupted(running: Running) -> tuple[int, str, float]:
-    """Send SIGINT once the command waits; the exit code, the output left and the seconds the
+def interrupted(running: Running, sig: int = signal.SIGINT) -> tuple[int, str, float]:
+    """Send ``sig`` once the command waits; the exit code, the output left and the seconds the
     command took to end."""
     assert wait_for(lambda: sleeping(running.process.pid), 10)
     started = time.monotonic()
-    running.process.send_signal(signal.SIGINT)
+    running.process.send_signal(sig)
     code, rest = running.finish(timeout=REACTION)
     return code, rest, time.monotonic() - started
 
 
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 @pytest.mark.parametrize(
     ('verb', 'report'),
     # the last line of a report: the signal comes while the command waits for the next one
     [('hz', ' window: '), ('bw', 'Message size mean: '), ('delay', ' window: ')],
 )
-def test_measuring_verbs_end_on_ctrl_c(cli: Cli, zros_node: Any, verb: str, report: str) -> None:
+def test_measuring_verbs_end_on_ctrl_c(
+    cli: Cli, zros_node: Any, verb: str, report: str, sig: int
+) -> None:
     talker = zros_node('talker')
     publisher = talker.create_publisher('geometry_msgs/msg/PointStamped', '/point')
     message = publisher.msg_type()
@@ -43,7 +47,7 @@ def test_measuring_verbs_end_on_ctrl_c(cli: Cli, zros_node: Any, verb: str, repo
     with publishing(talker, publisher, message, hz=5.0):
         running = cli.start('topic', verb, '/point', '--period', '0.3')
         running.wait_line(lambda line: report in line)
-        code, _, took = interrupted(running)
+        code, _, took = interrupted(running, sig)
     assert code == 0, running.errors.text()
     assert took < REACTION
     assert 'Traceback' not in running.errors.text()
@@ -74,3 +78,31 @@ def test_send_goal_cancels_its_goal_on_ctrl_c(cli: Cli, zros_node: Any) -> None:
     assert took < REACTION
     assert rest.endswith('Canceling goal...\nGoal canceled.')
     assert 'Result:' not in rest
+
+
+@pytest.mark.parametrize(
+    ('command', 'banner'),
+    [
+        (('rosbridge', '--port', '0'), 'rosbridge: '),
+        (('foxglove', '--port', '0', '--no-sim-time'), 'Foxglove: '),
+        (('topic', 'echo', '/point', '--field', 'point'), 'x: '),
+    ],
+    ids=['rosbridge', 'foxglove', 'echo'],
+)
+def test_sigterm_ends_a_command_as_ctrl_c(
+    cli: Cli, zros_node: Any, command: tuple[str, ...], banner: str
+) -> None:
+    """``docker stop`` and systemd send SIGTERM: the command closes what it holds and exits 0,
+    as on Ctrl-C, instead of dying by the signal (143)."""
+    if command[0] == 'foxglove':
+        pytest.importorskip('foxglove', reason='the Foxglove SDK (the foxglove extra) is missing')
+    talker = zros_node('talker')
+    publisher = talker.create_publisher('geometry_msgs/msg/PointStamped', '/point')
+    message = publisher.msg_type()
+    with publishing(talker, publisher, message, hz=5.0):
+        running = cli.start(*command)
+        running.wait_line(lambda line: line.startswith(banner) or banner in line)
+        code, _, took = interrupted(running, signal.SIGTERM)
+    assert code == 0, running.errors.text()
+    assert took < REACTION
+    assert 'Traceback' not in running.errors.text()

@@ -104,20 +104,21 @@ def _run(argv: Sequence[str] | None) -> int:
         parser.print_help()
         return 2
     # only a command that runs needs these (keeps ``zros --help`` start-up fast)
-    from zros.cli.shared import CommandError
+    from zros.cli.shared import CommandError, Terminated, sigterm_as_ctrl_c
     from zros.errors import SettingError, ZrosError, command_line_text
 
     function: Callable[[argparse.Namespace], int] = target
     try:
-        return int(function(args))
+        with sigterm_as_ctrl_c():
+            return int(function(args))
     except SettingError as exc:  # a setting that cannot work, as argparse's usage errors
         print(f'zros: error: {command_line_text(exc)}', file=sys.stderr)
         return 2
     except (ZrosError, CommandError) as exc:
         print(f'zros: error: {command_line_text(exc)}', file=sys.stderr)
         return exc.exit_code if isinstance(exc, CommandError) else 1
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:  # a command that let Ctrl-C or SIGTERM end it
+        return 143 if isinstance(exc, Terminated) else 130
 
 
 if __name__ == '__main__':

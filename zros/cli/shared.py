@@ -372,6 +372,32 @@ def build_message(cls: type[Message], values: dict[str, object]) -> Message:
     return message
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (``docker stop``, systemd), raised where Ctrl-C raises KeyboardInterrupt."""
+
+
+@contextmanager
+def sigterm_as_ctrl_c() -> Iterator[None]:
+    """While a command runs, SIGTERM ends it as Ctrl-C does (a :class:`Terminated`), instead of
+    killing the process before it closes what it holds; :func:`stop_on_signals` inside takes
+    over. Only on the main thread, and only where nobody chose another SIGTERM handler."""
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
+    ):
+        yield
+        return
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        raise Terminated
+
+    signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 @contextmanager
 def stop_on_signals(stop: threading.Event) -> Iterator[None]:
     """SIGINT and SIGTERM set ``stop`` instead of killing the process (restored after).
