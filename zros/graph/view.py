@@ -78,6 +78,7 @@ class Graph:
         self._transport = transport
         transport.on_token(self._own_token)  # the tokens it holds now too
         transport.on_close(self.close)
+        self._filled = threading.Event()  #: the tokens present at the start were asked for
         filling = threading.Thread(target=self._fill, name='zros-graph-fill', daemon=True)
         join_at_exit(filling)
         filling.start()
@@ -131,6 +132,14 @@ class Graph:
             self._ask(ANSWER_WITHIN)
         except ZError:  # the session closed first
             _log.debug('the graph of a closed session was not filled', exc_info=True)
+        finally:
+            self._filled.set()
+
+    def wait_filled(self, timeout: float) -> bool:
+        """Wait until the tokens present when the view opened have been asked for (until then
+        it knows only what it heard since); whether they have. Not on a Zenoh callback thread:
+        the answer may have to come through it."""
+        return self._filled.wait(timeout)
 
     def _ask(self, within: float) -> None:
         """Ask the network for every token the views follow, one selector after another, each

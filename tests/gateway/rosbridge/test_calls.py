@@ -140,6 +140,18 @@ def test_a_goal_is_canceled(
     assert result['id'] == 'g1' and result['status'] == 5 and result['result'] is True  # CANCELED
 
 
+def test_the_first_topic_list_of_a_new_gateway_is_whole(
+    rosbridge: Make, roslibpy_client: Make, zros_node: Make
+) -> None:
+    """A dashboard asks for the topics once, as it connects: the robot's are all there."""
+    robot = zros_node('robot')
+    robot.create_publisher('std_msgs/msg/String', '/chatter')
+    robot.create_subscription('geometry_msgs/msg/Twist', '/cmd_vel')
+    assert wait_for(lambda: '/cmd_vel' in dict(robot.get_topic_names_and_types()), TIMEOUT)
+    ros = roslibpy_client(rosbridge())
+    assert {'/chatter', '/cmd_vel'} <= set(ros.get_topics())
+
+
 def test_rosapi(rosbridge: Make, roslibpy_client: Make, zros_node: Make) -> None:
 
     gateway = rosbridge()

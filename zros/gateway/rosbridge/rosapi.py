@@ -36,6 +36,8 @@ if TYPE_CHECKING:
     from zros.params.client import ParameterClient
 
 PREFIX = '/rosapi/'
+#: how long a rosapi call waits for a graph just opened to learn what was there before it
+GRAPH_FILLED_WITHIN = 2.0
 #: the services that change the robot (refused by a read-only gateway)
 WRITES = frozenset(('set_param', 'delete_param'))
 #: seconds a node has to answer a parameter request
@@ -92,7 +94,10 @@ class Rosapi:
         return service[len(PREFIX) :] in WRITES
 
     def call(self, service: str, args: JsonObject) -> OutObject:
-        """The response values of a rosapi service (GatewayError says why there is none)."""
+        """The response values of a rosapi service (GatewayError says why there is none); on
+        the gateway's call threads. A dashboard asks for the topics once, as it connects: the
+        first answer waits for the graph's first fill (the graph opens with the first ask)."""
+        self._node.graph.wait_filled(GRAPH_FILLED_WITHIN)
         return self._handlers[service[len(PREFIX) :]](args)
 
     def close(self) -> None:
