@@ -68,15 +68,23 @@ def gate() -> Iterator[threading.Event]:
     event.set()  # never leave a goal thread waiting
 
 
-def test_a_goal_runs_with_feedback_and_status(pair: tuple[Node, Node]) -> None:
+def goal_with_feedback(pair: tuple[Node, Node], order: int) -> tuple[Any, list[list[int]]]:
+    """A Fibonacci goal of ``order`` sent from the second node of ``pair`` to the first, and
+    the sequences its feedback callbacks received (as the client node spins)."""
     server_node, client_node = pair
     server_node.create_action_server(FIB, 'fibonacci', fibonacci)
     client = client_node.create_action_client(FIB, 'fibonacci')
     assert client.wait_for_server()
     feedback: list[list[int]] = []
     handle = client.send_goal(
-        order=10, feedback_callback=lambda f: feedback.append(list(f.sequence))
+        order=order, feedback_callback=lambda f: feedback.append(list(f.sequence))
     )
+    return handle, feedback
+
+
+def test_a_goal_runs_with_feedback_and_status(pair: tuple[Node, Node]) -> None:
+    client_node = pair[1]
+    handle, feedback = goal_with_feedback(pair, 10)
     assert handle.accepted and handle.stamp is not None
     result = handle.result(timeout=DEADLINE)
     assert list(result.sequence) == [0, 1, 1, 2, 3, 5, 8, 13, 21, 34, 55]
@@ -94,14 +102,8 @@ def test_feedback_waiting_for_a_node_that_does_not_spin_keeps_the_newest(
 ) -> None:
     # as rclpy's feedback subscription (keep last 10): a client node that never spins holds
     # the newest FEEDBACK_DEPTH callbacks, not one per feedback message ever received
-    server_node, client_node = pair
-    server_node.create_action_server(FIB, 'fibonacci', fibonacci)
-    client = client_node.create_action_client(FIB, 'fibonacci')
-    assert client.wait_for_server()
-    feedback: list[list[int]] = []
-    handle = client.send_goal(
-        order=40, feedback_callback=lambda f: feedback.append(list(f.sequence))
-    )
+    client_node = pair[1]
+    handle, feedback = goal_with_feedback(pair, 40)
     result = list(handle.result(timeout=DEADLINE).sequence)
     assert wait_for(lambda: handle.feedback_count == 39)
     assert wait_for(lambda: client_node.spin_once(0.05) == 0 and len(feedback) >= 10)
