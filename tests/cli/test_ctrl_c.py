@@ -57,13 +57,12 @@ def test_send_goal_cancels_its_goal_on_ctrl_c(cli: Cli, zros_node: Any) -> None:
     canceled = threading.Event()
 
     def slow(goal: ServerGoalHandle) -> Any:
-        for step in range(600):  # a minute, unless canceled
-            if goal.is_cancel_requested:
+        for step in range(600):  # a feedback every 0.1 s for a minute, until the cancel
+            goal.publish_feedback(sequence=[step])
+            if wait_for(lambda: goal.is_cancel_requested, 0.1):
                 goal.canceled()
                 canceled.set()
                 break
-            goal.publish_feedback(sequence=[step])
-            time.sleep(0.1)
         return goal.server.Result(sequence=[])
 
     server = zros_node('slow_server')
