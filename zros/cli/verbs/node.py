@@ -74,9 +74,10 @@ def info(args: argparse.Namespace) -> int:
         others = _others(node)
         if name not in others:
             raise unknown_name('node', name, set(others), 'zros node list')
-        if others.count(name) > 1:
+        sharing = others.count(name)
+        if sharing > 1:
             print(
-                f'zros: warning: {others.count(name)} nodes on the network are named {name}; '
+                f'zros: warning: {sharing} nodes on the network are named {name}; '
                 'what follows is what they announce together',
                 file=sys.stderr,
             )
