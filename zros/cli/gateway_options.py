@@ -8,7 +8,7 @@ import argparse
 from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, TypedDict
 
-from zros.cli.shared import at_least_one, byte_count, out, port_number, serve_until_interrupted
+from zros.cli.shared import at_least_one, byte_count, port_number, serve_until_interrupted
 from zros.version import install_hint
 
 if TYPE_CHECKING:
@@ -109,5 +109,4 @@ def listen_settings(args: argparse.Namespace, origins: Iterable[str] = ()) -> Li
 def serve_gateway(gateway: Closing, line: str) -> int:
     """Print ``line`` (the address to open) and serve until Ctrl-C; the gateway closes after."""
     with gateway:
-        out(line)
-        return serve_until_interrupted()
+        return serve_until_interrupted(line)

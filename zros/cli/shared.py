@@ -417,20 +417,18 @@ def stop_on_signals(stop: threading.Event) -> Iterator[None]:
             signal.signal(sig, previous)
 
 
-def run_until_interrupted(step: Callable[[], bool]) -> int:
-    """Call ``step()`` until it returns False or Ctrl-C; exit code 0 either way."""
+def serve_until_interrupted(announce: str) -> int:
+    """Print ``announce`` and wait for Ctrl-C while a server runs on threads of its own; exit
+    code 0. The line is printed inside the wait: a signal sent as soon as it is read (a
+    supervisor, a test) still ends the command as Ctrl-C does."""
+    idle = threading.Event()  # never set: a sleep Ctrl-C interrupts
     try:
-        while step():
+        out(announce)
+        while not idle.wait(0.5):
             pass
     except KeyboardInterrupt:
         pass
     return 0
-
-
-def serve_until_interrupted() -> int:
-    """Wait for Ctrl-C while a server runs on threads of its own; exit code 0."""
-    idle = threading.Event()  # never set: a sleep Ctrl-C interrupts
-    return run_until_interrupted(lambda: not idle.wait(0.5))
 
 
 def port_number(text: str) -> int:
