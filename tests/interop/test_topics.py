@@ -647,15 +647,28 @@ def test_mixed_publishers_deliver_each_message_once(interop: Interop) -> None:
     zros_subscription = interop.node('listener').create_subscription(name, topic, qos=10)
     ros_publisher = ros.publisher(topic, name)
     assert ros.wait_subscribers(ros_publisher, 2) == 2  # its own node's reader and the bridge's
-    # the listener's subscription may reach the router after a put: probe until it did
-    probe = zros.Message(name, data='probe')
-    assert wait_for(
-        lambda: zros_publisher.write(probe) or zros_subscription.has_new_message(), TIMEOUT
-    )
-    ros.wait_messages(ros_subscription)
+    # each path may open after a put: the router's from the talker to the listener, the
+    # bridge's from ROS to the listener and from the talker to ROS. Probe every one until it
+    # delivered.
+    zros_probe = zros.Message(name, data='probe from zros')
+    ros_probe = rclpy_bytes(name, zros.Message(name, data='probe from ros'))
+    seen_by_zros: set[str] = set()
+
+    def ros_texts() -> list[str]:
+        return [decode(cls(name), data).data for data in ros.wait_messages(ros_subscription, 0)]
+
+    def every_path_delivered() -> bool:
+        zros_publisher.write(zros_probe)
+        ros.publish(ros_publisher, [ros_probe])
+        seen_by_zros.update(m.data for m in zros_subscription.take())
+        return seen_by_zros == {'probe from zros', 'probe from ros'} and (
+            'probe from zros' in ros_texts()
+        )
+
+    assert wait_for(every_path_delivered, TIMEOUT)
 
     def without_probes(texts: list[str]) -> list[str]:
-        return sorted(text for text in texts if text != 'probe')
+        return sorted(text for text in texts if not text.startswith('probe'))
 
     from_zros = [zros.Message(name, data=f'from zros {i}') for i in range(3)]
     from_ros = [zros.Message(name, data=f'from ros {i}') for i in range(3)]
@@ -673,9 +686,6 @@ def test_mixed_publishers_deliver_each_message_once(interop: Interop) -> None:
         TIMEOUT,
     )
     assert without_probes(received) == expected
-
-    def ros_texts() -> list[str]:
-        return [decode(cls(name), data).data for data in ros.wait_messages(ros_subscription, 0)]
 
     assert wait_for(lambda: len(without_probes(ros_texts())) >= 6, TIMEOUT)
     assert without_probes(ros_texts()) == expected
