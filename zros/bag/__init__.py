@@ -26,6 +26,7 @@ _LAZY = {
     'Connection': 'zros.bag.read.source',
     'RawMessage': 'zros.bag.read.source',
     'Skipped': 'zros.bag.read.damage',
+    'LinkOutage': 'zros.bag.read.outages',
     'Source': 'zros.bag.read.source',
     'open_source': 'zros.bag.read.source',
     'UndecodedMessage': 'zros.bag.read.types',
@@ -42,6 +43,7 @@ if TYPE_CHECKING:
     from zros.bag.play.player import Player
     from zros.bag.read.damage import Skipped
     from zros.bag.read.info import BagInfo, info
+    from zros.bag.read.outages import LinkOutage
     from zros.bag.read.source import Connection, RawMessage, Source, open_source
     from zros.bag.read.types import UndecodedMessage
     from zros.bag.reader import Bag, TopicInfo
@@ -75,6 +77,7 @@ __all__ = [
     'BagWriter',
     'Connection',
     'FileReport',
+    'LinkOutage',
     'Player',
     'PlayerError',
     'RawMessage',

@@ -13,6 +13,7 @@ from zros.bag.columns.align import Columns, align
 from zros.bag.columns.extract import dataframe, extract, structured
 from zros.bag.errors import BagError
 from zros.bag.read.damage import Skipped
+from zros.bag.read.outages import LinkOutage, read_outages
 from zros.bag.read.source import Connection, RawMessage, Source, open_source
 from zros.bag.read.types import BagTypes
 from zros.cdr.arrays import Array
@@ -142,6 +143,17 @@ class Bag(Closing):
         """What damage cost so far: a :class:`~zros.bag.read.damage.Skipped` per damaged unit
         and topic (file, byte offset or row, topic, messages lost, reason), in the order met."""
         return list(self.source.damage.skipped)
+
+    @property
+    def custom_data(self) -> dict[str, str]:
+        """rosbag2's ``custom_data`` of the recording (empty where it has none)."""
+        return dict(self.source.custom_data)
+
+    @property
+    def outages(self) -> list[LinkOutage]:
+        """When ``zros bag record`` had no link to the router, in system time: messages
+        published then are missing (a gap there is not the robot falling silent)."""
+        return read_outages(self.source.custom_data, self.path)
 
     def message_class(self, topic: str) -> type[Message]:
         """The class the messages of ``topic`` decode to."""

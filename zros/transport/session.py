@@ -15,6 +15,7 @@ its status once its callback returns, maybe as the script ends).
 from __future__ import annotations
 
 import atexit
+import collections
 import contextlib
 import logging
 import threading
@@ -50,6 +51,8 @@ _CALLBACK_JOIN_TIMEOUT = 5.0
 
 #: seconds between warnings of a session that opened without reaching its router
 UNREACHED_WARNING_PERIOD = 10.0
+#: outages whose times a session keeps (:meth:`Transport.outage_spans`)
+OUTAGE_HISTORY = 1000
 
 #: the warning of a lost link (a command whose error says so already filters it out)
 LINK_LOST = 'lost the link to %s %s; Zenoh reconnects by itself, entities stay declared'
@@ -155,6 +158,10 @@ class Transport(Closing):
         self.outages = 0  #: how often the session lost its last link (see ``downtime``)
         self._down_since: float | None = None
         self._down_seconds = 0.0
+        #: the newest outages as [start, end] in system time (ns), end None while it lasts
+        self._outage_spans: collections.deque[tuple[int, int | None]] = collections.deque(
+            maxlen=OUTAGE_HISTORY
+        )
         self._links: set[str] = {str(z) for z in self.session.info.routers_zid()}
         self._link_changed = threading.Condition()
         self._link_listener = self.session.info.declare_transport_events_listener(
@@ -201,6 +208,12 @@ class Transport(Closing):
         ongoing = 0.0 if down_since is None else time.monotonic() - down_since
         return self._down_seconds + ongoing
 
+    def outage_spans(self) -> list[tuple[int, int | None]]:
+        """When the ``outages`` were (the newest 1000): ``(start, end)`` in system time, integer
+        nanoseconds; ``end`` is None for the one going on."""
+        with self._link_changed:
+            return list(self._outage_spans)
+
     def _on_transport_event(self, event: zenoh.TransportEvent) -> None:
         import zenoh  # noqa: PLC0415 (lazy: Zenoh, only for a session)
 
@@ -216,12 +229,15 @@ class Transport(Closing):
                 if not self._closed and not self._links and self._down_since is None:
                     self.outages += 1
                     self._down_since = time.monotonic()
+                    self._outage_spans.append((time.time_ns(), None))
             else:
                 self._links.add(zid)
                 down_since = self._down_since
                 if down_since is not None:
                     self._down_seconds += time.monotonic() - down_since
                     self._down_since = None
+                    start, _ = self._outage_spans.pop()
+                    self._outage_spans.append((start, time.time_ns()))
             self._link_changed.notify_all()
         if lost and not self._closed:
             _log.warning(LINK_LOST, role, zid)

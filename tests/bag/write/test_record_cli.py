@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -16,6 +17,7 @@ import pytest
 from tests.bag.write.test_record import bag_yaml, read_rosbags
 from tests.cli.conftest import ZROS, Cli
 from tests.support.router_process import RouterProcess, free_endpoint
+from zros.bag import Bag
 from zros.bag.progress import Progress
 from zros.testing import wait_for
 from zros.transport import Router
@@ -194,7 +196,8 @@ def test_progress_line_only_on_a_terminal() -> None:
 
 
 def test_record_summary_reports_the_router_outages(tmp_path: Path) -> None:
-    """Messages published while the link is down are not in the bag: the summary says so."""
+    """Messages published while the link is down are not in the bag: the summary says so, and
+    the bag keeps when, for whoever reads it later (``Bag.outages``, ``zros bag info``)."""
     if ZROS is None:
         pytest.skip('the zros console script is not installed in this environment')
     router = RouterProcess(free_endpoint())
@@ -204,15 +207,28 @@ def test_record_summary_reports_the_router_outages(tmp_path: Path) -> None:
     try:
         running = cli.start('bag', 'record', '-o', str(folder), '/chatter')
         running.wait_line(lambda line: line.startswith('Recording to'))
+        started = time.time_ns()
         router.kill()
         assert wait_for(lambda: 'lost the link' in running.errors.text(), 30)
         router.start()
         assert wait_for(lambda: 'is up again' in running.errors.text(), 30)
+        restored = time.time_ns()
         running.process.send_signal(signal.SIGINT)
         code, rest = running.finish()
         assert code == 0, rest
         assert 'the link to the router was down 1 time, ' in rest
         assert 'messages published meanwhile are not in the bag' in rest
+        with Bag(folder) as bag:
+            [outage] = bag.outages
+        assert started <= outage.start_ns < outage.end_ns <= restored
+        shown = subprocess.run(
+            [ZROS, 'bag', 'info', str(folder)],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=True,
+        )
+        assert 'Link outages:      1, ' in shown.stdout, shown.stdout + shown.stderr
     finally:
         for started in cli.started:
             if started.process.poll() is None:

@@ -12,6 +12,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from zros.bag.read.outages import LinkOutage, read_outages
 from zros.bag.read.source import Connection, open_source
 
 _NS = 1_000_000_000
@@ -44,6 +45,8 @@ class BagInfo:
     message_count: int
     topics: list[Entry] = field(default_factory=list)
     services: list[Entry] = field(default_factory=list)
+    #: when the recorder had no link to the router (zros's ``custom_data``; not in rosbag2's text)
+    outages: list[LinkOutage] = field(default_factory=list)
 
     @property
     def duration_ns(self) -> int:
@@ -65,6 +68,20 @@ class BagInfo:
         lines.append(f'{"End:":<{_INDENT}}{format_time(self.end_ns)}')
         events = sum(service.count for service in self.services)
         lines.append(f'{"Messages:":<{_INDENT}}{self.message_count - events}')
+        if self.outages:
+            down = sum(o.duration_ns for o in self.outages)
+            lines += _block(
+                'Link outages:',
+                [
+                    f'{len(self.outages)}, {down / _NS:.1f} s in all: '
+                    'messages published then are missing',
+                    *(
+                        f'{format_time(o.start_ns)} for {o.duration_ns / _NS:.3f} s'
+                        for o in self.outages
+                    ),
+                ],
+                pad,
+            )
         topics = [
             f'Topic: {t.name} | Type: {t.type_name} | Count: {t.count} | '
             f'Serialization Format: {t.serialization}'
@@ -150,6 +167,7 @@ def info(path: str | Path) -> BagInfo:
             source.start_ns,
             source.end_ns,
             source.message_count,
+            outages=read_outages(source.custom_data, location),
         )
         grouped: dict[tuple[str, str], list[Connection]] = {}
         for connection in source.connections:

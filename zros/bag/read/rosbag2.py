@@ -26,6 +26,7 @@ from zros.bag.read.db3_recover import RecoveredDb3, is_sqlite
 from zros.bag.read.mcap_chunks import Damaged, ordered_messages, read_blocks
 from zros.bag.read.mcap_recover import RecoveredMcap, is_mcap
 from zros.bag.read.recovered import SqlStorageReader, StorageReader, path_of
+from zros.bag.read.rosbag2_yaml import distro_and_custom
 from zros.bag.read.source_base import Block, Connection, RawMessage, Source, normalise_type_name
 
 if TYPE_CHECKING:
@@ -93,6 +94,11 @@ class Rosbag2Source(Source):
         self.ros_distro = meta.ros_distro or None
         self.compression_format = meta.compression_format or ''
         self.compression_mode = meta.compression_mode or ''
+        custom = meta.custom
+        if isinstance(custom, dict):  # anything else in a hand-edited metadata.yaml is ignored
+            self.custom_data = {str(k): str(v) for k, v in custom.items()}
+        elif not folder and is_mcap(self.path):  # rosbags reads no metadata of a lone file
+            self.custom_data = _embedded_custom_data(self.path)
         if self.compression_mode == 'message':
             zstd = importlib.import_module(
                 'compression.zstd' if sys.version_info >= (3, 14) else 'backports.zstd'
@@ -456,3 +462,22 @@ def storage_files(folder: Path) -> list[Path]:
     ]
     kinds = {path.suffix for path in found}
     return [path for path in found if path.suffix == '.mcap'] if len(kinds) > 1 else found
+
+
+def _embedded_custom_data(path: Path) -> dict[str, str]:
+    """The ``custom_data`` of the rosbag2 metadata an MCAP file holds (rosbag2 and zros write
+    it before the summary); empty without a summary, so a damaged file is never scanned."""
+    from mcap.reader import make_reader  # noqa: PLC0415 (lazy: mcap, import time)
+
+    try:
+        with path.open('rb') as stream:
+            reader = make_reader(stream)
+            if reader.get_summary() is None:
+                return {}
+            for record in reader.iter_metadata():
+                if record.name == 'rosbag2':
+                    text = record.metadata.get('serialized_metadata', '')
+                    return distro_and_custom(text)[1]
+    except Exception as exc:  # the mcap library raises what it likes on a damaged file
+        _log.debug('%s: its rosbag2 metadata does not read: %s', path, exc)
+    return {}

@@ -255,6 +255,25 @@ def metadata_yaml(metadata: Mapping[str, object]) -> str:
     return dump({'rosbag2_bagfile_information': metadata})
 
 
+def distro_and_custom(text: str) -> tuple[str, dict[str, str]]:
+    """The ROS distro and ``custom_data`` of rosbag2 metadata (the text of ``metadata.yaml``,
+    or the ``serialized_metadata`` an MCAP file holds, which lacks the outer key); empty where
+    it does not parse."""
+    from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
+    from ruamel.yaml.error import YAMLError  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
+
+    try:
+        loaded = YAML(typ='safe', pure=True).load(text)
+        info = loaded.get('rosbag2_bagfile_information', loaded)
+        distro = info.get('ros_distro') or ''
+        custom = info.get('custom_data') or {}
+    except (YAMLError, KeyError, TypeError, AttributeError):
+        return '', {}
+    if not isinstance(distro, str) or not isinstance(custom, dict):
+        return '', {}
+    return distro, {str(k): str(v) for k, v in custom.items()}
+
+
 def write_metadata_yaml(folder: Path, metadata: Mapping[str, object]) -> Path:
     """Write ``folder/metadata.yaml`` through a temporary file renamed over it, so a process
     killed meanwhile leaves the old file or the new one, never half of one."""

@@ -89,6 +89,8 @@ class Source(Closing):
         self.ros_distro: str | None = None
         self.compression_format = ''
         self.compression_mode = ''
+        #: rosbag2's ``custom_data`` (key -> text) where the recording has it
+        self.custom_data: dict[str, str] = {}
         self._closers: list[Callable[[], None]] = []
         self._closed = False
         #: what damage cost (``strict``: raise instead); :func:`open_source` sets the mode

@@ -105,7 +105,8 @@ class BagWriter(Closing):
         self._split_size = split_size
         self._split_ns = None if split_duration is None else round(split_duration * _NS)
         self._distro = ros_distro
-        self._custom = dict(custom_data or {})
+        #: rosbag2's ``custom_data``: written into ``metadata.yaml`` and each file's end
+        self.custom_data: dict[str, str] = dict(custom_data or {})
         self.topics: list[BagTopic] = []
         self._done: list[FileEntry] = []  #: closed files
         self._done_size = 0
@@ -166,7 +167,7 @@ class BagWriter(Closing):
             TopicEntry(t.name, t.type_name, qos_profiles_text(t.qos), t.type_hash, t.message_count)
             for t in self.topics
         ]
-        return bag_metadata(files, topics, self._distro, self._custom)
+        return bag_metadata(files, topics, self._distro, self.custom_data)
 
     # --- writing -----------------------------------------------------------------------------
 

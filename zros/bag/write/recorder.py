@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 from zros.api import default_node
 from zros.bag.errors import RecorderError
+from zros.bag.read.outages import OUTAGES_KEY, LinkOutage, outages_text
 from zros.bag.write.bag_writer import BagTopic, BagWriter
 from zros.bag.write.mcap_writer import DEFAULT_CHUNK_SIZE
 from zros.closing import Closing
@@ -128,6 +129,8 @@ class Recorder(Closing):
         self.received = 0  #: messages that reached the recorder (written, queued or dropped)
         self.dropped = 0  #: messages lost because the queue was full (the disk fell behind)
         self.size = 0  #: bytes written so far (the open chunk counted uncompressed)
+        self._began_ns = time.time_ns()
+        self._ended_ns: int | None = None
         self._writer = threading.Thread(target=self._write_loop, name='zros recorder', daemon=True)
         self._writer.start()
         self._discovery = threading.Thread(
@@ -284,6 +287,19 @@ class Recorder(Closing):
             return dict(self._types)
 
     @property
+    def outages(self) -> list[LinkOutage]:
+        """When the node's session had no link to the router while recording (system time):
+        messages published then are not in the bag. :meth:`close` stores them in the bag
+        (:attr:`zros.bag.Bag.outages` reads them back)."""
+        began = self._began_ns
+        ended = time.time_ns() if self._ended_ns is None else self._ended_ns
+        return [
+            LinkOutage(max(start, began), min(ended if end is None else end, ended))
+            for start, end in self.node.transport.outage_spans()
+            if start < ended and (end is None or end > began)
+        ]
+
+    @property
     def files(self) -> list[Path]:
         """The bag's storage files so far."""
         return self._bag.files
@@ -322,6 +338,10 @@ class Recorder(Closing):
         self._writer.join()
         self._discovery.join(2.0)
         self._started.notify()
+        self._ended_ns = time.time_ns()
+        outages = self.outages
+        if outages:
+            self._bag.custom_data[OUTAGES_KEY] = outages_text(outages)
         try:
             self._bag.close()
         except Exception as exc:  # whatever the storage writer raised becomes a RecorderError

@@ -44,6 +44,7 @@ from zros.bag.read.rosbag2_yaml import (
     FileEntry,
     TopicEntry,
     bag_metadata,
+    distro_and_custom,
     dump,
     write_metadata_yaml,
 )
@@ -477,18 +478,7 @@ def _rewrite(
 def _previous_metadata(path: Path) -> tuple[str, dict[str, str]]:
     """The ROS distro and custom data of an existing ``metadata.yaml`` (what the files do not
     say); empty when there is none or it does not parse."""
-    if not path.is_file():
-        return '', {}
-    from ruamel.yaml import YAML  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
-    from ruamel.yaml.error import YAMLError  # noqa: PLC0415 (lazy: ruamel.yaml, import time)
-
     try:
-        loaded = YAML(typ='safe', pure=True).load(path.read_text(encoding='utf-8'))
-        info = loaded['rosbag2_bagfile_information']
-        distro = info.get('ros_distro') or ''
-        custom = info.get('custom_data') or {}
-    except (YAMLError, OSError, UnicodeDecodeError, KeyError, TypeError, AttributeError):
+        return distro_and_custom(path.read_text(encoding='utf-8'))
+    except (OSError, UnicodeDecodeError):
         return '', {}
-    if not isinstance(distro, str) or not isinstance(custom, dict):
-        return '', {}
-    return distro, {str(k): str(v) for k, v in custom.items()}
