@@ -213,6 +213,9 @@ def test_record_summary_reports_the_router_outages(tmp_path: Path) -> None:
         router.start()
         assert wait_for(lambda: 'is up again' in running.errors.text(), 30)
         restored = time.time_ns()
+        # kept as it goes, for a recorder killed before its close
+        metadata = folder / 'metadata.yaml'
+        assert wait_for(lambda: 'zros.link_outages' in metadata.read_text(), 30)
         running.process.send_signal(signal.SIGINT)
         code, rest = running.finish()
         assert code == 0, rest

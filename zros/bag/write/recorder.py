@@ -264,7 +264,8 @@ class Recorder(Closing):
                 self.message_count = bag.message_count
                 if interval is not None and time.monotonic() - last_flush >= interval:
                     bag.flush()
-                    if described != bag.message_count:  # metadata.yaml for a killed recorder
+                    noted = self._note_outages()
+                    if noted or described != bag.message_count:  # for a killed recorder
                         bag.write_metadata()
                         described = bag.message_count
                     last_flush = time.monotonic()
@@ -277,6 +278,17 @@ class Recorder(Closing):
             self.error = exc
             self._stopping = True
             self._started.notify()
+
+    def _note_outages(self) -> bool:
+        """Put the outages so far into the bag's custom data; whether they changed (one going
+        on counts up to now)."""
+        outages = self.outages
+        if not outages:
+            return False
+        text = outages_text(outages)
+        changed = self._bag.custom_data.get(OUTAGES_KEY) != text
+        self._bag.custom_data[OUTAGES_KEY] = text
+        return changed
 
     # --- the user's side -----------------------------------------------------------------------
 
@@ -339,9 +351,7 @@ class Recorder(Closing):
         self._discovery.join(2.0)
         self._started.notify()
         self._ended_ns = time.time_ns()
-        outages = self.outages
-        if outages:
-            self._bag.custom_data[OUTAGES_KEY] = outages_text(outages)
+        self._note_outages()
         try:
             self._bag.close()
         except Exception as exc:  # whatever the storage writer raised becomes a RecorderError
