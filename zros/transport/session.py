@@ -239,10 +239,13 @@ class Transport(Closing):
                     start, _ = self._outage_spans.pop()
                     self._outage_spans.append((start, time.time_ns()))
             self._link_changed.notify_all()
+        # a session no node uses (all destroyed; the process's stays open until shutdown)
+        # loses nothing anyone waits for: its link is news only at debug level
+        level = logging.WARNING if self._tokens else logging.DEBUG
         if lost and not self._closed:
-            _log.warning(LINK_LOST, role, zid)
+            _log.log(level, LINK_LOST, role, zid)
         elif restored:
-            _log.warning('link to %s %s is up again', role, zid)
+            _log.log(level, 'link to %s %s is up again', role, zid)
 
     def link_problem(self) -> str | None:
         """Why nothing can cross the network now: the session lost its last link (or, opened
