@@ -57,9 +57,15 @@ def test_a_bad_transform_is_dropped_and_told_once_per_sender(
 
 
 def test_a_slightly_denormalised_quaternion_is_normalised_not_refused() -> None:
+    """tf2's tolerance: a squared length within 0.01 of 1, as hand-written 0.7071 gives."""
     buffer = Buffer()
     assert buffer.add('a', 'b', 1, (0, 0, 0, 0, 0, 0, 1.000004), 'pub')
     assert buffer.lookup_transform('a', 'b', 1).transform.rotation.w == 1.0
+    assert buffer.add('a', 'c', 1, (0, 0, 0, 0, 0, 0.7071, 0.7071), 'pub')
+    rotation = buffer.lookup_transform('a', 'c', 1).transform.rotation
+    assert rotation.z == pytest.approx(math.sqrt(0.5), abs=1e-15) == rotation.w
+    assert buffer.add('a', 'd', 1, (0, 0, 0, 0, 0, 0, 1.004), 'pub')  # 1.008: within
+    assert not buffer.add('a', 'e', 1, (0, 0, 0, 0, 0, 0, 1.006), 'pub')  # 1.012: beyond
 
 
 def test_a_loop_is_refused_and_the_tree_keeps_working(caplog: pytest.LogCaptureFixture) -> None:
@@ -156,9 +162,11 @@ def test_a_live_buffer_holds_a_bounded_number_of_frames_and_rows(
     with caplog.at_level(logging.WARNING, 'zros.tf'):
         for i in range(8):
             buffer.add('root', f'flood{i}', 1, GOOD, 'flooder')
+        buffer.add('root', 'late', 1, GOOD, 'other')
     assert len(buffer.edges()) == 5
-    assert buffer.rejections.counts['TF_TOO_MANY_FRAMES'] == 3
-    assert sum('TF_TOO_MANY_FRAMES' in line for line in warnings(caplog)) == 3  # one per frame
+    assert buffer.rejections.counts['TF_TOO_MANY_FRAMES'] == 4
+    told = [line for line in warnings(caplog) if 'TF_TOO_MANY_FRAMES' in line]
+    assert len(told) == 2 and '"other"' in told[1]  # once per sender, not once per new name
     for stamp in range(2, 1000):  # 1 ns apart: all inside the hour the buffer keeps
         assert buffer.add('root', 'flood0', stamp, GOOD, 'flooder')
     edge = next(e for e in buffer.edges() if e.frame == 'flood0')

@@ -1,7 +1,8 @@
 """Transforms refused before they reach the tree, named and worded as tf2 names them.
 
-Each refusal is counted by code and logged once per (code, sender, frame): a publisher that
-sends the same bad transform at 100 Hz costs one log line, not a flood.
+Each refusal is counted by code and logged once per (code, sender, frame), and a sender past
+the frame limit once: a publisher that sends the same bad transform at 100 Hz, or 20,000 new
+frame names, costs one log line, not a flood.
 """
 
 from __future__ import annotations
@@ -27,6 +28,10 @@ TWO_PARENTS = 'TF_TWO_PARENTS'
 TOO_MANY_FRAMES = 'TF_TOO_MANY_FRAMES'
 OLD_DATA = 'TF_OLD_DATA'
 REPEATED_DATA = 'TF_REPEATED_DATA'
+
+#: how far from 1 a quaternion's squared length may be; tf2's QUATERNION_NORMALIZATION_TOLERANCE
+#: (rounded constants such as 0.7071 pass; the quaternion is normalised)
+QUATERNION_TOLERANCE = 10e-3
 
 #: (code, sender, frame) triples told apart; past this, refusals are only counted
 MAX_TOLD = 4096
@@ -60,7 +65,7 @@ def check(child: str, parent: str, pose: Pose7, authority: Authority) -> tuple[s
             f'"{authority}" because of a nan value in the transform ({numbers})'
         )
     qx, qy, qz, qw = pose[3:]
-    if abs(qx * qx + qy * qy + qz * qz + qw * qw - 1.0) > 10e-6:
+    if abs(qx * qx + qy * qy + qz * qz + qw * qw - 1.0) > QUATERNION_TOLERANCE:
         return DENORMALIZED_QUATERNION, (
             f'TF_DENORMALIZED_QUATERNION: Ignoring transform for child_frame_id "{child}" from '
             f'authority "{authority}" because of an invalid quaternion in the transform '
@@ -129,7 +134,8 @@ def normalized(pose: Pose7) -> Pose7:
 
 
 class Rejections:
-    """Refused transforms: counted by code, logged once per (code, sender, frame)."""
+    """Refused transforms: counted by code, logged once per (code, sender, frame) (per (code,
+    sender) for the frame limit)."""
 
     def __init__(self) -> None:
         self.counts: Counter[str] = Counter()
@@ -138,7 +144,8 @@ class Rejections:
 
     def report(self, code: str, authority: Authority, frame: str, message: str) -> None:
         """Count one refusal; log ``message`` the first time this sender does it."""
-        key = (code, authority, frame)
+        # a flood of new names is one fault of its sender, not one per name
+        key = (code, authority, '' if code == TOO_MANY_FRAMES else frame)
         with self._lock:
             self.counts[code] += 1
             if key in self._told or len(self._told) >= MAX_TOLD:
