@@ -163,6 +163,10 @@ def test_transform_stamped_messages(zros_node: Callable[..., Node]) -> None:
     point.point.x = 1.0
     moved = buffer.transform(point, 'map')
     assert moved.header.frame_id == 'map' and point.header.frame_id == 'base'
+    latest = point.copy()
+    latest.header.stamp = zros.Time(0).to_msg()  # the latest: the answer says which time
+    assert buffer.transform(latest, 'map').header.stamp == stamp
+    assert latest.header.stamp.sec == 0  # the input is left alone
     assert (moved.point.x, moved.point.y, moved.point.z) == pytest.approx((1.0, 3.0, 0.0), abs=TOL)
 
     vector = zros.Message('geometry_msgs/msg/Vector3Stamped')

@@ -62,7 +62,9 @@ _MOVERS: dict[str, Callable[[Message, Pose7], None]] = {
 
 
 def transform_stamped(obj: Message, transform: Message) -> Message:
-    """A copy of ``obj`` carried by ``transform`` (a ``TransformStamped``), in its frame."""
+    """A copy of ``obj`` carried by ``transform`` (a ``TransformStamped``), with its header:
+    the target frame and the stamp the transform holds (tf2_geometry_msgs's way: an ``obj``
+    stamped 0, the latest, comes back with the time actually used)."""
     mover = _MOVERS.get(getattr(obj, '__msgtype__', ''))
     if mover is None:
         raise InvalidArgumentException(
@@ -71,5 +73,5 @@ def transform_stamped(obj: Message, transform: Message) -> Message:
         )
     out = obj.copy()
     mover(out, _pose_of(transform))
-    out.header.frame_id = transform.header.frame_id
+    out.header = transform.header.copy()
     return out
