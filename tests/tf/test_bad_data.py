@@ -171,3 +171,19 @@ def test_a_live_buffer_holds_a_bounded_number_of_frames_and_rows(
         assert buffer.add('root', 'flood0', stamp, GOOD, 'flooder')
     edge = next(e for e in buffer.edges() if e.frame == 'flood0')
     assert edge.length == 100 and edge.newest == 999
+
+
+def test_a_static_frame_that_starts_moving_takes_the_moving_values() -> None:
+    """tf2 replaces a frame's cache when its kind changes: a frame sent static, then moving,
+    follows the moving transforms (zros kept the static value for every time)."""
+    buffer = Buffer()
+    second = 10**9
+    assert buffer.add('base', 'arm', 1 * second, (3.0, 0, 0, 0, 0, 0, 1), 'pub', static=True)
+    assert buffer.add('base', 'arm', 5 * second, (2.0, 0, 0, 0, 0, 0, 1), 'pub')
+    assert buffer.add('base', 'arm', 6 * second, (3.0, 0, 0, 0, 0, 0, 1), 'pub')
+    assert buffer.lookup_transform('base', 'arm', 5 * second).transform.translation.x == 2.0
+    halfway = buffer.lookup_transform('base', 'arm', 5 * second + second // 2)
+    assert halfway.transform.translation.x == pytest.approx(2.5)
+    # and static again: one value for every time
+    assert buffer.add('base', 'arm', 7 * second, (9.0, 0, 0, 0, 0, 0, 1), 'pub', static=True)
+    assert buffer.lookup_transform('base', 'arm', second).transform.translation.x == 9.0

@@ -44,7 +44,12 @@ class EdgeTree:
     ) -> EdgeCache | None:
         """The edge to insert into (made if new); None when the transform is refused."""
         edge = self.edges.get(child)
-        if edge is not None:
+        if edge is not None and edge.static != static:
+            # a static frame turned moving, or back: tf2 replaces its cache with one of the
+            # new kind, forgetting the old one (parent included)
+            del self.edges[child]
+            self.changed()
+        elif edge is not None:
             if edge.parent == parent:
                 return edge
             expired = (
@@ -62,7 +67,8 @@ class EdgeTree:
             message = checks.loop(child, parent, authority, loop)
             self._rejections.report(checks.LOOP, authority, child, message)
             return None
-        if edge is None and self.cache_time is not None and len(self.edges) >= MAX_FRAMES:
+        full = self.cache_time is not None and len(self.edges) >= MAX_FRAMES
+        if full and child not in self.edges:
             message = checks.too_many_frames(child, authority, MAX_FRAMES)
             self._rejections.report(checks.TOO_MANY_FRAMES, authority, child, message)
             return None
