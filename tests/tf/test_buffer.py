@@ -304,3 +304,15 @@ def test_rclpy_style_times_and_durations_are_taken_by_their_nanoseconds() -> Non
     got = buffer.lookup_transform('a', 'b', RclpyLike(15), timeout=RclpyLike(10**6))  # type: ignore[arg-type]
     assert got.transform.translation.x == 1.5
     assert not buffer.can_transform('a', 'b', RclpyLike(25), timeout=RclpyLike(10**6))  # type: ignore[arg-type]
+
+
+def test_clear_forgets_moving_transforms_and_keeps_static_ones() -> None:
+    """tf2's clear: a static cache's clearList does nothing."""
+    buffer = Buffer()
+    identity = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    assert buffer.add('base', 'laser', 0, identity, 'urdf', static=True)
+    assert buffer.add('odom', 'base', 5, identity, 'odometry')
+    buffer.clear()
+    assert buffer.can_transform('base', 'laser', 0)
+    assert not buffer.can_transform('odom', 'base', 5)
+    assert buffer.add('odom', 'base', 1, identity, 'odometry')  # older: taken, not old data

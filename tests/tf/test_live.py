@@ -229,3 +229,56 @@ def test_a_waiting_lookup_returns_when_the_data_arrives() -> None:
     assert got.transform.translation.x == 1.0
     with pytest.raises(LookupException):
         buffer.lookup_transform('map', 'nowhere', 0, timeout=0.05)
+
+
+def test_the_buffer_clears_when_sim_time_jumps_back(
+    zros_node: Callable[..., Node], caplog: pytest.LogCaptureFixture
+) -> None:
+    """A bag played in a loop with /clock: sim time restarts and so do the stamps. tf2_ros
+    clears the buffer (statics stay); without that every new transform is old data for ever."""
+    second = 10**9
+    viewer = zros_node('viewer', use_sim_time=True)
+    player = zros_node('player')
+    clock = player.create_publisher('rosgraph_msgs/msg/Clock', '/clock')
+    assert clock.wait_for_subscribers()
+
+    def move_to(seconds: int) -> None:
+        stamp = zros.Time(seconds * second)
+        clock.write(zros.Message('rosgraph_msgs/msg/Clock', clock=stamp.to_msg()))
+        assert wait_for(lambda: viewer.now() == stamp)
+
+    buffer = Buffer()
+    listener = TransformListener(buffer, viewer)
+    StaticTransformBroadcaster(player).send_transform(stamped('base', 'laser', 0, (0.2, 0, 0)))
+    odometry = TransformBroadcaster(player)
+    assert odometry.publisher.wait_for_subscribers()
+    move_to(100)
+    odometry.send_transform(stamped('odom', 'base', 100 * second, (5.0, 0, 0)))
+    assert buffer.can_transform('odom', 'laser', 100 * second, timeout=10.0)
+    with caplog.at_level(logging.WARNING, 'zros.tf'):
+        move_to(10)  # the loop starts again
+        odometry.send_transform(stamped('odom', 'base', 10 * second, (1.0, 0, 0)))
+        assert buffer.can_transform('odom', 'laser', 10 * second, timeout=10.0)
+    found = buffer.lookup_transform('odom', 'laser', 0).transform.translation
+    assert (found.x, found.y) == pytest.approx((1.2, 0.0))  # the static edge stayed
+    assert 'Detected jump back in time. Clearing tf buffer.' in caplog.text
+    assert buffer.rejections.counts['TF_OLD_DATA'] == 0
+    listener.unregister()
+
+
+def test_rclpy_style_arguments(zros_node: Callable[..., Node]) -> None:
+    """What an rclpy user writes: ``Buffer(node=node)``, ``TransformListener(buffer, node,
+    spin_thread=True, qos=10)``, ``can_transform(..., return_debug_tuple=True)``."""
+    node = zros_node('rclpy_user')
+    buffer = Buffer(node=node)
+    listener = TransformListener(buffer, node, spin_thread=True, qos=10, static_qos='latched')
+    TransformBroadcaster(node, 10).send_transform(stamped('odom', 'base', 10**9, (1.0, 0, 0)))
+    assert buffer.can_transform('odom', 'base', 10**9, timeout=10.0)
+    assert buffer.can_transform('odom', 'base', 10**9, return_debug_tuple=True) == (True, '')
+    found, why = buffer.can_transform('odom', 'bsae', 10**9, return_debug_tuple=True)
+    assert not found and 'base' in why  # the closest frame's name
+    both = buffer.can_transform_full('odom', 10**9, 'base', 10**9, 'odom', return_debug_tuple=True)
+    assert both == (True, '')
+    with pytest.raises(ValueError, match='unknown QoS preset'):
+        TransformListener(buffer, node, qos='fast')
+    listener.unregister()

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Iterable, Sequence
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Literal, TypeVar, overload
 
 import numpy as np
 
@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from zros.bag import Bag
+    from zros.runtime.defaults import NodeLike
     from zros.tf.quaternions import Floats, Stamps
 
 _NS = 1_000_000_000
@@ -63,7 +64,12 @@ class Buffer:
     time 0 means the latest instant at which the whole chain is known.
     """
 
-    def __init__(self, cache_time: float | Duration | None = 10.0) -> None:
+    def __init__(
+        self, cache_time: float | Duration | None = 10.0, node: NodeLike | None = None
+    ) -> None:
+        #: rclpy's ``Buffer(cache_time, node)``: the node is only kept; a
+        #: :class:`TransformListener` on a node clears the buffer when its clock jumps back
+        self.node = node
         window = seconds(cache_time)
         self.cache_time: int | None = None if window is None else round(window * _NS)
         self._lock = threading.Lock()
@@ -131,7 +137,9 @@ class Buffer:
         return False
 
     def clear(self) -> None:
-        """Forget every transform."""
+        """Forget every moving transform; static ones stay, as with tf2's ``clear``. A
+        :class:`TransformListener` calls it when its node's clock jumps back (a bag played in
+        a loop with ``/clock``), as tf2_ros's buffer does."""
         with self._lock:
             self._tree.clear()
 
@@ -200,15 +208,64 @@ class Buffer:
         pose, used = self._attempt(full, timeout)
         return transform_message(target, source, used, pose)
 
+    @overload
     def can_transform(
         self,
         target_frame: str,
         source_frame: str,
         time: TimeLike,
         timeout: TimeoutLike = None,
-    ) -> bool:
-        """Whether :meth:`lookup_transform` would succeed (waiting up to ``timeout``)."""
-        return _succeeds(lambda: self.lookup_transform(target_frame, source_frame, time, timeout))
+        return_debug_tuple: Literal[False] = False,
+    ) -> bool: ...
+
+    @overload
+    def can_transform(
+        self,
+        target_frame: str,
+        source_frame: str,
+        time: TimeLike,
+        timeout: TimeoutLike = None,
+        *,
+        return_debug_tuple: Literal[True],
+    ) -> tuple[bool, str]: ...
+
+    def can_transform(
+        self,
+        target_frame: str,
+        source_frame: str,
+        time: TimeLike,
+        timeout: TimeoutLike = None,
+        return_debug_tuple: bool = False,
+    ) -> bool | tuple[bool, str]:
+        """Whether :meth:`lookup_transform` would succeed (waiting up to ``timeout``); with
+        ``return_debug_tuple`` (rclpy's), ``(whether, why not)``."""
+        found = _outcome(lambda: self.lookup_transform(target_frame, source_frame, time, timeout))
+        return found if return_debug_tuple else found[0]
+
+    @overload
+    def can_transform_full(
+        self,
+        target_frame: str,
+        target_time: TimeLike,
+        source_frame: str,
+        source_time: TimeLike,
+        fixed_frame: str,
+        timeout: TimeoutLike = None,
+        return_debug_tuple: Literal[False] = False,
+    ) -> bool: ...
+
+    @overload
+    def can_transform_full(
+        self,
+        target_frame: str,
+        target_time: TimeLike,
+        source_frame: str,
+        source_time: TimeLike,
+        fixed_frame: str,
+        timeout: TimeoutLike = None,
+        *,
+        return_debug_tuple: Literal[True],
+    ) -> tuple[bool, str]: ...
 
     def can_transform_full(  # noqa: PLR0917 (tf2_ros's signature)
         self,
@@ -218,13 +275,16 @@ class Buffer:
         source_time: TimeLike,
         fixed_frame: str,
         timeout: TimeoutLike = None,
-    ) -> bool:
-        """Whether :meth:`lookup_transform_full` would succeed (waiting up to ``timeout``)."""
-        return _succeeds(
+        return_debug_tuple: bool = False,
+    ) -> bool | tuple[bool, str]:
+        """Whether :meth:`lookup_transform_full` would succeed (waiting up to ``timeout``); with
+        ``return_debug_tuple``, ``(whether, why not)``."""
+        found = _outcome(
             lambda: self.lookup_transform_full(
                 target_frame, target_time, source_frame, source_time, fixed_frame, timeout
             )
         )
+        return found if return_debug_tuple else found[0]
 
     def _attempt(self, attempt: Callable[[], T], timeout: TimeoutLike) -> T:
         """``attempt()`` under the lock, once it stops raising TransformException or
@@ -233,7 +293,7 @@ class Buffer:
 
         def ready() -> bool:
             with self._lock:
-                return _succeeds(attempt)
+                return _outcome(attempt)[0]
 
         if wait and wait > 0 and not self._arrived.wait_for(ready, wait) and interrupted():
             raise KeyboardInterrupt
@@ -431,10 +491,11 @@ class Buffer:
         return f'<zros.tf.Buffer {len(self._tree.names)} frames, cache {window}>'
 
 
-def _succeeds(attempt: Callable[[], object]) -> bool:
-    """Whether ``attempt()`` returns instead of raising a TransformException."""
+def _outcome(attempt: Callable[[], object]) -> tuple[bool, str]:
+    """Whether ``attempt()`` returns instead of raising a TransformException, and the
+    exception's text when it raises (rclpy's debug tuple)."""
     try:
         attempt()
-    except TransformException:
-        return False
-    return True
+    except TransformException as exc:
+        return False, str(exc)
+    return True, ''

@@ -34,9 +34,9 @@ class EdgeTree:
         self._chains.clear()
 
     def clear(self) -> None:
-        """Forget every edge and frame."""
-        self.edges.clear()
-        self.names.clear()
+        """Forget every moving edge; static edges and the frames' names stay (tf2's clear)."""
+        for child in [child for child, edge in self.edges.items() if not edge.static]:
+            del self.edges[child]
         self.changed()
 
     def edge_for(

@@ -9,6 +9,7 @@ is shown (in ``zros tf frames``, in the report of a bad transform).
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable
 
@@ -19,7 +20,7 @@ from zros.cdr.classes import compiled_decoder
 from zros.cdr.message import decode
 from zros.pubsub.senders import describe_sender
 from zros.pubsub.taps import RawTap
-from zros.qos import Durability, QoS
+from zros.qos import Durability, QoS, QoSLike, as_qos
 from zros.runtime.context import NodeContext
 from zros.runtime.defaults import NodeLike, default_node
 from zros.runtime.drops import sender_key
@@ -38,6 +39,8 @@ STATIC_LISTENER_QOS = QoS(100, durability=Durability.TRANSIENT_LOCAL)
 MAX_SENDERS = 256
 #: seconds a sender's name is kept before the graph is asked again
 RENAME_AFTER = 1.0
+#: how far the node's clock must go back for the buffer to be cleared (tf2_ros's: 1 s)
+JUMP_BACK = 1_000_000_000
 
 
 class _Sender:
@@ -73,9 +76,16 @@ class TransformListener:
         buffer: Buffer,
         node: NodeLike | None = None,
         *,
-        qos: QoS = LISTENER_QOS,
-        static_qos: QoS = STATIC_LISTENER_QOS,
+        spin_thread: bool = False,
+        qos: QoSLike | None = None,
+        static_qos: QoSLike | None = None,
     ) -> None:
+        # rclpy's names: ``spin_thread`` is accepted and has nothing to do (the listener fills
+        # the buffer on the delivery threads, never waiting for a spin); ``qos`` and
+        # ``static_qos`` take a QoS, a depth or a preset name, tf2_ros's profiles by default
+        del spin_thread
+        qos = LISTENER_QOS if qos is None else as_qos(qos)
+        static_qos = STATIC_LISTENER_QOS if static_qos is None else as_qos(static_qos)
         self.buffer = buffer
         self.node = node if node is not None else default_node()
         context = self.node.context
@@ -84,6 +94,9 @@ class TransformListener:
         self._decoder = compiled_decoder(self._class)
         self._senders: dict[tuple[str, str], _Sender] = {}  #: by (sender key, topic)
         self.undecodable = 0  #: samples that were not a TFMessage
+        self._clock = context.clock
+        self._last_now = 0  #: the clock when transforms last came (ns)
+        self._jump_lock = threading.Lock()
         self.topics = (context.resolve_name('/tf'), context.resolve_name('/tf_static'))
         self._taps: list[RawTap] = []
         try:
@@ -116,7 +129,19 @@ class TransformListener:
 
         return receive
 
+    def _clear_after_jump_back(self) -> None:
+        """Clear the buffer if the clock went back since transforms last came: older stamps
+        would otherwise be refused as old data until the clock caught up."""
+        now = self._clock.now().nanoseconds
+        with self._jump_lock:
+            jumped = now < self._last_now - JUMP_BACK
+            self._last_now = now
+        if jumped:
+            _log.warning('Detected jump back in time. Clearing tf buffer.')
+            self.buffer.clear()
+
     def _on_samples(self, samples: list[Sample], topic: str, static: bool) -> None:
+        self._clear_after_jump_back()
         buffer = self.buffer
         add = buffer.set_transform_static if static else buffer.set_transform
         for sample in samples:
