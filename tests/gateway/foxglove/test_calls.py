@@ -197,6 +197,11 @@ def test_services_are_offered_and_called(
         garbage = client.call_service('/add_two_ints', b'\x00\x01\x00\x00\x07')
         assert garbage['ev'] == 'serviceCallFailure'
         assert 'does not decode' in garbage['message']
+        # the request schema says CDR: a call in JSON is refused, and the server keeps serving
+        text = client.call_service('/add_two_ints', b'{"a": 2, "b": 40}', encoding='json')
+        assert text['ev'] == 'serviceCallFailure' and 'encoding' in text['message'], text
+        again = client.call_service('/add_two_ints', encode(srv.Request(a=1, b=1)))
+        assert decode(srv.Response, base64.b64decode(again['data'])).sum == 2
     assert not any('/zros_foxglove' in name for name in client.services())
 
 

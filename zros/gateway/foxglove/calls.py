@@ -37,7 +37,8 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros.gateway')
 
-#: the message encodings a Foxglove client may publish and call services in
+#: the message encodings a Foxglove client may publish in (service calls: the CDR of each
+#: service's request schema, which the SDK holds the client to)
 ENCODINGS = ('cdr', 'json')
 #: seconds a service call through the gateway may take
 SERVICE_TIMEOUT = 10.0
@@ -214,11 +215,9 @@ class ServiceOffer:
     def _handler(self, name: str, type_name: str) -> Callable[[ServiceRequest], bytes]:
         def handle(request: ServiceRequest) -> bytes:
             client = self._client(name, type_name)
+            # CDR only: the SDK refuses a call in another encoding than the request schema's
             try:
-                if request.encoding == 'json':
-                    message = message_from_json(client.Request, request.payload)
-                else:
-                    message = decode(client.Request, request.payload)
+                message = decode(client.Request, request.payload)
             except CdrError as exc:
                 raise GatewayError(f'the request does not decode as {type_name}: {exc}') from None
             return encode(client.call(message))
