@@ -147,6 +147,12 @@ def test_not_json_and_the_status_level(rosbridge: Make, raw_client: Make) -> Non
     client.send(op='set_level', level='loud')  # a bad level is dropped, as the protocol says
     client.send(op='dance', id='still')
     assert client.wait(lambda m: m.get('id') == 'still')['level'] == 'error'
+    # binary frames: JSON in UTF-8 is served as rosbridge_suite serves it; anything else is told
+    client.connection.send(b'\x16\x00\x00\x00\x02op\x00\xff')  # BSON-like bytes
+    told = client.status('binary message of 9 bytes')['msg']
+    assert 'not JSON text (UTF-8)' in told and 'BSON is not served' in told
+    client.connection.send(b'{"op": "dance", "id": "binary"}')
+    assert client.wait(lambda m: m.get('id') == 'binary')['level'] == 'error'
 
 
 def test_fragments_from_a_client_are_put_together(

@@ -208,7 +208,14 @@ class ClientSession:
         """Handle one message from the client (``joined``: put together from fragments)."""
         try:
             message = json.loads(raw)
-        except (ValueError, UnicodeDecodeError) as exc:
+        except UnicodeDecodeError:  # a binary frame: rosbridge_suite reads it as UTF-8 JSON too
+            self.status(
+                'error',
+                f'a binary message of {len(raw)} bytes that is not JSON text (UTF-8) was '
+                'dropped: rosbridge takes JSON, in text or binary frames (BSON is not served)',
+            )
+            return
+        except ValueError as exc:
             self.status('error', f'a message that is not JSON was dropped: {exc}')
             return
         except RecursionError:  # deeper than Python's parser goes
