@@ -33,31 +33,38 @@ def sample(static: bool, stamps: Stamps, rows: Floats, times: Stamps) -> tuple[M
     segment = np.searchsorted(stamps, times, side='right')
     segment -= 1
     np.clip(segment, 0, count - 2, out=segment)
-    starts = stamps[:-1]
-    spans = np.diff(stamps).astype(np.float64)
-    ratio = (times - starts[segment]) / spans[segment]
+    # what interpolation needs per segment: prepared once for every segment when the stamps
+    # outnumber them, else only for the segments asked (a few stamps in a long recording)
+    if len(times) >= count - 1:
+        used = segment
+        starts, spans = stamps[:-1], np.diff(stamps)
+        offsets, steps = rows[:-1], np.diff(rows[:, :3], axis=0)
+        q0, q1 = rows[:-1, 3:], rows[1:, 3:].copy()
+    else:
+        used = np.arange(len(times))
+        starts, offsets = stamps[segment], rows[segment]
+        spans, steps = stamps[segment + 1] - starts, rows[segment + 1, :3] - offsets[:, :3]
+        q0, q1 = offsets[:, 3:], rows[segment + 1, 3:]
+    ratio = (times - starts[used]) / spans[used].astype(np.float64)
     np.clip(ratio, 0.0, 1.0, out=ratio)
-    translations = rows[:-1, :3][segment]
-    translations += np.diff(rows[:, :3], axis=0)[segment] * ratio[:, None]
-    # slerp, prepared once per segment
-    q0 = rows[:-1, 3:]
-    q1 = rows[1:, 3:].copy()
+    translations = offsets[used, :3]
+    translations += steps[used, :3] * ratio[:, None]
     q1[np.einsum('ij,ij->i', q0, q1) < 0.0] *= -1.0  # the shorter arc
     angle = 2.0 * np.arctan2(np.linalg.norm(q0 - q1, axis=1), np.linalg.norm(q0 + q1, axis=1))
     sine = np.sin(angle)
     small = sine < 1e-12
     inverse = np.divide(1.0, sine, out=np.zeros_like(sine), where=~small)
-    a = angle[segment]
+    a = angle[used]
     w0 = np.sin((1.0 - ratio) * a)
-    w0 *= inverse[segment]
+    w0 *= inverse[used]
     w1 = np.sin(ratio * a)
-    w1 *= inverse[segment]
-    near = small[segment]
+    w1 *= inverse[used]
+    near = small[used]
     if near.any():  # (almost) the same rotation at both ends: a plain lerp is exact enough
         w0[near] = 1.0 - ratio[near]
         w1[near] = ratio[near]
-    rotations = q0[segment] * w0[:, None]
-    rotations += q1[segment] * w1[:, None]
+    rotations = q0[used] * w0[:, None]
+    rotations += q1[used] * w1[:, None]
     return (translations, rotations), covered
 
 
