@@ -316,3 +316,48 @@ def test_clear_forgets_moving_transforms_and_keeps_static_ones() -> None:
     assert buffer.can_transform('base', 'laser', 0)
     assert not buffer.can_transform('odom', 'base', 5)
     assert buffer.add('odom', 'base', 1, identity, 'odometry')  # older: taken, not old data
+
+
+def test_a_waiting_lookup_words_its_error_only_when_read(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A lookup waiting for a frame tries again at every arrival; naming the closest of
+    thousands of frames each time made every arriving transform cost milliseconds."""
+    import threading
+
+    import zros
+    from zros.tf import tree
+
+    worded: list[str] = []
+    real = tree.unknown_frame_text
+
+    def counted(frame: str, argument: str, frames: list[str]) -> str:
+        worded.append(frame)
+        return real(frame, argument, frames)
+
+    monkeypatch.setattr(tree, 'unknown_frame_text', counted)
+    buffer = Buffer()
+    identity = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    for i in range(100):
+        buffer.add('world', f'obj{i}', 0, identity, 'urdf', static=True)
+    failures: list[Exception] = []
+
+    def wait() -> None:
+        try:
+            buffer.lookup_transform('world', 'obj_x', 0, timeout=1.0)
+        except LookupException as exc:
+            failures.append(exc)
+
+    waiter = threading.Thread(target=wait)
+    waiter.start()
+    stamp = 1
+    while waiter.is_alive():  # arrivals while it waits: each wakes it
+        transform = zros.Message('geometry_msgs/msg/TransformStamped')
+        transform.header.frame_id, transform.child_frame_id = 'odom', 'base'
+        transform.header.stamp = Time(stamp).to_msg()
+        transform.transform.rotation.w = 1.0
+        buffer.set_transform(transform, 'odometry')
+        stamp += 1
+    waiter.join()
+    assert stamp > 10 and worded == []
+    [failure] = failures
+    assert 'the closest known frames: "obj' in str(failure)
+    assert worded == ['obj_x']

@@ -239,8 +239,8 @@ class Buffer:
     ) -> bool | tuple[bool, str]:
         """Whether :meth:`lookup_transform` would succeed (waiting up to ``timeout``); with
         ``return_debug_tuple`` (rclpy's), ``(whether, why not)``."""
-        found = _outcome(lambda: self.lookup_transform(target_frame, source_frame, time, timeout))
-        return found if return_debug_tuple else found[0]
+        failure = _outcome(lambda: self.lookup_transform(target_frame, source_frame, time, timeout))
+        return _debug(failure, return_debug_tuple)
 
     @overload
     def can_transform_full(
@@ -279,12 +279,12 @@ class Buffer:
     ) -> bool | tuple[bool, str]:
         """Whether :meth:`lookup_transform_full` would succeed (waiting up to ``timeout``); with
         ``return_debug_tuple``, ``(whether, why not)``."""
-        found = _outcome(
+        failure = _outcome(
             lambda: self.lookup_transform_full(
                 target_frame, target_time, source_frame, source_time, fixed_frame, timeout
             )
         )
-        return found if return_debug_tuple else found[0]
+        return _debug(failure, return_debug_tuple)
 
     def _attempt(self, attempt: Callable[[], T], timeout: TimeoutLike) -> T:
         """``attempt()`` under the lock, once it stops raising TransformException or
@@ -293,7 +293,7 @@ class Buffer:
 
         def ready() -> bool:
             with self._lock:
-                return _outcome(attempt)[0]
+                return _outcome(attempt) is None
 
         if wait and wait > 0 and not self._arrived.wait_for(ready, wait) and interrupted():
             raise KeyboardInterrupt
@@ -491,11 +491,18 @@ class Buffer:
         return f'<zros.tf.Buffer {len(self._tree.names)} frames, cache {window}>'
 
 
-def _outcome(attempt: Callable[[], object]) -> tuple[bool, str]:
-    """Whether ``attempt()`` returns instead of raising a TransformException, and the
-    exception's text when it raises (rclpy's debug tuple)."""
+def _outcome(attempt: Callable[[], object]) -> TransformException | None:
+    """The TransformException ``attempt()`` raises, None when it returns. Its text is not read
+    here: an unknown frame's names its closest frames only when read (costly with many)."""
     try:
         attempt()
     except TransformException as exc:
-        return False, str(exc)
-    return True, ''
+        return exc
+    return None
+
+
+def _debug(failure: TransformException | None, full: bool) -> bool | tuple[bool, str]:
+    """What ``can_transform`` returns: whether it would succeed, or rclpy's debug tuple."""
+    if not full:
+        return failure is None
+    return (True, '') if failure is None else (False, str(failure))

@@ -66,21 +66,37 @@ def ancestors(edges: Mapping[str, EdgeCache], frame: str) -> list[str]:
     return path
 
 
-def unknown_frame(frame: str, argument: str, frames: set[str]) -> LookupException:
-    """The error for a frame the buffer does not know, naming the closest known ones."""
+class UnknownFrame(LookupException):
+    """A frame the buffer does not know. The text names the closest known frames, found only
+    when it is read: a lookup waiting for a frame tries again at every arrival, and searching
+    thousands of names each time would slow every transform that arrives."""
+
+    def __init__(self, frame: str, argument: str, frames: list[str]) -> None:
+        super().__init__(frame, argument)
+        self.frame = frame
+        self._argument = argument
+        self._frames = frames
+        self._text: str | None = None
+
+    def __str__(self) -> str:
+        if self._text is None:
+            self._text = unknown_frame_text(self.frame, self._argument, self._frames)
+        return self._text
+
+
+def unknown_frame_text(frame: str, argument: str, frames: list[str]) -> str:
+    """What a lookup of an unknown frame says, naming the closest known ones."""
     if not frames:
         hint = 'the buffer holds no frames yet'
     else:
-        close = difflib.get_close_matches(frame, sorted(frames), n=3, cutoff=0.5)
+        listed = sorted(frames)
+        close = difflib.get_close_matches(frame, listed, n=3, cutoff=0.5)
         if close:
             hint = 'the closest known frames: ' + ', '.join(f'"{c}"' for c in close)
         else:
-            listed = sorted(frames)
             more = f' and {len(listed) - 10} more' if len(listed) > 10 else ''
             hint = 'known frames: ' + ', '.join(f'"{c}"' for c in listed[:10]) + more
-    return LookupException(
-        f'"{frame}" passed to lookup_transform argument {argument} does not exist; {hint}'
-    )
+    return f'"{frame}" passed to lookup_transform argument {argument} does not exist; {hint}'
 
 
 def find_chain(
@@ -89,7 +105,7 @@ def find_chain(
     """The chain of edges from ``source`` to ``target`` (Lookup or ConnectivityException)."""
     for frame, argument in ((target, 'target_frame'), (source, 'source_frame')):
         if frame not in frames:
-            raise unknown_frame(frame, argument, frames)
+            raise UnknownFrame(frame, argument, list(frames))
     up_frames = ancestors(edges, source)
     index = {frame: i for i, frame in enumerate(up_frames)}
     down_frames = [target]
