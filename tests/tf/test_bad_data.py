@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from zros.tf import Buffer, ConnectivityException
+from zros.tf import Buffer, ConnectivityException, LookupException
 
 GOOD = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 
@@ -187,3 +187,16 @@ def test_a_static_frame_that_starts_moving_takes_the_moving_values() -> None:
     # and static again: one value for every time
     assert buffer.add('base', 'arm', 7 * second, (9.0, 0, 0, 0, 0, 0, 1), 'pub', static=True)
     assert buffer.lookup_transform('base', 'arm', second).transform.translation.x == 9.0
+
+
+def test_a_chain_deeper_than_tf2_allows_is_named_so() -> None:
+    """tf2 refuses graphs deeper than 1000 frames; the error said two trees were not joined and
+    named a wrong root."""
+    buffer = Buffer()
+    for i in range(1500):
+        assert buffer.add(f'l{i}', f'l{i + 1}', 0, GOOD, 'deep', static=True)
+    with pytest.raises(LookupException, match='deeper than 1000 frames'):
+        buffer.lookup_transform('l0', 'l1500', 0)
+    with pytest.raises(LookupException, match='deeper than 1000 frames'):
+        buffer.lookup_transform('l1500', 'l0', 0)
+    assert buffer.lookup_transform('l0', 'l10', 0).transform.translation.x == pytest.approx(10.0)

@@ -99,6 +99,14 @@ def unknown_frame_text(frame: str, argument: str, frames: list[str]) -> str:
     return f'"{frame}" passed to lookup_transform argument {argument} does not exist; {hint}'
 
 
+def too_deep(frame: str) -> LookupException:
+    """tf2's error for a chain past its graph depth (which it takes for a loop)."""
+    return LookupException(
+        f'the chain from "{frame}" up to its root is deeper than {MAX_DEPTH} frames: tf2 takes '
+        'a tree that deep to contain a loop'
+    )
+
+
 def find_chain(
     edges: Mapping[str, EdgeCache], frames: set[str], target: str, source: str, version: int
 ) -> Chain:
@@ -107,11 +115,15 @@ def find_chain(
         if frame not in frames:
             raise UnknownFrame(frame, argument, list(frames))
     up_frames = ancestors(edges, source)
+    if len(up_frames) > MAX_DEPTH:
+        raise too_deep(source)
     index = {frame: i for i, frame in enumerate(up_frames)}
     down_frames = [target]
     while down_frames[-1] not in index:
         edge = edges.get(down_frames[-1])
-        if edge is None or len(down_frames) > MAX_DEPTH:
+        if len(down_frames) > MAX_DEPTH:
+            raise too_deep(target)
+        if edge is None:
             root_source = up_frames[-1]
             root_target = down_frames[-1]
             raise ConnectivityException(
