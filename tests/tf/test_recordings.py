@@ -197,3 +197,34 @@ def test_a_damaged_tf_message_is_skipped_and_counted(tmp_path: Path) -> None:
     assert (skipped.topic, skipped.row, skipped.lost) == ('/tf', 2, 1)
     t = buffer.lookup_transform('odom', 'base_link', 2 * 10**9).transform
     assert t.translation.x == pytest.approx(2.0, abs=TOL)  # between the two intact messages
+
+
+def test_a_recording_whose_clock_restarts_is_told(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Two runs of a simulation in one bag (sim time restarts): the buffer merges them stamp by
+    stamp, which an analyst must hear of."""
+    import logging
+
+    from tests.bag.makebags import make_db3
+    from zros.cdr import encode, new_message
+
+    def tf(x: float, sec: int) -> bytes:
+        stamped = {
+            'header': {'stamp': {'sec': sec}, 'frame_id': 'odom'},
+            'child_frame_id': 'base_link',
+            'transform': {'translation': {'x': x}, 'rotation': {'w': 1.0}},
+        }
+        return encode(new_message('tf2_msgs/msg/TFMessage', transforms=[stamped]))
+
+    first = [(0, (1 + i) * 10**9, tf(float(i), i)) for i in range(5)]
+    second = [(0, (10 + i) * 10**9, tf(-float(i), i)) for i in range(5)]  # the clock again at 0
+    path = make_db3(tmp_path / 'two_runs.db3', [('/tf', 'tf2_msgs/msg/TFMessage')], first + second)
+    with caplog.at_level(logging.WARNING, 'zros.tf'):
+        Buffer.from_bag(path)
+    [told] = [r.getMessage() for r in caplog.records if 'restarted' in r.getMessage()]
+    assert 'base_link (parent odom) go back 4.0 s after their 5-th, 1 time(s)' in told
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, 'zros.tf'):
+        Buffer.from_bag(make_db3(tmp_path / 'one.db3', [('/tf', 'tf2_msgs/msg/TFMessage')], first))
+    assert 'restarted' not in caplog.text

@@ -6,6 +6,7 @@ ones are grouped per (parent, child, static, sender) into arrays the buffer stor
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -19,6 +20,11 @@ if TYPE_CHECKING:
     from zros.tf.quaternions import Floats, Stamps
 
 _NS = 1_000_000_000
+#: how far an edge's stamps may go back, in the order recorded, before it is told (tf2_ros
+#: clears its buffer at a clock jump back of 1 s)
+JUMP_BACK = _NS
+
+_log = logging.getLogger('zros.tf')
 
 
 @dataclass(frozen=True)
@@ -84,7 +90,7 @@ def _read(bag: Bag, topics: tuple[str, ...], rejections: checks.Rejections) -> l
                 batch = batches[key] = ([], [])
             batch[0].append(header.stamp.sec * _NS + header.stamp.nanosec)
             batch[1].append(checks.normalized(pose))
-    return [
+    edges = [
         EdgeBatch(
             parent,
             child,
@@ -95,3 +101,23 @@ def _read(bag: Bag, topics: tuple[str, ...], rejections: checks.Rejections) -> l
         )
         for (parent, child, static, authority), (stamps, poses) in batches.items()
     ]
+    for edge in edges:
+        if not edge.static:
+            _tell_restart(bag, edge)
+    return edges
+
+
+def _tell_restart(bag: Bag, edge: EdgeBatch) -> None:
+    """Warn when an edge's stamps go back in the order recorded: the recording's clock
+    restarted (a simulation reset, a bag recorded while another looped), and the buffer, which
+    keeps one value per stamp, merges the runs."""
+    steps = np.diff(edge.stamps)
+    back = np.flatnonzero(steps < -JUMP_BACK)
+    if not len(back):
+        return
+    first = int(back[0])
+    _log.warning(
+        '%s: the transforms of %s (parent %s) go back %.1f s after their %d-th, %d time(s) in '
+        'all: the clock restarted while recording; lookups mix the runs, stamp by stamp',
+        bag.path, edge.child, edge.parent, -steps[first] / _NS, first + 1, len(back),
+    )  # fmt: skip
