@@ -228,3 +228,17 @@ def test_a_recording_whose_clock_restarts_is_told(
     with caplog.at_level(logging.WARNING, 'zros.tf'):
         Buffer.from_bag(make_db3(tmp_path / 'one.db3', [('/tf', 'tf2_msgs/msg/TFMessage')], first))
     assert 'restarted' not in caplog.text
+
+
+def test_the_trajectory_of_a_static_chain_is_one_row_at_time_0() -> None:
+    """tf2_echo shows a static chain "At time 0.0"; zero rows said nothing."""
+    buffer = Buffer(cache_time=None)
+    one = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    buffer.add('base', 'arm', 0, one, 'urdf', static=True)
+    buffer.add('arm', 'hand', 0, one, 'urdf', static=True)
+    columns = trajectory(buffer, 'base', 'hand')
+    assert columns['t'].tolist() == [0] and columns['x'].tolist() == [2.0]
+    buffer.add('world', 'cart', 5, one, 'odometry')  # moving, but never at the same time
+    buffer.add('cart', 'pole', 9, one, 'odometry')
+    with pytest.raises(ExtrapolationException, match='no instant is covered by every moving'):
+        trajectory(buffer, 'world', 'pole')

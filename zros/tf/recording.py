@@ -30,7 +30,9 @@ def trajectory(
     (int64 ns), ``x``, ``y``, ``z``, ``qx``, ``qy``, ``qz``, ``qw``.
 
     ``times`` (int64 ns) default to every stamp at which a moving edge of the chain has a
-    transform while the whole chain is known. Stamps the chain does not cover give NaN rows.
+    transform while the whole chain is known; a chain of static edges alone gives one row,
+    at time 0, and moving edges that share no instant raise ExtrapolationException. Stamps
+    the chain does not cover give NaN rows.
     ``bag`` may be a path, an open :class:`~zros.bag.Bag`, or a buffer made with
     :meth:`Buffer.from_bag` (to look up several chains without reading the bag again).
     """
@@ -38,6 +40,12 @@ def trajectory(
     target = clean_frame(target_frame, 'target_frame')
     source = clean_frame(source_frame, 'source_frame')
     stamps = buffer.stamps(target, source) if times is None else np.asarray(times, dtype=np.int64)
+    if times is None and not len(stamps) and target != source:
+        # no moving edge: the chain is one constant, given once at time 0 (as tf2_echo shows a
+        # static chain "At time 0.0"); moving edges that never overlap raise, saying so
+        found = buffer.lookup_transform(target, source, 0)
+        if found.header.stamp.sec == 0 and found.header.stamp.nanosec == 0:
+            stamps = np.zeros(1, dtype=np.int64)
     translations, rotations = buffer.lookup_transforms(target, source, stamps)
     return {
         't': stamps,
