@@ -173,17 +173,20 @@ def test_ros1_tf_messages(tmp_path: Path) -> None:
         buffer.lookup_transforms('odom', 'base_link', [200 * 10**9], strict=True)
 
 
-def test_a_damaged_tf_message_is_skipped_and_counted(tmp_path: Path) -> None:
-    from tests.bag.makebags import make_db3
+def tf(x: float, sec: int) -> bytes:
+    """A TFMessage's CDR: base_link at ``x`` in odom, stamped ``sec``."""
     from zros.cdr import encode, new_message
 
-    def tf(x: float, sec: int) -> bytes:
-        stamped = {
-            'header': {'stamp': {'sec': sec}, 'frame_id': 'odom'},
-            'child_frame_id': 'base_link',
-            'transform': {'translation': {'x': x}, 'rotation': {'w': 1.0}},
-        }
-        return encode(new_message('tf2_msgs/msg/TFMessage', transforms=[stamped]))
+    stamped = {
+        'header': {'stamp': {'sec': sec}, 'frame_id': 'odom'},
+        'child_frame_id': 'base_link',
+        'transform': {'translation': {'x': x}, 'rotation': {'w': 1.0}},
+    }
+    return encode(new_message('tf2_msgs/msg/TFMessage', transforms=[stamped]))
+
+
+def test_a_damaged_tf_message_is_skipped_and_counted(tmp_path: Path) -> None:
+    from tests.bag.makebags import make_db3
 
     rows = [
         (0, 10**9, tf(1.0, 1)),
@@ -207,15 +210,6 @@ def test_a_recording_whose_clock_restarts_is_told(
     import logging
 
     from tests.bag.makebags import make_db3
-    from zros.cdr import encode, new_message
-
-    def tf(x: float, sec: int) -> bytes:
-        stamped = {
-            'header': {'stamp': {'sec': sec}, 'frame_id': 'odom'},
-            'child_frame_id': 'base_link',
-            'transform': {'translation': {'x': x}, 'rotation': {'w': 1.0}},
-        }
-        return encode(new_message('tf2_msgs/msg/TFMessage', transforms=[stamped]))
 
     first = [(0, (1 + i) * 10**9, tf(float(i), i)) for i in range(5)]
     second = [(0, (10 + i) * 10**9, tf(-float(i), i)) for i in range(5)]  # the clock again at 0

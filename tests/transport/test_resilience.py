@@ -89,21 +89,20 @@ def test_a_session_no_node_uses_loses_its_link_quietly(
 ) -> None:
     """Nodes destroyed, the router stopped (the end of a script): nobody is told of a lost link
     that no node used; while a node lives, the loss is a warning."""
-    with Transport(TransportConfig.create(connect=router_process.endpoint)) as transport:
-        node = zros.Node('done', transport=transport)
-        node.destroy()
+
+    def level_of_the_loss() -> int:
+        caplog.clear()
         with caplog.at_level(logging.DEBUG, logger='zros.transport'):
             router_process.kill()
             assert wait_for(lambda: 'lost the link to router' in caplog.text, timeout=10)
         [lost] = [r for r in caplog.records if 'lost the link' in r.getMessage()]
-        assert lost.levelno == logging.DEBUG
-        caplog.clear()
+        return lost.levelno
+
+    with Transport(TransportConfig.create(connect=router_process.endpoint)) as transport:
+        zros.Node('done', transport=transport).destroy()
+        assert level_of_the_loss() == logging.DEBUG
         router_process.start()
         assert wait_for(lambda: transport.connected, timeout=15)
         node = zros.Node('working', transport=transport)
-        with caplog.at_level(logging.DEBUG, logger='zros.transport'):
-            router_process.kill()
-            assert wait_for(lambda: 'lost the link to router' in caplog.text, timeout=10)
-        [lost] = [r for r in caplog.records if 'lost the link' in r.getMessage()]
-        assert lost.levelno == logging.WARNING
+        assert level_of_the_loss() == logging.WARNING
         node.destroy()
