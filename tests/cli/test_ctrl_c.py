@@ -105,3 +105,21 @@ def test_sigterm_ends_a_command_as_ctrl_c(
     assert code == 0, running.errors.text()
     assert took < REACTION
     assert 'Traceback' not in running.errors.text()
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
+def test_echo_with_a_type_waits_for_a_publisher_that_comes_later(
+    cli: Cli, zros_node: Any, sig: int
+) -> None:
+    # as ros2 topic echo /x std_msgs/msg/String: started before anyone publishes, it waits
+    running = cli.start('topic', 'echo', '/later', 'std_msgs/msg/String')
+    assert wait_for(lambda: sleeping(running.process.pid), 10)
+    assert running.process.poll() is None, running.errors.text()
+    talker = zros_node('late_talker')
+    publisher = talker.create_publisher('std_msgs/msg/String', '/later')
+    with publishing(talker, publisher, publisher.msg_type(data='late hello'), hz=5.0):
+        running.wait_line(lambda line: line == 'data: late hello')
+        code, _, took = interrupted(running, sig)
+    assert code == 0, running.errors.text()
+    assert took < REACTION
+    assert 'Traceback' not in running.errors.text()
