@@ -34,7 +34,7 @@ from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.json_types import int_field, optional_text, text_field
 from zros.gateway.common.watched_topics import Taps
-from zros.gateway.rosbridge.conversion import ConversionError, Values, short_name
+from zros.gateway.rosbridge.conversion import ConversionError, Values
 from zros.gateway.rosbridge.frames import COMPRESSIONS, Frames, Sample
 from zros.pubsub.taps import GraphTopic, graph_topics
 
@@ -256,8 +256,8 @@ class Topics:
             raise GatewayError(f'unknown type {asked}: {exc}') from None
         if known is not None and known.type_name != type_name:
             raise GatewayError(
-                f'Tried to register topic {name} with type {short_name(type_name)} but it is '
-                f'already established with type {short_name(known.type_name)}'
+                f'Tried to register topic {name} with type {type_name} but it is '
+                f'already established with type {known.type_name}'
             )
         return type_name
 
