@@ -361,3 +361,19 @@ def test_a_waiting_lookup_words_its_error_only_when_read(monkeypatch: pytest.Mon
     [failure] = failures
     assert 'the closest known frames: "obj' in str(failure)
     assert worded == ['obj_x']
+
+
+def test_get_latest_common_time_is_what_a_time_zero_lookup_uses() -> None:
+    buffer = Buffer()
+    for stamp in (100, 300):
+        buffer.add('map', 'odom', stamp, (0, 0, 0, 0, 0, 0, 1), 'amcl')
+    buffer.add('odom', 'base', 250, (0, 0, 0, 0, 0, 0, 1), 'odom')
+    buffer.add('base', 'laser', 0, (0, 0, 1, 0, 0, 0, 1), 'static', static=True)
+    assert buffer.get_latest_common_time('map', 'laser') == Time(250)
+    assert buffer.get_latest_common_time('base', 'laser') == Time(0)
+    assert buffer.get_latest_common_time('laser', 'laser') == Time(0)
+    with pytest.raises(LookupException):
+        buffer.get_latest_common_time('map', 'nowhere')
+    buffer.add('elsewhere', 'cam', 0, (0, 0, 0, 0, 0, 0, 1), 'static', static=True)
+    with pytest.raises(ConnectivityException):
+        buffer.get_latest_common_time('map', 'cam')

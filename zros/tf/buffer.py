@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Literal, TypeVar, overload
 import numpy as np
 
 from zros.cdr import Message
-from zros.runtime.clock import Duration
+from zros.runtime.clock import Duration, Time
 from zros.runtime.signal import Signal, interrupted
 from zros.tf import checks
 from zros.tf.bag_transforms import read_transforms
@@ -181,6 +181,20 @@ class Buffer:
         stamp = nanoseconds(time)
         pose, used = self._attempt(lambda: self._pose(target, source, stamp), timeout)
         return transform_message(target, source, used, pose)
+
+    def get_latest_common_time(self, target_frame: str, source_frame: str) -> Time:
+        """The latest instant at which the whole chain between the frames is known (what a
+        lookup at time 0 uses; 0 for a chain of static edges), as rclpy's Buffer has it.
+
+        Raises :class:`LookupException` or :class:`ConnectivityException`.
+        """
+        target = clean_frame(target_frame, 'target_frame')
+        source = clean_frame(source_frame, 'source_frame')
+        with self._lock:
+            if target == source:
+                self._tree.check_known(target, source)
+                return Time(0)
+            return Time(latest_common(self._tree.chain(target, source)))
 
     def lookup_transform_full(  # noqa: PLR0917 (tf2_ros's signature)
         self,
