@@ -96,9 +96,7 @@ class Rosbag2Source(Source):
         self.compression_mode = meta.compression_mode or ''
         custom = meta.custom
         if isinstance(custom, dict):  # anything else in a hand-edited metadata.yaml is ignored
-            self.custom_data = {str(k): str(v) for k, v in custom.items()}
-        elif not folder and is_mcap(self.path):  # rosbags reads no metadata of a lone file
-            self.custom_data = _embedded_custom_data(self.path)
+            self._custom_data = {str(k): str(v) for k, v in custom.items()}
         if self.compression_mode == 'message':
             zstd = importlib.import_module(
                 'compression.zstd' if sys.version_info >= (3, 14) else 'backports.zstd'
@@ -113,6 +111,13 @@ class Rosbag2Source(Source):
             self.files = [self.path]
         self.storage_id = 'mcap' if type(storages[0]).__name__ == 'McapReader' else 'sqlite3'
         self._build_connections(list(storage.connections) if folder else [])
+
+    def _read_custom_data(self) -> dict[str, str]:
+        # rosbags reads no metadata of a lone MCAP file: its own, asked for (a second look at
+        # its summary, which opening the bag need not pay)
+        if not self.path.is_dir() and is_mcap(self.path):
+            return _embedded_custom_data(self.path)
+        return {}
 
     def _listed_files(self) -> list[Path]:
         try:

@@ -89,8 +89,7 @@ class Source(Closing):
         self.ros_distro: str | None = None
         self.compression_format = ''
         self.compression_mode = ''
-        #: rosbag2's ``custom_data`` (key -> text) where the recording has it
-        self.custom_data: dict[str, str] = {}
+        self._custom_data: dict[str, str] | None = None  #: read on first use (custom_data)
         self._closers: list[Callable[[], None]] = []
         self._closed = False
         #: what damage cost (``strict``: raise instead); :func:`open_source` sets the mode
@@ -99,6 +98,18 @@ class Source(Closing):
     def open(self) -> None:
         """Read the recording's connections and time range (:func:`open_source` calls it)."""
         raise NotImplementedError
+
+    @property
+    def custom_data(self) -> dict[str, str]:
+        """rosbag2's ``custom_data`` (key -> text) where the recording has it; read on first
+        use, so opening a recording costs nothing for it."""
+        if self._custom_data is None:
+            self._custom_data = self._read_custom_data()
+        return self._custom_data
+
+    def _read_custom_data(self) -> dict[str, str]:
+        """The ``custom_data`` :meth:`open` did not read already (none by default)."""
+        return {}
 
     @property
     def size_bytes(self) -> int:
