@@ -72,8 +72,9 @@ name, listen, connect, out_topic, in_topic = sys.argv[1:6]
 config = TransportConfig.create(mode='peer', listen=listen, connect=connect or None,
                                 shared_memory=False, wait_for_router=False)
 node = zros.Node(name, config=config)
-sub = node.create_subscription('std_msgs/msg/String', in_topic, qos=100)
-pub = node.create_publisher('std_msgs/msg/String', out_topic)
+sub = node.create_subscription('std_msgs/msg/String', in_topic, qos='keep_all')
+# keep-all: every message must arrive (a keep-last publisher drops on a full link, by design)
+pub = node.create_publisher('std_msgs/msg/String', out_topic, qos='keep_all')
 if not pub.wait_for_subscribers(20):
     sys.exit('no subscriber showed up')
 for i in range(50):
