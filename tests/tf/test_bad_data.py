@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from zros.tf import Buffer, ConnectivityException, LookupException
+from zros.tf import Buffer, LookupException
 
 GOOD = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 
@@ -84,30 +84,6 @@ def test_a_loop_is_refused_and_the_tree_keeps_working(caplog: pytest.LogCaptureF
     assert len(told) == 2  # the loop once, the self transform once
     assert buffer.rejections.counts['TF_LOOP'] == 2
     assert buffer.lookup_transform('a', 'c', 1).transform.translation.x == 2.0
-
-
-def test_a_second_parent_is_refused(caplog: pytest.LogCaptureFixture) -> None:
-    buffer = Buffer()
-    assert buffer.add('odom', 'base', 1, GOOD, 'odometry')
-    with caplog.at_level(logging.WARNING, 'zros.tf'):
-        assert not buffer.add('map', 'base', 2, GOOD, 'slam')
-        assert not buffer.add('map', 'base', 3, GOOD, 'slam')
-    assert warnings(caplog) == [
-        'TF_TWO_PARENTS: Ignoring transform for child_frame_id "base" from authority "slam" '
-        'with frame_id "map": "base" already has the parent "odom" (from authority '
-        '"odometry"), and a frame has one parent'
-    ]
-    assert buffer.all_frames_as_string() == 'Frame base exists with parent odom.\n'
-
-
-def test_a_live_edge_whose_data_left_the_window_may_change_parent() -> None:
-    buffer = Buffer(cache_time=1.0)
-    assert buffer.add('odom', 'base', 10**9, GOOD, 'odometry')
-    assert not buffer.add('map', 'base', 15 * 10**8, GOOD, 'slam')  # odom's data is fresh
-    assert buffer.add('map', 'base', 25 * 10**8, GOOD, 'slam')  # 1.5 s later: it expired
-    assert buffer.all_frames_as_string() == 'Frame base exists with parent map.\n'
-    with pytest.raises(ConnectivityException, match='"odom" is in the tree rooted at "odom"'):
-        buffer.lookup_transform('odom', 'base', 0)  # odom is known still, alone
 
 
 def test_repeated_and_old_data(caplog: pytest.LogCaptureFixture) -> None:

@@ -22,6 +22,7 @@ from zros.tf.cache import OutOfRange
 from zros.tf.checks import Authority
 from zros.tf.edge_tree import EdgeTree
 from zros.tf.errors import (
+    ConnectivityException,
     ExtrapolationException,
     InvalidArgumentException,
     TransformException,
@@ -128,6 +129,7 @@ class Buffer:
                 edge.authority = authority
                 if edge.static:  # chains fold static edges into constants: fold anew
                     self._tree.changed()
+                self._tree.inserted(child, edge)
                 return True
         if refused == 'TF_OLD_DATA':
             message = checks.old_data(child, stamp, authority, edge.max_age or 0, edge.newest)
@@ -150,17 +152,24 @@ class Buffer:
         if target == source:
             self._tree.check_known(target, source)
             return IDENTITY, stamp
-        chain = self._tree.chain(target, source)
         if stamp == 0:
-            stamp = latest_common(chain)
+            stamp = latest_common(self._tree.chain(target, source))
+        return self._walk(target, source, stamp), stamp
+
+    def _walk(self, target: str, source: str, stamp: int) -> Pose7:
+        """T_target_source at the instant ``stamp``; through a frame that changed parent, along
+        the chain as the tree was then."""
+        chain = self._tree.fixed_chain(target, source)
+        if chain is None:
+            chain = self._tree.chain_at(target, source, stamp)
         try:
             up = through(chain.up_steps, stamp)
             down = through(chain.down_steps, stamp)
         except OutOfRange as exc:
             raise extrapolation(chain, stamp, exc) from None
         if not chain.down:
-            return up, stamp
-        return compose(invert(down), up), stamp
+            return up
+        return compose(invert(down), up)
 
     def lookup_transform(
         self,
@@ -346,7 +355,9 @@ class Buffer:
                 self._tree.check_known(target, source)
                 chain = None
             else:
-                chain = self._tree.chain(target, source)
+                chain = self._tree.fixed_chain(target, source)
+                if chain is None:
+                    return self._one_by_one(target, source, stamps, strict)
                 snapshot = [
                     (edge, edge_data(edge, self.cache_time is not None)) for _, edge in chain.edges
                 ]
@@ -368,6 +379,30 @@ class Buffer:
             q[~valid] = np.nan
         return t, q
 
+    def _one_by_one(
+        self, target: str, source: str, stamps: Stamps, strict: bool
+    ) -> tuple[Floats, Floats]:
+        """What :meth:`lookup_transforms` gives, one stamp at a time: for a chain through a
+        frame that changed parent, whose edges depend on the time (under the lock). A stamp at
+        which the frames are not joined is NaN too, unless they never are."""
+        translations = np.full((len(stamps), 3), np.nan)
+        rotations = np.full((len(stamps), 4), np.nan)
+        apart: ConnectivityException | None = None
+        for number, stamp in enumerate(stamps.tolist()):
+            try:
+                pose = self._walk(target, source, stamp)
+            except (ExtrapolationException, ConnectivityException) as exc:
+                if strict:
+                    raise type(exc)(f'times[{number}]: {exc}') from None
+                if isinstance(exc, ConnectivityException):
+                    apart = apart or exc
+                continue
+            translations[number] = pose[:3]
+            rotations[number] = pose[3:]
+        if apart is not None and np.isnan(translations).all():
+            raise apart
+        return translations, rotations
+
     def stamps(self, target_frame: str, source_frame: str) -> Stamps:
         """Every stamp (int64 ns) at which a moving edge of the chain has a transform and the
         whole chain is covered, sorted: where the chain's transform changes."""
@@ -376,7 +411,9 @@ class Buffer:
         with self._lock:
             if target == source:
                 return np.zeros(0, dtype=np.int64)
-            chain = self._tree.chain(target, source)
+            chain = self._tree.fixed_chain(target, source)
+            if chain is None:
+                return self._changing_stamps(target, source)
             moving = [edge.stamps.copy() for _, edge in chain.moving]
         if not moving:
             return np.zeros(0, dtype=np.int64)
@@ -384,6 +421,20 @@ class Buffer:
         high = min(int(s[-1]) for s in moving)
         every = np.unique(np.concatenate(moving))
         return every[(every >= low) & (every <= high)]
+
+    def _changing_stamps(self, target: str, source: str) -> Stamps:
+        """:meth:`stamps` for a chain through a frame that changed parent: the stamps of every
+        edge above the two frames under any parent, where a lookup succeeds (under the lock)."""
+        edges = self._tree.reachable((target, source))
+        every = np.unique(np.concatenate([edge.stamps for edge in edges if not edge.static]))
+        keep = np.zeros(len(every), dtype=bool)
+        for number, stamp in enumerate(every.tolist()):
+            try:
+                self._walk(target, source, stamp)
+            except (ExtrapolationException, ConnectivityException):
+                continue
+            keep[number] = True
+        return every[keep]
 
     # --- transforming data -----------------------------------------------------------------
 
@@ -495,6 +546,7 @@ class Buffer:
             repeated = edge.extend(stamps, rows)
             edge.authority = authority
             self._tree.changed()
+            self._tree.inserted(child, edge)
         if repeated:
             message = checks.repeated_batch(repeated, child, parent, authority)
             self.rejections.report(checks.REPEATED_DATA, authority, child, message)

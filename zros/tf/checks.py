@@ -24,7 +24,6 @@ SELF_TRANSFORM = 'TF_SELF_TRANSFORM'
 NAN_INPUT = 'TF_NAN_INPUT'
 DENORMALIZED_QUATERNION = 'TF_DENORMALIZED_QUATERNION'
 LOOP = 'TF_LOOP'
-TWO_PARENTS = 'TF_TWO_PARENTS'
 TOO_MANY_FRAMES = 'TF_TOO_MANY_FRAMES'
 OLD_DATA = 'TF_OLD_DATA'
 REPEATED_DATA = 'TF_REPEATED_DATA'
@@ -96,17 +95,6 @@ def repeated_batch(count: int, child: str, parent: str, authority: Authority) ->
     return (
         f'TF_REPEATED_DATA ignoring {count} transforms with redundant timestamps for '
         f'frame {child} (parent {parent}) according to authority {authority}'
-    )
-
-
-def two_parents(
-    child: str, parent: str, authority: Authority, old_parent: str, old_authority: Authority
-) -> str:
-    """A transform naming a second parent for a frame."""
-    return (
-        f'TF_TWO_PARENTS: Ignoring transform for child_frame_id "{child}" from '
-        f'authority "{authority}" with frame_id "{parent}": "{child}" already has '
-        f'the parent "{old_parent}" (from authority "{old_authority}"), and a frame has one parent'
     )
 
 
