@@ -4,6 +4,7 @@ waiting lookups and transforming messages."""
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import math
 import threading
@@ -22,6 +23,7 @@ from zros.tf import (
     ExtrapolationException,
     LookupException,
     StaticTransformBroadcaster,
+    StaticTransformListener,
     TransformBroadcaster,
     TransformListener,
 )
@@ -282,3 +284,89 @@ def test_rclpy_style_arguments(zros_node: Callable[..., Node]) -> None:
     with pytest.raises(ValueError, match='unknown QoS preset'):
         TransformListener(buffer, node, qos='fast')
     listener.unregister()
+
+
+def test_static_only_listeners(zros_node: Callable[..., Node]) -> None:
+    """rclpy's StaticTransformListener, and TransformListener(static_only=True, tf_topic=...)."""
+    talker = zros_node('robot')
+    StaticTransformBroadcaster(talker).send_transform(stamped('base', 'laser', 0, (0.2, 0, 0)))
+    moving = TransformBroadcaster(talker)
+    fixed = Buffer()
+    static_listener = StaticTransformListener(fixed, zros_node('fixed_frames'))
+    assert static_listener.topics == ('/tf_static',)
+    everything = Buffer()
+    listener = TransformListener(everything, zros_node('all_frames'), tf_topic='/robot/tf')
+    assert listener.topics == ('/robot/tf', '/tf_static')
+    assert wait_for(lambda: 'laser' in fixed.frames() and 'laser' in everything.frames(), 10)
+    assert not moving.publisher.wait_for_subscribers(0.5)  # nobody listens to /tf
+    renamed = TransformBroadcaster(zros_node('renamed', remap=['/tf:=/robot/tf']))
+    assert renamed.publisher.wait_for_subscribers()
+    moving.send_transform(stamped('odom', 'base', 10**9, (1.0, 0, 0)))  # on /tf: nobody
+    renamed.send_transform(stamped('odom', 'base', 2 * 10**9, (2.0, 0, 0)))  # on /robot/tf
+    found = everything.lookup_transform('odom', 'laser', 0, timeout=10.0).transform.translation
+    assert found.x == pytest.approx(2.2)
+    assert everything.lookup_transform('odom', 'base', 0).header.stamp.sec == 2  # not /tf's
+    assert 'odom' not in fixed.frames()
+    static_listener.unregister()
+    listener.unregister()
+
+
+def test_waiting_for_a_transform_without_blocking() -> None:
+    """rclpy's wait_for_transform_async and lookup_transform_async (and the _full ones)."""
+    buffer = Buffer()
+    future = buffer.wait_for_transform_async('map', 'base', 10**9)
+    full = buffer.wait_for_transform_full_async('map', 10**9, 'base', 10**9, 'map')
+    assert not future.done() and not full.done()
+    buffer.set_transform(stamped('map', 'odom', 10**9, (1.0, 0, 0)), 'slam')
+    assert not future.done()  # map -> base is not there yet
+    buffer.set_transform(stamped('odom', 'base', 10**9, (2.0, 0, 0)), 'odometry')
+    assert future.result(0).transform.translation.x == 3.0
+    assert full.result(0).child_frame_id == 'base'
+    assert buffer.wait_for_transform_async('map', 'base', 0).result(0).header.stamp.sec == 1
+    with pytest.raises(zros.ZrosError, match='empty'):
+        buffer.wait_for_transform_async('', 'base', 0).result(0)  # a bad argument: at once
+    assert not buffer._watchers
+
+    async def main() -> tuple[Message, Message]:
+        waiting = asyncio.ensure_future(buffer.lookup_transform_async('map', 'arm', 2 * 10**9))
+        also = asyncio.ensure_future(
+            buffer.lookup_transform_full_async('map', 2 * 10**9, 'arm', 2 * 10**9, 'map')
+        )
+        await asyncio.sleep(0)
+        assert not waiting.done()
+        buffer.set_transform(stamped('map', 'odom', 2 * 10**9, (1.0, 0, 0)), 'slam')
+        buffer.set_transform(stamped('odom', 'base', 2 * 10**9, (2.0, 0, 0)), 'odometry')
+        buffer.set_transform_static(stamped('base', 'arm', 0, (0.5, 0, 0)), 'urdf')
+        return await asyncio.wait_for(waiting, 10), await asyncio.wait_for(also, 10)
+
+    first, second = asyncio.run(main())
+    assert first.transform.translation.x == second.transform.translation.x == 3.5
+
+
+def test_an_async_wait_fails_on_ctrl_c() -> None:
+    buffer = Buffer()
+    future = buffer.wait_for_transform_async('map', 'base', 0)
+    try:
+        interrupt()
+        with pytest.raises(KeyboardInterrupt):
+            future.result(10)
+        buffer.set_transform(stamped('map', 'base', 10**9, (1.0, 0, 0)), 'late')
+        assert not buffer._watchers
+    finally:
+        clear_interrupt()
+
+
+def test_transform_full_carries_a_message_through_time() -> None:
+    """A point seen 1 m ahead of the robot at 1 s, where the robot is at 2 s after driving
+    1 m: at its own origin (through odom, which does not move)."""
+    buffer = Buffer()
+    buffer.set_transform(stamped('odom', 'base', 10**9, (0.0, 0, 0)), 'odometry')
+    buffer.set_transform(stamped('odom', 'base', 2 * 10**9, (1.0, 0, 0)), 'odometry')
+    point = zros.Message('geometry_msgs/msg/PointStamped')
+    point.header.frame_id, point.header.stamp = 'base', zros.Time(10**9).to_msg()
+    point.point.x = 1.0
+    then = buffer.transform_full(point, 'base', 2 * 10**9, 'odom')
+    assert (then.point.x, then.point.y) == pytest.approx((0.0, 0.0), abs=TOL)
+    assert then.header.frame_id == 'base' and then.header.stamp.sec == 2
+    with pytest.raises(ExtrapolationException):
+        buffer.transform_full(point, 'base', 3 * 10**9, 'odom')

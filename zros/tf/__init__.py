@@ -19,9 +19,10 @@ from zros.tf.errors import (
     ExtrapolationException,
     InvalidArgumentException,
     LookupException,
+    TimeoutException,
     TransformException,
 )
-from zros.tf.listener import TransformListener
+from zros.tf.listener import StaticTransformListener, TransformListener
 from zros.tf.recording import trajectory
 from zros.tf.report import EdgeInfo
 
@@ -33,6 +34,8 @@ __all__ = [
     'InvalidArgumentException',
     'LookupException',
     'StaticTransformBroadcaster',
+    'StaticTransformListener',
+    'TimeoutException',
     'TransformBroadcaster',
     'TransformException',
     'TransformListener',

@@ -15,6 +15,7 @@ import numpy as np
 
 from zros.cdr import Message
 from zros.runtime.clock import Duration, Time
+from zros.runtime.futures import ServiceFuture
 from zros.runtime.signal import Signal, interrupted
 from zros.tf import checks
 from zros.tf.bag_transforms import read_transforms
@@ -75,6 +76,9 @@ class Buffer:
         self.cache_time: int | None = None if window is None else round(window * _NS)
         self._lock = threading.Lock()
         self._arrived = Signal()
+        #: the pending ``*_async`` waits, each tried as transforms arrive (True: it is done)
+        self._watchers: list[Callable[[], bool]] = []
+        self._watch_lock = threading.Lock()
         self.rejections = checks.Rejections()  #: refused transforms: ``.counts`` by tf2 code
         self._tree = EdgeTree(self.cache_time, self.rejections)  # under _lock
 
@@ -99,7 +103,17 @@ class Buffer:
         )
         if added:
             self._arrived.notify()
+            if self._watchers:
+                self._try_watchers()
         return added
+
+    def _try_watchers(self) -> None:
+        with self._watch_lock:
+            watchers = list(self._watchers)
+        done = [watcher for watcher in watchers if watcher()]
+        if done:
+            with self._watch_lock:
+                self._watchers = [w for w in self._watchers if w not in done]
 
     def add(
         self,
@@ -309,6 +323,71 @@ class Buffer:
         )
         return _debug(failure, return_debug_tuple)
 
+    # --- waiting without blocking (rclpy's async API) ------------------------------------
+
+    def wait_for_transform_async(
+        self, target_frame: str, source_frame: str, time: TimeLike
+    ) -> ServiceFuture[Message]:
+        """A future that is done with the transform once :meth:`lookup_transform` can give it
+        (rclpy's): ``await`` it or ``.result(timeout)``. It is tried as transforms arrive, on
+        the thread that adds them; a bad argument fails it at once, Ctrl-C fails it with
+        KeyboardInterrupt."""
+        return self._when_found(lambda: self.lookup_transform(target_frame, source_frame, time))
+
+    def wait_for_transform_full_async(
+        self,
+        target_frame: str,
+        target_time: TimeLike,
+        source_frame: str,
+        source_time: TimeLike,
+        fixed_frame: str,
+    ) -> ServiceFuture[Message]:
+        """:meth:`wait_for_transform_async` for :meth:`lookup_transform_full`."""
+        return self._when_found(
+            lambda: self.lookup_transform_full(
+                target_frame, target_time, source_frame, source_time, fixed_frame
+            )
+        )
+
+    async def lookup_transform_async(
+        self, target_frame: str, source_frame: str, time: TimeLike
+    ) -> Message:
+        """:meth:`lookup_transform`, waiting for the data without blocking an event loop."""
+        return await self.wait_for_transform_async(target_frame, source_frame, time)
+
+    async def lookup_transform_full_async(
+        self,
+        target_frame: str,
+        target_time: TimeLike,
+        source_frame: str,
+        source_time: TimeLike,
+        fixed_frame: str,
+    ) -> Message:
+        """:meth:`lookup_transform_full`, waiting for the data without blocking an event loop."""
+        return await self.wait_for_transform_full_async(
+            target_frame, target_time, source_frame, source_time, fixed_frame
+        )
+
+    def _when_found(self, lookup: Callable[[], Message]) -> ServiceFuture[Message]:
+        future: ServiceFuture[Message] = ServiceFuture()
+
+        def attempt() -> bool:
+            if future.done():  # Ctrl-C failed it
+                return True
+            try:
+                future.settle(lookup())
+            except InvalidArgumentException as exc:  # no transform will mend it
+                future.settle(exc)
+            except TransformException:
+                return False
+            return True
+
+        if not attempt():
+            with self._watch_lock:
+                self._watchers.append(attempt)
+            attempt()  # a transform may have come before the watcher was in place
+        return future
+
     def _attempt(self, attempt: Callable[[], T], timeout: TimeoutLike) -> T:
         """``attempt()`` under the lock, once it stops raising TransformException or
         ``timeout`` runs out (then it raises). KeyboardInterrupt on Ctrl-C."""
@@ -448,6 +527,22 @@ class Buffer:
         ``PoseWithCovarianceStamped``) in ``target_frame``, at its header's stamp."""
         transform = self.lookup_transform(
             target_frame, obj.header.frame_id, obj.header.stamp, timeout
+        )
+        return transform_stamped(obj, transform)
+
+    def transform_full(
+        self,
+        obj: Message,
+        target_frame: str,
+        target_time: TimeLike,
+        fixed_frame: str,
+        timeout: TimeoutLike = None,
+    ) -> Message:
+        """``obj`` (as for :meth:`transform`), taken at its header's stamp, in
+        ``target_frame`` at ``target_time``, through ``fixed_frame`` (a frame that does not
+        move between the two times): :meth:`lookup_transform_full` applied."""
+        transform = self.lookup_transform_full(
+            target_frame, target_time, obj.header.frame_id, obj.header.stamp, fixed_frame, timeout
         )
         return transform_stamped(obj, transform)
 

@@ -23,3 +23,9 @@ class ExtrapolationException(TransformException):
 
 class InvalidArgumentException(TransformException):
     """An argument no lookup can take: an empty frame name, a bad time or array."""
+
+
+class TimeoutException(TransformException):
+    """tf2's name for a wait that ran out. zros's lookups raise what is still missing when
+    their ``timeout`` ends (as tf2_ros's buffer does), so none raises this; it is here for
+    code that catches it."""

@@ -69,7 +69,7 @@ class _Sender:
 class TransformListener:
     """Subscribes ``/tf`` and ``/tf_static`` (remappings honoured) and adds what arrives to
     ``buffer``. Static transforms published before the listener started arrive too (the
-    static topic is transient local)."""
+    static topic is transient local). ``static_only`` listens to ``tf_static_topic`` alone."""
 
     def __init__(
         self,
@@ -79,6 +79,9 @@ class TransformListener:
         spin_thread: bool = False,
         qos: QoSLike | None = None,
         static_qos: QoSLike | None = None,
+        tf_topic: str = '/tf',
+        tf_static_topic: str = '/tf_static',
+        static_only: bool = False,
     ) -> None:
         # rclpy's names: ``spin_thread`` is accepted and has nothing to do (the listener fills
         # the buffer on the delivery threads, never waiting for a spin); ``qos`` and
@@ -97,13 +100,16 @@ class TransformListener:
         self._clock = context.clock
         self._last_now = 0  #: the clock when transforms last came (ns)
         self._jump_lock = threading.Lock()
-        self.topics = (context.resolve_name('/tf'), context.resolve_name('/tf_static'))
+        static_topic = (context.resolve_name(tf_static_topic), static_qos, True)
+        if static_only:
+            listened = [static_topic]
+        else:
+            listened = [(context.resolve_name(tf_topic), qos, False), static_topic]
+        #: the topics listened to, resolved
+        self.topics = tuple(topic for topic, _, _ in listened)
         self._taps: list[RawTap] = []
         try:
-            for topic, topic_qos, static in (
-                (self.topics[0], qos, False),
-                (self.topics[1], static_qos, True),
-            ):
+            for topic, topic_qos, static in listened:
                 self._taps.append(
                     RawTap(
                         self.node, topic, TF_TYPE, qos=topic_qos, key=None,
@@ -174,3 +180,25 @@ class TransformListener:
 
     def __repr__(self) -> str:
         return f'<zros.tf.TransformListener on {", ".join(self.topics)}>'
+
+
+class StaticTransformListener(TransformListener):
+    """A listener of ``/tf_static`` alone (rclpy's): a buffer of the robot's fixed frames."""
+
+    def __init__(
+        self,
+        buffer: Buffer,
+        node: NodeLike | None = None,
+        *,
+        spin_thread: bool = False,
+        static_qos: QoSLike | None = None,
+        tf_static_topic: str = '/tf_static',
+    ) -> None:
+        super().__init__(
+            buffer,
+            node,
+            spin_thread=spin_thread,
+            static_qos=static_qos,
+            tf_static_topic=tf_static_topic,
+            static_only=True,
+        )
