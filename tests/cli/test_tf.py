@@ -148,7 +148,54 @@ def test_bad_rate(cli: Cli, testdata: Path) -> None:
     assert result.returncode == 1 and '--rate must be above 0' in result.stderr
 
 
-@pytest.mark.parametrize('verb', ['echo', 'frames'])
+@pytest.mark.parametrize('verb', ['echo', 'frames', 'monitor'])
 def test_help_has_examples(cli: Cli, verb: str) -> None:
     result = cli.run('tf', verb, '--help')
     assert result.returncode == 0 and 'examples: zros tf' in result.stdout
+
+
+def test_live_monitor_reports_delays_per_frame_and_broadcaster(
+    cli: Cli, zros_node: Callable[..., Node]
+) -> None:
+    """tf2_monitor's report: transforms stamped 0.2 s before they are sent arrive at least
+    0.2 s late; the chain's frames, its net delay, and the publishing node by name."""
+    import time
+
+    node = zros_node('robot')
+    StaticTransformBroadcaster(node).send_transform(stamped('base_link', 'laser', 0, 0.25))
+    broadcaster = TransformBroadcaster(node)
+
+    def drive() -> None:
+        broadcaster.send_transform(stamped('odom', 'base_link', time.time_ns() - 2 * 10**8, 1.0))
+
+    def report(*args: str) -> list[str]:
+        running = cli.start('tf', 'monitor', *args, '--period', '2', '--count', '1')
+        while running.process.poll() is None:
+            drive()
+            with contextlib.suppress(AssertionError):  # lines until 0.05 s pass or it ends
+                running.wait_line(lambda text: False, timeout=0.05)
+        assert running.process.returncode == 0, running.errors.text()
+        return running.seen
+
+    seen = report('odom', 'laser')
+    assert seen[:2] == ['RESULTS: for odom to laser', 'Chain is: odom -> base_link -> laser']
+    net = seen[2].split()
+    assert net[:4] == ['Net', 'delay', 'avg', '='] and 0.2 <= float(net[4].rstrip(':')) < 5
+    frames = [line for line in seen if line.startswith('Frame: ')]
+    assert frames[0].startswith('Frame: base_link published by ') and 'robot' in frames[0]
+    delay = frames[0].split('Average Delay: ')[1].split()
+    assert 0.2 <= float(delay[0]) < 5 and float(delay[0]) <= float(delay[3])  # avg <= max
+    assert frames[1].startswith('Frame: laser published by ') and frames[1].endswith('(static)')
+    broadcasters = seen[seen.index('All Broadcasters:') + 1 :]
+    assert any(' Hz, Average Delay: ' in line and 'robot' in line for line in broadcasters)
+
+    everything = report()
+    assert everything[0] == 'RESULTS: for all Frames'
+    assert sum(line.startswith('Frame: ') for line in everything) == 2
+
+
+def test_monitor_arguments(cli: Cli) -> None:
+    one = cli.run('tf', 'monitor', 'map')
+    assert one.returncode == 1 and 'give two frames' in one.stderr
+    period = cli.run('tf', 'monitor', '--period', '0')
+    assert period.returncode == 1 and '--period must be above 0' in period.stderr

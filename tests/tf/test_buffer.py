@@ -377,3 +377,17 @@ def test_get_latest_common_time_is_what_a_time_zero_lookup_uses() -> None:
     buffer.add('elsewhere', 'cam', 0, (0, 0, 0, 0, 0, 0, 1), 'static', static=True)
     with pytest.raises(ConnectivityException):
         buffer.get_latest_common_time('map', 'cam')
+
+
+def test_the_frames_of_a_chain() -> None:
+    """Buffer.chain (tf2's _chainAsVector): source first, through the common ancestor."""
+    buffer = Buffer()
+    one = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    for parent, child in (('map', 'odom'), ('odom', 'base'), ('base', 'laser'), ('base', 'arm')):
+        buffer.add(parent, child, 10**9, one, 'test')
+    assert buffer.chain('arm', 'laser') == ['laser', 'base', 'arm']
+    assert buffer.chain('map', 'laser') == ['laser', 'base', 'odom', 'map']
+    assert buffer.chain('laser', 'map') == ['map', 'odom', 'base', 'laser']
+    assert buffer.chain('base', 'base') == ['base']
+    with pytest.raises(LookupException, match='"lazer"'):
+        buffer.chain('map', 'lazer')

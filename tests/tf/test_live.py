@@ -370,3 +370,26 @@ def test_transform_full_carries_a_message_through_time() -> None:
     assert then.header.frame_id == 'base' and then.header.stamp.sec == 2
     with pytest.raises(ExtrapolationException):
         buffer.transform_full(point, 'base', 3 * 10**9, 'odom')
+
+
+def test_a_listeners_on_message_sees_each_message_and_may_fail(
+    zros_node: Callable[..., Node], caplog: pytest.LogCaptureFixture
+) -> None:
+    seen: list[tuple[int, str, bool]] = []
+
+    def on_message(message: Message, authority: object, static: bool) -> None:
+        seen.append((len(message.transforms), str(authority), static))
+        raise RuntimeError('a bug in the callback')
+
+    buffer = Buffer()
+    listener = TransformListener(buffer, zros_node('watcher'), on_message=on_message)
+    broadcaster = TransformBroadcaster(zros_node('odometry'))
+    assert broadcaster.publisher.wait_for_subscribers()
+    with caplog.at_level(logging.ERROR, 'zros.tf'):
+        broadcaster.send_transform(
+            [stamped('odom', 'base', 10**9, (1.0, 0, 0)), stamped('base', 'arm', 10**9, (1, 0, 0))]
+        )
+        assert buffer.can_transform('odom', 'arm', 10**9, timeout=10.0)  # in despite the bug
+        assert wait_for(lambda: 'a bug in the callback' in caplog.text, 10)
+    assert seen[0][0] == 2 and seen[0][1] and not seen[0][2]  # the sender, named when shown
+    listener.unregister()

@@ -567,6 +567,21 @@ class Buffer:
 
     # --- what it holds ---------------------------------------------------------------------
 
+    def chain(self, target_frame: str, source_frame: str) -> list[str]:
+        """The frames a lookup walks from ``source_frame`` to ``target_frame``, both included
+        (tf2's ``_chainAsVector``); Lookup or ConnectivityException as a lookup raises."""
+        target = clean_frame(target_frame, 'target_frame')
+        source = clean_frame(source_frame, 'source_frame')
+        with self._lock:
+            if target == source:
+                self._tree.check_known(target, source)
+                return [source]
+            found = self._tree.chain(target, source)
+        up = [frame for frame, _ in found.up]
+        down = [frame for frame, _ in found.down]
+        top = (found.up[-1][1] if found.up else found.down[-1][1]).parent
+        return [*up, top, *reversed(down)]
+
     def edges(self) -> list[EdgeInfo]:
         """What the buffer holds for each frame that has a parent, sorted by frame."""
         with self._lock:

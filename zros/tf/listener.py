@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 from zenoh import Sample
 
-from zros.cdr import CdrError
+from zros.cdr import CdrError, Message
 from zros.cdr.classes import compiled_decoder
 from zros.cdr.message import decode
 from zros.pubsub.senders import describe_sender
@@ -69,7 +69,12 @@ class _Sender:
 class TransformListener:
     """Subscribes ``/tf`` and ``/tf_static`` (remappings honoured) and adds what arrives to
     ``buffer``. Static transforms published before the listener started arrive too (the
-    static topic is transient local). ``static_only`` listens to ``tf_static_topic`` alone."""
+    static topic is transient local). ``static_only`` listens to ``tf_static_topic`` alone.
+
+    ``on_message(message, authority, static)`` (zros's own; ``zros tf monitor`` uses it) is
+    called with each ``TFMessage`` once its transforms are in the buffer, on the delivery
+    thread; what it raises is logged.
+    """
 
     def __init__(
         self,
@@ -82,6 +87,7 @@ class TransformListener:
         tf_topic: str = '/tf',
         tf_static_topic: str = '/tf_static',
         static_only: bool = False,
+        on_message: Callable[[Message, Authority, bool], object] | None = None,
     ) -> None:
         # rclpy's names: ``spin_thread`` is accepted and has nothing to do (the listener fills
         # the buffer on the delivery threads, never waiting for a spin); ``qos`` and
@@ -90,6 +96,7 @@ class TransformListener:
         qos = LISTENER_QOS if qos is None else as_qos(qos)
         static_qos = STATIC_LISTENER_QOS if static_qos is None else as_qos(static_qos)
         self.buffer = buffer
+        self._on_message = on_message
         self.node = node if node is not None else default_node()
         context = self.node.context
         self._context = context
@@ -169,6 +176,11 @@ class TransformListener:
             authority = self._authority(sample, topic)
             for transform in message.transforms:
                 add(transform, authority)
+            if self._on_message is not None:
+                try:
+                    self._on_message(message, authority, static)
+                except Exception:
+                    _log.exception('on_message of the listener on %s raised', topic)
 
     def unregister(self) -> None:
         """Stop listening (the buffer keeps what it holds)."""

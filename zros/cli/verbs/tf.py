@@ -1,4 +1,5 @@
-"""``zros tf echo`` (tf2_echo) and ``zros tf frames`` (view_frames), live or from a recording."""
+"""``zros tf echo`` (tf2_echo) and ``zros tf frames`` (view_frames), live or from a recording,
+and ``zros tf monitor`` (tf2_monitor), live."""
 
 from __future__ import annotations
 
@@ -72,6 +73,26 @@ def add_parser(
     )
     frames_parser.set_defaults(run=frames)
     add_connection_options(frames_parser)
+
+    monitor_parser = verbs.add_parser(
+        'monitor',
+        help='how late transforms arrive, per frame and broadcaster (tf2_monitor)',
+        description='Listen to /tf and /tf_static and print, every PERIOD seconds, what '
+        'tf2_monitor prints: for each frame, who publishes it and how late its transforms '
+        "arrive (arrival on this machine's clock less the stamp: the clocks must agree, as "
+        'for tf2_monitor), and for each broadcaster its rate and delay. With TARGET and '
+        'SOURCE, only the frames of that chain, and the delay of its latest transform '
+        '(sampled twice a second).',
+        epilog='examples: zros tf monitor; zros tf monitor map base_link --period 5 --count 1',
+    )
+    monitor_parser.add_argument('frames', metavar='TARGET SOURCE', nargs='*', help='a chain')
+    monitor_parser.add_argument(
+        '--period', type=float, default=10.0, metavar='S', help='seconds between reports '
+        '(default 10)'
+    )  # fmt: skip
+    monitor_parser.add_argument('--count', type=int, metavar='N', help='stop after N reports')
+    monitor_parser.set_defaults(run=monitor)
+    add_connection_options(monitor_parser)
 
 
 # --- echo --------------------------------------------------------------------------------------
@@ -251,3 +272,52 @@ def _multiline_measure() -> Measure:
         return max(w for w, _ in sizes), sum(h for _, h in sizes) * 1.25
 
     return measure
+
+
+# --- monitor -----------------------------------------------------------------------------------
+
+
+def monitor(args: argparse.Namespace) -> int:
+    if len(args.frames) not in (0, 2):
+        raise CommandError('give two frames (TARGET SOURCE) for a chain, or none for all frames')
+    if args.period <= 0:
+        raise CommandError('--period must be above 0')
+    from zros.tf import Buffer, TransformException, TransformListener
+    from zros.tf.monitor import DelayMonitor
+
+    delays = DelayMonitor()
+    reports = 0
+    with open_node(args) as node:
+        buffer = Buffer()
+        listener = TransformListener(buffer, node, on_message=delays.record)
+        chain: list[str] | None = None
+        told = False
+        sample = min(0.5, args.period)
+        due = time.monotonic() + args.period
+        try:
+            while args.count is None or reports < args.count:
+                time.sleep(max(0.0, min(sample, due - time.monotonic())))
+                if args.frames:
+                    target, source = args.frames
+                    try:
+                        found = buffer.lookup_transform(target, source, 0)
+                        chain = buffer.chain(target, source)
+                    except TransformException as exc:
+                        if not told:
+                            print(f'Waiting for transform chain to become available between '
+                                  f'{target} and {source}: {exc}', file=sys.stderr)  # fmt: skip
+                            told = True
+                    else:
+                        stamp = found.header.stamp
+                        delays.sample_chain(stamp.sec * _NS + stamp.nanosec)
+                if time.monotonic() < due:
+                    continue
+                due += args.period
+                node.graph.refresh()  # broadcasters are named from the graph
+                out(('\n\n' if reports else '') + delays.report(chain if args.frames else None))
+                reports += 1
+        except KeyboardInterrupt:
+            pass
+        finally:
+            listener.unregister()
+    return 0
