@@ -391,17 +391,29 @@ def _matching(
     offsets = entries['offset'].astype(np.int64)
     good = np.zeros(len(offsets), np.bool_)
     inside = np.flatnonzero((offsets >= 0) & (offsets + _HEAD <= len(raw)))
-    heads = raw[offsets[inside][:, None] + np.arange(_HEAD)]
+    good[inside] = _records_match(raw, channel, offsets[inside], times[inside])[0]
+    return good
+
+
+def _records_match(
+    raw: npt.NDArray[np.uint8],
+    channel: int,
+    offsets: npt.NDArray[np.int64],
+    times: npt.NDArray[np.int64],
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.int64]]:
+    """Whether each offset (all inside ``raw``) holds a message record of ``channel`` at its
+    time, and the records' lengths."""
+    heads = raw[offsets[:, None] + np.arange(_HEAD)]
     lengths = heads[:, 1:9].copy().view('<u8')[:, 0].astype(np.int64)
     recorded = heads[:, 15:23].copy().view('<u8')[:, 0].astype(np.int64)
-    good[inside] = (
+    good = (
         (heads[:, 0] == _MESSAGE)
         & (heads[:, 9:11].copy().view('<u2')[:, 0] == channel)
         & (lengths >= _HEAD - 9)
-        & (offsets[inside] + 9 + lengths <= len(raw))
-        & (recorded == times[inside])
+        & (offsets + 9 + lengths <= len(raw))
+        & (recorded == times)
     )
-    return good
+    return good, lengths
 
 
 def _block(data: bytes | memoryview, channel: int, entries: npt.NDArray[np.void]) -> _Run:
@@ -411,7 +423,7 @@ def _block(data: bytes | memoryview, channel: int, entries: npt.NDArray[np.void]
     raw = np.frombuffer(data, np.uint8)
     if len(offsets) and (offsets.min() < 0 or offsets.max() + _HEAD > len(raw)):
         raise Unsupported('message offset out of the chunk')
-    if not _matching(raw, channel, entries).all():
+    good, lengths = _records_match(raw, channel, offsets, times)
+    if not good.all():
         raise Unsupported('message index does not match the chunk')
-    lengths = raw[offsets[:, None] + np.arange(1, 9)].copy().view('<u8')[:, 0].astype(np.int64)
     return _Run(times, offsets, Payloads(data, offsets + _HEAD, offsets + 9 + lengths))
