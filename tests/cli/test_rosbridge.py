@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import re
 import signal
 from typing import Any
@@ -104,17 +105,17 @@ def test_the_safety_options(cli: Cli, zros_node: Any) -> None:
     assert len(refusals) == 1 and '--allow-origin' in refusals[0]  # one line, naming the option
 
 
-def test_the_gateway_commands_share_their_listen_and_safety_options() -> None:
-    import argparse
-
+def parser_of(command: str) -> argparse.ArgumentParser:
+    """The parser of ``zros COMMAND``."""
     from zros.cli.main import build_parser
 
-    def parser_of(command: str) -> argparse.ArgumentParser:
-        parser = build_parser([command])
-        (commands,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
-        found: argparse.ArgumentParser = commands.choices[command]
-        return found
+    parser = build_parser([command])
+    (commands,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    found: argparse.ArgumentParser = commands.choices[command]
+    return found
 
+
+def test_the_gateway_commands_share_their_listen_and_safety_options() -> None:
     def options(command: str) -> dict[str, tuple[object, ...]]:
         return {
             action.option_strings[-1]: (
@@ -158,15 +159,19 @@ def test_the_gateway_commands_share_their_listen_and_safety_options() -> None:
     assert read[0]['max_clients'] == 7
 
 
-def test_the_commands_defaults_are_the_gateways() -> None:
-    # the command line does not import the gateways to start: its defaults are copies
-    from zros.cli import gateway_options
-    from zros.gateway.common.admission import MAX_CLIENTS
-    from zros.gateway.foxglove.front import CLIENT_BUFFER
-    from zros.gateway.rosbridge.server import CLIENT_BUFFER as ROSBRIDGE_BUFFER
+@pytest.mark.parametrize('command', ['foxglove', 'rosbridge'])
+def test_the_commands_defaults_are_the_gateways(command: str) -> None:
+    """What ``zros foxglove`` and ``zros rosbridge`` listen on and bound by default is what
+    ``zros.foxglove.serve`` and ``zros.rosbridge.serve`` do."""
+    import importlib
+    import inspect
 
-    assert gateway_options.MAX_CLIENTS == MAX_CLIENTS
-    assert gateway_options.CLIENT_BUFFER == CLIENT_BUFFER == ROSBRIDGE_BUFFER
+    serve = importlib.import_module(f'zros.{command}').serve
+    defaults = {name: value.default for name, value in inspect.signature(serve).parameters.items()}
+    read = vars(parser_of(command).parse_args([]))
+    for key in ('port', 'client_buffer', 'max_clients'):
+        assert read[key] == defaults[key], key
+    assert read['port'] == {'foxglove': 8765, 'rosbridge': 9090}[command]
 
 
 def test_a_bound_of_clients_below_one_is_a_usage_error(cli: Cli) -> None:

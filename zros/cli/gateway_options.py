@@ -9,16 +9,11 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, TypedDict
 
 from zros.cli.shared import at_least_one, byte_count, port_number, serve_until_interrupted
+from zros.gateway.common.limits import CLIENT_BUFFER, MAX_CLIENTS
 from zros.version import install_hint
 
 if TYPE_CHECKING:
     from zros.closing import Closing
-
-#: 32 MiB: what one client of a gateway may hold queued before its oldest messages drop
-CLIENT_BUFFER = 32 * 1024**2
-#: the clients a gateway serves at once (zros.gateway.common.admission's, not imported: the
-#: command line starts without the gateways)
-MAX_CLIENTS = 100
 
 
 class ListenSettings(TypedDict):

@@ -144,7 +144,7 @@ def open_node(args: argparse.Namespace, **options: Unpack[NodeOptions]) -> Node:
     """The command's node (:func:`node_name`): no /rosout, no parameter services, its own
     session (unless ``transport=`` is given); its publishers and subscriptions show on the
     graph as any node's."""
-    import zros
+    from zros.node import Node
 
     # the wire's keywords (bridge_namespace, domain_id), checked by scheme_settings
     settings = cast('NodeKeywords', wire_settings(args))
@@ -157,7 +157,7 @@ def open_node(args: argparse.Namespace, **options: Unpack[NodeOptions]) -> Node:
     options.setdefault('enable_rosout', False)
     options.setdefault('start_parameter_services', False)
     keywords: NodeKeywords = {**settings, **options}
-    return zros.Node(node_name(args), **keywords)
+    return Node(node_name(args), **keywords)
 
 
 def names_on_graph(node: Node, kind: str) -> dict[str, list[str]]:

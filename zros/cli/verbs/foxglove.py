@@ -19,6 +19,7 @@ from zros.cli.gateway_options import (
     serve_gateway,
 )
 from zros.cli.shared import CommandError, add_connection_options, at_least_one, open_node
+from zros.gateway.common.limits import FOXGLOVE_PORT
 
 
 class _Settings(ListenSettings):
@@ -74,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = gateway_parser(commands, 'foxglove', help_line, run, 8765)
+    parser = gateway_parser(commands, 'foxglove', help_line, run, FOXGLOVE_PORT)
     add_name_filters(parser, 'REGEX', {
         '--topics': 'offer only topics matching one of these (whole names)',
         '--exclude': 'never offer topics matching one of these',

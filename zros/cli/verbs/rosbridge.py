@@ -16,6 +16,7 @@ from zros.cli.gateway_options import (
     serve_gateway,
 )
 from zros.cli.shared import add_connection_options, at_least_one, open_node
+from zros.gateway.common.limits import ROSBRIDGE_PORT
 
 
 def globs(values: list[str] | None) -> list[str]:
@@ -52,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
 def add_parser(
     commands: argparse._SubParsersAction[argparse.ArgumentParser], help_line: str
 ) -> None:
-    parser = gateway_parser(commands, 'rosbridge', help_line, run, 9090)
+    parser = gateway_parser(commands, 'rosbridge', help_line, run, ROSBRIDGE_PORT)
     add_name_filters(parser, 'GLOB', {
         '--topics-glob': 'allow only topics matching one of these ("/camera/*")',
         '--services-glob': 'allow only services and actions matching these',

@@ -11,11 +11,10 @@ import weakref
 
 from zros.gateway.common.drop_notice import DropNotices
 from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.limits import MAX_CLIENTS
 
 _log = logging.getLogger('zros.gateway')
 
-#: connections a gateway serves at once unless told (its handshakes included)
-MAX_CLIENTS = 100
 #: seconds between two log lines about refused connections
 NOTICE_PERIOD = 10.0
 

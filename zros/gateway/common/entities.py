@@ -9,12 +9,11 @@ import threading
 from collections.abc import Callable, Hashable, Iterable
 from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 
-import zros
+from zros.node import Node
 from zros.pubsub.taps import matched_qos
 from zros.qos import Durability, QoS
 
 if TYPE_CHECKING:
-    from zros.node import Node
     from zros.node.settings import NodeKeywords
 
 
@@ -87,7 +86,7 @@ def gateway_node(name: str, settings: NodeKeywords) -> Node:
     (no /rosout and no parameter services unless asked)."""
     settings.setdefault('enable_rosout', False)
     settings.setdefault('start_parameter_services', False)
-    return zros.Node(name, **settings)
+    return Node(name, **settings)
 
 
 G = TypeVar('G')

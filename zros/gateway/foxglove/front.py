@@ -37,8 +37,9 @@ import socket
 import threading
 from typing import TYPE_CHECKING
 
-from zros.gateway.common.admission import MAX_CLIENTS, Admission
+from zros.gateway.common.admission import Admission
 from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.limits import MAX_CLIENTS
 from zros.gateway.foxglove.relay import Connection
 
 if TYPE_CHECKING:
@@ -46,9 +47,6 @@ if TYPE_CHECKING:
     from zros.gateway.common.origins import OriginPolicy
 
 _log = logging.getLogger('zros.gateway')
-
-#: bytes queued for one client before its oldest messages are dropped
-CLIENT_BUFFER = 32 * 1024**2
 
 
 class Front:

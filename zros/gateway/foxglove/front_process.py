@@ -26,9 +26,9 @@ import sys
 import threading
 from typing import IO
 
-from zros.gateway.common.admission import MAX_CLIENTS
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.heap import keep_large_blocks
+from zros.gateway.common.limits import MAX_CLIENTS
 from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import OriginPolicy
 from zros.gateway.foxglove.front import Front

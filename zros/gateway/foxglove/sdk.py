@@ -19,11 +19,12 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypedDict, cast
 
 from zros.errors import ZrosError
-from zros.gateway.common.admission import MAX_CLIENTS, check_max_clients
+from zros.gateway.common.admission import check_max_clients
 from zros.gateway.common.errors import GatewayError
+from zros.gateway.common.limits import CLIENT_BUFFER, FOXGLOVE_PORT, MAX_CLIENTS
 from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import FOXGLOVE_APP
-from zros.gateway.foxglove.front import CLIENT_BUFFER, private_loopback
+from zros.gateway.foxglove.front import private_loopback
 from zros.gateway.foxglove.front_process import FrontProcess
 from zros.gateway.foxglove.sdk_logs import bound_sdk_logs
 from zros.version import install_hint
@@ -54,8 +55,6 @@ class SdkOptions(TypedDict, total=False):
     playback_time_range: tuple[int, int] | None
 
 
-#: foxglove_bridge's port
-DEFAULT_PORT = 8765
 #: messages the SDK queues for each client before dropping the oldest. The front reads them at
 #: once; they wait only when its thread is starved of CPU and the loopback socket between them
 #: is full (its megabytes absorb bursts of small messages): then they are camera images, and
@@ -88,7 +87,7 @@ class ServerOptions:
     programs, which send no ``Origin``, always.
     """
 
-    port: int = DEFAULT_PORT
+    port: int = FOXGLOVE_PORT
     address: str = '127.0.0.1'
     tls_cert: str | os.PathLike[str] | None = None
     tls_key: str | os.PathLike[str] | None = None

@@ -24,18 +24,17 @@ from typing import TYPE_CHECKING
 
 from zros.closing import Closing
 from zros.errors import ZrosError
-from zros.gateway.common.admission import MAX_CLIENTS
 from zros.gateway.common.entities import start_gateway
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.graph_watcher import GraphWatcher
+from zros.gateway.common.limits import CLIENT_BUFFER, FOXGLOVE_PORT, MAX_CLIENTS
 from zros.gateway.common.origins import FOXGLOVE_APP
 from zros.gateway.common.throttle import Throttle
 from zros.gateway.common.views import offered_services, owners, parameter_nodes, service_providers
 from zros.gateway.common.watched_topics import Taps
 from zros.gateway.foxglove.assets import Assets
 from zros.gateway.foxglove.calls import ENCODINGS, ClientChannels, ServiceOffer
-from zros.gateway.foxglove.front import CLIENT_BUFFER
 from zros.gateway.foxglove.params import Parameters
 from zros.gateway.foxglove.sdk import (
     DEFAULT_BACKLOG,
@@ -355,7 +354,7 @@ class FoxgloveGateway(Closing):
 
 def serve(
     *,
-    port: int = 8765,
+    port: int = FOXGLOVE_PORT,
     address: str = '127.0.0.1',
     topics: Iterable[str] | None = None,
     exclude: Iterable[str] | None = None,

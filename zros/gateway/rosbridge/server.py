@@ -33,10 +33,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from zros.closing import Closing
-from zros.gateway.common.admission import MAX_CLIENTS, Admission
+from zros.gateway.common.admission import Admission
 from zros.gateway.common.entities import start_gateway
 from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
+from zros.gateway.common.limits import CLIENT_BUFFER, MAX_CLIENTS, ROSBRIDGE_PORT
 from zros.gateway.common.listen import Listen
 from zros.gateway.common.origins import OriginPolicy
 from zros.gateway.common.throttle import Throttle
@@ -60,14 +61,11 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger('zros.gateway')
 
-#: rosbridge_server's port
-DEFAULT_PORT = 9090
 #: rosbridge_server's ``max_message_size``: larger client messages close the connection,
 #: larger JSON messages to clients go as fragments
 MAX_MESSAGE_SIZE = 10_000_000
 #: a client's outbox: messages, and bytes
 QUEUE_ITEMS = 1000
-CLIENT_BUFFER = 32 * 1024**2
 #: seconds a closing client has to answer the close handshake
 CLOSE_TIMEOUT = 2.0
 
@@ -277,7 +275,7 @@ class RosbridgeGateway(Closing):
 
 def serve(
     *,
-    port: int = DEFAULT_PORT,
+    port: int = ROSBRIDGE_PORT,
     address: str = '127.0.0.1',
     topics_glob: Iterable[str] | None = None,
     services_glob: Iterable[str] | None = None,
