@@ -82,6 +82,8 @@ class ClientGoalHandle(GoalHandle):
         """Whether the result (or the reason there is none) is known."""
         return self._result.done()
 
+    # --- what its ActionClient tells it (on Zenoh's threads) ----------------------------------
+
     def _set_status(self, status: GoalStatus) -> None:
         # a goal's states only move forward (ACCEPTED < EXECUTING < CANCELING < the ends); an
         # older status array (a transient-local history reply) must not take it back
@@ -89,6 +91,25 @@ class ClientGoalHandle(GoalHandle):
             if self._result.done() or self._status.terminal or status <= self._status:
                 return
             self._status = status
+        self._changed.notify()
+
+    def _on_feedback(self, feedback: Message) -> Callable[[Message], object] | None:
+        """Keep ``feedback`` as the latest; the callback to run with it, if any."""
+        self.feedback = feedback
+        self.feedback_count += 1
+        return self._feedback_callback
+
+    def _fail(self, error: BaseException) -> None:
+        """The goal has no result: waiting for it raises ``error``."""
+        self._result.settle(error)
+        self._changed.notify()
+
+    def _finish(self, status: GoalStatus, result: Message) -> None:
+        """The server's result, with the terminal status it gave (which stands over any the
+        status topic told)."""
+        with self._lock:
+            self._status = status
+            self._result.settle(result)
         self._changed.notify()
 
     def result(self, timeout: float | None = None) -> Message:
@@ -223,9 +244,7 @@ class ActionClient(ActionEntity):
         handle = self._handles.get(goal_id_of(message.goal_id))
         if handle is None:
             return
-        handle.feedback = message.feedback
-        handle.feedback_count += 1
-        callback = handle._feedback_callback
+        callback = handle._on_feedback(message.feedback)
         if callback is not None:
             self._feedback_due.append((callback, message.feedback))
             self.context.executor.queue(self._feedback_work)
@@ -298,14 +317,12 @@ class ActionClient(ActionEntity):
                 answered.settle(exc)
                 return
             except ServiceError as exc:
-                handle._result.settle(
-                    ActionError(f'the goal of {self.name} was not delivered: {exc}')
-                )
+                handle._fail(ActionError(f'the goal of {self.name} was not delivered: {exc}'))
                 answered.settle(exc)
                 return
             handle.stamp = Time.from_msg(response.stamp)
             if not response.accepted:
-                handle._result.settle(
+                handle._fail(
                     GoalRejectedError(f'the server of {self.name} rejected goal {handle.goal_uuid}')
                 )
                 answered.settle(handle)
@@ -338,17 +355,14 @@ class ActionClient(ActionEntity):
         request.goal_id.uuid = handle.goal_id
 
         def no_result(exc: ServiceError) -> None:
-            handle._result.settle(
-                ActionError(f'no result for goal {handle.goal_uuid} of {self.name}: {exc}')
-            )
-            handle._changed.notify()
+            error = ActionError(f'no result for goal {handle.goal_uuid} of {self.name}: {exc}')
+            handle._fail(error)
 
         def on_result(future: concurrent.futures.Future[Message]) -> None:
             try:
                 response = future.result()
             except KeyboardInterrupt as exc:
-                handle._result.settle(exc)
-                handle._changed.notify()
+                handle._fail(exc)
                 return
             except ServiceError as exc:
                 no_result(exc)
@@ -358,17 +372,14 @@ class ActionClient(ActionEntity):
             except ValueError:
                 status = GoalStatus.UNKNOWN
             if status is GoalStatus.UNKNOWN or not status.terminal:
-                handle._result.settle(
+                handle._fail(
                     ActionError(
                         f'the server of {self.name} does not know goal {handle.goal_uuid} '
                         f'(result status {response.status})'
                     )
                 )
             else:
-                with handle._lock:
-                    handle._status = status
-                    handle._result.settle(response.result)
-            handle._changed.notify()
+                handle._finish(status, response.result)
 
         try:
             pending = self._get_result.call_async(request, RESULT_TIMEOUT)
