@@ -209,3 +209,13 @@ def test_a_stalled_recorder_drops_and_counts_instead_of_stalling_its_node(
         recorder.close()
     assert recorder.message_count + recorder.dropped == 1000
     assert any('recorder' in r.getMessage() and 'dropped' in r.getMessage() for r in caplog.records)
+
+
+def test_a_bound_that_a_keep_last_subscription_would_not_use_is_refused(
+    zros_node: Callable[..., Node],
+) -> None:
+    node = zros_node('listener')
+    with pytest.raises(ValueError, match='max_queue bounds a keep-all subscriber'):
+        zros.Subscriber('flood', UInt64, qos=10, node=node, max_queue=1000)
+    with pytest.raises(ValueError, match='max_queue must be at least 1'):
+        zros.Subscriber('flood', UInt64, qos=KEEP_ALL, node=node, max_queue=0)

@@ -66,7 +66,8 @@ class Subscriber(Entity, Generic[T]):
     messages (keep-last drops the oldest). A keep-all subscriber holds every unread message up
     to ``max_queue_bytes`` (256 MiB: payloads plus some 384 bytes each) and, if given,
     ``max_queue`` messages; past that it drops new ones, counted in ``dropped`` and logged,
-    and never holds up its publishers or the rest of the process.
+    and never holds up its publishers or the rest of the process (``max_queue`` with a
+    keep-last QoS is a ValueError: it would not be used).
 
     Messages that do not decode (or, under rmw_zenoh, come without a valid attachment) are
     dropped, counted per sender (:meth:`dropped_by_sender`) and logged, at most once per sender
@@ -153,6 +154,12 @@ class Subscriber(Entity, Generic[T]):
         self.msg_type = message_class(context.registry, msg_type)
         self.type_name = self.msg_type.__msgtype__
         self.qos: QoS = as_qos(qos)
+        if max_queue is not None and not self.qos.keep_all:
+            raise ValueError(
+                f'max_queue bounds a keep-all subscriber; this one keeps the last '
+                f'{self.qos.depth} messages, so it would not be used: pass qos="keep_all" with '
+                'it, or leave it out'
+            )
         self.topic = self._resolve(EntityKind.SUBSCRIBER, topic)
         wire = self._place(
             EntityKind.SUBSCRIBER, self.topic, self.type_name, registry_of(self.msg_type),
