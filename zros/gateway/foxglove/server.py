@@ -389,11 +389,11 @@ def serve(
     ``REGEX=HZ`` rate limits of live topics (:mod:`zros.gateway.common.throttle`).
     """
     options = ServerOptions(
-        port,
-        address,
-        tls_cert,
-        tls_key,
-        message_backlog,
+        port=port,
+        address=address,
+        tls_cert=tls_cert,
+        tls_key=tls_key,
+        message_backlog=message_backlog,
         name='zros',
         allow_origins=tuple(allow_origins),
         client_buffer=client_buffer,
