@@ -94,10 +94,10 @@ def test_a_client_holds_a_bounded_number_of_topics_and_services(
 ) -> None:
     """Names cost a client nothing to invent, and each costs the gateway a Zenoh entity (a
     tap has a thread of its own; a publisher or a service shows in the whole graph)."""
-    from zros.gateway.rosbridge import actions, calls, topics
+    from zros.gateway.rosbridge import calls, served_actions, topics
 
     for module, name, value in ((topics, 'MAX_TOPICS', 3), (topics, 'MAX_REQUESTS', 2),
-                                (calls, 'MAX_SERVED', 2), (actions, 'MAX_SERVED', 2)):  # fmt: skip
+                                (calls, 'MAX_SERVED', 2), (served_actions, 'MAX_SERVED', 2)):  # fmt: skip
         monkeypatch.setattr(module, name, value)
     gateway = rosbridge()
     client, other = raw_client(gateway), raw_client(gateway)

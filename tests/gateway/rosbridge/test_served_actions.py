@@ -229,7 +229,7 @@ def test_an_action_outside_the_services_glob_is_refused(
 def test_goals_beyond_the_bound_are_aborted_without_reaching_the_client(
     rosbridge: Make, raw_client: Make, zros_node: Make, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from zros.gateway.rosbridge import actions as rosbridge_actions
+    from zros.gateway.rosbridge import served_actions as rosbridge_actions
 
     monkeypatch.setattr(rosbridge_actions, 'MAX_GOALS', 1)
     _, client, caller = advertised(rosbridge, raw_client, zros_node)

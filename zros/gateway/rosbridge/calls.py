@@ -12,7 +12,7 @@
 * ``send_action_goal``: a goal through a zros action client, with ``action_feedback``
   messages when asked and one ``action_result``; ``cancel_action_goal`` cancels it.
 * ``advertise_action`` and its ops: a client serves an action
-  (:mod:`~zros.gateway.rosbridge.actions`, reached as :attr:`Calls.served`).
+  (:mod:`~zros.gateway.rosbridge.served_actions`, reached as :attr:`Calls.served`).
 """
 
 from __future__ import annotations
@@ -35,9 +35,9 @@ from zros.gateway.common.errors import GatewayError
 from zros.gateway.common.filters import NameFilter
 from zros.gateway.common.json_types import text_field
 from zros.gateway.common.views import offered_services, owners
-from zros.gateway.rosbridge.actions import MAX_SERVED, ServedActions
 from zros.gateway.rosbridge.conversion import ConversionError, Values
 from zros.gateway.rosbridge.rosapi import Rosapi
+from zros.gateway.rosbridge.served_actions import MAX_SERVED, ServedActions
 from zros.keyexpr.kinds import EntityKind
 
 if TYPE_CHECKING:

@@ -7,8 +7,8 @@ bounded outbox. Topics (:mod:`~zros.gateway.rosbridge.topics`) are tapped raw, o
 client subscribes, and each message is converted once per form (JSON, CBOR, raw CDR, PNG)
 whatever the number of clients. Services, client-served services and actions
 (:mod:`~zros.gateway.rosbridge.calls`), and actions clients serve
-(:mod:`~zros.gateway.rosbridge.actions`) go through zros clients and servers; rosapi's services
-(:mod:`~zros.gateway.rosbridge.rosapi`) are answered by the gateway itself.
+(:mod:`~zros.gateway.rosbridge.served_actions`) go through zros clients and servers;
+rosapi's services (:mod:`~zros.gateway.rosbridge.rosapi`) are answered by the gateway itself.
 
 The gateway spins the node it is given (client-served services, the cancel callbacks of
 client-served actions and action feedback run there):
