@@ -12,6 +12,7 @@ import pytest
 from zros.bag import Bag, BagError
 from zros.tf import Buffer, ExtrapolationException, trajectory
 
+S = 10**9
 TOL = 1e-9
 
 
@@ -236,3 +237,52 @@ def test_the_trajectory_of_a_static_chain_is_one_row_at_time_0() -> None:
     buffer.add('cart', 'pole', 9, one, 'odometry')
     with pytest.raises(ExtrapolationException, match='no instant is covered by every moving'):
         trajectory(buffer, 'world', 'pole')
+
+
+def test_bad_transforms_in_a_recording_are_refused_one_by_one(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The checks of a live buffer, on a recording: each bad transform is counted, told once
+    per sender, and the good ones of the same edge stay (a quaternion off by less than tf2's
+    tolerance is normalised)."""
+    import logging
+
+    from tests.bag.makebags import make_db3
+    from zros.cdr import encode, new_message
+
+    def message(*transforms: tuple[str, str, int, tuple[float, ...]]) -> bytes:
+        stamped = [
+            {
+                'header': {'stamp': {'sec': sec}, 'frame_id': parent},
+                'child_frame_id': child,
+                'transform': {
+                    'translation': dict(zip('xyz', pose[:3], strict=True)),
+                    'rotation': dict(zip('xyzw', pose[3:], strict=True)),
+                },
+            }
+            for parent, child, sec, pose in transforms
+        ]
+        return encode(new_message('tf2_msgs/msg/TFMessage', transforms=stamped))
+
+    good = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    rounded = (2.0, 0.0, 0.0, 0.0, 0.0, 0.7071, 0.7071)
+    rows = [
+        (0, 1 * S, message(('odom', 'base', 1, good), ('odom', 'odom', 1, good))),
+        (0, 2 * S, message(('odom', 'base', 2, (math.nan, 0, 0, 0, 0, 0, 1)))),
+        (0, 3 * S, message(('odom', 'base', 3, (0, 0, 0, 0, 0, 0, 0.5)), ('', 'arm', 3, good))),
+        (0, 4 * S, message(('odom', 'base', 4, rounded), ('odom', 'odom', 4, good))),
+    ]
+    path = make_db3(tmp_path / 'bad.db3', [('/tf', 'tf2_msgs/msg/TFMessage')], rows)
+    with caplog.at_level(logging.WARNING, 'zros.tf'):
+        buffer = Buffer.from_bag(path)
+    assert buffer.rejections.counts == {
+        'TF_SELF_TRANSFORM': 2,
+        'TF_NAN_INPUT': 1,
+        'TF_DENORMALIZED_QUATERNION': 1,
+        'TF_NO_FRAME_ID': 1,
+    }
+    told = [r.getMessage() for r in caplog.records if r.name == 'zros.tf']
+    assert len(told) == 4 and sum('TF_SELF_TRANSFORM' in line for line in told) == 1
+    assert (buffer.stamps('odom', 'base') // S).tolist() == [1, 4]
+    t = buffer.lookup_transform('odom', 'base', 4 * S).transform
+    assert (t.translation.x, t.rotation.z) == pytest.approx((2.0, math.sqrt(0.5)))
