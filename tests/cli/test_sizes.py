@@ -6,7 +6,7 @@ import argparse
 
 import pytest
 
-from zros.cli.shared import byte_count
+from zros.cli.arg_types import byte_count
 
 
 @pytest.mark.parametrize(

@@ -13,7 +13,7 @@ ROUNDS = 1000
 #: handler then often runs inside ``stop.wait()``, while the event's lock is held
 STOP_EVENT = f"""
 import os, signal, threading
-from zros.cli.shared import stop_on_signals
+from zros.cli.signals import stop_on_signals
 
 for _ in range({ROUNDS}):
     stop = threading.Event()

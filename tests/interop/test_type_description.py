@@ -1,7 +1,7 @@
 """A type zros has no definition of, published by rclpy behind the bridge: zros asks ROS.
 
 rclpy nodes (Jazzy) serve ``~/get_type_description``; the bridge routes it like any service.
-``zros topic echo`` does what this test does through ``zros.cli.shared.known_type``.
+``zros topic echo`` does what this test does through ``zros.cli.graph_lookup.known_type``.
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ from tests.interop.conftest import Interop
 from tests.interop.rclpy_support import SHARE, make_registry, to_rclpy
 from zros.cdr.hashing import type_hash
 from zros.cdr.registry import TypeRegistry
-from zros.cli.shared import CommandError, known_type
+from zros.cli.graph_lookup import known_type
+from zros.cli.shared import CommandError
 from zros.services.typeinfo import SERVICE_TYPE
 from zros.testing import wait_for
 

@@ -8,7 +8,8 @@ import argparse
 from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, TypedDict
 
-from zros.cli.shared import at_least_one, byte_count, port_number, serve_until_interrupted
+from zros.cli.arg_types import at_least_one, byte_count, port_number
+from zros.cli.signals import serve_until_interrupted
 from zros.gateway.common.limits import CLIENT_BUFFER, MAX_CLIENTS
 from zros.version import install_hint
 

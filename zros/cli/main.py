@@ -104,7 +104,8 @@ def _run(argv: Sequence[str] | None) -> int:
         parser.print_help()
         return 2
     # only a command that runs needs these (keeps ``zros --help`` start-up fast)
-    from zros.cli.shared import CommandError, Terminated, sigterm_as_ctrl_c
+    from zros.cli.shared import CommandError
+    from zros.cli.signals import Terminated, sigterm_as_ctrl_c
     from zros.errors import SettingError, ZrosError, command_line_text
 
     function: Callable[[argparse.Namespace], int] = target

@@ -6,7 +6,8 @@ from __future__ import annotations
 import argparse
 from collections.abc import Iterable
 
-from zros.cli.shared import UsageError, at_least_one
+from zros.cli.arg_types import at_least_one
+from zros.cli.shared import UsageError
 from zros.qos import (
     DEFAULT,
     LATCHED,

@@ -13,14 +13,8 @@ from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import (
-    CommandError,
-    graph_topic_type,
-    message_class,
-    open_node,
-    out,
-    subscription_type,
-)
+from zros.cli.graph_lookup import graph_topic_type, subscription_type
+from zros.cli.shared import CommandError, message_class, open_node, out
 
 if TYPE_CHECKING:
     from zros.cdr import Message

@@ -16,15 +16,8 @@ import datetime
 import threading
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import (
-    CommandError,
-    add_connection_options,
-    add_verbs,
-    counted,
-    open_node,
-    out,
-    stop_on_signals,
-)
+from zros.cli.shared import CommandError, add_connection_options, add_verbs, counted, open_node, out
+from zros.cli.signals import stop_on_signals
 
 if TYPE_CHECKING:  # the command imports the bag package only when it runs (start-up)
     from zros.bag.play.player import Player

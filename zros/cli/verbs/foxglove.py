@@ -10,6 +10,7 @@ import argparse
 import os
 from collections.abc import Iterable
 
+from zros.cli.arg_types import at_least_one
 from zros.cli.gateway_options import (
     ListenSettings,
     add_gateway_safety_options,
@@ -18,7 +19,7 @@ from zros.cli.gateway_options import (
     listen_settings,
     serve_gateway,
 )
-from zros.cli.shared import CommandError, add_connection_options, at_least_one, open_node
+from zros.cli.shared import CommandError, add_connection_options, open_node
 from zros.gateway.common.limits import FOXGLOVE_PORT
 
 

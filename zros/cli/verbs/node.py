@@ -10,14 +10,8 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from zros.cli.shared import (
-    DISCOVERY,
-    add_connection_options,
-    add_verbs,
-    open_node,
-    out,
-    unknown_name,
-)
+from zros.cli.graph_lookup import unknown_name
+from zros.cli.shared import DISCOVERY, add_connection_options, add_verbs, open_node, out
 
 if TYPE_CHECKING:
     from zros.graph import Endpoint

@@ -12,6 +12,7 @@ import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from zros.cli.graph_lookup import unknown_name
 from zros.cli.shared import (
     DISCOVERY,
     CommandError,
@@ -20,7 +21,6 @@ from zros.cli.shared import (
     counted,
     open_node,
     out,
-    unknown_name,
 )
 from zros.errors import ZrosError, command_line_text
 

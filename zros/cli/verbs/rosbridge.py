@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 
+from zros.cli.arg_types import at_least_one
 from zros.cli.gateway_options import (
     add_gateway_safety_options,
     add_name_filters,
@@ -15,7 +16,7 @@ from zros.cli.gateway_options import (
     listen_settings,
     serve_gateway,
 )
-from zros.cli.shared import add_connection_options, at_least_one, open_node
+from zros.cli.shared import add_connection_options, open_node
 from zros.gateway.common.limits import ROSBRIDGE_PORT
 
 

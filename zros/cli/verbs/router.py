@@ -18,7 +18,8 @@ import os
 import sys
 import threading
 
-from zros.cli.shared import CommandError, out, stop_on_signals
+from zros.cli.shared import CommandError, out
+from zros.cli.signals import stop_on_signals
 
 DEFAULT_LISTEN = 'tcp/127.0.0.1:7447'
 DEFAULT_TLS_LISTEN = 'tls/127.0.0.1:7447'

@@ -6,23 +6,25 @@ import argparse
 import time
 from typing import TYPE_CHECKING
 
+from zros.cli.graph_lookup import (
+    add_listing_options,
+    find_names,
+    list_names,
+    print_types,
+    require_advertised_type,
+    require_on_graph,
+)
 from zros.cli.shared import (
     WAIT,
     CommandError,
-    add_listing_options,
     add_verb,
     add_verbs,
     add_wait_option,
     build_message,
     errors_tell_of_lost_links,
-    find_names,
-    list_names,
     open_node,
     out,
     parse_values,
-    print_types,
-    require_advertised_type,
-    require_on_graph,
 )
 from zros.errors import command_line_text
 

@@ -9,26 +9,28 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, cast
 
+from zros.cli.graph_lookup import (
+    add_listing_options,
+    find_names,
+    graph_topic_type,
+    listed,
+    require_advertised_type,
+    subscription_type,
+    unknown_name,
+)
 from zros.cli.qos_options import add_qos_options, chosen_qos
 from zros.cli.shared import (
     DISCOVERY,
     CommandError,
     UsageError,
-    add_listing_options,
     add_verb,
     add_verbs,
     add_wait_option,
     build_message,
-    find_names,
-    graph_topic_type,
-    listed,
     message_class,
     open_node,
     out,
     parse_values,
-    require_advertised_type,
-    subscription_type,
-    unknown_name,
 )
 from zros.cli.topic_rates import bw, delay, hz
 from zros.qos import DEFAULT, LATCHED, Congestion, Durability, Priority, QoS
