@@ -179,3 +179,17 @@ def test_clear_forgets_old_parents() -> None:
     buffer.add('table', 'cup', 10 * S, at(1.0), 'vision')
     assert x_of(buffer, 'map', 'cup', 10 * S) == pytest.approx(11.0)
     assert buffer.all_frames_as_string().count('cup exists with parent table') == 1
+
+
+def test_a_flood_of_new_parents_for_one_frame_is_bounded() -> None:
+    """Each new parent is a new frame name; a live buffer stops taking them where its frames
+    would (a child and a parent each), as it does for new frames."""
+    from zros.tf.edge_tree import MAX_FRAMES
+
+    buffer = Buffer()
+    for number in range(2 * MAX_FRAMES + 100):
+        buffer.add(f'p{number}', 'base', S + number, at(1.0), 'flood')
+    assert len(buffer.frames()) == 2 * MAX_FRAMES
+    assert buffer.rejections.counts['TF_TOO_MANY_FRAMES'] == 101
+    newest = 2 * MAX_FRAMES - 2  # the last parent taken
+    assert x_of(buffer, f'p{newest}', 'base', S + newest) == pytest.approx(1.0)

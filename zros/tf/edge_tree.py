@@ -81,6 +81,10 @@ class EdgeTree:
                 return known[parent]
             if self._closes_loop(child, parent, authority):
                 return None
+            if self._too_many_names(parent):  # a flood of new parents for one frame
+                message = checks.too_many_frames(child, authority, MAX_FRAMES)
+                self._rejections.report(checks.TOO_MANY_FRAMES, authority, child, message)
+                return None
             # a moving frame changes parent (tf2 keeps the parent with every sample)
             new = self._new_edge(parent, child, static=False)
             self.parents.setdefault(child, {edge.parent: edge})[parent] = new
@@ -123,6 +127,12 @@ class EdgeTree:
                     room -= 1
         if len(known) == 1:
             del self.parents[child]
+
+    def _too_many_names(self, parent: str) -> bool:
+        """Whether a live buffer holds as many frame names as its frames can have (a child and
+        a parent each) and ``parent`` would be one more."""
+        full = self.cache_time is not None and len(self.names) >= 2 * MAX_FRAMES
+        return full and parent not in self.names
 
     def _new_edge(self, parent: str, child: str, *, static: bool) -> EdgeCache:
         self.names.add(child)
