@@ -541,3 +541,100 @@ def test_logger_level_and_timer_destroy_as_rclpys(zros_node: Callable[..., Node]
     timer = node.create_timer(3600.0, lambda: None)
     timer.destroy()
     assert timer.is_canceled() and not node.destroy_timer(timer)
+
+
+def test_get_parameters_and_by_prefix_return_rclpys_parameter_objects(
+    zros_node: Callable[..., Node],
+) -> None:
+    node = zros_node('prefixed')
+    node.declare_parameters('arm', [('speed', 1.5), ('joints', ['a', 'b'])])
+    node.declare_parameter('armor', True)  # 'arm' is not its prefix: no dot after it
+    assert node.get_parameters(['arm.speed', 'armor']) == [
+        Parameter('arm.speed', Parameter.Type.DOUBLE, 1.5),
+        Parameter('armor', Parameter.Type.BOOL, True),
+    ]
+    (speed,) = node.get_parameters(['arm.speed'])
+    assert speed.type_ is Parameter.Type.DOUBLE and speed.value == 1.5
+    assert node.get_parameters_by_prefix('arm') == {
+        'speed': Parameter('arm.speed', value=1.5),
+        'joints': Parameter('arm.joints', value=['a', 'b']),
+    }
+    assert set(node.get_parameters_by_prefix('')) >= {'arm.speed', 'armor', 'use_sim_time'}
+    assert node.get_parameters_by_prefix('leg') == {}
+    with pytest.raises(zros.ParameterNotDeclaredError, match="'nope' is not declared"):
+        node.get_parameters(['arm.speed', 'nope'])
+    with pytest.raises(TypeError, match='must be instances of type str'):
+        node.get_parameters(['arm.speed', 1])  # type: ignore[list-item]
+    with pytest.raises(TypeError, match=r"not the str 'arm\.speed'"):
+        node.get_parameters('arm.speed')
+    loose = zros_node('loose_params', allow_undeclared_parameters=True)
+    assert loose.get_parameters(['nope']) == [Parameter('nope', Parameter.Type.NOT_SET)]
+
+
+def test_pre_and_post_set_parameters_callbacks_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('staged')
+    node.declare_parameter('mode', 'auto')
+    node.declare_parameter('speed', 1.0)
+    order: list[str] = []
+    told: list[list[tuple[str, object]]] = []
+
+    def add_speed(parameters: list[zros.params.Parameter]) -> list[zros.params.Parameter]:
+        order.append('pre')
+        extra = [Parameter('speed', value=0.0)] if parameters[0].value == 'manual' else []
+        return [*parameters, *extra]
+
+    def validate(parameters: list[zros.params.Parameter]) -> bool:
+        order.append('on-set')
+        return all(p.name != 'speed' or p.value >= 0.0 for p in parameters)  # type: ignore[operator]
+
+    def after(parameters: list[zros.params.Parameter]) -> None:
+        order.append('post')
+        told.append([(p.name, p.value) for p in parameters])
+
+    node.add_pre_set_parameters_callback(add_speed)
+    node.add_on_set_parameters_callback(validate)
+    node.add_post_set_parameters_callback(after)
+    assert node.set_parameters([Parameter('mode', value='manual')])[0]
+    assert order == ['pre', 'on-set', 'post']
+    assert told == [[('mode', 'manual'), ('speed', 0.0)]]
+    assert node.get_parameter('speed') == 0.0  # set along with mode, atomically
+    # refused by on-set validation: post is not told
+    told.clear()
+    assert not node.set_parameters_atomically([Parameter('speed', value=-1.0)])
+    assert told == [] and node.get_parameter('speed') == 0.0
+    # post is told of declarations too (pre is not), as rclpy's
+    order.clear()
+    node.declare_parameter('gain', 2.0)
+    assert order == ['on-set', 'post'] and told == [[('gain', 2.0)]]
+    # a pre-set callback that empties the list refuses the set
+    node.remove_pre_set_parameters_callback(add_speed)
+    empty = node.add_pre_set_parameters_callback  # rclpy returns None: no handle
+    assert empty(lambda parameters: []) is None
+    result = node.set_parameters([Parameter('mode', value='auto')])[0]
+    assert not result and 'parameter list cannot be empty' in result.reason
+    assert node.get_parameter('mode') == 'manual'
+
+
+def test_pre_and_post_set_callbacks_errors(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('staged_errors')
+    node.declare_parameter('mode', 'auto')
+
+    def broken(parameters: list[zros.params.Parameter]) -> list[zros.params.Parameter]:
+        raise RuntimeError('no mode today')
+
+    node.add_pre_set_parameters_callback(broken)
+    result = node.set_parameters({'mode': 'manual'})[0]
+    assert not result and "pre-set callback raised RuntimeError('no mode today')" in result.reason
+    node.remove_pre_set_parameters_callback(broken)
+    node.add_pre_set_parameters_callback(lambda parameters: 'mode')  # type: ignore[arg-type,return-value]
+    result = node.set_parameters({'mode': 'manual'})[0]
+    assert not result and 'returns a list of Parameters' in result.reason
+    assert node.get_parameter('mode') == 'auto'
+    with pytest.raises(ValueError):
+        node.remove_pre_set_parameters_callback(broken)
+    with pytest.raises(ValueError):
+        node.remove_post_set_parameters_callback(print)
+    with pytest.raises(TypeError, match='must be callable'):
+        node.add_post_set_parameters_callback('after')  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match='must be callable'):
+        node.add_pre_set_parameters_callback(None)  # type: ignore[arg-type]
