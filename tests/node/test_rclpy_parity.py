@@ -13,6 +13,8 @@ import pytest
 import zros
 from tests.support.processes import Script, sleeping
 from zros import Parameter
+from zros.graph import Endpoint, TopicEndpointInfo, TopicEndpointType
+from zros.keyexpr.kinds import EntityKind
 from zros.node import Node, NodeNameNonExistentError
 from zros.testing import wait_for
 from zros.transport import Router
@@ -638,3 +640,43 @@ def test_pre_and_post_set_callbacks_errors(zros_node: Callable[..., Node]) -> No
         node.add_post_set_parameters_callback('after')  # type: ignore[arg-type]
     with pytest.raises(TypeError, match='must be callable'):
         node.add_pre_set_parameters_callback(None)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize('zros_wire', ['bridge', 'rmw_zenoh'])
+def test_publishers_and_subscriptions_info_by_topic(
+    zros_node: Callable[..., Node], zros_wire: str
+) -> None:
+    owner = zros_node('owner', '/robot', start_parameter_services=False)
+    observer = zros_node('observer', '/robot', remap=['scan:=/elsewhere'])
+    owner.create_publisher('std_msgs/msg/String', 'scan', zros.QoS(7, zros.Reliability.RELIABLE))
+    owner.create_subscription('std_msgs/msg/Int32', '/robot/cmd', None, 'sensor_data')
+    assert wait_for(lambda: len(observer.get_publishers_info_by_topic('scan')) == 1, timeout=30.0)
+    (publisher,) = observer.get_publishers_info_by_topic('scan')  # expanded, not remapped
+    assert (publisher.node_name, publisher.node_namespace) == ('owner', '/robot')
+    assert publisher.topic_type == 'std_msgs/msg/String'
+    assert publisher.endpoint_type is TopicEndpointType.PUBLISHER == 1  # rclpy's value
+    assert publisher.qos_profile is not None and publisher.qos_profile.depth == 7
+    assert publisher.qos_profile.reliability is zros.Reliability.RELIABLE
+    # a GID where the wire gives one (rmw_zenoh's 16 bytes), none through a bridge
+    assert len(publisher.endpoint_gid) == (16 if zros_wire == 'rmw_zenoh' else 0)
+    assert wait_for(lambda: observer.get_subscriptions_info_by_topic('cmd'), timeout=30.0)
+    (subscription,) = observer.get_subscriptions_info_by_topic('/robot/cmd')
+    assert subscription.endpoint_type is TopicEndpointType.SUBSCRIPTION
+    assert subscription.topic_type == 'std_msgs/msg/Int32'
+    assert subscription.qos_profile is not None
+    assert subscription.qos_profile.reliability is zros.Reliability.BEST_EFFORT
+    assert observer.get_publishers_info_by_topic('cmd') == []
+    assert observer.get_subscriptions_info_by_topic('/nobody') == []
+    with pytest.raises(zros.InvalidNameError):
+        observer.get_publishers_info_by_topic('bad name')
+
+
+def test_a_bridged_endpoint_has_rmws_unknown_node() -> None:
+    bridged = Endpoint(EntityKind.SUBSCRIBER, 'abc', 'scan', 'std_msgs/msg/String', None, None)
+    info = TopicEndpointInfo.from_endpoint(bridged)
+    assert (info.node_name, info.node_namespace) == (
+        '_NODE_NAME_UNKNOWN_',
+        '_NODE_NAMESPACE_UNKNOWN_',
+    )
+    assert (info.endpoint_gid, info.qos_profile, info.topic_type_hash) == ([], None, '')
+    assert info.endpoint_type is TopicEndpointType.SUBSCRIPTION
