@@ -680,3 +680,32 @@ def test_a_bridged_endpoint_has_rmws_unknown_node() -> None:
     )
     assert (info.endpoint_gid, info.qos_profile, info.topic_type_hash) == ([], None, '')
     assert info.endpoint_type is TopicEndpointType.SUBSCRIPTION
+
+
+def test_create_node_and_executor_as_rclpys(zros_router: Router) -> None:
+    made: list[Node] = []
+
+    def create(name: str, **options: object) -> Node:
+        made.append(zros.create_node(name, connect=zros_router.endpoint, **options))  # type: ignore[arg-type]
+        return made[-1]
+
+    try:
+        node = create('made', namespace='/robot')
+        assert isinstance(node, Node) and node.get_fully_qualified_name() == '/robot/made'
+        assert create('root').get_namespace() == '/'
+        # the node's own executor: the one rclpy's spin_until_future_complete may be given
+        assert node.executor is node.context.executor
+        future: concurrent.futures.Future[int] = concurrent.futures.Future()
+        node.create_timer(0.01, lambda: future.done() or future.set_result(7))
+        zros.spin_until_future_complete(node, future, executor=node.executor, timeout_sec=30.0)
+        assert future.result() == 7
+        node.executor = node.executor  # already its executor: nothing to do, as rclpy
+        with pytest.raises(ValueError, match='runs on its own executor'):
+            node.executor = create('other').executor
+        with pytest.raises(ValueError, match='runs on its own executor'):
+            node.executor = None
+        with pytest.raises(TypeError, match='context'):
+            create('ctx', context=object())
+    finally:
+        for each in made:
+            each.destroy()
