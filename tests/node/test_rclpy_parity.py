@@ -628,7 +628,11 @@ def test_pre_and_post_set_callbacks_errors(zros_node: Callable[..., Node]) -> No
     result = node.set_parameters({'mode': 'manual'})[0]
     assert not result and "pre-set callback raised RuntimeError('no mode today')" in result.reason
     node.remove_pre_set_parameters_callback(broken)
-    node.add_pre_set_parameters_callback(lambda parameters: 'mode')  # type: ignore[arg-type,return-value]
+
+    def not_a_list(parameters: list[zros.params.Parameter]) -> str:
+        return 'mode'
+
+    node.add_pre_set_parameters_callback(not_a_list)  # type: ignore[arg-type]
     result = node.set_parameters({'mode': 'manual'})[0]
     assert not result and 'returns a list of Parameters' in result.reason
     assert node.get_parameter('mode') == 'auto'
@@ -640,6 +644,16 @@ def test_pre_and_post_set_callbacks_errors(zros_node: Callable[..., Node]) -> No
         node.add_post_set_parameters_callback('after')  # type: ignore[arg-type]
     with pytest.raises(TypeError, match='must be callable'):
         node.add_pre_set_parameters_callback(None)  # type: ignore[arg-type]
+
+    # a post-set callback's error reaches the caller, as rclpy's; the change has been made
+    def failing(parameters: list[zros.params.Parameter]) -> None:
+        raise RuntimeError('side effect failed')
+
+    node.remove_pre_set_parameters_callback(not_a_list)  # type: ignore[arg-type]
+    node.add_post_set_parameters_callback(failing)
+    with pytest.raises(RuntimeError, match='side effect failed'):
+        node.set_parameters({'mode': 'manual'})
+    assert node.get_parameter('mode') == 'manual'
 
 
 @pytest.mark.parametrize('zros_wire', ['bridge', 'rmw_zenoh'])
@@ -654,7 +668,8 @@ def test_publishers_and_subscriptions_info_by_topic(
     (publisher,) = observer.get_publishers_info_by_topic('scan')  # expanded, not remapped
     assert (publisher.node_name, publisher.node_namespace) == ('owner', '/robot')
     assert publisher.topic_type == 'std_msgs/msg/String'
-    assert publisher.endpoint_type is TopicEndpointType.PUBLISHER == 1  # rclpy's value
+    assert publisher.endpoint_type is TopicEndpointType.PUBLISHER
+    assert int(publisher.endpoint_type) == 1  # rclpy's TopicEndpointTypeEnum value
     assert publisher.qos_profile is not None and publisher.qos_profile.depth == 7
     assert publisher.qos_profile.reliability is zros.Reliability.RELIABLE
     # a GID where the wire gives one (rmw_zenoh's 16 bytes), none through a bridge
@@ -696,7 +711,12 @@ def test_create_node_and_executor_as_rclpys(zros_router: Router) -> None:
         # the node's own executor: the one rclpy's spin_until_future_complete may be given
         assert node.executor is node.context.executor
         future: concurrent.futures.Future[int] = concurrent.futures.Future()
-        node.create_timer(0.01, lambda: future.done() or future.set_result(7))
+
+        def answer() -> None:
+            if not future.done():
+                future.set_result(7)
+
+        node.create_timer(0.01, answer)
         zros.spin_until_future_complete(node, future, executor=node.executor, timeout_sec=30.0)
         assert future.result() == 7
         node.executor = node.executor  # already its executor: nothing to do, as rclpy
