@@ -729,3 +729,4 @@ def test_create_node_and_executor_as_rclpys(zros_router: Router) -> None:
     finally:
         for each in made:
             each.destroy()
+        zros.shutdown()  # closes the process's session that connect= opened
