@@ -571,6 +571,9 @@ def test_get_parameters_and_by_prefix_return_rclpys_parameter_objects(
         node.get_parameters('arm.speed')
     loose = zros_node('loose_params', allow_undeclared_parameters=True)
     assert loose.get_parameters(['nope']) == [Parameter('nope', Parameter.Type.NOT_SET)]
+    # an empty array keeps its declared type (rclpy's Parameter takes [] for a double array)
+    node.declare_parameter('gains', [], type=Parameter.Type.DOUBLE_ARRAY)
+    assert node.get_parameters(['gains']) == [Parameter('gains', Parameter.Type.DOUBLE_ARRAY, [])]
 
 
 def test_pre_and_post_set_parameters_callbacks_as_rclpys(zros_node: Callable[..., Node]) -> None:
