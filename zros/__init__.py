@@ -31,6 +31,7 @@ _LAZY = {
     'spin_until_future_complete': ('zros.api', 'spin_until_future_complete'),
     'shutdown': ('zros.api', 'shutdown'),
     'default_node': ('zros.api', 'default_node'),
+    'create_node': ('zros.api', 'create_node'),
     'NotInitializedError': ('zros.runtime.defaults', 'NotInitializedError'),
     'get_logger': ('zros.api', 'get_logger'),
     'log': ('zros.api', 'log'),
@@ -99,6 +100,7 @@ if TYPE_CHECKING:
         GoalStatus,
     )
     from zros.api import (
+        create_node,
         debug,
         default_node,
         error,
@@ -246,6 +248,7 @@ __all__ = [
     'UnknownTypeError',
     'ZrosError',
     'bag_read',
+    'create_node',
     'debug',
     'default_node',
     'error',

@@ -166,6 +166,15 @@ def init(
         return _default
 
 
+def create_node(
+    node_name: str, *, namespace: str | None = None, **options: Unpack[NodeKeywords]
+) -> Node:
+    """A new node (rclpy's ``rclpy.create_node``): ``zros.Node(node_name, namespace or '/',
+    **options)``, with ``Node``'s keywords; rclpy's ``context=`` has no zros counterpart and,
+    as any keyword ``Node`` does not take, raises TypeError."""
+    return Node(node_name, namespace or '/', **options)
+
+
 def default_node() -> Node:
     """The node ``zros.init`` created (or, after ``zros.init()`` without a name, creates now),
     which the module functions and classes use."""

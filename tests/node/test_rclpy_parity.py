@@ -13,6 +13,8 @@ import pytest
 import zros
 from tests.support.processes import Script, sleeping
 from zros import Parameter
+from zros.graph import Endpoint, TopicEndpointInfo, TopicEndpointType
+from zros.keyexpr.kinds import EntityKind
 from zros.node import Node, NodeNameNonExistentError
 from zros.testing import wait_for
 from zros.transport import Router
@@ -541,3 +543,199 @@ def test_logger_level_and_timer_destroy_as_rclpys(zros_node: Callable[..., Node]
     timer = node.create_timer(3600.0, lambda: None)
     timer.destroy()
     assert timer.is_canceled() and not node.destroy_timer(timer)
+
+
+def test_get_parameters_and_by_prefix_return_rclpys_parameter_objects(
+    zros_node: Callable[..., Node],
+) -> None:
+    node = zros_node('prefixed')
+    node.declare_parameters('arm', [('speed', 1.5), ('joints', ['a', 'b'])])
+    node.declare_parameter('armor', True)  # 'arm' is not its prefix: no dot after it
+    assert node.get_parameters(['arm.speed', 'armor']) == [
+        Parameter('arm.speed', Parameter.Type.DOUBLE, 1.5),
+        Parameter('armor', Parameter.Type.BOOL, True),
+    ]
+    (speed,) = node.get_parameters(['arm.speed'])
+    assert speed.type_ is Parameter.Type.DOUBLE and speed.value == 1.5
+    assert node.get_parameters_by_prefix('arm') == {
+        'speed': Parameter('arm.speed', value=1.5),
+        'joints': Parameter('arm.joints', value=['a', 'b']),
+    }
+    assert set(node.get_parameters_by_prefix('')) >= {'arm.speed', 'armor', 'use_sim_time'}
+    assert node.get_parameters_by_prefix('leg') == {}
+    with pytest.raises(zros.ParameterNotDeclaredError, match="'nope' is not declared"):
+        node.get_parameters(['arm.speed', 'nope'])
+    with pytest.raises(TypeError, match='must be instances of type str'):
+        node.get_parameters(['arm.speed', 1])  # type: ignore[list-item]
+    with pytest.raises(TypeError, match=r"not the str 'arm\.speed'"):
+        node.get_parameters('arm.speed')
+    loose = zros_node('loose_params', allow_undeclared_parameters=True)
+    assert loose.get_parameters(['nope']) == [Parameter('nope', Parameter.Type.NOT_SET)]
+    # an empty array keeps its declared type (rclpy's Parameter takes [] for a double array)
+    node.declare_parameter('gains', [], type=Parameter.Type.DOUBLE_ARRAY)
+    assert node.get_parameters(['gains']) == [Parameter('gains', Parameter.Type.DOUBLE_ARRAY, [])]
+
+
+def test_pre_and_post_set_parameters_callbacks_as_rclpys(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('staged')
+    node.declare_parameter('mode', 'auto')
+    node.declare_parameter('speed', 1.0)
+    order: list[str] = []
+    told: list[list[tuple[str, object]]] = []
+
+    def add_speed(parameters: list[zros.params.Parameter]) -> list[zros.params.Parameter]:
+        order.append('pre')
+        extra = [Parameter('speed', value=0.0)] if parameters[0].value == 'manual' else []
+        return [*parameters, *extra]
+
+    def validate(parameters: list[zros.params.Parameter]) -> bool:
+        order.append('on-set')
+        return all(p.name != 'speed' or p.value >= 0.0 for p in parameters)  # type: ignore[operator]
+
+    def after(parameters: list[zros.params.Parameter]) -> None:
+        order.append('post')
+        told.append([(p.name, p.value) for p in parameters])
+
+    node.add_pre_set_parameters_callback(add_speed)
+    node.add_on_set_parameters_callback(validate)
+    node.add_post_set_parameters_callback(after)
+    assert node.set_parameters([Parameter('mode', value='manual')])[0]
+    assert order == ['pre', 'on-set', 'post']
+    assert told == [[('mode', 'manual'), ('speed', 0.0)]]
+    assert node.get_parameter('speed') == 0.0  # set along with mode, atomically
+    # refused by on-set validation: post is not told
+    told.clear()
+    assert not node.set_parameters_atomically([Parameter('speed', value=-1.0)])
+    assert told == [] and node.get_parameter('speed') == 0.0
+    # post is told of declarations too (pre is not), as rclpy's
+    order.clear()
+    node.declare_parameter('gain', 2.0)
+    assert order == ['on-set', 'post'] and told == [[('gain', 2.0)]]
+    # a pre-set callback that empties the list refuses the set
+    node.remove_pre_set_parameters_callback(add_speed)
+    empty = node.add_pre_set_parameters_callback  # rclpy returns None: no handle
+    assert empty(lambda parameters: []) is None
+    result = node.set_parameters([Parameter('mode', value='auto')])[0]
+    assert not result and 'parameter list cannot be empty' in result.reason
+    assert node.get_parameter('mode') == 'manual'
+
+
+def test_pre_and_post_set_callbacks_errors(zros_node: Callable[..., Node]) -> None:
+    node = zros_node('staged_errors')
+    node.declare_parameter('mode', 'auto')
+
+    def broken(parameters: list[zros.params.Parameter]) -> list[zros.params.Parameter]:
+        raise RuntimeError('no mode today')
+
+    node.add_pre_set_parameters_callback(broken)
+    result = node.set_parameters({'mode': 'manual'})[0]
+    assert not result and "pre-set callback raised RuntimeError('no mode today')" in result.reason
+    node.remove_pre_set_parameters_callback(broken)
+
+    def not_a_list(parameters: list[zros.params.Parameter]) -> str:
+        return 'mode'
+
+    node.add_pre_set_parameters_callback(not_a_list)  # type: ignore[arg-type]
+    result = node.set_parameters({'mode': 'manual'})[0]
+    assert not result and 'returns a list of Parameters' in result.reason
+    assert node.get_parameter('mode') == 'auto'
+    with pytest.raises(ValueError):
+        node.remove_pre_set_parameters_callback(broken)
+    with pytest.raises(ValueError):
+        node.remove_post_set_parameters_callback(print)
+    with pytest.raises(TypeError, match='must be callable'):
+        node.add_post_set_parameters_callback('after')  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match='must be callable'):
+        node.add_pre_set_parameters_callback(None)  # type: ignore[arg-type]
+
+    # a post-set callback's error reaches the caller, as rclpy's; the change has been made
+    def failing(parameters: list[zros.params.Parameter]) -> None:
+        raise RuntimeError('side effect failed')
+
+    node.remove_pre_set_parameters_callback(not_a_list)  # type: ignore[arg-type]
+    node.add_post_set_parameters_callback(failing)
+    with pytest.raises(RuntimeError, match='side effect failed'):
+        node.set_parameters({'mode': 'manual'})
+    assert node.get_parameter('mode') == 'manual'
+
+
+@pytest.mark.parametrize('zros_wire', ['bridge', 'rmw_zenoh'])
+def test_publishers_and_subscriptions_info_by_topic(
+    zros_node: Callable[..., Node], zros_wire: str
+) -> None:
+    owner = zros_node('owner', '/robot', start_parameter_services=False)
+    observer = zros_node('observer', '/robot', remap=['scan:=/elsewhere'])
+    owner.create_publisher('std_msgs/msg/String', 'scan', zros.QoS(7, zros.Reliability.RELIABLE))
+    owner.create_subscription('std_msgs/msg/Int32', '/robot/cmd', None, 'sensor_data')
+
+    def publishers() -> list[tuple[str, str]]:  # expanded, not remapped
+        return [
+            (i.node_name, i.node_namespace) for i in observer.get_publishers_info_by_topic('scan')
+        ]
+
+    # through a bridge the owner is told apart from the endpoint: wait for both
+    assert wait_for(lambda: publishers() == [('owner', '/robot')], timeout=30.0)
+    (publisher,) = observer.get_publishers_info_by_topic('scan')
+    assert publisher.topic_type == 'std_msgs/msg/String'
+    assert publisher.endpoint_type is TopicEndpointType.PUBLISHER
+    assert int(publisher.endpoint_type) == 1  # rclpy's TopicEndpointTypeEnum value
+    assert publisher.qos_profile is not None and publisher.qos_profile.depth == 7
+    assert publisher.qos_profile.reliability is zros.Reliability.RELIABLE
+    # a GID where the wire gives one (rmw_zenoh's 16 bytes), none through a bridge
+    assert len(publisher.endpoint_gid) == (16 if zros_wire == 'rmw_zenoh' else 0)
+    assert wait_for(lambda: observer.get_subscriptions_info_by_topic('cmd'), timeout=30.0)
+    (subscription,) = observer.get_subscriptions_info_by_topic('/robot/cmd')
+    assert subscription.endpoint_type is TopicEndpointType.SUBSCRIPTION
+    assert subscription.topic_type == 'std_msgs/msg/Int32'
+    assert subscription.qos_profile is not None
+    assert subscription.qos_profile.reliability is zros.Reliability.BEST_EFFORT
+    assert observer.get_publishers_info_by_topic('cmd') == []
+    assert observer.get_subscriptions_info_by_topic('/nobody') == []
+    with pytest.raises(zros.InvalidNameError):
+        observer.get_publishers_info_by_topic('bad name')
+
+
+def test_a_bridged_endpoint_has_rmws_unknown_node() -> None:
+    bridged = Endpoint(EntityKind.SUBSCRIBER, 'abc', 'scan', 'std_msgs/msg/String', None, None)
+    info = TopicEndpointInfo.from_endpoint(bridged)
+    assert (info.node_name, info.node_namespace) == (
+        '_NODE_NAME_UNKNOWN_',
+        '_NODE_NAMESPACE_UNKNOWN_',
+    )
+    assert (info.endpoint_gid, info.qos_profile, info.topic_type_hash) == ([], None, '')
+    assert info.endpoint_type is TopicEndpointType.SUBSCRIPTION
+
+
+def test_create_node_and_executor_as_rclpys(zros_router: Router) -> None:
+    made: list[Node] = []
+
+    def create(name: str, **options: object) -> Node:
+        made.append(zros.create_node(name, connect=zros_router.endpoint, **options))  # type: ignore[arg-type]
+        return made[-1]
+
+    try:
+        node = create('made', namespace='/robot')
+        assert isinstance(node, Node) and node.get_fully_qualified_name() == '/robot/made'
+        assert create('root').get_namespace() == '/'
+        # the node's own executor: the one rclpy's spin_until_future_complete may be given
+        assert node.executor is node.context.executor
+        future: concurrent.futures.Future[int] = concurrent.futures.Future()
+
+        def answer() -> None:
+            if not future.done():
+                future.set_result(7)
+
+        node.create_timer(0.01, answer)
+        zros.spin_until_future_complete(node, future, executor=node.executor, timeout_sec=30.0)
+        assert future.result() == 7
+        node.executor = node.executor  # already its executor: nothing to do, as rclpy
+        with pytest.raises(ValueError, match='runs on its own executor'):
+            node.executor = create('other').executor
+        with pytest.raises(ValueError, match='runs on its own executor'):
+            node.executor = None
+        with pytest.raises(TypeError, match='context'):
+            create('ctx', context=object())
+    finally:
+        for each in made:
+            each.destroy()
+        zros.shutdown()  # closes the process's session that connect= opened

@@ -89,6 +89,30 @@ def test_set_callbacks_run_where_the_node_spins(
     assert threads and all(t.name == 'spin driver' for t in threads)
 
 
+def test_pre_and_post_set_callbacks_run_where_the_node_spins(
+    driver: Node, zros_node: Callable[..., Node]
+) -> None:
+    """A network set goes through rclpy's pre-set, on-set and post-set callbacks, on the
+    node's spin thread (a user callback never runs on Zenoh's)."""
+    threads: list[str] = []
+
+    def pre(parameters: list[Any]) -> list[Any]:
+        threads.append(threading.current_thread().name)
+        return [zros.Parameter(p.name, value=p.value * 2) for p in parameters]
+
+    def post(parameters: list[Any]) -> None:
+        threads.append(threading.current_thread().name)
+
+    driver.add_pre_set_parameters_callback(pre)
+    driver.add_post_set_parameters_callback(post)
+    remote = zros_node('tool').parameter_client('/robot/driver')
+    assert remote.wait_for_node()
+    with spinning(driver):
+        remote.set('speed', 0.2)
+    assert driver.get_parameter('speed') == 0.4  # what the pre-set callback made of it
+    assert threads == ['spin driver', 'spin driver']
+
+
 def test_a_change_holds_when_its_event_cannot_go_out(
     driver: Node, monkeypatch: pytest.MonkeyPatch
 ) -> None:

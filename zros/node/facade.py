@@ -26,7 +26,7 @@ from zros.pubsub.rosout import RosoutSink
 from zros.runtime.clock import Clock, SimClock, Time
 from zros.runtime.clock_feed import ClockSubscription
 from zros.runtime.context import NodeContext
-from zros.runtime.executor import shut_down_on_ctrl_c
+from zros.runtime.executor import Executor, shut_down_on_ctrl_c
 from zros.runtime.logger import Logger, logger_name
 from zros.runtime.timeouts import UNSET, Unset, either_timeout
 from zros.services.typeinfo import NodeTypes
@@ -250,6 +250,21 @@ class Node(EntityFactories, ParameterMethods, GraphMethods, Closing):
     def ok(self) -> bool:
         """True until the node is destroyed or the process got Ctrl-C."""
         return self.context.ok()
+
+    @property
+    def executor(self) -> Executor:
+        """The executor that runs this node's callbacks (rclpy's ``node.executor``): a zros
+        node has its own, from its creation on, and spins on whichever thread calls
+        :meth:`spin`; ``node.executor = other`` raises ValueError."""
+        return self.context.executor
+
+    @executor.setter
+    def executor(self, executor: Executor | None) -> None:
+        if executor is not self.context.executor:
+            raise ValueError(
+                f'a zros node runs on its own executor: {self} cannot be added to another one '
+                '(spin each node on a thread of its own, or use spin_async)'
+            )
 
     # Ctrl-C without zros.init's handler raises KeyboardInterrupt where the spin waits: each spin
     # ends and shuts down as that handler does, so a `while node.ok()` loop ends as with it

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from zros.deprecation import deprecated
 from zros.errors import ZrosError
-from zros.graph import Graph, graph_of
+from zros.graph import Graph, TopicEndpointInfo, graph_of
 from zros.keyexpr.kinds import EntityKind
-from zros.keyexpr.names import join
+from zros.keyexpr.names import expand, join
 from zros.runtime.context import NodeContext
 
 
@@ -111,6 +111,22 @@ class GraphMethods:
     def count_subscribers(self, topic: str) -> int:
         """How many subscribers are announced on ``topic``."""
         return len(self.graph.subscribers(self._key(topic)))
+
+    def get_publishers_info_by_topic(self, topic_name: str) -> list[TopicEndpointInfo]:
+        """The publishers on a topic (rclpy's): node, type, GID, QoS of each, as the graph
+        knows them (see :class:`zros.graph.TopicEndpointInfo`). ``topic_name`` is expanded with
+        the node's namespace but not remapped, as rclpy's."""
+        key = self._expanded_key(topic_name)
+        return [TopicEndpointInfo.from_endpoint(e) for e in self.graph.publishers(key)]
+
+    def get_subscriptions_info_by_topic(self, topic_name: str) -> list[TopicEndpointInfo]:
+        """The subscriptions on a topic (rclpy's), as :meth:`get_publishers_info_by_topic`."""
+        key = self._expanded_key(topic_name)
+        return [TopicEndpointInfo.from_endpoint(e) for e in self.graph.subscribers(key)]
+
+    def _expanded_key(self, topic: str) -> str:
+        context = self.context
+        return context.wire.key(expand(topic, context.name, context.namespace))
 
     def wait_for_publishers(self, topic: str, timeout: float | None = 5.0) -> bool:
         """Wait until a publisher on ``topic`` is announced (by a bridge or another node);

@@ -126,6 +126,30 @@ class ParameterMethods:
         """A parameter's value; ParameterNotDeclaredError for an unknown name."""
         return self.parameters.get(name)
 
+    def get_parameters(self, names: Iterable[str]) -> list[RclpyParameter]:
+        """Several parameters as :class:`zros.Parameter` objects (rclpy's ``get_parameters``,
+        which returns Parameters where :meth:`get_parameter` returns the value): NOT_SET ones
+        for unknown names when undeclared ones are allowed, else ParameterNotDeclaredError."""
+        if isinstance(names, str):
+            raise TypeError(f'get_parameters takes a list of names, not the str {names!r}')
+        names = list(names)
+        if not all(isinstance(name, str) for name in names):
+            raise TypeError('All names must be instances of type str')
+        for name in names:
+            self._check_declared(name)
+        return [self._rclpy_parameter(name) for name in names]
+
+    def get_parameters_by_prefix(self, prefix: str) -> dict[str, RclpyParameter]:
+        """The parameters under ``prefix.`` as :class:`zros.Parameter` objects, by their name
+        without ``prefix.`` (rclpy's); every parameter for an empty prefix, ``{}`` when none."""
+        start = f'{prefix}.' if prefix else ''
+        return {name[len(start) :]: self._rclpy_parameter(name)
+                for name in self.parameters.names() if name.startswith(start)}  # fmt: skip
+
+    def _rclpy_parameter(self, name: str) -> RclpyParameter:
+        parameter = self.parameters.parameter(name)
+        return RclpyParameter(name, parameter.type_, parameter.value)
+
     def get_parameter_type(self, name: str) -> ParameterType:
         """The type of a parameter's value (rclpy's ``Parameter.Type``); NOT_SET for an
         unknown name when undeclared ones are allowed, else ParameterNotDeclaredError."""
@@ -187,6 +211,35 @@ class ParameterMethods:
         """Stop calling a callback of :meth:`add_on_set_parameters_callback` (rclpy's);
         ValueError if it is not one."""
         self.parameters.remove_on_set_callback(callback)
+
+    def add_pre_set_parameters_callback(
+        self, callback: Callable[[list[Parameter]], list[Parameter]]
+    ) -> None:
+        """``callback(parameters)`` returns the list of parameters to set instead, before they
+        are validated (rclpy's, since Iron): e.g. to set a second parameter along with one.
+        Runs on ``set_parameter*`` and network sets, not on declarations; an empty list refuses
+        the set, and so does an exception (its reason says which; rclpy would raise it)."""
+        self.parameters.add_pre_set_callback(callback)
+
+    def remove_pre_set_parameters_callback(
+        self, callback: Callable[[list[Parameter]], list[Parameter]]
+    ) -> None:
+        """Stop calling a callback of :meth:`add_pre_set_parameters_callback` (rclpy's);
+        ValueError if it is not one."""
+        self.parameters.remove_pre_set_callback(callback)
+
+    def add_post_set_parameters_callback(self, callback: Callable[[list[Parameter]], None]) -> None:
+        """``callback(parameters)`` is told the parameters once they are set or declared
+        (rclpy's, since Iron): the place for side effects, after the on-set callbacks accepted
+        them. TypeError if ``callback`` is not callable."""
+        self.parameters.add_post_set_callback(callback)
+
+    def remove_post_set_parameters_callback(
+        self, callback: Callable[[list[Parameter]], None]
+    ) -> None:
+        """Stop calling a callback of :meth:`add_post_set_parameters_callback` (rclpy's);
+        ValueError if it is not one."""
+        self.parameters.remove_post_set_callback(callback)
 
     def parameter_client(self, node_name: str, timeout: float = 5.0) -> ParameterClient:
         """The parameters of another node (``/robot/driver``)."""

@@ -54,6 +54,6 @@ def _integers_for_doubles(value: object, type_: ParameterType) -> bool:
     """Whether ints were given for a double (rclpy refuses them, as zros's parameters do)."""
     if type_ is ParameterType.DOUBLE:
         return infer_type(value) is ParameterType.INTEGER
-    if type_ is ParameterType.DOUBLE_ARRAY:
-        return infer_type(value) is ParameterType.INTEGER_ARRAY
+    if type_ is ParameterType.DOUBLE_ARRAY:  # an empty list has no type of its own: fine
+        return bool(value) and infer_type(value) is ParameterType.INTEGER_ARRAY
     return False

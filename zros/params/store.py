@@ -34,6 +34,10 @@ def _items(values: Mapping[str, ParamValue] | Iterable[Parameter]) -> list[Param
 
 
 SetCallback = Callable[[list[Parameter]], object]
+#: rclpy's pre-set callback: the parameters to set in, the parameters to set instead out
+PreSetCallback = Callable[[list[Parameter]], list[Parameter]]
+#: rclpy's post-set callback: told the parameters that were set
+PostSetCallback = Callable[[list[Parameter]], None]
 ChangeCallback = Callable[[list[Parameter], list[Parameter], list[Parameter]], None]
 
 
@@ -78,6 +82,8 @@ class ParameterStore:
         self._entries: dict[str, _Entry] = {}
         self._callbacks: list[SetCallback] = []
         self._checks: list[SetCallback] = []
+        self._pre_callbacks: list[PreSetCallback] = []
+        self._post_callbacks: list[PostSetCallback] = []
         self._watchers: list[
             Callable[[list[Parameter], list[Parameter], list[Parameter]], None]
         ] = []
@@ -120,6 +126,7 @@ class ParameterStore:
                 raise ParameterError(problem)
             self._entries[name] = _Entry(value, descriptor, kind)
         self._changed([parameter], [], [])
+        self._run_post_callbacks([parameter])
         return value
 
     def _type_of(self, name: str, value: ParamValue, descriptor: Descriptor) -> ParameterType:
@@ -239,10 +246,68 @@ class ParameterStore:
         with self._lock:
             self._callbacks.remove(callback)
 
+    def add_pre_set_callback(self, callback: PreSetCallback) -> PreSetCallback:
+        """``callback(parameters)`` returns the parameters to set instead (rclpy's pre-set
+        callback); it runs before validation on every set, not on declarations. The last added
+        runs first, as rclpy's; with several, the lists they return are joined."""
+        if not callable(callback):
+            raise TypeError(f'a pre-set callback must be callable, not {callback!r}')
+        with self._lock:
+            self._pre_callbacks.insert(0, callback)
+        return callback
+
+    def remove_pre_set_callback(self, callback: PreSetCallback) -> None:
+        """Remove a callback added by :meth:`add_pre_set_callback` (ValueError if it is not
+        one)."""
+        with self._lock:
+            self._pre_callbacks.remove(callback)
+
+    def add_post_set_callback(self, callback: PostSetCallback) -> PostSetCallback:
+        """``callback(parameters)`` is told the parameters after they were set or declared
+        (rclpy's post-set callback); the last added runs first, as rclpy's."""
+        if not callable(callback):
+            raise TypeError(f'a post-set callback must be callable, not {callback!r}')
+        with self._lock:
+            self._post_callbacks.insert(0, callback)
+        return callback
+
+    def remove_post_set_callback(self, callback: PostSetCallback) -> None:
+        """Remove a callback added by :meth:`add_post_set_callback` (ValueError if it is not
+        one)."""
+        with self._lock:
+            self._post_callbacks.remove(callback)
+
     @property
     def has_callbacks(self) -> bool:
         """Whether user callbacks watch changes (then network sets wait for a spin)."""
-        return bool(self._callbacks)
+        return bool(self._callbacks or self._pre_callbacks or self._post_callbacks)
+
+    def _run_pre_callbacks(self, parameters: list[Parameter]) -> list[Parameter] | str:
+        """The parameters the pre-set callbacks return instead (``parameters`` when there
+        are none), or why the set is refused."""
+        if not self._pre_callbacks:
+            return parameters
+        modified: list[Parameter] = []
+        for callback in list(self._pre_callbacks):
+            try:
+                answer = callback(list(parameters))
+            except Exception as exc:  # a user callback: its error is the refusal's reason
+                return f'a pre-set callback raised {exc!r}'
+            if not isinstance(answer, (list, tuple)) or not all(
+                isinstance(item, Parameter) for item in answer
+            ):
+                return f'a pre-set callback returns a list of Parameters, not {answer!r}'
+            modified.extend(answer)
+        if not modified:
+            return (
+                'parameter list cannot be empty, this might be due to '
+                'pre_set_parameters_callback modifying the original parameters list.'
+            )
+        return modified
+
+    def _run_post_callbacks(self, parameters: list[Parameter]) -> None:
+        for callback in list(self._post_callbacks):
+            callback(parameters)
 
     def _run_callbacks(self, parameters: list[Parameter]) -> str | None:
         for callback in [*self._checks, *self._callbacks]:
@@ -337,8 +402,10 @@ class ParameterStore:
         return parameter, problem, 'changed' if entry is not None else 'new'
 
     def set_atomically(self, values: Mapping[str, ParamValue] | Iterable[Parameter]) -> SetResult:
-        """Set several parameters, all or none."""
-        items = _items(values)
+        """Set several parameters, all or none; the pre-set callbacks may change which."""
+        items = self._run_pre_callbacks(_items(values))
+        if isinstance(items, str):
+            return SetResult(False, items)
         new: list[Parameter] = []
         changed: list[Parameter] = []
         deleted: list[Parameter] = []
@@ -369,6 +436,7 @@ class ParameterStore:
                         changed.append(parameter)
                     entry.value, entry.kind = parameter.value, kind
         self._changed(new, changed, deleted)
+        self._run_post_callbacks([parameter for parameter, _ in prepared])
         return OK
 
     def set(self, name: str, value: ParamValue) -> SetResult:
