@@ -76,7 +76,15 @@ def test_a_parent_taken_again_is_not_interpolated_across_the_other() -> None:
     assert x_of(buffer, 'root', 'thing', 4 * S + S // 2) == pytest.approx(4.5)
 
 
-def test_many_stamps_agree_with_single_lookups_across_the_handover() -> None:
+@pytest.mark.parametrize('at_a_time', [7, 1000])
+def test_many_stamps_agree_with_single_lookups_across_the_handover(
+    monkeypatch: pytest.MonkeyPatch, at_a_time: int
+) -> None:
+    """Stamps go a few at a time under the lock (a listener is not held up): any batch size
+    gives the single lookups' answers."""
+    from zros.tf import buffer as buffer_module
+
+    monkeypatch.setattr(buffer_module, 'ONE_BY_ONE', at_a_time)
     buffer = Buffer()
     grasp(buffer)
     stamps = np.arange(0, 5 * S, S // 10, dtype=np.int64)

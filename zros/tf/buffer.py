@@ -50,6 +50,8 @@ if TYPE_CHECKING:
     from zros.tf.quaternions import Floats, Stamps
 
 _NS = 1_000_000_000
+#: stamps looked up under one hold of the lock when they go one at a time
+ONE_BY_ONE = 1000
 T = TypeVar('T')
 
 
@@ -435,11 +437,13 @@ class Buffer:
                 chain = None
             else:
                 chain = self._tree.fixed_chain(target, source)
-                if chain is None:
-                    return self._one_by_one(target, source, stamps, strict)
-                snapshot = [
-                    (edge, edge_data(edge, self.cache_time is not None)) for _, edge in chain.edges
-                ]
+                if chain is not None:
+                    snapshot = [
+                        (edge, edge_data(edge, self.cache_time is not None))
+                        for _, edge in chain.edges
+                    ]
+        if chain is None and target != source:  # through a frame that changed parent
+            return self._one_by_one(target, source, stamps, strict)
         if chain is None:
             translations = np.zeros((count, 3))
             rotations = np.zeros((count, 4))
@@ -462,22 +466,26 @@ class Buffer:
         self, target: str, source: str, stamps: Stamps, strict: bool
     ) -> tuple[Floats, Floats]:
         """What :meth:`lookup_transforms` gives, one stamp at a time: for a chain through a
-        frame that changed parent, whose edges depend on the time (under the lock). A stamp at
-        which the frames are not joined is NaN too, unless they never are."""
+        frame that changed parent, whose edges depend on the time. The lock is taken for
+        :data:`ONE_BY_ONE` stamps at a time, so a listener's transforms are not held up. A
+        stamp at which the frames are not joined is NaN too, unless they never are."""
         translations = np.full((len(stamps), 3), np.nan)
         rotations = np.full((len(stamps), 4), np.nan)
         apart: ConnectivityException | None = None
-        for number, stamp in enumerate(stamps.tolist()):
-            try:
-                pose = self._walk(target, source, stamp)
-            except (ExtrapolationException, ConnectivityException) as exc:
-                if strict:
-                    raise type(exc)(f'times[{number}]: {exc}') from None
-                if isinstance(exc, ConnectivityException):
-                    apart = apart or exc
-                continue
-            translations[number] = pose[:3]
-            rotations[number] = pose[3:]
+        listed = stamps.tolist()
+        for first in range(0, len(listed), ONE_BY_ONE):
+            with self._lock:
+                for number in range(first, min(first + ONE_BY_ONE, len(listed))):
+                    try:
+                        pose = self._walk(target, source, listed[number])
+                    except (ExtrapolationException, ConnectivityException) as exc:
+                        if strict:
+                            raise type(exc)(f'times[{number}]: {exc}') from None
+                        if isinstance(exc, ConnectivityException):
+                            apart = apart or exc
+                        continue
+                    translations[number] = pose[:3]
+                    rotations[number] = pose[3:]
         if apart is not None and np.isnan(translations).all():
             raise apart
         return translations, rotations
