@@ -499,29 +499,22 @@ class Buffer:
             if target == source:
                 return np.zeros(0, dtype=np.int64)
             chain = self._tree.fixed_chain(target, source)
-            if chain is None:
-                return self._changing_stamps(target, source)
-            moving = [edge.stamps.copy() for _, edge in chain.moving]
+            if chain is None:  # through a frame that changed parent: every edge it may take
+                edges = self._tree.reachable((target, source))
+                moving = [edge.stamps.copy() for edge in edges if not edge.static]
+            else:
+                moving = [edge.stamps.copy() for _, edge in chain.moving]
+        if chain is None and moving:  # the stamps at which a lookup succeeds
+            candidates = np.unique(np.concatenate(moving))
+            translations, _ = self._one_by_one(target, source, candidates, strict=False)
+            found: Stamps = candidates[~np.isnan(translations[:, 0])]
+            return found
         if not moving:
             return np.zeros(0, dtype=np.int64)
         low = max(int(s[0]) for s in moving)
         high = min(int(s[-1]) for s in moving)
         every = np.unique(np.concatenate(moving))
         return every[(every >= low) & (every <= high)]
-
-    def _changing_stamps(self, target: str, source: str) -> Stamps:
-        """:meth:`stamps` for a chain through a frame that changed parent: the stamps of every
-        edge above the two frames under any parent, where a lookup succeeds (under the lock)."""
-        edges = self._tree.reachable((target, source))
-        every = np.unique(np.concatenate([edge.stamps for edge in edges if not edge.static]))
-        keep = np.zeros(len(every), dtype=bool)
-        for number, stamp in enumerate(every.tolist()):
-            try:
-                self._walk(target, source, stamp)
-            except (ExtrapolationException, ConnectivityException):
-                continue
-            keep[number] = True
-        return every[keep]
 
     # --- transforming data -----------------------------------------------------------------
 
