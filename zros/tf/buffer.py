@@ -39,7 +39,7 @@ from zros.tf.quaternions import (
 from zros.tf.report import EdgeInfo, frames_as_string, frames_as_yaml
 from zros.tf.stamped import transform_stamped
 from zros.tf.times import TimeLike, TimeoutLike, nanoseconds, seconds
-from zros.tf.tree import clean_frame
+from zros.tf.tree import Chain, clean_frame
 from zros.tf.walk import edge_data, extrapolation, latest_common, sample_chain, through
 
 if TYPE_CHECKING:
@@ -168,14 +168,14 @@ class Buffer:
         if target == source:
             self._tree.check_known(target, source)
             return IDENTITY, stamp
-        if stamp == 0:
-            stamp = latest_common(self._tree.chain(target, source))
-        return self._walk(target, source, stamp), stamp
-
-    def _walk(self, target: str, source: str, stamp: int) -> Pose7:
-        """T_target_source at the instant ``stamp``; through a frame that changed parent, along
-        the chain as the tree was then."""
         chain = self._tree.fixed_chain(target, source)
+        if stamp == 0:  # each frame's newest parent, as tf2's getLatestCommonTime walks
+            stamp = latest_common(chain if chain is not None else self._tree.chain(target, source))
+        return self._walk(chain, target, source, stamp), stamp
+
+    def _walk(self, chain: Chain | None, target: str, source: str, stamp: int) -> Pose7:
+        """T_target_source at the instant ``stamp`` along ``chain`` (:meth:`EdgeTree.fixed_chain`);
+        None, through a frame that changed parent: along the chain as the tree was then."""
         if chain is None:
             chain = self._tree.chain_at(target, source, stamp)
         try:
@@ -477,7 +477,7 @@ class Buffer:
             with self._lock:
                 for number in range(first, min(first + ONE_BY_ONE, len(listed))):
                     try:
-                        pose = self._walk(target, source, listed[number])
+                        pose = self._walk(None, target, source, listed[number])
                     except (ExtrapolationException, ConnectivityException) as exc:
                         if strict:
                             raise type(exc)(f'times[{number}]: {exc}') from None
