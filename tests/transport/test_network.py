@@ -73,6 +73,9 @@ config = TransportConfig.create(mode='peer', listen=listen, connect=connect or N
                                 shared_memory=False, wait_for_router=False)
 node = zros.Node(name, config=config)
 sub = node.create_subscription('std_msgs/msg/String', in_topic, qos='keep_all')
+# each side says when it has read everything (latched), and leaves once the other has
+finished = node.create_subscription('std_msgs/msg/String', in_topic + '_done', qos='latched')
+done = node.create_publisher('std_msgs/msg/String', out_topic + '_done', qos='latched')
 # keep-all: every message must arrive (a keep-last publisher drops on a full link, by design)
 pub = node.create_publisher('std_msgs/msg/String', out_topic, qos='keep_all')
 if not pub.wait_for_subscribers(20):
@@ -86,7 +89,8 @@ while len(got) < 50 and time.monotonic() < deadline:
     if message is not None:
         got.append(int(message.data.split()[1]))
 print(name, 'received', got == list(range(50)), len(got), flush=True)
-time.sleep(1)  # let the other side finish reading before the link goes
+done.write(zros.Message('std_msgs/msg/String', data=name))
+finished.wait_for_message(20)  # the other side has read everything: the link may go
 """
 
 
