@@ -201,3 +201,27 @@ def test_a_flood_of_new_parents_for_one_frame_is_bounded() -> None:
     assert buffer.rejections.counts['TF_TOO_MANY_FRAMES'] == 101
     newest = 2 * MAX_FRAMES - 2  # the last parent taken
     assert x_of(buffer, f'p{newest}', 'base', S + newest) == pytest.approx(1.0)
+
+
+def test_frames_joined_at_no_stamp_are_a_connectivity_error() -> None:
+    """Through a frame that changed parent, stamps where the frames are not joined are NaN;
+    when they are joined at none of them, the error says so, as a single lookup does."""
+    buffer = Buffer()
+    buffer.add('a', 'thing', 1 * S, at(1.0), 'x')
+    buffer.add('b', 'thing', 3 * S, at(2.0), 'y')
+    buffer.add('elsewhere', 'lonely', 1 * S, at(0.0), 'z')
+    translations, _ = buffer.lookup_transforms('a', 'thing', np.array([S, 3 * S]))
+    assert translations[0, 0] == pytest.approx(1.0) and np.isnan(translations[1]).all()
+    with pytest.raises(ConnectivityException, match='not part of the same tree'):
+        buffer.lookup_transforms('elsewhere', 'thing', np.array([S, 3 * S]))
+    with pytest.raises(ConnectivityException, match=r'times\[0\]'):
+        buffer.lookup_transforms('elsewhere', 'thing', np.array([S]), strict=True)
+
+
+def test_a_frame_with_no_transform_under_any_parent_is_refused() -> None:
+    from zros.tf.cache import EdgeCache
+    from zros.tf.parents import edge_at
+
+    empty = {'a': EdgeCache('a', static=False, max_age=None)}
+    with pytest.raises(ValueError, match='no transforms under any parent'):
+        edge_at(empty, S)
